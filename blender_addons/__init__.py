@@ -1,0 +1,1 @@
+"""The Blender extension for installers. Not built yet: its issue has not landed."""

@@ -1,0 +1,33 @@
+"""The one exception hierarchy of homemodel.
+
+The library raises these and never prints or exits; the CLI turns them into a
+one-line message and exit code 2.
+"""
+
+
+class HomemodelError(Exception):
+    """Base of every error homemodel raises on purpose."""
+
+
+class InputError(HomemodelError):
+    """A file or value given by the user is missing, unreadable or impossible."""
+
+
+class SpecError(InputError):
+    """A measurement spec (YAML) is invalid; the message names the file and the field."""
+
+
+class UnsafeXMLError(InputError):
+    """An XML file uses a DOCTYPE, entities, or exceeds the size bound."""
+
+
+class MapError(HomemodelError):
+    """A semantic map is invalid or a query on it cannot be answered."""
+
+
+class ModelError(HomemodelError):
+    """An articulated model is inconsistent (unknown link, cycle, two roots, ...)."""
+
+
+class OutputExistsError(HomemodelError):
+    """An output folder is not empty and --force was not given."""

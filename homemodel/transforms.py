@@ -1,0 +1,76 @@
+"""4x4 homogeneous transforms named `a_from_b`, and the URDF xyz + rpy convention."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def as_transform(matrix: np.ndarray | Sequence[Sequence[float]]) -> np.ndarray:
+    """Check and convert a 4x4 rigid transform."""
+    m = np.asarray(matrix, dtype=np.float64)
+    if m.shape != (4, 4):
+        raise ValueError(f"{m.shape=} but expected (4, 4)")
+    return m
+
+
+def rotation_from_rpy(rpy: Sequence[float]) -> np.ndarray:
+    """Rotation matrix of fixed-axis roll, pitch, yaw (URDF/ROS: R = Rz(yaw) Ry(pitch) Rx(roll))."""
+    r, p, y = (float(v) for v in rpy)
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def rpy_from_rotation(rotation: np.ndarray) -> np.ndarray:
+    """Inverse of `rotation_from_rpy`, with pitch in [-pi/2, pi/2]."""
+    r = np.asarray(rotation, dtype=np.float64)
+    pitch = np.arcsin(np.clip(-r[2, 0], -1.0, 1.0))
+    if abs(np.cos(pitch)) > 1e-9:
+        roll = np.arctan2(r[2, 1], r[2, 2])
+        yaw = np.arctan2(r[1, 0], r[0, 0])
+    else:  # gimbal lock: fold all rotation about z into yaw
+        roll = 0.0
+        yaw = np.arctan2(-r[0, 1], r[1, 1])
+    return np.array([roll, pitch, yaw])
+
+
+def transform_from_xyz_rpy(xyz: Sequence[float] = (0, 0, 0), rpy: Sequence[float] = (0, 0, 0)) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = rotation_from_rpy(rpy)
+    m[:3, 3] = np.asarray(xyz, dtype=np.float64)
+    return m
+
+
+def xyz_rpy_from_transform(a_from_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    m = as_transform(a_from_b)
+    return m[:3, 3].copy(), rpy_from_rotation(m[:3, :3])
+
+
+def axis_angle_transform(axis: Sequence[float], angle_rad: float) -> np.ndarray:
+    """Rotation by `angle_rad` about the unit `axis` through the origin (Rodrigues)."""
+    k = np.asarray(axis, dtype=np.float64)
+    k = k / np.linalg.norm(k)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    m = np.eye(4)
+    m[:3, :3] = np.eye(3) + np.sin(angle_rad) * kx + (1 - np.cos(angle_rad)) * kx @ kx
+    return m
+
+
+def translation_transform(offset: Sequence[float]) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = np.asarray(offset, dtype=np.float64)
+    return m
+
+
+def transform_points(a_from_b: np.ndarray, points_b: np.ndarray) -> np.ndarray:
+    pts = np.asarray(points_b, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise ValueError(f"{pts.shape=} but expected (N, 3)")
+    return pts @ a_from_b[:3, :3].T + a_from_b[:3, 3]
