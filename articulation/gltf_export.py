@@ -1,0 +1,221 @@
+"""Write a model as a binary glTF 2.0 (`model.glb`): one node per link, in the URDF frames.
+
+glTF is y-up; the model is z-up. A root node named after the model turns z-up into y-up
+(so viewers and Blender's importer show the object standing), and under it every link is
+a node whose transform is its joint origin, exactly as in the URDF. Each link node that a
+joint moves carries the joint in `extras.joint`; the root carries the model's semantics.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import struct
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from articulation.model import Joint, Link, Material, Model
+from homemodel.atomic import write_bytes_atomic
+
+_FLOAT, _UINT32 = 5126, 5125
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+# Rotation of -90 deg about x as a quaternion (x, y, z, w): z-up becomes y-up.
+_Z_UP_TO_Y_UP = [-float(np.sqrt(0.5)), 0.0, 0.0, float(np.sqrt(0.5))]
+
+
+def _num(value: float) -> float:
+    """A JSON number that prints the same whatever its source type (no "-0.0", no ints)."""
+    return float(value) + 0.0
+
+
+def quaternion_xyzw(rotation: np.ndarray) -> list[float]:
+    """Unit quaternion (x, y, z, w) of a rotation matrix, w >= 0 (Shepperd's method)."""
+    m = np.asarray(rotation, dtype=np.float64)
+    trace = np.trace(m)
+    if trace > 0:
+        s = 2.0 * np.sqrt(trace + 1.0)
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s]
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
+        q[i] = 0.25 * s
+        q[j] = (m[j, i] + m[i, j]) / s
+        q[k] = (m[k, i] + m[i, k]) / s
+    q = np.asarray(q)
+    q = q / np.linalg.norm(q)
+    if q[3] < 0:
+        q = -q
+    return [_num(v) for v in q]
+
+
+class _Builder:
+    """Accumulates the JSON document and the binary buffer of one .glb."""
+
+    def __init__(self) -> None:
+        self.doc: dict = {
+            "asset": {"version": "2.0", "generator": "homemodel"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": [],
+            "meshes": [],
+            "materials": [],
+            "accessors": [],
+            "bufferViews": [],
+        }
+        self.blob = bytearray()
+        self.material_index: dict[tuple, int] = {}
+        self.image_index: dict[Path, int] = {}
+
+    def _view(self, data: bytes, target: int | None) -> int:
+        self.blob.extend(b"\0" * (-len(self.blob) % 4))
+        view = {"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data)}
+        if target is not None:
+            view["target"] = target
+        self.blob.extend(data)
+        self.doc["bufferViews"].append(view)
+        return len(self.doc["bufferViews"]) - 1
+
+    def _accessor(self, array: np.ndarray, kind: str, component: int, target: int, bounds: bool) -> int:
+        view = self._view(array.tobytes(), target)
+        accessor = {"bufferView": view, "componentType": component, "count": len(array), "type": kind}
+        if bounds:
+            accessor["min"] = [_num(v) for v in array.min(axis=0)]
+            accessor["max"] = [_num(v) for v in array.max(axis=0)]
+        self.doc["accessors"].append(accessor)
+        return len(self.doc["accessors"]) - 1
+
+    def _image(self, path: Path) -> int:
+        if path not in self.image_index:
+            data = Path(path).read_bytes()
+            mime = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}.get(path.suffix.lower())
+            if mime is None:  # glTF core allows only PNG and JPEG
+                buffer = io.BytesIO()
+                Image.open(path).save(buffer, format="PNG")
+                data, mime = buffer.getvalue(), "image/png"
+            view = self._view(data, None)
+            self.doc.setdefault("images", []).append({"bufferView": view, "mimeType": mime})
+            self.doc.setdefault("samplers", [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}])
+            self.doc.setdefault("textures", []).append({"sampler": 0, "source": len(self.doc["images"]) - 1})
+            self.image_index[path] = len(self.doc["textures"]) - 1
+        return self.image_index[path]
+
+    def material(self, material: Material) -> int:
+        key = (material.name, tuple(material.rgba), material.texture)
+        if key not in self.material_index:
+            pbr: dict = {"baseColorFactor": [_num(c) for c in material.rgba], "metallicFactor": 0.0, "roughnessFactor": 0.8}
+            if material.texture is not None:
+                pbr["baseColorTexture"] = {"index": self._image(Path(material.texture))}
+            entry = {"name": material.name, "pbrMetallicRoughness": pbr}
+            if material.rgba[3] < 1.0:
+                entry["alphaMode"] = "BLEND"
+            self.doc["materials"].append(entry)
+            self.material_index[key] = len(self.doc["materials"]) - 1
+        return self.material_index[key]
+
+    def mesh(self, link: Link) -> int:
+        primitives = []
+        for visual in link.visuals:
+            # Visual origins are baked into the vertices: the node is the link frame.
+            vertices = visual.mesh.vertices @ visual.link_from_visual[:3, :3].T + visual.link_from_visual[:3, 3]
+            vertices = np.round(vertices, 6)  # the OBJ's precision, so both files hold the same shape
+            attributes = {"POSITION": self._accessor(vertices.astype(np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER, True)}
+            if visual.uv is not None and visual.material.texture is not None:
+                uv = np.column_stack([visual.uv[:, 0], 1.0 - visual.uv[:, 1]]).astype(np.float32)  # glTF: v down
+                attributes["TEXCOORD_0"] = self._accessor(uv, "VEC2", _FLOAT, _ARRAY_BUFFER, False)
+            indices = np.asarray(visual.mesh.faces, dtype=np.uint32).reshape(-1)
+            primitive = {
+                "attributes": attributes,
+                "indices": self._accessor(indices, "SCALAR", _UINT32, _ELEMENT_ARRAY_BUFFER, False),
+                "material": self.material(visual.material),
+            }
+            primitives.append(primitive)
+        self.doc["meshes"].append({"name": link.name, "primitives": primitives})
+        return len(self.doc["meshes"]) - 1
+
+    def glb(self) -> bytes:
+        for key in ("meshes", "materials", "accessors", "bufferViews"):
+            if not self.doc[key]:
+                del self.doc[key]
+        self.blob.extend(b"\0" * (-len(self.blob) % 4))
+        if self.blob:
+            self.doc["buffers"] = [{"byteLength": len(self.blob)}]
+        text = json.dumps(self.doc, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+        text += b" " * (-len(text) % 4)
+        chunks = struct.pack("<II", len(text), 0x4E4F534A) + text
+        if self.blob:
+            chunks += struct.pack("<II", len(self.blob), 0x004E4942) + bytes(self.blob)
+        return struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks
+
+
+def _joint_extras(joint: Joint) -> dict:
+    extras: dict = {"name": joint.name, "type": joint.type, "parent": joint.parent}
+    if joint.type != "fixed":
+        extras["axis"] = [_num(v) for v in joint.axis]
+    if joint.limits is not None and joint.type in ("revolute", "prismatic"):
+        extras.update(lower=_num(joint.limits.lower), upper=_num(joint.limits.upper))
+    if joint.limits is not None:
+        extras.update(effort=_num(joint.limits.effort), velocity=_num(joint.limits.velocity))
+    if joint.states:
+        extras["states"] = [{"name": s.name, "position": _num(s.position)} for s in joint.states]
+    return extras
+
+
+def _model_extras(model: Model) -> dict:
+    return {
+        "homemodel": {
+            "up_axis": "z",
+            "category": model.category,
+            "affordances": list(model.affordances),
+            "properties": dict(sorted(model.properties.items())),
+            "grasp_points": [
+                {
+                    "name": g.name,
+                    "link": g.link,
+                    "kind": g.kind,
+                    "translation": [_num(v) for v in g.link_from_grasp[:3, 3]],
+                    "rotation": quaternion_xyzw(g.link_from_grasp[:3, :3]),
+                }
+                for g in model.grasp_points
+            ],
+        }
+    }
+
+
+def glb_bytes(model: Model) -> bytes:
+    builder = _Builder()
+    nodes = builder.doc["nodes"]
+    nodes.append({"name": model.name, "rotation": _Z_UP_TO_Y_UP, "extras": _model_extras(model)})
+    joint_of_child = {j.child: j for j in model.joints}
+    node_of_link: dict[str, int] = {}
+    # Links in tree order so parents get their node first.
+    order = [model.root_link]
+    for name in order:
+        order.extend(j.child for j in model.joints if j.parent == name)
+    for name in order:
+        link = model.link(name)
+        node: dict = {"name": link.name}
+        joint = joint_of_child.get(name)
+        if joint is not None:
+            t = joint.parent_from_joint
+            if np.any(t[:3, 3] != 0):
+                node["translation"] = [_num(v) for v in t[:3, 3]]
+            if not np.allclose(t[:3, :3], np.eye(3)):
+                node["rotation"] = quaternion_xyzw(t[:3, :3])
+            node["extras"] = {"joint": _joint_extras(joint)}
+        if link.visuals:
+            node["mesh"] = builder.mesh(link)
+        nodes.append(node)
+        node_of_link[name] = len(nodes) - 1
+        parent = node_of_link[joint.parent] if joint is not None else 0
+        nodes[parent].setdefault("children", []).append(node_of_link[name])
+    return builder.glb()
+
+
+def write_glb(model: Model, folder: Path) -> Path:
+    path = Path(folder) / "model.glb"
+    write_bytes_atomic(path, glb_bytes(model))
+    return path
