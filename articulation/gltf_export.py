@@ -17,7 +17,9 @@ import numpy as np
 from PIL import Image
 
 from articulation.model import Joint, Link, Material, Model
+from articulation.numbers import canonical_transform, canonical_xyz_rpy, rounded
 from homemodel.atomic import write_bytes_atomic
+from homemodel.transforms import rotation_from_rpy
 
 _FLOAT, _UINT32 = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -28,6 +30,13 @@ _Z_UP_TO_Y_UP = [-float(np.sqrt(0.5)), 0.0, 0.0, float(np.sqrt(0.5))]
 def _num(value: float) -> float:
     """A JSON number that prints the same whatever its source type (no "-0.0", no ints)."""
     return float(value) + 0.0
+
+
+def _translation_rotation(a_from_b: np.ndarray) -> tuple[list[float], list[float]]:
+    """glTF translation and quaternion from the URDF's rounded xyz/rpy, so both files agree
+    and a re-export of an imported model gives the same bytes."""
+    xyz, rpy = canonical_xyz_rpy(a_from_b)
+    return [_num(v) for v in xyz], [_num(round(v, 9)) for v in quaternion_xyzw(rotation_from_rpy(rpy))]
 
 
 def quaternion_xyzw(rotation: np.ndarray) -> list[float]:
@@ -120,11 +129,14 @@ class _Builder:
         primitives = []
         for visual in link.visuals:
             # Visual origins are baked into the vertices: the node is the link frame.
-            vertices = visual.mesh.vertices @ visual.link_from_visual[:3, :3].T + visual.link_from_visual[:3, 3]
-            vertices = np.round(vertices, 6)  # the OBJ's precision, so both files hold the same shape
+            # Start from what the URDF and OBJ store (6 decimals) so both files hold the same shape.
+            link_from_visual = canonical_transform(visual.link_from_visual)
+            vertices = np.round(visual.mesh.vertices, 6) @ link_from_visual[:3, :3].T + link_from_visual[:3, 3]
+            vertices = np.round(vertices, 6)
             attributes = {"POSITION": self._accessor(vertices.astype(np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER, True)}
             if visual.uv is not None and visual.material.texture is not None:
-                uv = np.column_stack([visual.uv[:, 0], 1.0 - visual.uv[:, 1]]).astype(np.float32)  # glTF: v down
+                uv = np.round(visual.uv, 6)
+                uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)  # glTF: v down
                 attributes["TEXCOORD_0"] = self._accessor(uv, "VEC2", _FLOAT, _ARRAY_BUFFER, False)
             indices = np.asarray(visual.mesh.faces, dtype=np.uint32).reshape(-1)
             primitive = {
@@ -156,7 +168,7 @@ def _joint_extras(joint: Joint) -> dict:
     if joint.type != "fixed":
         extras["axis"] = [_num(v) for v in joint.axis]
     if joint.limits is not None and joint.type in ("revolute", "prismatic"):
-        extras.update(lower=_num(joint.limits.lower), upper=_num(joint.limits.upper))
+        extras.update(lower=rounded(joint.limits.lower) + 0.0, upper=rounded(joint.limits.upper) + 0.0)
     if joint.limits is not None:
         extras.update(effort=_num(joint.limits.effort), velocity=_num(joint.limits.velocity))
     if joint.states:
@@ -172,13 +184,8 @@ def _model_extras(model: Model) -> dict:
             "affordances": list(model.affordances),
             "properties": dict(sorted(model.properties.items())),
             "grasp_points": [
-                {
-                    "name": g.name,
-                    "link": g.link,
-                    "kind": g.kind,
-                    "translation": [_num(v) for v in g.link_from_grasp[:3, 3]],
-                    "rotation": quaternion_xyzw(g.link_from_grasp[:3, :3]),
-                }
+                {"name": g.name, "link": g.link, "kind": g.kind}
+                | dict(zip(("translation", "rotation"), _translation_rotation(g.link_from_grasp)))
                 for g in model.grasp_points
             ],
         }
@@ -200,11 +207,11 @@ def glb_bytes(model: Model) -> bytes:
         node: dict = {"name": link.name}
         joint = joint_of_child.get(name)
         if joint is not None:
-            t = joint.parent_from_joint
-            if np.any(t[:3, 3] != 0):
-                node["translation"] = [_num(v) for v in t[:3, 3]]
-            if not np.allclose(t[:3, :3], np.eye(3)):
-                node["rotation"] = quaternion_xyzw(t[:3, :3])
+            translation, rotation = _translation_rotation(joint.parent_from_joint)
+            if any(translation):
+                node["translation"] = translation
+            if rotation != [0.0, 0.0, 0.0, 1.0]:
+                node["rotation"] = rotation
             node["extras"] = {"joint": _joint_extras(joint)}
         if link.visuals:
             node["mesh"] = builder.mesh(link)

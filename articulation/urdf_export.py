@@ -15,16 +15,15 @@ from lxml import etree
 
 from articulation.model import Box, Collision, Cylinder, Joint, Link, Material, MeshGeometry, Model, Sphere, Visual
 from articulation.naming import file_stem, unique
-from articulation.numbers import fixed, fixed_list, significant
+from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
 from articulation.obj_io import mtl_text, obj_text
 from homemodel.atomic import write_text_atomic
-from homemodel.transforms import xyz_rpy_from_transform
 
 MESH_DIR = "meshes"
 
 
 def _origin(parent: etree._Element, a_from_b) -> None:
-    xyz, rpy = xyz_rpy_from_transform(a_from_b)
+    xyz, rpy = canonical_xyz_rpy(a_from_b)
     etree.SubElement(parent, "origin", xyz=fixed_list(xyz), rpy=fixed_list(rpy))
 
 

@@ -1,0 +1,187 @@
+"""Build a home: every measurement spec of an example folder becomes a validated model
+folder, and all of them are registered into one semantic map.
+
+Output layout (all written atomically: the folder appears whole or not at all):
+    OUT/map.xml                       the hierarchical semantic map
+    OUT/summary.json                  one row per object, the figures the CLI prints
+    OUT/models/<id>/model.urdf|.glb   the exports, meshes/ beside them
+    OUT/models/<id>/model.blend       the Blender scene, for an installer to refine
+    OUT/models/<id>/summary.json      that object's figures and validation report
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from homemodel.atomic import atomic_dir, write_text_atomic
+from homemodel.errors import SpecError
+from homemodel.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
+from homemodel.yaml_specs import load_yaml_spec
+
+log = logging.getLogger(__name__)
+
+HOME_FILE = "home.yaml"
+# A small object "on" a surface must stand on it: its base within this of the parent's top.
+ON_SURFACE_TOLERANCE_M = 0.005
+
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(kw_only=True)
+class ObjectRow:
+    id: str
+    category: str
+    spec: str
+    parent: str
+    links: int
+    joints: int
+    grasp_points: int
+    triangles: int
+    valid: bool
+    build_s: float
+    validate_s: float
+    failed_checks: list[str] = field(default_factory=list)
+
+
+@dataclass(kw_only=True)
+class BuildResult:
+    out_dir: Path
+    map_path: Path
+    rows: list[ObjectRow]
+
+    @property
+    def ok(self) -> bool:
+        return all(row.valid for row in self.rows)
+
+
+def load_home(example_dir: Path) -> HomeSpec:
+    example_dir = Path(example_dir)
+    if not example_dir.is_dir():
+        raise SpecError(f"{example_dir}: no such folder")
+    return load_yaml_spec(example_dir / HOME_FILE, HomeSpec)
+
+
+def _placements(home: HomeSpec):
+    """(field path, room, large object, small object or None) for every object, in build order."""
+    for r, room in enumerate(home.rooms):
+        for o, large in enumerate(room.objects):
+            yield f"rooms.{r}.objects.{o}", room, large, None
+            for s, small in enumerate(large.objects):
+                yield f"rooms.{r}.objects.{o}.objects.{s}", room, large, small
+
+
+def _spec_path(example_dir: Path, home_file: Path, field_path: str, spec: str) -> Path:
+    path = (example_dir / spec).resolve()
+    if not path.is_relative_to(example_dir.resolve()):
+        raise SpecError(f"{home_file}: {field_path}.spec: {spec!r} lies outside the example folder")
+    if not path.is_file():
+        raise SpecError(f"{home_file}: {field_path}.spec: no such file {spec!r}")
+    return path
+
+
+def _check_on_surface(home_file: Path, field_path: str, small: SmallObjectSpec, parent_top_m: float) -> None:
+    if small.relation == "on" and abs(small.pose.xyz[2] - parent_top_m) > ON_SURFACE_TOLERANCE_M:
+        raise SpecError(
+            f"{home_file}: {field_path}.pose.xyz: z = {small.pose.xyz[2]:.3f} m but its parent's top "
+            f"is at {parent_top_m:.3f} m; an object 'on' a surface must stand on it"
+        )
+
+
+def _parking_positions(large: LargeObjectSpec, parking_type: type) -> list:
+    """The spec's parking positions; the first is the default unless one says it is."""
+    default = next((p.name for p in large.parking if p.default), large.parking[0].name)
+    return [parking_type(name=p.name, world_from_base=p.matrix(), default=p.name == default) for p in large.parking]
+
+
+def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
+    """Build, export, validate and register every object of `example_dir/home.yaml`."""
+    from articulation.export import write_model_files
+    from articulation.validate import validate_path
+    from modeller import build_model, load_spec
+    from semantic_map import ParkingPosition, SemanticMap, save_map
+
+    example_dir = Path(example_dir)
+    home_file = example_dir / HOME_FILE
+    home = load_home(example_dir)
+    placements = list(_placements(home))
+    # Every spec is checked before anything is built, so a typo fails in a second, not a minute.
+    spec_paths = {}
+    for field_path, _, large, small in placements:
+        obj = small or large
+        spec_paths[obj.id] = _spec_path(example_dir, home_file, field_path, obj.spec)
+        load_spec(spec_paths[obj.id])
+
+    smap = SemanticMap.new(apartment_id=home.apartment.id, name=home.apartment.name)
+    for room in home.rooms:
+        smap.add_room(room_id=room.id, name=room.name, point_cloud=room.point_cloud)
+
+    rows: list[ObjectRow] = []
+    tops: dict[str, float] = {}
+    with atomic_dir(Path(out_dir), force=force) as tmp:
+        for index, (field_path, room, large, small) in enumerate(placements):
+            obj: LargeObjectSpec | SmallObjectSpec = small or large
+            if progress:
+                progress(obj.id, index, len(placements))
+            if small is not None:
+                _check_on_surface(home_file, field_path, small, tops[large.id])
+            folder = tmp / "models" / obj.id
+            folder.mkdir(parents=True)
+            started = time.perf_counter()
+            model = build_model(spec_paths[obj.id], blend_path=folder / "model.blend")
+            model.name = obj.id
+            write_model_files(model, folder)
+            built = time.perf_counter()
+            report = validate_path(folder)
+            validated = time.perf_counter()
+            if small is None:
+                tops[large.id] = float(model.world_mesh().bounds[1][2])
+                smap.register_model(
+                    model,
+                    object_id=large.id,
+                    parent_id=room.id,
+                    parent_from_object=large.pose.matrix(),
+                    model_ref=f"models/{large.id}/model.urdf",
+                    parking_positions=_parking_positions(large, ParkingPosition),
+                    properties=large.properties or None,
+                )
+            else:
+                smap.register_model(
+                    model,
+                    object_id=small.id,
+                    parent_id=large.id,
+                    relation=small.relation,
+                    parent_from_object=small.pose.matrix(),
+                    model_ref=f"models/{small.id}/model.urdf",
+                    properties=small.properties or None,
+                )
+            row = ObjectRow(
+                id=obj.id,
+                category=model.category,
+                spec=str(spec_paths[obj.id].relative_to(example_dir.resolve())),
+                parent=large.id if small else room.id,
+                links=len(model.links),
+                joints=len(model.movable_joints),
+                grasp_points=len(model.grasp_points),
+                triangles=sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
+                valid=report.ok,
+                build_s=round(built - started, 3),
+                validate_s=round(validated - built, 3),
+                failed_checks=[f"{c.name}: {c.detail}" for c in report.checks if not c.passed],
+            )
+            write_text_atomic(
+                folder / "summary.json",
+                json.dumps({**asdict(row), "validation": report.format()}, indent=2) + "\n",
+            )
+            rows.append(row)
+            log.info("built %s in %.2f s, valid=%s", obj.id, row.build_s, row.valid)
+        save_map(smap, tmp / "map.xml")
+        write_text_atomic(tmp / "summary.json", json.dumps([asdict(r) for r in rows], indent=2) + "\n")
+        if progress:
+            progress("done", len(placements), len(placements))
+    out_dir = Path(out_dir)
+    return BuildResult(out_dir=out_dir, map_path=out_dir / "map.xml", rows=rows)

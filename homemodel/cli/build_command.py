@@ -1,0 +1,62 @@
+"""`homemodel build EXAMPLE_DIR --out DIR`: every spec of a home, validated, plus its map."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from homemodel.cli.errors import exit_on_error
+
+
+def build(
+    example_dir: Path = typer.Argument(..., help="folder with home.yaml and the measurement specs"),
+    out: Path = typer.Option(..., "--out", help="output folder (models/, map.xml, summary.json)"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Build every object of a home from its measurements, validate each model, write the map."""
+    from homemodel.build import build_home
+
+    console = Console()
+    with exit_on_error():
+        with Progress(
+            TextColumn("[bold]building[/] {task.description:<14}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+        ) as bar:
+            task = bar.add_task("specs", total=None)
+            result = build_home(
+                example_dir,
+                out,
+                force=force,
+                progress=lambda what, done, total: bar.update(task, description=what, completed=done, total=total),
+            )
+    table = Table(title=f"homemodel build {example_dir}")
+    for column in ("object", "kind", "on/in", "links", "joints", "grasps", "triangles", "build s", "validate s", "valid"):
+        table.add_column(column, justify="right" if column in ("links", "joints", "grasps", "triangles", "build s", "validate s") else "left")
+    for row in result.rows:
+        table.add_row(
+            row.id,
+            row.category,
+            row.parent,
+            str(row.links),
+            str(row.joints),
+            str(row.grasp_points),
+            str(row.triangles),
+            f"{row.build_s:.2f}",
+            f"{row.validate_s:.2f}",
+            "[green]yes[/]" if row.valid else "[red]NO[/]",
+        )
+    console.print(table)
+    for row in result.rows:
+        for failure in row.failed_checks:
+            console.print(f"[red]{row.id}[/]: {failure}")
+    console.print(f"models: {result.out_dir / 'models'}\nmap:    {result.map_path}")
+    if not result.ok:
+        raise typer.Exit(1)

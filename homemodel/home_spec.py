@@ -1,0 +1,101 @@
+"""The home file (`home.yaml`) of an example folder: the apartment, its rooms, and which
+measurement spec stands where, on or in what, with the robot's parking positions.
+
+Frames: a large object's pose and its parking positions are in the map frame; a small
+object's pose is in its parent object's frame (origin at the centre of the parent's
+footprint on the floor, z up), so a cup on a 0.75 m table has z = 0.75.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from homemodel.transforms import transform_from_xyz_rpy
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class PoseSpec(_Strict):
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def matrix(self) -> np.ndarray:
+        return transform_from_xyz_rpy(self.xyz, np.radians(self.rpy_deg))
+
+
+class ParkingSpec(_Strict):
+    """Where the robot's base stands (on the floor) to observe or reach the object."""
+
+    name: str = Field(min_length=1)
+    xy: tuple[float, float]
+    yaw_deg: float = 0.0
+    default: bool = False
+
+    def matrix(self) -> np.ndarray:
+        return transform_from_xyz_rpy((self.xy[0], self.xy[1], 0.0), (0.0, 0.0, np.radians(self.yaw_deg)))
+
+
+class SmallObjectSpec(_Strict):
+    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    spec: str = Field(min_length=1, description="measurement spec file, relative to home.yaml")
+    relation: Literal["on", "in", "under"] = "on"
+    pose: PoseSpec = PoseSpec()
+    properties: dict[str, str] = Field(default_factory=dict)
+
+    @field_validator("relation", mode="before")
+    @classmethod
+    def _yaml_on(cls, value: object) -> object:
+        # YAML 1.1 reads an unquoted `on` as true; an installer writing `relation: on` means "on".
+        return "on" if value is True else value
+
+
+class LargeObjectSpec(_Strict):
+    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    spec: str = Field(min_length=1, description="measurement spec file, relative to home.yaml")
+    pose: PoseSpec = PoseSpec()
+    parking: list[ParkingSpec] = Field(min_length=1)
+    properties: dict[str, str] = Field(default_factory=dict)
+    objects: list[SmallObjectSpec] = Field(default_factory=list)
+
+    @field_validator("parking")
+    @classmethod
+    def _one_default(cls, parking: list[ParkingSpec]) -> list[ParkingSpec]:
+        defaults = [p.name for p in parking if p.default]
+        if len(defaults) > 1:
+            raise ValueError(f"only one parking position may be the default, got {defaults}")
+        return parking
+
+
+class RoomSpec(_Strict):
+    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    name: str = Field(min_length=1)
+    point_cloud: str | None = None
+    objects: list[LargeObjectSpec] = Field(default_factory=list)
+
+
+class ApartmentSpec(_Strict):
+    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    name: str = Field(min_length=1)
+
+
+class HomeSpec(_Strict):
+    apartment: ApartmentSpec
+    rooms: list[RoomSpec] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _unique_ids(self) -> HomeSpec:
+        ids = [self.apartment.id]
+        for room in self.rooms:
+            ids.append(room.id)
+            for large in room.objects:
+                ids.append(large.id)
+                ids.extend(small.id for small in large.objects)
+        dupes = sorted({i for i in ids if ids.count(i) > 1})
+        if dupes:
+            raise ValueError(f"ids must be unique in the home, repeated: {dupes}")
+        return self
