@@ -1,0 +1,121 @@
+"""End to end: `homemodel build examples/kitchen`, the models it writes, and the map."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from homemodel.cli import app
+
+pytestmark = pytest.mark.bpy
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "kitchen"
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("kitchen") / "out"
+    result = runner.invoke(app, ["build", str(EXAMPLE), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_build_writes_every_model_and_the_map(built: Path) -> None:
+    import json
+
+    rows = json.loads((built / "summary.json").read_text())
+    assert {r["id"] for r in rows} == {"table_1", "cupboard_1", "red_cup", "blue_cup"}
+    assert all(r["valid"] for r in rows), [r["failed_checks"] for r in rows]
+    for row in rows:
+        folder = built / "models" / row["id"]
+        for name in ("model.urdf", "model.glb", "model.blend", "summary.json"):
+            assert (folder / name).is_file(), f"{row['id']}: {name} missing"
+    cupboard = next(r for r in rows if r["id"] == "cupboard_1")
+    assert cupboard["joints"] >= 3 and cupboard["grasp_points"] >= 3
+
+
+def test_every_built_model_passes_the_gate_from_the_cli(built: Path) -> None:
+    for folder in sorted((built / "models").iterdir()):
+        result = runner.invoke(app, ["validate", str(folder)])
+        assert result.exit_code == 0, result.output
+
+
+def test_the_blue_cup_walk_from_the_cli_and_the_api(built: Path) -> None:
+    from semantic_map import load_map
+
+    result = runner.invoke(app, ["map", "find", str(built / "map.xml"), "--type", "cup", "--property", "colour=blue"])
+    assert result.exit_code == 0, result.output
+    assert "blue_cup" in result.output and "table_1" in result.output and "south" in result.output
+    assert "red_cup" not in result.output
+
+    smap = load_map(built / "map.xml")
+    (cup,) = smap.find(type="cup", properties={"colour": "blue"})
+    assert smap.path_to(cup.id) == ["demo_house", "kitchen", "table_1", "blue_cup"]
+    parent = smap.parent(cup.id)
+    assert parent.id == "table_1"
+    names = [p.name for p in smap.parking_positions(parent.id)]
+    assert names == ["south", "east", "north"]
+    # The cup stands on the table top in the map frame: table at (2.0, 1.5), cup at (-0.3, 0.2, 0.75) on it.
+    assert smap.world_from_object(cup.id)[:3, 3] == pytest.approx([1.7, 1.7, 0.75], abs=1e-6)
+
+
+def test_cupboard_joints_and_handles_flow_into_the_map(built: Path) -> None:
+    from articulation.urdf_import import load_urdf
+    from semantic_map import load_map
+
+    model = load_urdf(built / "models" / "cupboard_1" / "model.urdf")
+    node = load_map(built / "map.xml").node("cupboard_1")
+    assert {j.name for j in node.joints} == {j.name for j in model.movable_joints}
+    assert {g.name for g in node.grasp_points} == {g.name for g in model.grasp_points}
+
+
+def test_blender_imports_the_glb_back_at_the_right_size(built: Path) -> None:
+    import bpy
+
+    from articulation.urdf_import import load_urdf
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=str(built / "models" / "table_1" / "model.glb"))
+    meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+    assert meshes
+    corners = np.array([o.matrix_world @ v.co for o in meshes for v in o.data.vertices])
+    expected = load_urdf(built / "models" / "table_1" / "model.urdf").world_mesh().bounds
+    # Blender's importer turns glTF's y-up back into z-up: the table stands as built.
+    assert np.array([corners.min(axis=0), corners.max(axis=0)]) == pytest.approx(expected, abs=1e-4)
+
+
+def test_a_missing_spec_is_one_line_and_writes_nothing(tmp_path: Path) -> None:
+    example = tmp_path / "kitchen"
+    shutil.copytree(EXAMPLE, example)
+    (example / "blue_cup.yaml").unlink()
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["build", str(example), "--out", str(out)])
+    assert result.exit_code == 2
+    assert "blue_cup.yaml" in result.output and "home.yaml" in result.output
+    assert not out.exists()
+
+
+def test_a_cup_floating_above_the_table_is_refused(tmp_path: Path) -> None:
+    example = tmp_path / "kitchen"
+    shutil.copytree(EXAMPLE, example)
+    home = example / "home.yaml"
+    home.write_text(home.read_text().replace("pose: {xyz: [0.25, -0.15, 0.75]}", "pose: {xyz: [0.25, -0.15, 0.9]}"))
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["build", str(example), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert "rooms.0.objects.0.objects.0.pose.xyz" in result.output
+    assert not out.exists() and not list(tmp_path.glob(".out*"))
+
+
+def test_build_refuses_a_non_empty_out_dir_without_force(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    result = runner.invoke(app, ["build", str(EXAMPLE), "--out", str(out)])
+    assert result.exit_code == 2 and "--force" in result.output
+    assert (out / "keep.txt").read_text() == "mine"
