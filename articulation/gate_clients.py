@@ -1,0 +1,216 @@
+"""The URDF clients a model must satisfy: check_urdf, yourdfpy and pybullet.
+
+pybullet must also move every joint the way the URDF declares it, which we compare with
+yourdfpy's forward kinematics at the lower, middle and upper joint positions.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from articulation.gate_process import last_lines, run_bounded
+from articulation.gate_report import Check, check_from_problems, count
+
+CHECK_URDF_TIMEOUT_S = 30.0
+POSITION_TOLERANCE_M = 1e-4
+ROTATION_TOLERANCE_RAD = 1e-3
+# Below this the child is taken not to move at all (pybullet works in about 1e-8).
+STILL_TOLERANCE = 1e-7
+MOVABLE_JOINT_TYPES = ("revolute", "prismatic", "continuous")
+
+
+def find_check_urdf() -> str | None:
+    # The venv's bin folder first: cmeel-urdfdom installs check_urdf there, and a venv
+    # used without activation is not on PATH.
+    beside = Path(sys.executable).parent / "check_urdf"
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("check_urdf")
+
+
+def check_urdf_check(urdf: Path, timeout_s: float = CHECK_URDF_TIMEOUT_S) -> Check:
+    exe = find_check_urdf()
+    if exe is None:
+        return Check("check_urdf", False, "check_urdf not found (Python package cmeel-urdfdom); run `make setup`")
+    try:
+        result = run_bounded([exe, str(urdf)], timeout_s)
+    except subprocess.TimeoutExpired:
+        return Check("check_urdf", False, f"timed out after {timeout_s:g} s")
+    except OSError as exc:
+        return Check("check_urdf", False, f"cannot run {exe}: {exc}")
+    if result.returncode != 0:
+        said = last_lines(result.stderr + "\n" + result.stdout)
+        return Check("check_urdf", False, f"exit status {result.returncode}: {said}")
+    return Check("check_urdf", True, "exit status 0")
+
+
+def yourdfpy_check(urdf: Path) -> tuple[Check, Any]:
+    """The check and the loaded `yourdfpy.URDF` (None when it did not load)."""
+    import yourdfpy
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            model = yourdfpy.URDF.load(
+                str(urdf), build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False
+            )
+        except Exception as exc:  # yourdfpy raises whatever its parser or scene graph hits
+            return Check("yourdfpy", False, f"{type(exc).__name__}: {exc}"), None
+    detail = f"loaded {count(len(model.link_map), 'link')}, {count(len(model.joint_map), 'joint')}"
+    if caught:
+        detail += f"; {count(len(caught), 'warning')}, first: {caught[0].message}"
+    return Check("yourdfpy", True, detail), model
+
+
+def _flush_c_stdio() -> None:
+    ctypes.CDLL(None).fflush(None)
+
+
+@contextmanager
+def captured_c_output() -> Iterator[list[str]]:
+    """Collect what C code writes to fds 1 and 2 into the yielded list, not the terminal.
+
+    pybullet prints from C, which replacing sys.stdout cannot catch: its build time to
+    stderr on import, warnings and errors to stdout while loading. The redirection is
+    process-wide, so not thread-safe.
+    """
+    lines: list[str] = []
+    sys.stdout.flush()
+    sys.stderr.flush()
+    _flush_c_stdio()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    with tempfile.TemporaryFile() as sink:
+        try:
+            for fd in saved:
+                os.dup2(sink.fileno(), fd)
+            yield lines
+        finally:
+            _flush_c_stdio()  # C buffers stdout when it is not a terminal
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
+            sink.seek(0)
+            lines.extend(sink.read().decode("utf-8", "replace").splitlines())
+
+
+def pybullet_errors(lines: list[str]) -> str:
+    """pybullet's b3Error messages, which it prints as `b3Error[file,line]:\nmessage`."""
+    text = "\n".join(lines)
+    messages = re.findall(r"b3Error\[[^\]]*\]:\s*(.*?)(?=b3(?:Error|Warning)\[|\Z)", text, re.S)
+    return " ".join(" ".join(m.split()) for m in messages if m.strip())
+
+
+def declared_pose(declared: Any, child: str, root: str) -> np.ndarray:
+    """`root_from_child` as the URDF declares it, at the configuration last set on `declared`."""
+    return declared.get_transform(child, root)
+
+
+def pose_error(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """Position (m) and rotation angle (rad) between two 4x4 poses; NaN propagates."""
+    position = float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
+    cos = (np.trace(a[:3, :3].T @ b[:3, :3]) - 1) / 2
+    rotation = float(np.arccos(np.clip(cos, -1.0, 1.0))) if np.isfinite(cos) else math.nan
+    return position, rotation
+
+
+def _samples(joint: Any) -> list[float]:
+    if joint.type == "continuous":
+        return [-math.pi, 0.0, math.pi]
+    limit = joint.limit
+    lower = float(limit.lower) if limit is not None and limit.lower is not None else 0.0
+    upper = float(limit.upper) if limit is not None and limit.upper is not None else 0.0
+    return [lower, (lower + upper) / 2, upper]
+
+
+def _pybullet_pose(pb: Any, client: int, body: int, link_index: int) -> np.ndarray:
+    state = pb.getLinkState(body, link_index, computeForwardKinematics=True, physicsClientId=client)
+    pose = np.eye(4)
+    pose[:3, :3] = np.reshape(pb.getMatrixFromQuaternion(state[5]), (3, 3))
+    pose[:3, 3] = state[4]
+    return pose
+
+
+def kinematics_problems(pb: Any, client: int, body: int, declared: Any) -> list[str]:
+    """Move each movable joint alone and compare pybullet's child pose with the declared one."""
+    joint_count = pb.getNumJoints(body, physicsClientId=client)
+    infos = [pb.getJointInfo(body, i, physicsClientId=client) for i in range(joint_count)]
+    index_of = {info[1].decode(): info[0] for info in infos}
+    pb_movable = [info[0] for info in infos if info[2] in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC)]
+    actuated = list(declared.actuated_joint_names)
+    root = declared.base_link
+    problems: list[str] = []
+    for joint in declared.robot.joints:
+        if joint.type not in MOVABLE_JOINT_TYPES or joint.name not in actuated:
+            continue
+        if joint.name not in index_of:
+            problems.append(f"joint {joint.name!r} is missing in pybullet")
+            continue
+        samples = _samples(joint)
+        poses, off = [], []
+        for q in samples:
+            for i in pb_movable:
+                pb.resetJointState(body, i, 0.0, physicsClientId=client)
+            pb.resetJointState(body, index_of[joint.name], q, physicsClientId=client)
+            simulated = _pybullet_pose(pb, client, body, index_of[joint.name])
+            cfg = np.zeros(len(actuated))
+            cfg[actuated.index(joint.name)] = q
+            declared.update_cfg(cfg)
+            position_error, rotation_error = pose_error(simulated, declared_pose(declared, joint.child, root))
+            # Written as `not (error < tolerance)` so a NaN pose fails.
+            if not (position_error < POSITION_TOLERANCE_M and rotation_error < ROTATION_TOLERANCE_RAD):
+                off.append(f"at {q:.4g}: {position_error:.3g} m, {rotation_error:.3g} rad")
+            poses.append(simulated)
+        if off:
+            problems.append(
+                f"joint {joint.name!r}: pybullet puts {joint.child!r} away from the declared pose "
+                f"at {len(off)} of {len(samples)} positions ({off[0]})"
+            )
+        movement = max(max(pose_error(poses[0], p)) for p in poses[1:])
+        if not movement > STILL_TOLERANCE:
+            problems.append(f"joint {joint.name!r}: pybullet does not move {joint.child!r} over {samples}")
+    return problems
+
+
+def pybullet_check(urdf: Path, declared: Any) -> Check:
+    """Load in a private DIRECT client with a fixed base and the file's inertias; move every joint."""
+    error: str | None = None
+    problems: list[str] = []
+    # A zero axis makes yourdfpy's kinematics divide by zero; the NaN pose fails below.
+    with captured_c_output() as output, warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        import pybullet as pb
+
+        client = pb.connect(pb.DIRECT)
+        try:
+            body = pb.loadURDF(
+                str(urdf), useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client
+            )
+            if declared is not None:
+                problems = kinematics_problems(pb, client, body, declared)
+        except pb.error as exc:
+            error = str(exc)
+        except Exception as exc:  # yourdfpy's kinematics on a broken model raise anything
+            error = f"comparing joints failed: {type(exc).__name__}: {exc}"
+        finally:
+            pb.disconnect(physicsClientId=client)
+    if error is not None:
+        said = pybullet_errors(output)
+        return Check("pybullet", False, f"{error} {said}" if said else error)
+    if declared is None:
+        return Check("pybullet", False, "loaded, but joints not compared: yourdfpy could not load the URDF")
+    joints = sum(j.type in MOVABLE_JOINT_TYPES for j in declared.robot.joints)
+    return check_from_problems("pybullet", problems, f"loaded; {count(joints, 'movable joint')} moved as declared")

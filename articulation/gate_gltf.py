@@ -1,0 +1,120 @@
+"""glTF checks: the Khronos validator (through node) and homemodel's joint extras."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import struct
+import subprocess
+from pathlib import Path
+from typing import Any
+
+from articulation.gate_process import last_lines, run_bounded
+from articulation.gate_report import Check, check_from_problems, count
+from homemodel.errors import InputError
+
+VALIDATOR_TIMEOUT_S = 60.0
+TOOLS_DIR = Path(__file__).resolve().parents[1] / "tools"
+VALIDATOR_SCRIPT = TOOLS_DIR / "validate_gltf.js"
+VALIDATOR_PACKAGE = TOOLS_DIR / "node_modules" / "gltf-validator" / "package.json"
+MESSAGES_SHOWN = 5
+GLB_MAGIC = b"glTF"
+GLB_JSON_CHUNK = 0x4E4F534A
+JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
+AXIS_UNIT_TOLERANCE = 1e-6
+
+
+def khronos_check(glb: Path, timeout_s: float = VALIDATOR_TIMEOUT_S) -> Check:
+    name = "glTF validator"
+    node = shutil.which("node")
+    if node is None or not VALIDATOR_SCRIPT.is_file() or not VALIDATOR_PACKAGE.is_file():
+        missing = "node" if node is None else f"the npm package gltf-validator under {TOOLS_DIR}"
+        return Check(name, False, f"{missing} not found; run `make setup`")
+    try:
+        result = run_bounded([node, str(VALIDATOR_SCRIPT), str(glb)], timeout_s)
+    except subprocess.TimeoutExpired:
+        return Check(name, False, f"timed out after {timeout_s:g} s")
+    except OSError as exc:
+        return Check(name, False, f"cannot run {node}: {exc}")
+    try:
+        report = json.loads(result.stdout) if result.returncode == 0 else None
+    except json.JSONDecodeError:
+        report = None
+    if report is None:
+        return Check(name, False, f"validator failed (exit status {result.returncode}): {last_lines(result.stderr)}")
+    issues = report.get("issues", {})
+    errors = [m for m in issues.get("messages", []) if m.get("severity") == 0]
+    if issues.get("numErrors", 0) > 0:
+        shown = "; ".join(
+            f"{m.get('code')} at {m.get('pointer', m.get('offset', '?'))}: {m.get('message')}"
+            for m in errors[:MESSAGES_SHOWN]
+        )
+        return Check(name, False, f"{count(issues['numErrors'], 'error')}: {shown}")
+    return Check(name, True, f"0 errors, {count(issues.get('numWarnings', 0), 'warning')}")
+
+
+def glb_json(data: bytes) -> dict[str, Any]:
+    """The JSON chunk of a GLB (binary glTF 2.0) file."""
+    if len(data) < 20:
+        raise InputError(f"{len(data)} bytes is too short for a GLB")
+    magic, version, length = struct.unpack_from("<4sII", data, 0)
+    if magic != GLB_MAGIC or version != 2:
+        raise InputError(f"not a glTF 2.0 binary (magic {magic!r}, version {version})")
+    chunk_length, chunk_type = struct.unpack_from("<II", data, 12)
+    if chunk_type != GLB_JSON_CHUNK or 20 + chunk_length > min(length, len(data)):
+        raise InputError("the first chunk is not a complete JSON chunk")
+    try:
+        doc = json.loads(data[20 : 20 + chunk_length].decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"the JSON chunk does not parse: {exc}") from None
+    if not isinstance(doc, dict):
+        raise InputError("the JSON chunk is not an object")
+    return doc
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def joint_extras_problems(where: str, joint: Any) -> list[str]:
+    if not isinstance(joint, dict):
+        return [f"{where}: extras.joint is not an object"]
+    kind = joint.get("type")
+    if kind not in JOINT_TYPES:
+        return [f"{where}: joint type {kind!r} is not one of {', '.join(JOINT_TYPES)}"]
+    problems = []
+    if kind != "fixed":
+        axis = joint.get("axis")
+        if not (isinstance(axis, list) and len(axis) == 3 and all(_number(v) for v in axis)):
+            problems.append(f"{where}: axis {axis!r} is not three numbers")
+        elif abs(math.hypot(*axis) - 1) >= AXIS_UNIT_TOLERANCE:
+            problems.append(f"{where}: axis {axis} has length {math.hypot(*axis):.6g}, not 1")
+    if kind in ("revolute", "prismatic"):
+        lower, upper = joint.get("lower"), joint.get("upper")
+        if not (_number(lower) and _number(upper)):
+            problems.append(f"{where}: lower {lower!r} and upper {upper!r} must be numbers")
+        elif not lower < upper:
+            problems.append(f"{where}: lower {lower} is not below upper {upper}")
+    return problems
+
+
+def joint_extras_check(glb: Path) -> Check:
+    name = "glTF joints"
+    try:
+        doc = glb_json(glb.read_bytes())
+    except (InputError, OSError) as exc:
+        return Check(name, False, f"cannot read the GLB: {exc}")
+    problems: list[str] = []
+    joints = 0
+    nodes = doc.get("nodes", [])
+    for i, node in enumerate(nodes if isinstance(nodes, list) else []):
+        extras = node.get("extras") if isinstance(node, dict) else None
+        if isinstance(extras, dict) and "joint" in extras:
+            joints += 1
+            problems += joint_extras_problems(f"node {node.get('name', i)!r}", extras["joint"])
+    return check_from_problems(name, problems, f"valid extras.joint on {count(joints, 'node')}")
+
+
+def gltf_checks(glb: Path) -> list[Check]:
+    return [khronos_check(glb), joint_extras_check(glb)]

@@ -1,0 +1,99 @@
+"""The validation gate: a model folder, URDF or GLB through our rules and the real clients.
+
+Order matters once: the URDF is parsed safely first, and an unsafe or unparseable file
+stops the gate there, so hostile XML never reaches check_urdf, yourdfpy or pybullet.
+Every later check runs whatever the others found, so one report lists every fault.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from lxml import etree
+
+from articulation.gate_clients import check_urdf_check, pybullet_check, yourdfpy_check
+from articulation.gate_gltf import gltf_checks
+from articulation.gate_report import Check, ValidationReport
+from articulation.gate_urdf_rules import (
+    axes_check,
+    inertials_check,
+    limits_check,
+    meshes_check,
+    tree_check,
+    unsafe_mesh_references,
+)
+from homemodel.errors import HomemodelError, InputError
+from homemodel.safe_xml import parse_xml_file
+
+__all__ = ["Check", "ValidationReport", "validate_path"]
+
+URDF_NAME = "model.urdf"
+GLB_NAME = "model.glb"
+
+
+def _inputs(path: Path) -> tuple[Path | None, Path | None]:
+    """The URDF and GLB to check for `path`."""
+    if not path.exists():
+        raise InputError(f"{path}: no such file or folder")
+    if path.is_dir():
+        urdf, glb = path / URDF_NAME, path / GLB_NAME
+        if not urdf.is_file():
+            raise InputError(f"{path}: a model folder must contain {URDF_NAME}")
+        return urdf, glb if glb.exists() else None
+    if not path.is_file():
+        raise InputError(f"{path}: not a regular file")
+    suffix = path.suffix.lower()
+    if suffix == ".urdf":
+        return path, None
+    if suffix == ".glb":
+        return None, path
+    raise InputError(f"{path}: expected a model folder, a .urdf or a .glb file")
+
+
+def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path) -> str | None:
+    """Why pybullet must not load this URDF in our process, or None."""
+    if not tree.passed:
+        # pybullet 3.2.7 segfaults on several root links, a cycle or duplicate joint names.
+        return "pybullet crashes the process on a broken kinematic tree (see kinematic tree)"
+    unsafe = unsafe_mesh_references(robot, folder)
+    if unsafe:
+        return f"pybullet would open {unsafe[:3]}, outside the model folder or not regular files (see meshes)"
+    return None
+
+
+def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
+    """The URDF's checks, and whether the XML was safe to go on with."""
+    try:
+        robot = parse_xml_file(urdf).getroot()
+    except HomemodelError as exc:
+        return [Check("safe XML", False, str(exc))], False
+    if robot.tag != "robot":
+        return [Check("safe XML", False, f"{urdf}: the root element is <{robot.tag}>, not <robot>")], False
+    checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
+    tree = tree_check(robot)
+    checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes_check(robot, urdf.parent)]
+    checks.append(check_urdf_check(urdf))
+    declared_check, declared = yourdfpy_check(urdf)
+    checks.append(declared_check)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent)
+    checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(urdf, declared))
+    return checks, True
+
+
+def validate_path(path: Path) -> ValidationReport:
+    """Validate a model folder (model.urdf, optional model.glb), a .urdf or a .glb file.
+
+    Raises InputError when `path` is missing or of an unknown kind; every fault of the
+    model itself is a failed check in the report.
+    """
+    path = Path(path)
+    urdf, glb = _inputs(path)
+    report = ValidationReport(path=path)
+    if urdf is not None:
+        checks, safe = _urdf_checks(urdf)
+        report.checks += checks
+        if not safe:
+            return report
+    if glb is not None:
+        report.checks += gltf_checks(glb)
+    return report
