@@ -1,0 +1,198 @@
+"""`homemodel map show|find|add|validate MAP.xml ...`: the hierarchical semantic map.
+
+`find` replays the request walk of D3.1 section 6.2.2 ("bring me the blue cup"): the path
+from the root to the object, its parent, and the parking positions to visit one at a time.
+"""
+
+from __future__ import annotations
+
+import enum
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import typer
+
+from homemodel.cli.errors import exit_on_error
+
+if TYPE_CHECKING:
+    from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
+
+map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
+
+MAP_ARGUMENT = typer.Argument(..., metavar="MAP.xml", help="semantic map file")
+
+
+class RelationChoice(str, enum.Enum):
+    on = "on"
+    in_ = "in"
+    under = "under"
+
+
+def _key_values(items: list[str], option: str) -> dict[str, str]:
+    pairs = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise typer.BadParameter(f"{item!r} is not key=value", param_hint=option)
+        pairs[key] = value
+    return pairs
+
+
+def _parking_list(items: list[str]) -> list[ParkingPosition]:
+    """`--parking "x y yaw"` (or "NAME=x y yaw"), robot base poses on the floor; the first is the default."""
+    from homemodel.transforms import transform_from_xyz_rpy
+    from semantic_map import ParkingPosition
+
+    positions = []
+    for index, item in enumerate(items, start=1):
+        name, sep, numbers = item.rpartition("=")
+        try:
+            x, y, yaw = (float(v) for v in numbers.split())
+        except ValueError:
+            raise typer.BadParameter(f"{item!r} is not 'x y yaw' (metres, radians)", param_hint="--parking") from None
+        world_from_base = transform_from_xyz_rpy((x, y, 0.0), (0.0, 0.0, yaw))
+        positions.append(
+            ParkingPosition(name=name if sep else f"parking_{index}", world_from_base=world_from_base, default=index == 1)
+        )
+    return positions
+
+
+def _describe(node: Node) -> str:
+    from semantic_map import Apartment, LargeArticulatedObject, LargeObject, Room, SmallObject
+
+    if isinstance(node, Apartment | Room):
+        return f"{node.id} ({node.name})"
+    if isinstance(node, SmallObject):
+        text = f"{node.id}: {node.type}, {node.relation} {node.parent}"
+    elif isinstance(node, LargeArticulatedObject):
+        joints = ", ".join(f"{j.name} {j.type} at {j.position:g}" for j in node.joints)
+        text = f"{node.id}: {node.type}, joints {joints}"
+    elif isinstance(node, LargeObject):
+        text = f"{node.id}: {node.type}"
+    else:
+        return f"{node.id}: {node.type} switch"
+    properties = ", ".join(f"{k}={v}" for k, v in sorted(node.properties.items()))
+    return f"{text} [{properties}]" if properties else text
+
+
+def _parking_text(p: ParkingPosition) -> str:
+    x, y, _ = p.world_from_base.xyz
+    yaw = p.world_from_base.rpy[2]
+    return f"{p.name}{' (default)' if p.default else ''}: x={x:.3f} m, y={y:.3f} m, yaw={yaw:.3f} rad"
+
+
+@map_app.command()
+def show(map_path: Path = MAP_ARGUMENT) -> None:
+    """Print the map as a tree: apartment > rooms > objects."""
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.tree import Tree
+
+    from semantic_map import load_map
+
+    with exit_on_error():
+        smap = load_map(map_path)
+    root = Tree(escape(_describe(smap.apartment)))
+    for room in smap.apartment.rooms:
+        branch = root.add(escape(_describe(room)))
+        for switch in room.switches:
+            branch.add(escape(_describe(switch)))
+        for large in room.objects:
+            leaf = branch.add(escape(_describe(large)))
+            for small in large.small_objects:
+                leaf.add(escape(_describe(small)))
+    Console().print(root)
+
+
+def _print_walk(smap: SemanticMap, obj: MapObject) -> None:
+    from semantic_map import SmallObject
+
+    parent = smap.parent(obj.id)
+    typer.echo(f"path: {' > '.join(smap.path_to(obj.id))}")
+    typer.echo(f"parent: {_describe(parent)}")
+    # The robot goes to a small object's parent; a large object has parking positions of its own.
+    goal = parent.id if isinstance(obj, SmallObject) else obj.id
+    typer.echo(f"parking positions of {goal}:")
+    for index, p in enumerate(smap.parking_positions(goal), start=1):
+        typer.echo(f"  {index}. {_parking_text(p)}")
+
+
+@map_app.command()
+def find(
+    map_path: Path = MAP_ARGUMENT,
+    object_type: str | None = typer.Option(None, "--type", help="object type, e.g. cup"),
+    properties: list[str] = typer.Option([], "--property", help="key=value, e.g. colour=blue (repeatable)"),
+) -> None:
+    """Find objects by type and properties; print the path to each, its parent and where to park."""
+    from semantic_map import load_map
+
+    wanted = _key_values(properties, "--property")
+    with exit_on_error():
+        smap = load_map(map_path)
+        matches = smap.find(type=object_type, properties=wanted)
+        if not matches:
+            criteria = " ".join([*([f"type={object_type}"] if object_type else []), *(f"{k}={v}" for k, v in wanted.items())])
+            typer.echo(f"no object in {map_path} matches {criteria or 'anything'}", err=True)
+            raise typer.Exit(1)
+        for index, obj in enumerate(matches):
+            if index:
+                typer.echo("")
+            _print_walk(smap, obj)
+
+
+@map_app.command()
+def add(
+    map_path: Path = MAP_ARGUMENT,
+    model_dir: Path = typer.Argument(..., metavar="MODEL_DIR", help="model folder holding model.urdf"),
+    object_id: str = typer.Option(..., "--id", help="id of the new object"),
+    parent_id: str = typer.Option(..., "--parent", help="a room (large object) or a large object (small object)"),
+    relation: RelationChoice | None = typer.Option(None, "--relation", help="small objects: on, in or under (default: on)"),
+    xyz: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--xyz", help="position in the parent's frame (m)"),
+    rpy: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--rpy", help="roll pitch yaw in the parent's frame (rad)"),
+    parking: list[str] = typer.Option(
+        [], "--parking", help="large objects: robot base 'x y yaw' or 'NAME=x y yaw' in the map frame; the first is the default"
+    ),
+    properties: list[str] = typer.Option([], "--property", help="key=value over the model's properties (repeatable)"),
+    graspable: bool | None = typer.Option(None, "--graspable/--not-graspable", help="graspable or not (default: small objects are, large ones are not)"),
+    out: Path | None = typer.Option(None, "--out", help="write the extended map here instead of over MAP.xml"),
+) -> None:
+    """Register the model in MODEL_DIR/model.urdf under PARENT_ID and save the map atomically."""
+    from articulation.urdf_import import load_urdf
+    from homemodel.errors import InputError
+    from homemodel.transforms import transform_from_xyz_rpy
+    from semantic_map import load_map, save_map
+
+    out_path = out or map_path
+    urdf = model_dir / "model.urdf"
+    with exit_on_error():
+        extra = _key_values(properties, "--property")
+        parking_positions = _parking_list(parking)
+        if not urdf.is_file():
+            raise InputError(f"{urdf}: no such file")
+        smap = load_map(map_path)
+        node = smap.register_model(
+            load_urdf(urdf),
+            object_id=object_id,
+            parent_id=parent_id,
+            relation=relation.value if relation else None,
+            parent_from_object=transform_from_xyz_rpy(xyz, rpy),
+            # Relative to the map's folder, so a map and its models move together.
+            model_ref=Path(os.path.relpath(urdf.resolve(), out_path.resolve().parent)).as_posix(),
+            parking_positions=parking_positions,
+            graspable=graspable,
+            properties=extra or None,
+        )
+        save_map(smap, out_path)
+    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(smap.path_to(node.id))} to {out_path}")
+
+
+@map_app.command()
+def validate(map_path: Path = MAP_ARGUMENT) -> None:
+    """Check a map against the schema and the map's own rules."""
+    from semantic_map import load_map
+
+    with exit_on_error():
+        smap = load_map(map_path)
+    count = sum(1 for _ in smap.objects())
+    typer.echo(f"{map_path}: valid ({len(smap.apartment.rooms)} rooms, {count} objects)")
