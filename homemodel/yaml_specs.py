@@ -14,37 +14,57 @@ MAX_SPEC_BYTES = 4 * 1024 * 1024
 SpecT = TypeVar("SpecT", bound=pydantic.BaseModel)
 
 
+class FieldError(ValueError):
+    """A failed check in a model validator blaming the field at `loc`, relative to the model
+    doing the check, so the message names `doors.0.width_m` and not just `doors`."""
+
+    def __init__(self, loc: tuple[str | int, ...], message: str) -> None:
+        super().__init__(message)
+        self.loc = loc
+
+
 def read_yaml_mapping(path: Path) -> dict:
     """The top-level mapping of a YAML file (safe loader, size-bounded)."""
     path = Path(path)
-    if not path.is_file():
-        raise SpecError(f"{path}: no such file")
-    if path.stat().st_size > MAX_SPEC_BYTES:
-        raise SpecError(f"{path}: larger than {MAX_SPEC_BYTES} bytes, not a measurement spec")
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
+        if path.stat().st_size > MAX_SPEC_BYTES:
+            raise SpecError(f"{path}: larger than {MAX_SPEC_BYTES} bytes, not a spec")
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{path}: cannot read: {exc}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        raise SpecError(f"{path}: invalid YAML{where}: {problem}") from None
     if not isinstance(data, dict):
-        raise SpecError(f"{path}: expected a mapping of fields at the top level")
+        raise SpecError(f"{path}: expected a mapping of fields, got {type(data).__name__}")
     return data
 
 
-def format_validation_error(path: Path, error: pydantic.ValidationError) -> str:
-    """`file: dotted.field: message` for the first problem, with a count of the others."""
-    first = error.errors()[0]
-    field = ".".join(str(part) for part in first["loc"]) or "(top level)"
-    message = first["msg"].removeprefix("Value error, ")
-    more = len(error.errors()) - 1
-    suffix = f" (and {more} more problem{'s' if more > 1 else ''})" if more else ""
-    return f"{path}: {field}: {message}{suffix}"
+def describe_validation_error(error: pydantic.ValidationError) -> str:
+    """`dotted.field: message` of the first problem, with a count of the others."""
+    errors = error.errors()
+    first = errors[0]
+    loc = tuple(first["loc"])
+    cause = first.get("ctx", {}).get("error")
+    if isinstance(cause, FieldError):
+        loc += cause.loc
+    message = str(cause) if isinstance(cause, ValueError) else first["msg"]
+    field = ".".join(str(part) for part in loc) or "(top level)"
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"{field}: {message}{more}"
 
 
 def validate_mapping(path: Path, data: dict, spec_type: type[SpecT]) -> SpecT:
     try:
         return spec_type.model_validate(data)
     except pydantic.ValidationError as exc:
-        raise SpecError(format_validation_error(path, exc)) from None
+        raise SpecError(f"{path}: {describe_validation_error(exc)}") from None
 
 
 def load_yaml_spec(path: Path, spec_type: type[SpecT]) -> SpecT:

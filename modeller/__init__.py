@@ -1,0 +1,24 @@
+"""Parametric modelling of furniture and small objects in Blender, from measurement specs.
+
+Following the seed (RAMCIP D3.1, section 3.3.2), an installer measures an object and writes
+a YAML spec; `build_model` builds it from primitives in Blender at the real dimensions (a
+box with its front face removed and walls of the measured thickness, doors and handles at
+their measured places, joints with limits; a cup as a hollow cylinder and a bent handle)
+and returns the `articulation.Model`. Frames and units: see `modeller.specs`.
+
+Only this package (and the add-on) imports bpy, and only inside the functions that need it.
+"""
+
+from modeller.build import build_from_spec, build_model
+from modeller.spec_loading import load_spec, write_spec_schemas
+from modeller.specs import CupboardSpec, CupSpec, TableSpec
+
+__all__ = [
+    "CupSpec",
+    "CupboardSpec",
+    "TableSpec",
+    "build_from_spec",
+    "build_model",
+    "load_spec",
+    "write_spec_schemas",
+]

@@ -1,0 +1,126 @@
+"""Turn the objects a builder made in Blender into an `articulation.Model`.
+
+The scene holds the visual geometry: every mesh object carries the link it belongs to in
+the custom property `LINK_PROPERTY`, and the object named like a link sits at that link's
+frame. What a mesh cannot say (collision shapes, joints, grasp points, semantics, mass) the
+builder hands over as an `Assembly`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import trimesh
+
+from articulation.inertia import inertial_from_meshes
+from articulation.model import Collision, GraspPoint, Inertial, Joint, Link, Material, Model, Visual
+from homemodel.errors import ModelError
+from modeller.blender_scene import LINK_PROPERTY
+
+if TYPE_CHECKING:
+    import bpy
+    from mathutils import Matrix
+
+
+@dataclass(kw_only=True)
+class Assembly:
+    """A builder's description of the model beside its Blender objects.
+
+    `collisions` lists every link (root first) with its collision shapes in the link frame.
+    Give `mass_kg` (the whole model's, spread uniformly over its volume) or `density_kg_m3`.
+    """
+
+    name: str
+    category: str
+    collisions: dict[str, list[Collision]]
+    joints: list[Joint] = field(default_factory=list)
+    grasp_points: list[GraspPoint] = field(default_factory=list)
+    affordances: list[str] = field(default_factory=list)
+    properties: dict[str, str] = field(default_factory=dict)
+    density_kg_m3: float | None = None
+    mass_kg: float | None = None
+
+
+def model_from_scene(assembly: Assembly) -> Model:
+    """Read every linked mesh object (modifiers applied, triangulated) into the model's links."""
+    import bpy
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    materials: dict[str, Material] = {}
+    visuals: dict[str, list[Visual]] = {name: [] for name in assembly.collisions}
+    for obj in bpy.data.objects:
+        link = obj.get(LINK_PROPERTY)
+        if link is None or obj.type != "MESH":
+            continue
+        if link not in visuals:
+            raise ModelError(f"object {obj.name!r} belongs to link {link!r}, which the model does not have")
+        link_obj = bpy.data.objects.get(link)
+        if link_obj is None:
+            raise ModelError(f"link {link!r} has no object of its name to give its frame")
+        evaluated = obj.evaluated_get(depsgraph)
+        link_from_object = np.linalg.inv(_matrix(link_obj.evaluated_get(depsgraph).matrix_world)) @ _matrix(
+            evaluated.matrix_world
+        )
+        mesh = _triangles(evaluated)
+        mesh.apply_transform(link_from_object)
+        visuals[link].append(Visual(name=obj.name, mesh=mesh, material=_material(obj, materials)))
+
+    links = [Link(name=name, visuals=visuals[name], collisions=shapes) for name, shapes in assembly.collisions.items()]
+    for link in links:
+        if not link.visuals:
+            raise ModelError(f"link {link.name!r} has no mesh objects in the scene")
+    _set_inertials(links, density_kg_m3=assembly.density_kg_m3, mass_kg=assembly.mass_kg)
+    return Model(
+        name=assembly.name,
+        links=links,
+        joints=assembly.joints,
+        grasp_points=assembly.grasp_points,
+        category=assembly.category,
+        affordances=assembly.affordances,
+        properties=assembly.properties,
+    )
+
+
+def _matrix(blender_matrix: Matrix) -> np.ndarray:
+    return np.array(blender_matrix, dtype=np.float64)
+
+
+def _triangles(evaluated: bpy.types.Object) -> trimesh.Trimesh:
+    """The evaluated object's mesh in its own coordinates, as triangles."""
+    mesh = evaluated.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", vertices)
+        faces = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", faces)
+    finally:
+        evaluated.to_mesh_clear()
+    return trimesh.Trimesh(vertices.reshape(-1, 3).astype(np.float64), faces.reshape(-1, 3), process=False)
+
+
+def _material(obj: bpy.types.Object, materials: dict[str, Material]) -> Material:
+    """The object's Blender material as one shared `Material` per Blender material."""
+    blender_material = obj.active_material
+    if blender_material is None:
+        raise ModelError(f"object {obj.name!r} has no material")
+    if blender_material.name not in materials:
+        rgba = tuple(float(c) for c in blender_material.diffuse_color)
+        materials[blender_material.name] = Material(name=blender_material.name, rgba=rgba)
+    return materials[blender_material.name]
+
+
+def _set_inertials(links: list[Link], *, density_kg_m3: float | None, mass_kg: float | None) -> None:
+    """Inertials from the visual meshes, at one density for the whole model."""
+    if (density_kg_m3 is None) == (mass_kg is None):
+        raise ValueError("give exactly one of density_kg_m3 and mass_kg")
+    # At unit density an inertial's mass is the link's volume, and mass and inertia scale
+    # linearly with density, so a total mass fixes the density after one pass.
+    unit = [inertial_from_meshes([v.mesh for v in link.visuals], density_kg_m3=1.0) for link in links]
+    density = density_kg_m3 if density_kg_m3 is not None else mass_kg / sum(i.mass_kg for i in unit)
+    for link, inertial in zip(links, unit):
+        link.inertial = Inertial(
+            mass_kg=inertial.mass_kg * density, com_m=inertial.com_m, inertia_kgm2=inertial.inertia_kgm2 * density
+        )

@@ -1,0 +1,39 @@
+"""Read a YAML measurement spec into its pydantic model; write the specs' JSON Schemas.
+
+Every failure is one `SpecError` line naming the file and the dotted field, e.g.
+`cupboard.yaml: doors.0.width_m: door is 0.9 m wide but the cupboard is 0.8 m`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from homemodel.atomic import write_text_atomic
+from homemodel.errors import SpecError
+from homemodel.yaml_specs import read_yaml_mapping, validate_mapping
+from modeller.specs import SPEC_TYPES, Spec
+
+
+def load_spec(path: Path) -> Spec:
+    """Parse and check the spec at `path`; its `kind` field selects the model type."""
+    path = Path(path)
+    data = read_yaml_mapping(path)
+    kinds = ", ".join(SPEC_TYPES)
+    if "kind" not in data:
+        raise SpecError(f"{path}: kind: missing; expected one of {kinds}")
+    spec_type = SPEC_TYPES.get(data["kind"]) if isinstance(data["kind"], str) else None
+    if spec_type is None:
+        raise SpecError(f"{path}: kind: unknown kind {data['kind']!r}; expected one of {kinds}")
+    return validate_mapping(path, data, spec_type)
+
+
+def write_spec_schemas(out_dir: Path) -> list[Path]:
+    """Write `<kind>.schema.json` for every spec kind into `out_dir` (for editors and the add-on)."""
+    out_dir = Path(out_dir)
+    paths = []
+    for kind, spec_type in SPEC_TYPES.items():
+        path = out_dir / f"{kind}.schema.json"
+        write_text_atomic(path, json.dumps(spec_type.model_json_schema(), indent=2) + "\n")
+        paths.append(path)
+    return paths
