@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
@@ -20,7 +22,8 @@ def build(
     """Build every object of a home from its measurements, validate each model, write the map."""
     from homemodel.build import build_home
 
-    console = Console()
+    # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
+    console = Console(width=None if sys.stdout.isatty() else 120)
     with exit_on_error():
         with Progress(
             TextColumn("[bold]building[/] {task.description:<14}"),
@@ -37,9 +40,12 @@ def build(
                 force=force,
                 progress=lambda what, done, total: bar.update(task, description=what, completed=done, total=total),
             )
-    table = Table(title=f"homemodel build {example_dir}")
-    for column in ("object", "kind", "on/in", "links", "joints", "grasps", "triangles", "build s", "validate s", "valid"):
-        table.add_column(column, justify="right" if column in ("links", "joints", "grasps", "triangles", "build s", "validate s") else "left")
+    table = Table(title=f"homemodel build {example_dir}", box=box.SIMPLE_HEAD)
+    for column in ("object", "kind", "parent"):
+        table.add_column(column)
+    for column in ("links", "joints", "grasps", "triangles", "build s", "check s"):
+        table.add_column(column, justify="right")
+    table.add_column("valid")
     for row in result.rows:
         table.add_row(
             row.id,

@@ -1,0 +1,1 @@
+"""The XML Schema of the semantic map, shipped as package data."""
