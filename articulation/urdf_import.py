@@ -267,6 +267,25 @@ def _joints(ctx: _Context, robot: etree._Element, states: dict[str, list[JointSt
     return joints
 
 
+# A model folder holds homemodel's model.urdf, or PartNet-Mobility's mobility.urdf.
+URDF_NAMES: tuple[str, ...] = ("model.urdf", "mobility.urdf")
+
+
+def find_urdf(path: Path) -> Path:
+    """The URDF of a model folder, or `path` itself when it is a .urdf file."""
+    path = Path(path)
+    if path.is_dir():
+        for name in URDF_NAMES:
+            if (path / name).is_file():
+                return path / name
+        raise InputError(f"{path}: a model folder must contain {' or '.join(URDF_NAMES)}")
+    if not path.exists():
+        raise InputError(f"{path}: no such file or folder")
+    if path.suffix.lower() != ".urdf":
+        raise InputError(f"{path}: expected a model folder or a .urdf file")
+    return path
+
+
 def load_urdf(path: Path) -> Model:
     """Read `path` into a Model; raises InputError naming the file and line on bad input."""
     path = Path(path)

@@ -22,12 +22,12 @@ from articulation.gate_urdf_rules import (
     tree_check,
     unsafe_mesh_references,
 )
+from articulation.urdf_import import find_urdf
 from homemodel.errors import HomemodelError, InputError
 from homemodel.safe_xml import parse_xml_file
 
 __all__ = ["Check", "ValidationReport", "validate_path"]
 
-URDF_NAME = "model.urdf"
 GLB_NAME = "model.glb"
 
 
@@ -36,10 +36,8 @@ def _inputs(path: Path) -> tuple[Path | None, Path | None]:
     if not path.exists():
         raise InputError(f"{path}: no such file or folder")
     if path.is_dir():
-        urdf, glb = path / URDF_NAME, path / GLB_NAME
-        if not urdf.is_file():
-            raise InputError(f"{path}: a model folder must contain {URDF_NAME}")
-        return urdf, glb if glb.exists() else None
+        glb = path / GLB_NAME
+        return find_urdf(path), glb if glb.exists() else None
     if not path.is_file():
         raise InputError(f"{path}: not a regular file")
     suffix = path.suffix.lower()

@@ -220,3 +220,23 @@ def test_import_refuses_bad_urdf_with_the_file_named(tmp_path: Path, body: str, 
     with pytest.raises(error, match=match) as info:
         load_urdf(path)
     assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_partnet_mobility_folder_registers_into_a_map_from_the_cli(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+    from semantic_map import SemanticMap, load_map, save_map
+
+    folder = _partnet_folder(tmp_path / "7128").parent
+    smap = SemanticMap.new(apartment_id="flat", name="Flat")
+    smap.add_room(room_id="kitchen", name="Kitchen")
+    save_map(smap, tmp_path / "map.xml")
+    result = CliRunner().invoke(
+        app,
+        ["map", "add", str(tmp_path / "map.xml"), str(folder), "--id", "cabinet", "--parent", "kitchen", "--parking", "front=1 0 3.14"],
+    )
+    assert result.exit_code == 0, result.output
+    node = load_map(tmp_path / "map.xml").node("cabinet")
+    assert [j.name for j in node.joints] == ["joint_0"]
+    assert node.model_ref == "7128/mobility.urdf"

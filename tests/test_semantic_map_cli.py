@@ -155,7 +155,8 @@ def test_add_refuses_with_one_line(map_file: Path, model_dir: Path, args: list[s
 
 def test_add_needs_a_model_urdf(map_file: Path, tmp_path: Path) -> None:
     result = run("add", map_file, tmp_path, "--id", "cup_2", "--parent", "table")
-    assert result.exit_code == 2 and result.stderr == f"error: {tmp_path / 'model.urdf'}: no such file\n"
+    expected = f"error: {tmp_path}: a model folder must contain model.urdf or mobility.urdf\n"
+    assert result.exit_code == 2 and result.stderr == expected
 
 
 def test_bad_option_values_are_usage_errors(map_file: Path, model_dir: Path) -> None:

@@ -144,7 +144,7 @@ def find(
 @map_app.command()
 def add(
     map_path: Path = MAP_ARGUMENT,
-    model_dir: Path = typer.Argument(..., metavar="MODEL_DIR", help="model folder holding model.urdf"),
+    model_dir: Path = typer.Argument(..., metavar="MODEL", help="model folder (model.urdf or mobility.urdf) or a .urdf file"),
     object_id: str = typer.Option(..., "--id", help="id of the new object"),
     parent_id: str = typer.Option(..., "--parent", help="a room (large object) or a large object (small object)"),
     relation: RelationChoice | None = typer.Option(None, "--relation", help="small objects: on, in or under (default: on)"),
@@ -157,19 +157,16 @@ def add(
     graspable: bool | None = typer.Option(None, "--graspable/--not-graspable", help="graspable or not (default: small objects are, large ones are not)"),
     out: Path | None = typer.Option(None, "--out", help="write the extended map here instead of over MAP.xml"),
 ) -> None:
-    """Register the model in MODEL_DIR/model.urdf under PARENT_ID and save the map atomically."""
-    from articulation.urdf_import import load_urdf
-    from homemodel.errors import InputError
+    """Register the model MODEL under PARENT_ID and save the map atomically."""
+    from articulation.urdf_import import find_urdf, load_urdf
     from homemodel.transforms import transform_from_xyz_rpy
     from semantic_map import load_map, save_map
 
     out_path = out or map_path
-    urdf = model_dir / "model.urdf"
     with exit_on_error():
+        urdf = find_urdf(model_dir)
         extra = _key_values(properties, "--property")
         parking_positions = _parking_list(parking)
-        if not urdf.is_file():
-            raise InputError(f"{urdf}: no such file")
         smap = load_map(map_path)
         node = smap.register_model(
             load_urdf(urdf),
