@@ -1,8 +1,9 @@
 """Benchmark: spec -> Blender build -> URDF/glTF export -> validation gate, per kitchen object.
 
 Baselines in the same run (these machines are shared and noisy, so ratios matter more
-than seconds): trimesh's own glTF export of the same meshes beside our exporter, and a
-bare pybullet load of the URDF beside our whole validation gate.
+than seconds): trimesh's own glTF export of the same meshes beside our glb writer, and a
+bare pybullet load of the URDF beside our whole validation gate (which also runs
+check_urdf, yourdfpy, the pybullet joint sweeps and the Khronos validator in node).
 
 Run: .venv/bin/python benchmarks/bench_build.py [--repeat 3]
 """
@@ -19,7 +20,8 @@ import trimesh
 from rich.console import Console
 from rich.table import Table
 
-from articulation.export import write_model_files
+from articulation.gltf_export import glb_bytes
+from articulation.urdf_export import write_urdf
 from articulation.validate import validate_path
 from modeller import build_model
 
@@ -57,7 +59,7 @@ def main() -> None:
     specs = sorted(p for p in EXAMPLES.glob("*.yaml") if p.name != "home.yaml")
     build_model(specs[0])  # warm: the first bpy call loads Blender
     table = Table(title=f"spec to validated model, median of {args.repeat} (seconds)")
-    for column in ("spec", "build", "export", "trimesh glb", "export/trimesh", "validate", "pybullet load", "total"):
+    for column in ("spec", "build", "urdf+obj", "glb", "trimesh glb", "glb/trimesh", "validate", "pybullet load", "total"):
         table.add_column(column, justify="left" if column == "spec" else "right")
     with tempfile.TemporaryDirectory() as tmp:
         for spec in specs:
@@ -72,25 +74,27 @@ def main() -> None:
 
                 for stage, fn in (
                     ("build", build),
-                    ("export", lambda: write_model_files(model, folder)),
+                    ("urdf", lambda: write_urdf(model, folder)),
+                    ("glb", lambda: (folder / "model.glb").write_bytes(glb_bytes(model))),
                     ("trimesh", lambda: _trimesh_glb(model, folder / "baseline.glb")),
                     ("validate", lambda: validate_path(folder)),
                     ("pybullet", lambda: _pybullet_load(folder / "model.urdf")),
                 ):
                     runs.setdefault(stage, []).append(_timed(fn))
             med = {stage: statistics.median(times) for stage, times in runs.items()}
-            total = med["build"] + med["export"] + med["validate"]
+            total = med["build"] + med["urdf"] + med["glb"] + med["validate"]
             table.add_row(
                 spec.stem,
                 f"{med['build']:.3f}",
-                f"{med['export']:.3f}",
+                f"{med['urdf']:.3f}",
+                f"{med['glb']:.3f}",
                 f"{med['trimesh']:.3f}",
-                f"{med['export'] / med['trimesh']:.2f}x",
+                f"{med['glb'] / med['trimesh']:.2f}x",
                 f"{med['validate']:.3f}",
                 f"{med['pybullet']:.3f}",
                 f"{total:.3f}",
             )
-    Console().print(table)
+    Console(width=130).print(table)
 
 
 if __name__ == "__main__":
