@@ -6,17 +6,13 @@ yourdfpy's forward kinematics at the lower, middle and upper joint positions.
 
 from __future__ import annotations
 
-import ctypes
 import math
 import os
 import re
 import shutil
 import subprocess
 import sys
-import tempfile
 import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -24,13 +20,14 @@ import numpy as np
 
 from articulation.gate_process import last_lines, run_bounded
 from articulation.gate_report import Check, check_from_problems, count
+from articulation.model import MOVABLE_JOINT_TYPES
+from homemodel.c_output import captured_c_output
 
 CHECK_URDF_TIMEOUT_S = 30.0
 POSITION_TOLERANCE_M = 1e-4
 ROTATION_TOLERANCE_RAD = 1e-3
 # Below this the child is taken not to move at all (pybullet works in about 1e-8).
 STILL_TOLERANCE = 1e-7
-MOVABLE_JOINT_TYPES = ("revolute", "prismatic", "continuous")
 
 
 def find_check_urdf() -> str | None:
@@ -74,37 +71,6 @@ def yourdfpy_check(urdf: Path) -> tuple[Check, Any]:
     if caught:
         detail += f"; {count(len(caught), 'warning')}, first: {caught[0].message}"
     return Check("yourdfpy", True, detail), model
-
-
-def _flush_c_stdio() -> None:
-    ctypes.CDLL(None).fflush(None)
-
-
-@contextmanager
-def captured_c_output() -> Iterator[list[str]]:
-    """Collect what C code writes to fds 1 and 2 into the yielded list, not the terminal.
-
-    pybullet prints from C, which replacing sys.stdout cannot catch: its build time to
-    stderr on import, warnings and errors to stdout while loading. The redirection is
-    process-wide, so not thread-safe.
-    """
-    lines: list[str] = []
-    sys.stdout.flush()
-    sys.stderr.flush()
-    _flush_c_stdio()
-    saved = {fd: os.dup(fd) for fd in (1, 2)}
-    with tempfile.TemporaryFile() as sink:
-        try:
-            for fd in saved:
-                os.dup2(sink.fileno(), fd)
-            yield lines
-        finally:
-            _flush_c_stdio()  # C buffers stdout when it is not a terminal
-            for fd, copy in saved.items():
-                os.dup2(copy, fd)
-                os.close(copy)
-            sink.seek(0)
-            lines.extend(sink.read().decode("utf-8", "replace").splitlines())
 
 
 def pybullet_errors(lines: list[str]) -> str:

@@ -12,6 +12,7 @@ from typing import Any
 
 from articulation.gate_process import last_lines, run_bounded
 from articulation.gate_report import Check, check_from_problems, count
+from articulation.gate_urdf_rules import AXIS_UNIT_TOLERANCE
 from homemodel.errors import InputError
 
 VALIDATOR_TIMEOUT_S = 60.0
@@ -22,7 +23,6 @@ MESSAGES_SHOWN = 5
 GLB_MAGIC = b"glTF"
 GLB_JSON_CHUNK = 0x4E4F534A
 JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
-AXIS_UNIT_TOLERANCE = 1e-6
 
 
 def khronos_check(glb: Path, timeout_s: float = VALIDATOR_TIMEOUT_S) -> Check:

@@ -17,6 +17,7 @@ import trimesh
 from lxml import etree
 
 from articulation.gate_report import Check, check_from_problems, count
+from articulation.mesh_paths import resolve_mesh
 from homemodel.errors import InputError
 
 URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -187,31 +188,6 @@ def mesh_references(robot: etree._Element) -> Iterator[tuple[str | None, str | N
         for part in link.findall("visual") + link.findall("collision"):
             for mesh in part.findall("geometry/mesh"):
                 yield link.get("name"), mesh.get("filename")
-
-
-def resolve_mesh(filename: str, urdf_dir: Path) -> Path:
-    """The file `filename` names inside the URDF's folder (it may not exist).
-
-    Raises InputError for absolute paths, URIs and paths escaping the folder after `..`
-    and symlinks are resolved.
-    """
-    folder = urdf_dir.resolve()
-    if filename.startswith("package://"):
-        rest = filename.removeprefix("package://")
-        # As pybullet does: try the remainder, then without its first part (the package name).
-        for candidate in (rest, rest.partition("/")[2]):
-            target = (folder / candidate).resolve() if candidate else None
-            if target is not None and target.is_relative_to(folder) and target.is_file():
-                return target
-        raise InputError("package:// path cannot be resolved inside the model folder")
-    if "://" in filename:
-        raise InputError("URIs are not allowed; use a path relative to the URDF")
-    if Path(filename).is_absolute():
-        raise InputError("absolute paths are not allowed; use a path relative to the URDF")
-    target = (folder / filename).resolve()
-    if not target.is_relative_to(folder):
-        raise InputError(f"resolves to {target}, outside the model folder {folder}")
-    return target
 
 
 def _mesh_problem(path: Path) -> str | None:

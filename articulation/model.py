@@ -16,7 +16,11 @@ import numpy as np
 import trimesh
 
 from homemodel.errors import ModelError
-from homemodel.transforms import as_transform, axis_angle_transform, translation_transform
+from homemodel.transforms import (
+    as_transform,
+    axis_angle_transform,
+    translation_transform,
+)
 
 JointType = Literal["revolute", "prismatic", "continuous", "fixed"]
 MOVABLE_JOINT_TYPES: tuple[str, ...] = ("revolute", "prismatic", "continuous")

@@ -13,7 +13,18 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from articulation.model import Box, Collision, Cylinder, Joint, Link, Material, MeshGeometry, Model, Sphere, Visual
+from articulation.model import (
+    Box,
+    Collision,
+    Cylinder,
+    Joint,
+    Link,
+    Material,
+    MeshGeometry,
+    Model,
+    Sphere,
+    Visual,
+)
 from articulation.naming import file_stem, unique
 from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
 from articulation.obj_io import mtl_text, obj_text

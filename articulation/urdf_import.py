@@ -14,6 +14,7 @@ import numpy as np
 import trimesh
 from lxml import etree
 
+from articulation.mesh_paths import resolve_mesh
 from articulation.model import (
     Box,
     Collision,
@@ -66,13 +67,10 @@ class _Context:
 
     def mesh_path(self, element: etree._Element) -> Path:
         filename = element.get("filename", "")
-        if filename.startswith("file://"):
-            filename = filename[len("file://") :]
-        if "://" in filename or Path(filename).is_absolute() or not filename:
-            raise self.fail(element, f"mesh {filename!r} is not a path relative to the URDF")
-        path = (self.folder / filename).resolve()
-        if not path.is_relative_to(self.folder):
-            raise self.fail(element, f"mesh {filename!r} lies outside the model folder")
+        try:
+            path = resolve_mesh(filename, self.folder)
+        except InputError as exc:
+            raise self.fail(element, f"mesh {filename!r}: {exc}") from None
         if not path.is_file():
             raise self.fail(element, f"mesh {filename!r} does not exist")
         return path

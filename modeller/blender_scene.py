@@ -8,15 +8,15 @@ to in the custom property `LINK_PROPERTY`.
 
 from __future__ import annotations
 
-import contextlib
 import os
-import sys
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+
+from homemodel.c_output import captured_c_output
 
 if TYPE_CHECKING:
     import bpy
@@ -217,22 +217,6 @@ def save_blend(path: Path) -> None:
     # keep a `.blend1` backup of it.
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=f".{path.stem}.") as tmp_dir:
         tmp = Path(tmp_dir) / path.name
-        with _quiet_stdout():
+        with captured_c_output():  # Blender reports "Info: Saved ..." on stdout
             bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True)
         os.replace(tmp, path)
-
-
-@contextlib.contextmanager
-def _quiet_stdout() -> Iterator[None]:
-    """Without a window, Blender prints operator reports ("Info: Saved ...") on the process's
-    stdout; the library never prints, so the file descriptor goes to /dev/null meanwhile."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(devnull)

@@ -15,7 +15,16 @@ import numpy as np
 import trimesh
 
 from articulation.inertia import inertial_from_meshes
-from articulation.model import Collision, GraspPoint, Inertial, Joint, Link, Material, Model, Visual
+from articulation.model import (
+    Collision,
+    GraspPoint,
+    Inertial,
+    Joint,
+    Link,
+    Material,
+    Model,
+    Visual,
+)
 from homemodel.errors import ModelError
 from modeller.blender_scene import LINK_PROPERTY
 

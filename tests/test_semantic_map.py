@@ -10,7 +10,16 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.model import GraspPoint, Joint, JointLimits, JointState, Link, Material, Model, Visual
+from articulation.model import (
+    GraspPoint,
+    Joint,
+    JointLimits,
+    JointState,
+    Link,
+    Material,
+    Model,
+    Visual,
+)
 from homemodel.errors import MapError, UnsafeXMLError
 from homemodel.transforms import transform_from_xyz_rpy
 from semantic_map import (

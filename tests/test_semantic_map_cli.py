@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import typer
+from test_semantic_map import HOSTILE, box_model, build_house, cup_model
 from typer.testing import CliRunner
 
 import articulation.urdf_import
 from articulation.model import Model
 from homemodel.cli.map_commands import map_app
 from semantic_map import LargeObject, SmallObject, load_map, save_map
-from test_semantic_map import HOSTILE, box_model, build_house, cup_model
 
 app = typer.Typer()
 app.add_typer(map_app, name="map")

@@ -59,7 +59,13 @@ def _parking_list(items: list[str]) -> list[ParkingPosition]:
 
 
 def _describe(node: Node) -> str:
-    from semantic_map import Apartment, LargeArticulatedObject, LargeObject, Room, SmallObject
+    from semantic_map import (
+        Apartment,
+        LargeArticulatedObject,
+        LargeObject,
+        Room,
+        SmallObject,
+    )
 
     if isinstance(node, Apartment | Room):
         return f"{node.id} ({node.name})"

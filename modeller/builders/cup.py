@@ -14,7 +14,12 @@ import numpy as np
 
 from articulation.model import Box, Collision, Cylinder, GraspPoint
 from homemodel.transforms import axis_angle_transform, translation_transform
-from modeller.blender_scene import add_object, colour_material, hollow_cylinder_mesh, torus_segment_mesh
+from modeller.blender_scene import (
+    add_object,
+    colour_material,
+    hollow_cylinder_mesh,
+    torus_segment_mesh,
+)
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame
 from modeller.specs import CupSpec, colour_name, colour_rgb
