@@ -17,7 +17,7 @@ import numpy as np
 from PIL import Image
 
 from articulation.model import Joint, Link, Material, Model
-from articulation.numbers import canonical_transform, canonical_xyz_rpy, rounded
+from articulation.numbers import canonical_transform, canonical_xyz_rpy, rounded, significant
 from homemodel.atomic import write_bytes_atomic
 from homemodel.transforms import rotation_from_rpy
 
@@ -115,7 +115,7 @@ class _Builder:
     def material(self, material: Material) -> int:
         key = (material.name, tuple(material.rgba), material.texture)
         if key not in self.material_index:
-            pbr: dict = {"baseColorFactor": [_num(c) for c in material.rgba], "metallicFactor": 0.0, "roughnessFactor": 0.8}
+            pbr: dict = {"baseColorFactor": [rounded(c) + 0.0 for c in material.rgba], "metallicFactor": 0.0, "roughnessFactor": 0.8}
             if material.texture is not None:
                 pbr["baseColorTexture"] = {"index": self._image(Path(material.texture))}
             entry = {"name": material.name, "pbrMetallicRoughness": pbr}
@@ -166,13 +166,13 @@ class _Builder:
 def _joint_extras(joint: Joint) -> dict:
     extras: dict = {"name": joint.name, "type": joint.type, "parent": joint.parent}
     if joint.type != "fixed":
-        extras["axis"] = [_num(v) for v in joint.axis]
+        extras["axis"] = [rounded(v) + 0.0 for v in joint.axis]
     if joint.limits is not None and joint.type in ("revolute", "prismatic"):
         extras.update(lower=rounded(joint.limits.lower) + 0.0, upper=rounded(joint.limits.upper) + 0.0)
     if joint.limits is not None:
-        extras.update(effort=_num(joint.limits.effort), velocity=_num(joint.limits.velocity))
+        extras.update(effort=float(significant(joint.limits.effort)), velocity=float(significant(joint.limits.velocity)))
     if joint.states:
-        extras["states"] = [{"name": s.name, "position": _num(s.position)} for s in joint.states]
+        extras["states"] = [{"name": s.name, "position": rounded(s.position) + 0.0} for s in joint.states]
     return extras
 
 

@@ -152,6 +152,9 @@ class Joint:
         self.axis = np.asarray(self.axis, dtype=np.float64).reshape(3)
         if self.type not in ("revolute", "prismatic", "continuous", "fixed"):
             raise ModelError(f"joint {self.name!r}: unknown type {self.type!r}")
+        norm = float(np.linalg.norm(self.axis))
+        if self.is_movable and not (np.isfinite(norm) and norm > 1e-9):
+            raise ModelError(f"joint {self.name!r}: axis {self.axis.tolist()} has no direction")
 
     @property
     def is_movable(self) -> bool:

@@ -25,6 +25,9 @@ def fixed_list(values: Iterable[float], decimals: int = 6) -> str:
     return " ".join(fixed(v, decimals) for v in values)
 
 
+_PI_ROUNDED = 3.141593
+
+
 def rounded(value: float, decimals: int = 6) -> float:
     """The float a reader of `fixed(value)` gets back, so every export format agrees."""
     return float(fixed(value, decimals))
@@ -33,7 +36,11 @@ def rounded(value: float, decimals: int = 6) -> float:
 def canonical_xyz_rpy(a_from_b: np.ndarray) -> tuple[list[float], list[float]]:
     """Translation and roll-pitch-yaw of a transform at the precision the URDF stores."""
     xyz, rpy = xyz_rpy_from_transform(a_from_b)
-    return [rounded(v) for v in xyz], [rounded(v) for v in rpy]
+    # Rounded, pi becomes 3.141593 > pi, which reads back as -3.141592: write every angle
+    # within a rounding step of +-pi as +pi, so a re-export gives the same text.
+    angles = [rounded(v) for v in rpy]
+    angles = [_PI_ROUNDED if abs(v) >= _PI_ROUNDED - 1e-6 else v for v in angles]
+    return [rounded(v) for v in xyz], angles
 
 
 def canonical_transform(a_from_b: np.ndarray) -> np.ndarray:

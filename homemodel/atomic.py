@@ -6,10 +6,16 @@ import contextlib
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from homemodel.errors import OutputExistsError
+from homemodel.errors import InputError, OutputExistsError
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_bytes_atomic(path: Path, data: bytes) -> None:
@@ -18,6 +24,8 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        # mkstemp makes 0600 files; outputs are read by other users' tools (ROS, viewers).
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
@@ -33,9 +41,15 @@ def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
-def prepare_out_dir(out_dir: Path, *, force: bool) -> None:
-    """Refuse a non-empty output folder unless `force`; never write beside the input."""
+def prepare_out_dir(out_dir: Path, *, force: bool, inputs: Sequence[Path] = ()) -> None:
+    """Refuse a non-empty output folder unless `force`, and any output folder that is,
+    holds or lies inside an input (replacing it would delete the input)."""
     out_dir = Path(out_dir)
+    resolved = out_dir.resolve()
+    for source in inputs:
+        source = Path(source).resolve()
+        if source.is_relative_to(resolved) or resolved.is_relative_to(source):
+            raise OutputExistsError(f"{out_dir}: the output folder must lie outside the input {source}")
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputExistsError(f"{out_dir}: exists and is not a folder")
     if out_dir.is_dir() and any(out_dir.iterdir()) and not force:
@@ -43,21 +57,30 @@ def prepare_out_dir(out_dir: Path, *, force: bool) -> None:
 
 
 @contextlib.contextmanager
-def atomic_dir(out_dir: Path, *, force: bool = False) -> Iterator[Path]:
+def atomic_dir(out_dir: Path, *, force: bool = False, inputs: Sequence[Path] = ()) -> Iterator[Path]:
     """Yield a temporary sibling folder; on success it replaces `out_dir` in one rename.
 
     On an exception the temporary folder is removed and `out_dir` is left as it was.
     """
     out_dir = Path(out_dir)
-    prepare_out_dir(out_dir, force=force)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=out_dir.parent, prefix=f".{out_dir.name}.", suffix=".tmp"))
+    prepare_out_dir(out_dir, force=force, inputs=inputs)
+    try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=out_dir.parent, prefix=f".{out_dir.name}.", suffix=".tmp"))
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders
+    except OSError as exc:
+        raise InputError(f"{out_dir}: cannot create the output folder: {exc.strerror}") from None
     try:
         yield tmp
         if out_dir.exists():
             old = Path(tempfile.mkdtemp(dir=out_dir.parent, prefix=f".{out_dir.name}.", suffix=".old"))
-            os.replace(out_dir, old / "x")
-            os.replace(tmp, out_dir)
+            os.replace(out_dir, old / "previous")
+            try:
+                os.replace(tmp, out_dir)
+            except BaseException:
+                os.replace(old / "previous", out_dir)  # put the previous output back
+                os.rmdir(old)
+                raise
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, out_dir)

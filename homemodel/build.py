@@ -122,7 +122,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
 
     rows: list[ObjectRow] = []
     tops: dict[str, float] = {}
-    with atomic_dir(Path(out_dir), force=force) as tmp:
+    with atomic_dir(Path(out_dir), force=force, inputs=[example_dir]) as tmp:
         for index, (field_path, room, large, small) in enumerate(placements):
             obj: LargeObjectSpec | SmallObjectSpec = small or large
             if progress:

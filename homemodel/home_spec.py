@@ -17,7 +17,7 @@ from homemodel.transforms import transform_from_xyz_rpy
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class PoseSpec(_Strict):

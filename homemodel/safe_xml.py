@@ -11,6 +11,7 @@ from pathlib import Path
 from lxml import etree
 
 from homemodel.errors import InputError, UnsafeXMLError
+from homemodel.input_files import read_bounded
 
 MAX_XML_BYTES = 64 * 1024 * 1024
 
@@ -45,15 +46,4 @@ def parse_xml_bytes(data: bytes, source: str) -> etree._ElementTree:
 
 
 def parse_xml_file(path: Path) -> etree._ElementTree:
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    if size > MAX_XML_BYTES:
-        raise UnsafeXMLError(f"{path}: {size} bytes is over the {MAX_XML_BYTES}-byte bound for XML")
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
-    return parse_xml_bytes(data, str(path))
+    return parse_xml_bytes(read_bounded(path, MAX_XML_BYTES), str(path))

@@ -8,7 +8,8 @@ from typing import TypeVar
 import pydantic
 import yaml
 
-from homemodel.errors import SpecError
+from homemodel.errors import InputError, SpecError
+from homemodel.input_files import read_bounded
 
 MAX_SPEC_BYTES = 4 * 1024 * 1024
 SpecT = TypeVar("SpecT", bound=pydantic.BaseModel)
@@ -27,13 +28,11 @@ def read_yaml_mapping(path: Path) -> dict:
     """The top-level mapping of a YAML file (safe loader, size-bounded)."""
     path = Path(path)
     try:
-        if path.stat().st_size > MAX_SPEC_BYTES:
-            raise SpecError(f"{path}: larger than {MAX_SPEC_BYTES} bytes, not a spec")
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read: {exc}") from None
+        text = read_bounded(path, MAX_SPEC_BYTES).decode("utf-8")
+    except InputError as exc:
+        raise SpecError(str(exc)) from None
+    except UnicodeDecodeError as exc:
+        raise SpecError(f"{path}: not UTF-8 text: {exc.reason}") from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

@@ -73,7 +73,8 @@ def colour_name(colour: Colour) -> str:
 
 class _Spec(BaseModel):
     # A misspelt field must not be silently ignored: the default it leaves is a wrong model.
-    model_config = ConfigDict(extra="forbid")
+    # YAML reads .nan and .inf as numbers; no measurement is either.
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class ObjectSpec(_Spec):

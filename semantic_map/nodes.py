@@ -59,7 +59,7 @@ def check_label(value: str, what: str) -> str:
     return value
 
 
-def rounded(values: Sequence[float]) -> tuple[float, ...]:
+def clean_floats(values: Sequence[float]) -> tuple[float, ...]:
     """Computed transforms carry float noise (6e-17 for a zero); 12 decimals, a picometre or
     a picoradian, keep the file clean."""
     return tuple(round(float(v), 12) + 0.0 for v in values)
@@ -69,7 +69,7 @@ def _vector3(values: Sequence[float], what: str) -> tuple[float, float, float]:
     # "+ 0.0" turns -0.0 into 0.0 so equal maps write equal bytes.
     vector = tuple(float(v) + 0.0 for v in values)
     if len(vector) != 3 or not all(math.isfinite(v) for v in vector):
-        raise ValueError(f"{what}={values!r} but expected 3 finite numbers")
+        raise MapError(f"{what}={values!r} but expected 3 finite numbers")
     return vector  # type: ignore[return-value]
 
 
@@ -94,9 +94,9 @@ class Pose:
             and np.allclose(m[3], (0, 0, 0, 1))
         )
         if not rigid:
-            raise ValueError(f"not a rigid transform:\n{m}")
+            raise MapError(f"not a rigid transform: {m.tolist()}")
         xyz, rpy = xyz_rpy_from_transform(m)
-        return cls(rounded(xyz), rounded(rpy))  # type: ignore[arg-type]
+        return cls(clean_floats(xyz), clean_floats(rpy))  # type: ignore[arg-type]
 
     def matrix(self) -> np.ndarray:
         return transform_from_xyz_rpy(self.xyz, self.rpy)

@@ -25,7 +25,7 @@ from semantic_map.nodes import (
     Relation,
     SmallObject,
     check_label,
-    rounded,
+    clean_floats,
 )
 
 
@@ -74,7 +74,7 @@ def _map_joint(model: Model, joint: Joint, object_from_links: dict[str, np.ndarr
         name=joint.name,
         type=joint.type,  # type: ignore[arg-type]
         object_from_joint=Pose.from_matrix(object_from_joint),
-        axis=rounded(object_from_joint[:3, :3] @ (joint.axis / norm)),  # type: ignore[arg-type]
+        axis=clean_floats(object_from_joint[:3, :3] @ (joint.axis / norm)),  # type: ignore[arg-type]
         limits=limits,
         position=position,
         states=[NamedState(name=s.name, position=s.position) for s in joint.states],

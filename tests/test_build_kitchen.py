@@ -45,6 +45,16 @@ def test_every_built_model_passes_the_gate_from_the_cli(built: Path) -> None:
         assert result.exit_code == 0, result.output
 
 
+def test_built_models_survive_import_and_re_export_byte_for_byte(built: Path, tmp_path: Path) -> None:
+    from articulation.export import export_model
+    from articulation.urdf_import import load_urdf
+
+    for folder in sorted((built / "models").iterdir()):
+        export_model(load_urdf(folder / "model.urdf"), tmp_path / folder.name)
+        for name in ["model.urdf", "model.glb", *(f"meshes/{p.name}" for p in (folder / "meshes").iterdir())]:
+            assert (tmp_path / folder.name / name).read_bytes() == (folder / name).read_bytes(), f"{folder.name}/{name}"
+
+
 def test_the_blue_cup_walk_from_the_cli_and_the_api(built: Path) -> None:
     from semantic_map import load_map
 
@@ -110,6 +120,32 @@ def test_a_cup_floating_above_the_table_is_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2, result.output
     assert "rooms.0.objects.0.objects.0.pose.xyz" in result.output
     assert not out.exists() and not list(tmp_path.glob(".out*"))
+
+
+def test_build_refuses_to_write_over_or_inside_its_input(tmp_path: Path) -> None:
+    example = tmp_path / "kitchen"
+    shutil.copytree(EXAMPLE, example)
+    for out in (example, tmp_path, example / "out"):
+        result = runner.invoke(app, ["build", str(example), "--out", str(out), "--force"])
+        assert result.exit_code == 2 and "outside the input" in result.output, result.output
+    assert (example / "home.yaml").is_file()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "field"),
+    [
+        ("xyz: [2.0, 1.5, 0.0]", "xyz: [.nan, 1.5, 0.0]", "rooms.0.objects.0.pose.xyz.0"),
+        ("relation: \"on\"", "relation: beside", "rooms.0.objects.0.objects.0.relation"),
+    ],
+)
+def test_bad_home_values_name_the_field(tmp_path: Path, old: str, new: str, field: str) -> None:
+    example = tmp_path / "kitchen"
+    shutil.copytree(EXAMPLE, example)
+    home = example / "home.yaml"
+    assert old in home.read_text()
+    home.write_text(home.read_text().replace(old, new, 1))
+    result = runner.invoke(app, ["build", str(example), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and field in result.output, result.output
 
 
 def test_build_refuses_a_non_empty_out_dir_without_force(tmp_path: Path) -> None:

@@ -162,14 +162,18 @@ def add(
     properties: list[str] = typer.Option([], "--property", help="key=value over the model's properties (repeatable)"),
     graspable: bool | None = typer.Option(None, "--graspable/--not-graspable", help="graspable or not (default: small objects are, large ones are not)"),
     out: Path | None = typer.Option(None, "--out", help="write the extended map here instead of over MAP.xml"),
+    force: bool = typer.Option(False, "--force", help="replace an existing --out file"),
 ) -> None:
     """Register the model MODEL under PARENT_ID and save the map atomically."""
     from articulation.urdf_import import find_urdf, load_urdf
+    from homemodel.errors import OutputExistsError
     from homemodel.transforms import transform_from_xyz_rpy
     from semantic_map import load_map, save_map
 
     out_path = out or map_path
     with exit_on_error():
+        if out is not None and out.exists() and not force:
+            raise OutputExistsError(f"{out}: exists (use --force to replace it)")
         urdf = find_urdf(model_dir)
         extra = _key_values(properties, "--property")
         parking_positions = _parking_list(parking)
