@@ -17,7 +17,12 @@ import numpy as np
 from PIL import Image
 
 from articulation.model import Joint, Link, Material, Model
-from articulation.numbers import canonical_transform, canonical_xyz_rpy, rounded, significant
+from articulation.numbers import (
+    canonical_transform,
+    canonical_xyz_rpy,
+    rounded,
+    significant,
+)
 from homemodel.atomic import write_bytes_atomic
 from homemodel.transforms import rotation_from_rpy
 
