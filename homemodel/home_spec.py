@@ -8,12 +8,16 @@ footprint on the floor, z up), so a cup on a 0.75 m table has z = 0.75.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from homemodel.transforms import transform_from_xyz_rpy
+from semantic_map.nodes import ID_PATTERN
+
+# Every id in the home becomes an id in the semantic map, so it follows the map's rule.
+MapId = Annotated[str, Field(pattern=ID_PATTERN)]
 
 
 class _Strict(BaseModel):
@@ -41,7 +45,7 @@ class ParkingSpec(_Strict):
 
 
 class SmallObjectSpec(_Strict):
-    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    id: MapId
     spec: str = Field(min_length=1, description="measurement spec file, relative to home.yaml")
     relation: Literal["on", "in", "under"] = "on"
     pose: PoseSpec = PoseSpec()
@@ -55,7 +59,7 @@ class SmallObjectSpec(_Strict):
 
 
 class LargeObjectSpec(_Strict):
-    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    id: MapId
     spec: str = Field(min_length=1, description="measurement spec file, relative to home.yaml")
     pose: PoseSpec = PoseSpec()
     parking: list[ParkingSpec] = Field(min_length=1)
@@ -72,14 +76,14 @@ class LargeObjectSpec(_Strict):
 
 
 class RoomSpec(_Strict):
-    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    id: MapId
     name: str = Field(min_length=1)
     point_cloud: str | None = None
     objects: list[LargeObjectSpec] = Field(default_factory=list)
 
 
 class ApartmentSpec(_Strict):
-    id: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+    id: MapId
     name: str = Field(min_length=1)
 
 

@@ -42,7 +42,8 @@ SWITCH_TYPES: tuple[str, ...] = ("rotational", "prismatic")
 JOINT_TYPES: tuple[str, ...] = ("revolute", "prismatic", "continuous")
 
 # The ASCII part of an XML NCName: ids become xs:ID values in the file.
-_ID = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+ID_PATTERN = r"^[A-Za-z_][A-Za-z0-9_.-]*$"
+_ID = re.compile(ID_PATTERN)
 # XML Schema's xs:token collapses whitespace; a label must survive that unchanged.
 _LABEL = re.compile(r"^\S+( \S+)*$")
 
