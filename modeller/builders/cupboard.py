@@ -37,7 +37,8 @@ from modeller.blender_scene import (
 )
 from modeller.blender_to_model import Assembly
 from modeller.builders import FACE_NORMALS, box_collision, grasp_frame, wall_collisions
-from modeller.specs import BarHandle, CupboardSpec, colour_name, colour_rgb
+from modeller.specs import CupboardSpec, colour_name, colour_rgb
+from modeller.specs.handles import BarHandle
 
 if TYPE_CHECKING:
     import bpy
