@@ -12,6 +12,7 @@ from pathlib import Path
 from lxml import etree
 
 from articulation.gate_clients import check_urdf_check, pybullet_check, yourdfpy_check
+from articulation.gate_collisions import collisions_check
 from articulation.gate_gltf import gltf_checks
 from articulation.gate_report import Check, ValidationReport
 from articulation.gate_urdf_rules import (
@@ -75,6 +76,7 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     checks.append(declared_check)
     refusal = _pybullet_refusal(tree, robot, urdf.parent)
     checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(urdf, declared))
+    checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(urdf))
     return checks, True
 
 

@@ -220,3 +220,35 @@ def save_blend(path: Path) -> None:
         with captured_c_output():  # Blender reports "Info: Saved ..." on stdout
             bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True)
         os.replace(tmp, path)
+
+
+def texture_material(name: str, image_path: Path) -> bpy.types.Material:
+    """A material whose base colour is the image at `image_path` (packed into the .blend, so
+    a saved scene keeps it), sampled with the active UV map."""
+    import bpy
+
+    mat = bpy.data.materials.new(name)
+    mat.diffuse_color = (1.0, 1.0, 1.0, 1.0)  # the image is the colour; no tint in the viewport
+    image = bpy.data.images.load(str(image_path), check_existing=False)
+    image.pack()
+    nodes = mat.node_tree.nodes
+    texture = nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    texture.location = (-400, 300)
+    mat.node_tree.links.new(texture.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+    return mat
+
+
+def material_texture_path(mat: bpy.types.Material) -> Path | None:
+    """The image file feeding the material's base colour, if an Image Texture node does."""
+    if mat.node_tree is None:
+        return None
+    principled = next((n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if principled is None or not principled.inputs["Base Color"].is_linked:
+        return None
+    source = principled.inputs["Base Color"].links[0].from_node
+    if source.type != "TEX_IMAGE" or source.image is None:
+        return None
+    import bpy
+
+    return Path(bpy.path.abspath(source.image.filepath))

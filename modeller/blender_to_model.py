@@ -26,7 +26,7 @@ from articulation.model import (
     Visual,
 )
 from homemodel.errors import ModelError
-from modeller.blender_scene import LINK_PROPERTY
+from modeller.blender_scene import LINK_PROPERTY, material_texture_path
 
 if TYPE_CHECKING:
     import bpy
@@ -59,6 +59,8 @@ def model_from_scene(assembly: Assembly) -> Model:
     depsgraph = bpy.context.evaluated_depsgraph_get()
     materials: dict[str, Material] = {}
     visuals: dict[str, list[Visual]] = {name: [] for name in assembly.collisions}
+    # Whole objects, for mass properties: a visual per material is an open piece of one.
+    solids: dict[str, list[trimesh.Trimesh]] = {name: [] for name in assembly.collisions}
     for obj in bpy.data.objects:
         link = obj.get(LINK_PROPERTY)
         if link is None or obj.type != "MESH":
@@ -72,15 +74,18 @@ def model_from_scene(assembly: Assembly) -> Model:
         link_from_object = np.linalg.inv(_matrix(link_obj.evaluated_get(depsgraph).matrix_world)) @ _matrix(
             evaluated.matrix_world
         )
-        mesh = _triangles(evaluated)
-        mesh.apply_transform(link_from_object)
-        visuals[link].append(Visual(name=obj.name, mesh=mesh, material=_material(obj, materials)))
+        solid, pieces = _triangles(evaluated, link_from_object)
+        solids[link].append(solid)
+        for slot, mesh, uv in pieces:
+            material = _material(obj, slot, materials)
+            name = obj.name if slot == 0 else f"{obj.name}.{material.name}"
+            visuals[link].append(Visual(name=name, mesh=mesh, material=material, uv=uv))
 
     links = [Link(name=name, visuals=visuals[name], collisions=shapes) for name, shapes in assembly.collisions.items()]
     for link in links:
         if not link.visuals:
             raise ModelError(f"link {link.name!r} has no mesh objects in the scene")
-    _set_inertials(links, density_kg_m3=assembly.density_kg_m3, mass_kg=assembly.mass_kg)
+    _set_inertials(links, solids, density_kg_m3=assembly.density_kg_m3, mass_kg=assembly.mass_kg)
     return Model(
         name=assembly.name,
         links=links,
@@ -96,8 +101,16 @@ def _matrix(blender_matrix: Matrix) -> np.ndarray:
     return np.array(blender_matrix, dtype=np.float64)
 
 
-def _triangles(evaluated: bpy.types.Object) -> trimesh.Trimesh:
-    """The evaluated object's mesh in its own coordinates, as triangles."""
+def _triangles(
+    evaluated: bpy.types.Object, link_from_object: np.ndarray
+) -> tuple[trimesh.Trimesh, list[tuple[int, trimesh.Trimesh, np.ndarray | None]]]:
+    """The evaluated object's mesh in the link frame as triangles: whole, and split into
+    (material slot, mesh, uv) pieces, one per material slot its faces use.
+
+    A piece whose material has an image texture gets one UV per vertex (`Visual.uv`):
+    Blender keeps UVs per face corner, so a vertex where faces meet with different UVs
+    (a seam, an edge of the photographed face) is split into one vertex per UV.
+    """
     mesh = evaluated.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -105,29 +118,60 @@ def _triangles(evaluated: bpy.types.Object) -> trimesh.Trimesh:
         mesh.vertices.foreach_get("co", vertices)
         faces = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
         mesh.loop_triangles.foreach_get("vertices", faces)
+        loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        slots = np.empty(len(mesh.loop_triangles), dtype=np.int32)
+        mesh.loop_triangles.foreach_get("material_index", slots)
+        textured = {i for i, m in enumerate(mesh.materials) if m is not None and material_texture_path(m) is not None}
+        loop_uv = None
+        if textured and mesh.uv_layers.active is not None:
+            loop_uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+            mesh.uv_layers.active.data.foreach_get("uv", loop_uv)
+            loop_uv = loop_uv.reshape(-1, 2).astype(np.float64)
     finally:
         evaluated.to_mesh_clear()
-    return trimesh.Trimesh(vertices.reshape(-1, 3).astype(np.float64), faces.reshape(-1, 3), process=False)
+    vertices = vertices.reshape(-1, 3).astype(np.float64) @ link_from_object[:3, :3].T + link_from_object[:3, 3]
+    faces, loops = faces.reshape(-1, 3), loops.reshape(-1, 3)
+    whole = trimesh.Trimesh(vertices, faces, process=False)
+    used = np.unique(slots)
+    if len(used) == 1 and used[0] not in textured:
+        return whole, [(int(used[0]), whole, None)]
+    pieces = []
+    for slot in used.tolist():
+        chosen = slots == slot
+        if slot in textured and loop_uv is not None:
+            # One vertex per distinct (vertex, u, v) among the piece's face corners.
+            corners = np.column_stack([faces[chosen].reshape(-1), loop_uv[loops[chosen].reshape(-1)]])
+            keys, inverse = np.unique(corners, axis=0, return_inverse=True)
+            piece = trimesh.Trimesh(vertices[keys[:, 0].astype(np.int64)], inverse.reshape(-1, 3), process=False)
+            pieces.append((slot, piece, keys[:, 1:]))
+        else:
+            kept, inverse = np.unique(faces[chosen], return_inverse=True)
+            pieces.append((slot, trimesh.Trimesh(vertices[kept], inverse.reshape(-1, 3), process=False), None))
+    return whole, pieces
 
 
-def _material(obj: bpy.types.Object, materials: dict[str, Material]) -> Material:
-    """The object's Blender material as one shared `Material` per Blender material."""
-    blender_material = obj.active_material
+def _material(obj: bpy.types.Object, slot: int, materials: dict[str, Material]) -> Material:
+    """The Blender material in the object's `slot` as one shared `Material` per Blender material."""
+    blender_material = obj.material_slots[slot].material if slot < len(obj.material_slots) else None
     if blender_material is None:
-        raise ModelError(f"object {obj.name!r} has no material")
+        raise ModelError(f"object {obj.name!r} has no material in slot {slot}")
     if blender_material.name not in materials:
         rgba = tuple(float(c) for c in blender_material.diffuse_color)
-        materials[blender_material.name] = Material(name=blender_material.name, rgba=rgba)
+        texture = material_texture_path(blender_material)
+        materials[blender_material.name] = Material(name=blender_material.name, rgba=rgba, texture=texture)
     return materials[blender_material.name]
 
 
-def _set_inertials(links: list[Link], *, density_kg_m3: float | None, mass_kg: float | None) -> None:
-    """Inertials from the visual meshes, at one density for the whole model."""
+def _set_inertials(
+    links: list[Link], solids: dict[str, list[trimesh.Trimesh]], *, density_kg_m3: float | None, mass_kg: float | None
+) -> None:
+    """Inertials from each link's whole objects' meshes, at one density for the whole model."""
     if (density_kg_m3 is None) == (mass_kg is None):
         raise ValueError("give exactly one of density_kg_m3 and mass_kg")
     # At unit density an inertial's mass is the link's volume, and mass and inertia scale
     # linearly with density, so a total mass fixes the density after one pass.
-    unit = [inertial_from_meshes([v.mesh for v in link.visuals], density_kg_m3=1.0) for link in links]
+    unit = [inertial_from_meshes(solids[link.name], density_kg_m3=1.0) for link in links]
     density = density_kg_m3 if density_kg_m3 is not None else mass_kg / sum(i.mass_kg for i in unit)
     for link, inertial in zip(links, unit):
         link.inertial = Inertial(

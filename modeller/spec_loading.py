@@ -11,7 +11,7 @@ from pathlib import Path
 
 from homemodel.atomic import write_text_atomic
 from homemodel.errors import SpecError
-from homemodel.yaml_specs import read_yaml_mapping, validate_mapping
+from homemodel.yaml_specs import FieldError, read_yaml_mapping, validate_mapping
 from modeller.specs import SPEC_TYPES, Spec
 
 
@@ -25,7 +25,25 @@ def load_spec(path: Path) -> Spec:
     spec_type = SPEC_TYPES.get(data["kind"]) if isinstance(data["kind"], str) else None
     if spec_type is None:
         raise SpecError(f"{path}: kind: unknown kind {data['kind']!r}; expected one of {kinds}")
-    return validate_mapping(path, data, spec_type)
+    return _with_checked_photos(path, validate_mapping(path, data, spec_type))
+
+
+def _with_checked_photos(path: Path, spec: Spec) -> Spec:
+    """The spec with its photos' paths made absolute from the spec's folder, each photo read
+    and its face's corners found, so a bad photo is refused before anything is built."""
+    if not spec.photos:
+        return spec
+    from modeller.photo_texture import check_photo
+
+    photos = []
+    for i, photo in enumerate(spec.photos):
+        photo = photo.model_copy(update={"photo": (path.parent / photo.photo).absolute()})
+        try:
+            check_photo(photo)
+        except FieldError as exc:
+            raise SpecError(f"{path}: photos.{i}.{'.'.join(str(part) for part in exc.loc)}: {exc}") from None
+        photos.append(photo)
+    return spec.model_copy(update={"photos": photos})
 
 
 def write_spec_schemas(out_dir: Path) -> list[Path]:

@@ -66,9 +66,9 @@ REFUSALS = [
     ("cupboard", "drawers.0.bottom_m", 0.7, "drawers.0", "drawer 0 overlaps door"),
     ("cupboard", "drawers.0.depth_m", 0.44, "drawers.0.depth_m", "deep inside"),
     ("cupboard", "drawers.0.travel_m", 0.42, "drawers.0.travel_m", "only 0.4 m deep"),
-    ("cupboard", "doors.0.handle.height_m", 0.6, "doors.0.handle.height_m", "handle bar spans"),
-    ("cupboard", "doors.0.handle.from_free_edge_m", 0.5, "doors.0.handle.from_free_edge_m", "handle bar spans"),
-    ("cupboard", "drawers.0.handle.from_left_m", 0.05, "drawers.0.handle.from_left_m", "handle bar spans"),
+    ("cupboard", "doors.0.handle.height_m", 0.6, "doors.0.handle.height_m", "bar handle spans"),
+    ("cupboard", "doors.0.handle.from_free_edge_m", 0.5, "doors.0.handle.from_free_edge_m", "bar handle spans"),
+    ("cupboard", "drawers.0.handle.from_left_m", 0.05, "drawers.0.handle.from_left_m", "bar handle spans"),
     ("cupboard", "doors.0.handle.standoff_m", 0.005, "doors.0.handle.standoff_m", "inside the front"),
     ("cupboard", "doors.0.handle.length_m", 0.02, "doors.0.handle.length_m", "too short"),
     ("cupboard", "width_m", -0.8, "width_m", "greater than 0"),
@@ -79,7 +79,7 @@ REFUSALS = [
     ("cupboard", "shelves.0.height_m", 0.11, "shelves.0.height_m", "below the body's inside floor"),
     ("cupboard", "shelves.0.height_m", 0.8, "shelves.0.height_m", "cuts through drawer 0's box"),
     ("cupboard", "doors.0.opening_limit_deg", 200, "doors.0.opening_limit_deg", "less than or equal to 180"),
-    ("cupboard", "doors.0.hinge", "top", "doors.0.hinge", "'left' or 'right'"),
+    ("cupboard", "doors.0.hinge", "middle", "doors.0.hinge", "'left', 'right', 'top' or 'bottom'"),
     ("cupboard", "widht_m", 0.8, "widht_m", "Extra inputs are not permitted"),
     ("cupboard", "colour", "mauve", "colour", "unknown colour 'mauve'"),
     ("cupboard", "density_kg_m3", 600, "mass_kg", "not both"),
@@ -112,7 +112,7 @@ def test_impossible_spec_is_refused_naming_file_and_field(
         ("kind: cupboard\nwidth_m: [0.8\n", "invalid YAML at line"),
         ("- 1\n- 2\n", "expected a mapping"),
         ("width_m: 0.8\n", "kind: missing"),
-        ("kind: sofa\n", "kind: unknown kind 'sofa'"),
+        ("kind: spaceship\n", "kind: unknown kind 'spaceship'"),
     ],
 )
 def test_unreadable_spec_is_one_line(tmp_path: Path, text: str, words: str) -> None:
@@ -130,7 +130,9 @@ def test_missing_spec_file(tmp_path: Path) -> None:
 
 def test_spec_schemas_are_written(tmp_path: Path) -> None:
     paths = write_spec_schemas(tmp_path / "schemas")
-    assert sorted(p.name for p in paths) == ["cup.schema.json", "cupboard.schema.json", "table.schema.json"]
+    assert {"cup.schema.json", "cupboard.schema.json", "table.schema.json", "oven.schema.json"} <= {
+        p.name for p in paths
+    }
     schema = json.loads((tmp_path / "schemas" / "cupboard.schema.json").read_text())
     assert {"width_m", "doors", "drawers", "shelves"} <= set(schema["properties"])
 
@@ -256,7 +258,7 @@ def test_cupboard_handle_grasp_points_at_the_measured_places(cupboard) -> None:
 @pytest.mark.bpy
 def test_cupboard_links_have_materials_collisions_and_mass(cupboard) -> None:
     spec, model = cupboard
-    assert model.category == "cupboard" and set(model.affordances) == {"container", "supporting_surface"}
+    assert model.category == "cupboard" and set(model.affordances) == {"container", "openable", "supporting_surface"}
     materials = {id(v.material): v.material for link in model.links for v in link.visuals}
     assert sorted(m.name for m in materials.values()) == ["silver", "white"]
     for link in model.links:

@@ -25,7 +25,7 @@ from articulation.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
 RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes"]
-URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet"]
+URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions"]
 GLTF_CHECKS = ["glTF validator", "glTF joints"]
 
 # A cupboard body with a door (revolute), a drawer (prismatic), an oven-style knob
@@ -37,7 +37,7 @@ CUPBOARD = """<?xml version="1.0"?>
   <homemodel category="cupboard"><affordance name="container"/><grasp_point name="door_handle" link="door_handle" kind="handle"><origin xyz="0 0 0" rpy="0 0 0"/></grasp_point><joint_state joint="knob" name="off" position="0"/></homemodel>
   <link name="body">
     <inertial><origin xyz="0 0 0.4"/><mass value="{mass}"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
-    <collision><origin xyz="0 0 0.4"/><geometry><box size="0.6 0.5 0.8"/></geometry></collision>
+    <collision><origin xyz="0 0 -0.01"/><geometry><box size="0.6 0.5 0.02"/></geometry></collision>
   </link>
   <link name="door">
     {door_inertial}
@@ -54,7 +54,7 @@ CUPBOARD = """<?xml version="1.0"?>
   <link name="handle_frame"/>
   <joint name="door_hinge" type="revolute">
     <parent link="body"/><child link="door"/>
-    <origin xyz="-0.25 -0.26 0.45" rpy="0 0 0.1"/>
+    <origin xyz="-0.25 -0.26 0.5" rpy="0 0 0.1"/>
     <axis xyz="{axis}"/>
     <limit lower="{lower}" upper="{upper}" effort="10" velocity="1"/>
   </joint>

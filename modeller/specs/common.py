@@ -21,6 +21,7 @@ from typing import Annotated, ClassVar
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
 from homemodel.yaml_specs import FieldError
+from modeller.specs.photos import FacePhoto
 
 # Below this, two lengths count as equal (floating point noise in YAML values).
 _EPS_M = 1e-9
@@ -85,6 +86,9 @@ class ObjectSpec(_Spec):
     name: str | None = Field(None, description="model name; default: the spec file's name without .yaml")
     density_kg_m3: Length | None = None
     mass_kg: Length | None = Field(None, description="total mass, spread uniformly over the volume")
+    photos: list[FacePhoto] = Field(
+        [], description="photos put on faces of the built parts (see modeller.specs.photos); without, a colour per part"
+    )
 
     @model_validator(mode="after")
     def _one_mass(self) -> ObjectSpec:

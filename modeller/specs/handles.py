@@ -1,50 +1,114 @@
-"""Handles screwed to a door or drawer front."""
+"""Handles on door and drawer fronts (bar, knob, recessed), and appliance control knobs."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
 from homemodel.yaml_specs import FieldError
-from modeller.specs.common import Length, Offset, _Spec
+from modeller.specs.common import Colour, Length, Offset, _Spec
+
+Orientation = Literal["vertical", "horizontal"]
 
 
-class BarHandle(_Spec):
-    """A straight bar on two posts, screwed to a door or drawer front."""
+class Handle(_Spec):
+    """A handle on a front. `type` picks its shape; each shape reads only its own fields.
 
-    length_m: Length = 0.16
-    diameter_m: Length = 0.012
-    standoff_m: Length = Field(0.035, description="from the front's outer face to the bar's axis")
-    orientation: Literal["vertical", "horizontal"]
+    - `bar`: a straight bar (`length_m`, `diameter_m`) on two posts, its axis `standoff_m`
+      in front of the front's outer face, along `orientation`.
+    - `knob`: a round knob (`knob_diameter_m`) on a stem, its outer face
+      `knob_projection_m` in front of the front's outer face.
+    - `recessed`: a finger pocket cut into the front, `length_m` along `orientation`,
+      `recess_width_m` across, `recess_depth_m` deep.
+    """
+
+    type: Literal["bar", "knob", "recessed"] = "bar"
+    orientation: Orientation | None = Field(
+        None, description="bar or pocket direction on the front; default: along the front's free edge"
+    )
+    length_m: Length = Field(0.16, description="bar: bar length; recessed: pocket length")
+    diameter_m: Length = Field(0.012, description="bar: bar diameter")
+    standoff_m: Length = Field(0.035, description="bar: from the front's outer face to the bar's axis")
+    knob_diameter_m: Length = Field(0.032, description="knob: diameter of the knob")
+    knob_projection_m: Length = Field(0.028, description="knob: from the front's outer face to the knob's outer face")
+    recess_width_m: Length = Field(0.03, description="recessed: pocket width, across its length")
+    recess_depth_m: Length = Field(0.012, description="recessed: how deep the pocket goes into the front")
 
     @model_validator(mode="after")
-    def _bar_fits(self) -> BarHandle:
-        if self.length_m < 3 * self.diameter_m:
+    def _shape_possible(self) -> Handle:
+        if self.type == "bar":
+            if self.length_m < 3 * self.diameter_m:
+                raise FieldError(
+                    ("length_m",), f"bar of {self.length_m} m is too short for its {self.diameter_m} m diameter"
+                )
+            if self.standoff_m <= self.diameter_m / 2:
+                raise FieldError(
+                    ("standoff_m",),
+                    f"bar axis {self.standoff_m} m off the front is inside the front ({self.diameter_m} m bar)",
+                )
+        if self.type == "recessed" and self.recess_width_m >= self.length_m:
             raise FieldError(
-                ("length_m",), f"bar of {self.length_m} m is too short for its {self.diameter_m} m diameter"
-            )
-        if self.standoff_m <= self.diameter_m / 2:
-            raise FieldError(
-                ("standoff_m",),
-                f"bar axis {self.standoff_m} m off the front is inside the front ({self.diameter_m} m bar)",
+                ("recess_width_m",), f"pocket {self.recess_width_m} m wide is not shorter than its {self.length_m} m"
             )
         return self
 
-    @property
-    def half_extent_m(self) -> tuple[float, float]:
-        """Half the bar's footprint on the front: (across the front, up the front)."""
-        along, across = self.length_m / 2, self.diameter_m / 2
-        return (across, along) if self.orientation == "vertical" else (along, across)
+    def direction(self, default: Orientation) -> Orientation:
+        return self.orientation or default
+
+    def half_extent_m(self, default: Orientation) -> tuple[float, float]:
+        """Half the handle's footprint on the front: (across the front, up the front)."""
+        if self.type == "knob":
+            return self.knob_diameter_m / 2, self.knob_diameter_m / 2
+        along = self.length_m / 2
+        across = self.diameter_m / 2 if self.type == "bar" else self.recess_width_m / 2
+        return (across, along) if self.direction(default) == "vertical" else (along, across)
 
 
-class DoorHandle(BarHandle):
-    orientation: Literal["vertical", "horizontal"] = "vertical"
-    from_free_edge_m: Offset = Field(0.04, description="from the door's free (unhinged) edge to the bar's centre")
-    height_m: Offset | None = Field(None, description="bar centre above the door's bottom edge; default: mid-door")
+class DoorHandle(Handle):
+    """A door's handle, placed from the door's free (unhinged) edge."""
+
+    from_free_edge_m: Offset = Field(0.04, description="from the door's free (unhinged) edge to the handle's centre")
+    height_m: Offset | None = Field(
+        None, description="side-hinged door: handle centre above the door's bottom edge; default: mid-door"
+    )
+    from_left_m: Offset | None = Field(
+        None, description="top- or bottom-hinged door: handle centre from the door's left edge; default: centred"
+    )
 
 
-class DrawerHandle(BarHandle):
-    orientation: Literal["vertical", "horizontal"] = "horizontal"
-    from_left_m: Offset | None = Field(None, description="bar centre from the front's left edge; default: centred")
-    height_m: Offset | None = Field(None, description="bar centre above the front's bottom edge; default: centred")
+class DrawerHandle(Handle):
+    """A drawer's handle, placed on the drawer front."""
+
+    from_left_m: Offset | None = Field(None, description="handle centre from the front's left edge; default: centred")
+    height_m: Offset | None = Field(None, description="handle centre above the front's bottom edge; default: centred")
+
+
+class ControlKnob(_Spec):
+    """A turning knob on an appliance's front panel (oven, hob, washing machine): a revolute link.
+
+    Positions are named `states` (first = off) `step_deg` apart; the joint's limits are the
+    first and the last state. A marker line on the knob's face points up at the first state.
+    """
+
+    left_m: Offset = Field(description="knob centre from the body's left edge, seen from in front")
+    height_m: Offset = Field(description="knob centre above the floor")
+    diameter_m: Length = 0.04
+    projection_m: Length = Field(0.025, description="from the panel's outer face to the knob's outer face")
+    states: Annotated[list[str], Field(min_length=2)] = ["off", "1", "2", "3", "4", "5", "6"]
+    step_deg: Annotated[float, Field(gt=0, le=180)] = Field(40.0, description="turn between neighbouring states")
+    turns: Literal["clockwise", "counterclockwise"] = Field(
+        "clockwise", description="direction from off to the later states, seen from in front"
+    )
+    colour: Colour = "black"
+    marker_colour: Colour = "white"
+
+    @model_validator(mode="after")
+    def _states_fit(self) -> ControlKnob:
+        if len(set(self.states)) != len(self.states):
+            raise FieldError(("states",), f"state names repeat: {self.states}")
+        if (len(self.states) - 1) * self.step_deg > 360:
+            raise FieldError(
+                ("step_deg",), f"{len(self.states)} states {self.step_deg} degrees apart turn more than once round"
+            )
+        return self

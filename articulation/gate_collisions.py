@@ -1,0 +1,196 @@
+"""The gate's collision check: no part passes through another at any joint's limits.
+
+pybullet loads the URDF with its collision shapes; each movable joint goes to its lower and
+its upper limit and to three places between (a quarter, half and three quarters of its
+range) with every other joint at rest. Joints are not moved together: two fronts that may
+each open fully but not both at once (a door opened past 90 degrees beside pulled-out
+drawers) are how real furniture is, not a fault of the model. At each configuration `getClosestPoints` measures every pair
+of links that are not welded together by fixed joints (parent and child across a movable
+joint included: a door swinging into its cupboard's side wall is the fault to catch), and a
+pair closer than `-PENETRATION_TOLERANCE_M` (one passing more than that into the other)
+fails the check, naming the joint, the limit, the two links and the depth.
+
+Why 1 mm: parts that are meant to touch (a closed door on its frame, a drawer on its floor)
+meet at distance zero, which pybullet's GJK/EPA reports to about a micrometre for boxes and
+cylinders; the modeller promises its models within 1 mm of their measurements, so a
+penetration below that is within what the measurements can say. pybullet inflates every
+convex mesh shape by its collision margin (`BULLET_MESH_MARGIN_M`); that inflation is taken
+off before comparing, so two touching mesh parts are not reported as overlapping.
+
+Collision shapes must be honest for this to mean anything: a hollow body as wall slabs, not
+one convex hull that encloses its open cavity (and the drawers inside it).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from articulation.gate_clients import pybullet_errors
+from articulation.gate_report import Check, check_from_problems, count
+from homemodel.c_output import captured_c_output
+
+CHECK_NAME = "collisions"
+PENETRATION_TOLERANCE_M = 1e-3
+# pybullet's URDF importer gives every convex mesh collision shape this margin (Bullet's
+# gUrdfDefaultCollisionMargin); boxes, cylinders and spheres have their margin inside.
+BULLET_MESH_MARGIN_M = 1e-3
+# getClosestPoints returns nothing at all for a query distance of zero, so ask a little
+# further out and keep the pairs that overlap.
+_QUERY_DISTANCE_M = 0.01
+# Between its limits a joint is also tried at these fractions of its range, so a door that
+# swings through a wall and out the other side is caught on the way.
+_SWEEP_FRACTIONS = (0.25, 0.5, 0.75)
+# A joint without limits (continuous) is tried at these positions.
+_UNLIMITED_SAMPLES_RAD = (-math.pi / 2, math.pi / 2, math.pi)
+
+
+@dataclass(frozen=True)
+class _Joint:
+    index: int
+    name: str
+    lower: float
+    upper: float
+
+    @property
+    def rest(self) -> float:
+        """Zero, or the nearest limit when zero is outside the joint's range."""
+        return min(max(0.0, self.lower), self.upper)
+
+
+@dataclass(frozen=True)
+class _Configuration:
+    label: str
+    positions: dict[int, float]
+
+
+def _configurations(joints: list[_Joint]) -> list[_Configuration]:
+    """Rest, then each joint alone at its limits and on the way between them (others at rest)."""
+    rest = {j.index: j.rest for j in joints}
+    configurations = [_Configuration("at rest", rest)]
+    for joint in joints:
+        if joint.lower <= joint.upper:
+            span = joint.upper - joint.lower
+            samples = [(f"at lower ({joint.lower:.4g})", joint.lower)]
+            samples += [
+                (f"at {joint.lower + f * span:.4g} ({f:.0%} of its range)", joint.lower + f * span)
+                for f in _SWEEP_FRACTIONS
+            ]
+            samples.append((f"at upper ({joint.upper:.4g})", joint.upper))
+        else:  # pybullet reports a continuous joint as lower 0 > upper -1
+            samples = [(f"at {q:.3g} rad", q) for q in _UNLIMITED_SAMPLES_RAD]
+        for label, q in samples:
+            if q != joint.rest:
+                configurations.append(_Configuration(f"{joint.name} {label}", {**rest, joint.index: q}))
+    return configurations
+
+
+class _Links:
+    """The body's links by pybullet index (-1 the base), their names, welded groups and shapes."""
+
+    def __init__(self, pb: Any, client: int, body: int) -> None:
+        infos = [
+            pb.getJointInfo(body, i, physicsClientId=client)
+            for i in range(pb.getNumJoints(body, physicsClientId=client))
+        ]
+        self.names = {-1: pb.getBodyInfo(body, physicsClientId=client)[0].decode()}
+        self.names.update({info[0]: info[12].decode() for info in infos})
+        self.joints = [
+            _Joint(index=info[0], name=info[1].decode(), lower=float(info[8]), upper=float(info[9]))
+            for info in infos
+            if info[2] in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC)
+        ]
+        # Links joined by fixed joints move as one rigid part: union-find on their indices.
+        group = {index: index for index in self.names}
+
+        def find(index: int) -> int:
+            while group[index] != index:
+                index = group[index]
+            return index
+
+        for info in infos:
+            if info[2] == pb.JOINT_FIXED:
+                group[find(info[0])] = find(info[16])
+        self.group = {index: find(index) for index in self.names}
+        shapes = {index: pb.getCollisionShapeData(body, index, physicsClientId=client) for index in self.names}
+        self.with_shapes = [index for index in self.names if shapes[index]]
+        self.margin_m = {
+            index: BULLET_MESH_MARGIN_M if any(s[2] == pb.GEOM_MESH for s in shapes[index]) else 0.0
+            for index in self.names
+        }
+
+    def pairs(self) -> list[tuple[int, int]]:
+        """Every pair of links with collision shapes that can move against each other."""
+        links = self.with_shapes
+        return [(a, b) for k, a in enumerate(links) for b in links[k + 1 :] if self.group[a] != self.group[b]]
+
+
+def _depths_m(pb: Any, client: int, body: int, links: _Links, pairs: list[tuple[int, int]]) -> dict:
+    """How far each pair passes into each other (positive), for the pairs that do at all."""
+    depths = {}
+    for a, b in pairs:
+        points = pb.getClosestPoints(body, body, _QUERY_DISTANCE_M, a, b, physicsClientId=client)
+        if points:
+            depth = -min(p[8] for p in points) - links.margin_m[a] - links.margin_m[b]
+            if depth > 0:
+                depths[(a, b)] = depth
+    return depths
+
+
+def collision_problems(pb: Any, client: int, body: int) -> tuple[list[str], str]:
+    """The penetrations found, and a one-line account of what was checked."""
+    links = _Links(pb, client, body)
+    pairs = links.pairs()
+    configurations = _configurations(links.joints)
+    problems: list[str] = []
+    at_rest: dict = {}
+    deepest = 0.0
+    for configuration in configurations:
+        for joint in links.joints:
+            pb.resetJointState(body, joint.index, configuration.positions[joint.index], physicsClientId=client)
+        depths = _depths_m(pb, client, body, links, pairs)
+        # A pair already overlapping at rest is reported once, then again only if a joint drives it deeper.
+        baseline = at_rest if configuration is not configurations[0] else {}
+        for (a, b), depth in depths.items():
+            deepest = max(deepest, depth)
+            if depth > baseline.get((a, b), 0.0) + PENETRATION_TOLERANCE_M:
+                problems.append(
+                    f"{configuration.label}: {links.names[a]!r} and {links.names[b]!r} "
+                    f"pass {depth * 1000:.1f} mm into each other"
+                )
+        if configuration is configurations[0]:
+            at_rest = depths
+    summary = (
+        f"{count(len(pairs), 'link pair')} at {count(len(configurations), 'joint configuration')}; "
+        f"deepest contact {deepest * 1000:.2f} mm (tolerance {PENETRATION_TOLERANCE_M * 1000:g} mm)"
+    )
+    return problems, summary
+
+
+def collisions_check(urdf: Path) -> Check:
+    """Load `urdf` in a private pybullet DIRECT client and sweep its joints for penetrations.
+
+    Call only on a URDF the gate found safe for pybullet (a sound tree, meshes inside the folder).
+    """
+    error: str | None = None
+    problems: list[str] = []
+    summary = ""
+    with captured_c_output() as output, warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        import pybullet as pb
+
+        client = pb.connect(pb.DIRECT)
+        try:
+            body = pb.loadURDF(str(urdf), useFixedBase=True, physicsClientId=client)
+            problems, summary = collision_problems(pb, client, body)
+        except pb.error as exc:
+            error = str(exc)
+        finally:
+            pb.disconnect(physicsClientId=client)
+    if error is not None:
+        said = pybullet_errors(output)
+        return Check(CHECK_NAME, False, f"{error} {said}" if said else error)
+    return check_from_problems(CHECK_NAME, problems, summary)

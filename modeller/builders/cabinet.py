@@ -1,0 +1,353 @@
+"""What every cabinet-like kind is built from (cupboards, wall cabinets, wardrobes and the
+appliances): a box at the real outer size with its front face removed and walls of the
+measured thickness, a plinth, shelves, dividers, fixed front panels, and doors, drawers,
+handles and control knobs at their measured places.
+
+Links and frames (model frame: see `modeller.specs`):
+- `body` (root): the model frame. Carcass, plinth, shelves, dividers, panels, and a kind's
+  fixed parts (a hob, rails, racks, a drum).
+- `door_<i>`: origin on the door's hinge line (its hinge-side edge on its outer face): for a
+  side-hinged door at the height of its bottom edge, for a top- or bottom-hinged one at its
+  left end; axes as the body's. Joint `door_<i>_hinge`, revolute, 0..opening limit, positive
+  opening the door outward: axis -z (hinged left), +z (right), +y (bottom, opening down),
+  -y (top, opening up). Turning about the outer front edge keeps the whole door at
+  x >= the body's front plane + `door_gap_m` at every angle, so an open door never enters
+  the body.
+- `drawer_<i>`: origin on the body's front plane (x = depth/2) at the middle of the front's
+  width and the height of its bottom edge. Joint `drawer_<i>_slide`, prismatic along +x,
+  0..travel.
+- `<door or drawer>_handle`: fixed joint `<...>_handle_mount` (see `modeller.builders.handles`).
+- `knob_<i>`: origin on the panel's outer face at the knob's centre; joint `knob_<i>_turn`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from articulation.model import Joint, JointLimits
+from homemodel.transforms import translation_transform
+from modeller.blender_scene import (
+    add_object,
+    add_solidify,
+    box_mesh,
+    colour_material,
+    cylinder_mesh,
+    remove_faces,
+)
+from modeller.blender_to_model import Assembly
+from modeller.builders import FACE_NORMALS, box_collision, wall_collisions
+from modeller.builders.handles import (
+    add_control_knob,
+    add_handle,
+    blender_matrix,
+    cylinder_collision,
+)
+from modeller.specs import colour_name, colour_rgb
+from modeller.specs.cabinets import CabinetSpec, DoorSpec, Panel
+
+if TYPE_CHECKING:
+    import bpy
+
+# Door windows stand this little proud of the door's face (so the glass shows), and go this
+# deep into it.
+_GLASS_PROUD_M = 0.0005
+_GLASS_DEPTH_M = 0.004
+# Sheet thickness of door shelves (bins).
+_BIN_WALL_M = 0.003
+
+_DOOR_AXES = {"left": (0.0, 0.0, -1.0), "right": (0.0, 0.0, 1.0), "bottom": (0.0, 1.0, 0.0), "top": (0.0, -1.0, 0.0)}
+
+
+def material(colour) -> bpy.types.Material:
+    return colour_material(colour_name(colour), colour_rgb(colour))
+
+
+@dataclass
+class Cabinet:
+    """A cabinet being built: its spec, the body object, and the assembly to complete."""
+
+    spec: CabinetSpec
+    body: bpy.types.Object
+    assembly: Assembly
+
+    def add_to_body(self, name: str, mesh: bpy.types.Mesh, centre_m, colour=None) -> bpy.types.Object:
+        """A fixed part of the body, its mesh centred at `centre_m` in the model frame."""
+        return add_object(
+            f"body.{name}",
+            mesh,
+            link="body",
+            material=material(self.spec.colour if colour is None else colour),
+            parent=self.body,
+            parent_from_object=translation_transform(centre_m),
+        )
+
+    @property
+    def body_collisions(self) -> list:
+        return self.assembly.collisions["body"]
+
+
+def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: list[str]) -> Cabinet:
+    """The body with its fronts and knobs; the kind's builder adds its own parts after."""
+    assembly = Assembly(
+        name=name,
+        category=category,
+        collisions={},
+        affordances=affordances,
+        properties={"colour": spec.colour} if isinstance(spec.colour, str) else {},
+        density_kg_m3=spec.density_or_default_kg_m3,
+        mass_kg=spec.mass_kg,
+    )
+    cabinet = Cabinet(spec=spec, body=_add_carcass(spec, assembly), assembly=assembly)
+    for i, shelf in enumerate(spec.shelves):
+        left, right, depth = spec.shelf_span_m(shelf)
+        t = spec.wall_thickness_m
+        size = (depth, right - left, t)
+        centre = (-spec.depth_m / 2 + t + depth / 2, -spec.width_m / 2 + (left + right) / 2, shelf.height_m - t / 2)
+        cabinet.add_to_body(f"shelf_{i}", box_mesh(f"body.shelf_{i}", size), centre)
+        cabinet.body_collisions.append(box_collision(f"shelf_{i}", size, centre))
+    for i, divider in enumerate(spec.dividers):
+        t = spec.wall_thickness_m
+        size = (spec.inner_depth_m, t, spec.inner_top_m - spec.inner_floor_m)
+        centre = (t / 2, -spec.width_m / 2 + divider.left_m + t / 2, (spec.inner_floor_m + spec.inner_top_m) / 2)
+        cabinet.add_to_body(f"divider_{i}", box_mesh(f"body.divider_{i}", size), centre)
+        cabinet.body_collisions.append(box_collision(f"divider_{i}", size, centre))
+    for i, panel in enumerate(spec.panels):
+        _add_panel(cabinet, i, panel)
+    handle_material = material(spec.handle_colour)
+    for i in range(len(spec.doors)):
+        _add_door(cabinet, i, handle_material)
+    for i in range(len(spec.drawers)):
+        _add_drawer(cabinet, i, handle_material)
+    for i, knob in enumerate(spec.knobs):
+        body_from_knob = translation_transform((spec.depth_m / 2, -spec.width_m / 2 + knob.left_m, knob.height_m))
+        add_control_knob(i, knob, cabinet.body, body_from_knob, assembly)
+    return cabinet
+
+
+def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
+    t = spec.wall_thickness_m
+    bottom, top = spec.carcass_bottom_m, spec.carcass_top_m
+    size = (spec.depth_m, spec.width_m, top - bottom)
+    centre = (0.0, 0.0, (bottom + top) / 2)
+    mesh = box_mesh("body", size, centre)
+    remove_faces(mesh, [FACE_NORMALS["+x"]])
+    body = add_object("body", mesh, link="body", material=material(spec.colour))
+    add_solidify(body, t)
+    collisions = wall_collisions("carcass", size, centre, ["-x", "+y", "-y", "+z", "-z"], t)
+    if spec.plinth_height_m > 0:
+        # A frame under the carcass, its front set back for the feet: a box without top and bottom.
+        plinth_size = (spec.depth_m - spec.plinth_recess_m, spec.width_m, spec.plinth_height_m)
+        plinth_centre = (-spec.plinth_recess_m / 2, 0.0, spec.base_m + spec.plinth_height_m / 2)
+        plinth_mesh = box_mesh("body.plinth", plinth_size)
+        remove_faces(plinth_mesh, [FACE_NORMALS["+z"], FACE_NORMALS["-z"]])
+        plinth = add_object(
+            "body.plinth",
+            plinth_mesh,
+            link="body",
+            material=material(spec.colour),
+            parent=body,
+            parent_from_object=translation_transform(plinth_centre),
+        )
+        add_solidify(plinth, t)
+        collisions += wall_collisions("plinth", plinth_size, plinth_centre, ["+x", "-x", "+y", "-y"], t)
+    assembly.collisions["body"] = collisions
+    return body
+
+
+def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
+    """A slab in the front plane, inside the carcass' edges (they show round it), with its hole cut."""
+    import bpy
+
+    spec = cabinet.spec
+    t = spec.wall_thickness_m
+    y0 = max(-spec.width_m / 2 + panel.left_m, -spec.width_m / 2 + t)
+    y1 = min(-spec.width_m / 2 + panel.right_m, spec.width_m / 2 - t)
+    z0, z1 = max(panel.bottom_m, spec.inner_floor_m), min(panel.top_m, spec.inner_top_m)
+    if y1 - y0 <= 0 or z1 - z0 <= 0:
+        return  # wholly in front of the carcass' edges, which are the panel
+    size = (t, y1 - y0, z1 - z0)
+    centre = (spec.depth_m / 2 - t / 2, (y0 + y1) / 2, (z0 + z1) / 2)
+    obj = cabinet.add_to_body(f"panel_{i}", box_mesh(f"body.panel_{i}", size), centre, panel.colour)
+    hole = panel.hole
+    if hole is None:
+        cabinet.body_collisions.append(box_collision(f"panel_{i}", size, centre))
+        return
+    r = hole.diameter_m / 2
+    cutter = bpy.data.objects.new(f"body.panel_{i}.cutter", cylinder_mesh(f"body.panel_{i}.cutter", r, 4 * t, axis="x"))
+    bpy.context.scene.collection.objects.link(cutter)
+    cutter.parent = obj
+    hole_y, hole_z = -spec.width_m / 2 + hole.centre_left_m, hole.centre_height_m
+    cutter.location = (0.0, hole_y - centre[1], hole_z - centre[2])
+    cutter.hide_render = True
+    cutter.display_type = "WIRE"
+    modifier = obj.modifiers.new("hole", "BOOLEAN")
+    modifier.operation = "DIFFERENCE"
+    modifier.object = cutter
+    # Collision: the slab round the hole's bounding square, as four boxes.
+    x = centre[0]
+    pieces = [
+        ("left", (y0, hole_y - r, z0, z1)),
+        ("right", (hole_y + r, y1, z0, z1)),
+        ("below", (hole_y - r, hole_y + r, z0, hole_z - r)),
+        ("above", (hole_y - r, hole_y + r, hole_z + r, z1)),
+    ]
+    for where, (a0, a1, b0, b1) in pieces:
+        if a1 - a0 > 1e-6 and b1 - b0 > 1e-6:
+            cabinet.body_collisions.append(
+                box_collision(f"panel_{i}_{where}", (t, a1 - a0, b1 - b0), (x, (a0 + a1) / 2, (b0 + b1) / 2))
+            )
+
+
+def _door_hinge_point(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
+    """(y, z) of the door's hinge line's start: its hinge-side edge, bottom end or left end."""
+    y0 = -spec.width_m / 2 + door.left_m
+    if door.hinge == "right":
+        return y0 + door.width_m, door.bottom_m
+    if door.hinge == "top":
+        return y0, door.top_m
+    return y0, door.bottom_m
+
+
+def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> None:
+    spec, assembly = cabinet.spec, cabinet.assembly
+    door = spec.doors[i]
+    link = f"door_{i}"
+    thick = spec.door_thickness_m
+    hinge_y, hinge_z = _door_hinge_point(spec, door)
+    body_from_door = translation_transform((spec.front_x_m(), hinge_y, hinge_z))
+    # The door's middle in its own frame.
+    y0 = -spec.width_m / 2 + door.left_m
+    middle = np.array([-thick / 2, y0 + door.width_m / 2 - hinge_y, door.bottom_m + door.height_m / 2 - hinge_z])
+    door_material = material(spec.colour)
+    if door.shape == "round":
+        mesh = cylinder_mesh(link, door.width_m / 2, thick, axis="x", segments=64)
+        collisions = [cylinder_collision(link, door.width_m / 2, thick, middle)]
+    else:
+        mesh = box_mesh(link, (thick, door.width_m, door.height_m))
+        collisions = [box_collision(link, (thick, door.width_m, door.height_m), middle)]
+    mesh.transform(blender_matrix(translation_transform(middle)))
+    door_obj = add_object(
+        link, mesh, link=link, material=door_material, parent=cabinet.body, parent_from_object=body_from_door
+    )
+    if door.window is not None:
+        glass_material = material(door.window.colour)
+        glass_x = -_GLASS_DEPTH_M / 2 + _GLASS_PROUD_M
+        centre = (glass_x, middle[1], middle[2])
+        if door.shape == "round":
+            glass = cylinder_mesh(
+                f"{link}.window", door.width_m / 2 - door.window.margin_m, _GLASS_DEPTH_M, axis="x", segments=64
+            )
+        else:
+            size = (_GLASS_DEPTH_M, door.width_m - 2 * door.window.margin_m, door.height_m - 2 * door.window.margin_m)
+            glass = box_mesh(f"{link}.window", size)
+        add_object(
+            f"{link}.window",
+            glass,
+            link=link,
+            material=glass_material,
+            parent=door_obj,
+            parent_from_object=translation_transform(centre),
+        )
+    for k, shelf in enumerate(door.shelves):
+        low, high = spec.door_shelf_box_m(door, shelf)
+        size = high - low
+        centre = (low + high) / 2 - np.array([spec.front_x_m(), hinge_y, hinge_z])
+        bin_mesh = box_mesh(f"{link}.shelf_{k}", size)
+        remove_faces(bin_mesh, [FACE_NORMALS["+z"]])
+        bin_obj = add_object(
+            f"{link}.shelf_{k}",
+            bin_mesh,
+            link=link,
+            material=door_material,
+            parent=door_obj,
+            parent_from_object=translation_transform(centre),
+        )
+        add_solidify(bin_obj, _BIN_WALL_M)
+        collisions += wall_collisions(f"{link}_shelf_{k}", size, centre, ["+x", "-x", "+y", "-y", "-z"], _BIN_WALL_M)
+    assembly.collisions[link] = collisions
+    assembly.joints.append(
+        Joint(
+            name=f"{link}_hinge",
+            type="revolute",
+            parent="body",
+            child=link,
+            parent_from_joint=body_from_door,
+            axis=np.array(_DOOR_AXES[door.hinge]),
+            limits=JointLimits(lower=0.0, upper=math.radians(door.opening_limit_deg)),
+        )
+    )
+    across, up = door.handle_offset_m()
+    door_from_face = translation_transform((0.0, y0 + across - hinge_y, door.bottom_m + up - hinge_z))
+    add_handle(
+        f"{link}_handle",
+        link,
+        door_obj,
+        door_from_face,
+        door.handle,
+        door.handle_orientation(),
+        handle_material,
+        assembly,
+    )
+
+
+def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> None:
+    spec, assembly = cabinet.spec, cabinet.assembly
+    drawer = spec.drawers[i]
+    link = f"drawer_{i}"
+    thick, gap = spec.door_thickness_m, spec.door_gap_m
+    left_y = -spec.width_m / 2 + drawer.left_m
+    middle_y = left_y + drawer.width_m / 2
+    body_from_drawer = translation_transform((spec.depth_m / 2, middle_y, drawer.bottom_m))
+    front_size = (thick, drawer.width_m, drawer.height_m)
+    front_centre = (gap + thick / 2, 0.0, drawer.height_m / 2)
+    drawer_material = material(spec.colour)
+    front_mesh = box_mesh(link, front_size, front_centre)
+    drawer_obj = add_object(
+        link, front_mesh, link=link, material=drawer_material, parent=cabinet.body, parent_from_object=body_from_drawer
+    )
+    collisions = [box_collision(f"{link}_front", front_size, front_centre)]
+    # The box behind the front, inside the body: a box without its top, walls inward.
+    y_min, y_max, z_min, z_max = spec.drawer_box_bounds_m(drawer)
+    box_size = (drawer.depth_m, y_max - y_min, z_max - z_min)
+    box_centre = (gap - drawer.depth_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + z_max) / 2 - drawer.bottom_m)
+    open_box = box_mesh(f"{link}.box", box_size)
+    remove_faces(open_box, [FACE_NORMALS["+z"]])
+    box = add_object(
+        f"{link}.box",
+        open_box,
+        link=link,
+        material=drawer_material,
+        parent=drawer_obj,
+        parent_from_object=translation_transform(box_centre),
+    )
+    add_solidify(box, spec.wall_thickness_m)
+    walls = ["+x", "-x", "+y", "-y", "-z"]
+    collisions += wall_collisions(f"{link}_box", box_size, box_centre, walls, spec.wall_thickness_m)
+    assembly.collisions[link] = collisions
+    assembly.joints.append(
+        Joint(
+            name=f"{link}_slide",
+            type="prismatic",
+            parent="body",
+            child=link,
+            parent_from_joint=body_from_drawer,
+            axis=np.array([1.0, 0.0, 0.0]),
+            limits=JointLimits(lower=0.0, upper=drawer.travel_m),
+        )
+    )
+    across, up = drawer.handle_offset_m()
+    drawer_from_face = translation_transform((gap + thick, left_y + across - middle_y, up))
+    add_handle(
+        f"{link}_handle",
+        link,
+        drawer_obj,
+        drawer_from_face,
+        drawer.handle,
+        drawer.handle_orientation(),
+        handle_material,
+        assembly,
+    )

@@ -1,0 +1,178 @@
+"""The gate's collision check: pybullet sweeps every joint; no part may pass through another."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from articulation.export import write_model_files
+from articulation.gate_collisions import PENETRATION_TOLERANCE_M, collisions_check
+from articulation.validate import validate_path
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+INERTIAL = '<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
+
+# A cupboard body seen from above: a side wall at y = -0.30..-0.28 and a back wall at
+# x = -0.25..-0.23; the front plane at x = 0.25. A door 0.5 m wide (y -0.28..0.22 when
+# closed) turns about a vertical hinge; its origin is the hinge, the door in its frame at
+# y >= 0 (hinged on its left, seen from in front).
+CUPBOARD = """<?xml version="1.0"?>
+<robot name="cupboard">
+  <link name="body">{inertial}
+    <collision name="side"><origin xyz="0 -0.29 0.4"/><geometry><box size="0.5 0.02 0.8"/></geometry></collision>
+    <collision name="back"><origin xyz="-0.24 0 0.4"/><geometry><box size="0.02 0.6 0.8"/></geometry></collision>
+  </link>
+  <link name="door">{inertial}
+    <collision><origin xyz="-0.01 0.25 0.35"/><geometry><box size="0.02 0.5 0.7"/></geometry></collision>
+  </link>
+  <link name="handle">{inertial}
+    <collision><origin xyz="0 0 0"/><geometry><box size="0.06 0.02 0.16"/></geometry></collision>
+  </link>
+  <joint name="door_hinge" type="revolute">
+    <parent link="body"/><child link="door"/>
+    <origin xyz="{hinge_x} -0.28 0.05"/><axis xyz="0 0 {axis_z}"/>
+    <limit lower="0" upper="{upper}" effort="10" velocity="1"/>
+  </joint>
+  <joint name="handle_mount" type="fixed">
+    <parent link="door"/><child link="handle"/><origin xyz="0.0 0.45 0.35"/>
+  </joint>
+  {extra}
+</robot>
+"""
+
+
+def _write(folder: Path, *, hinge_x: float = 0.27, axis_z: float = -1, upper: float = 1.7, extra: str = "") -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    urdf = folder / "model.urdf"
+    urdf.write_text(CUPBOARD.format(inertial=INERTIAL, hinge_x=hinge_x, axis_z=axis_z, upper=upper, extra=extra))
+    return urdf
+
+
+def _depths_mm(detail: str) -> list[float]:
+    return [float(m) for m in re.findall(r"pass ([0-9.]+) mm into each other", detail)]
+
+
+def test_door_swinging_outward_passes(tmp_path: Path) -> None:
+    # The hinge on the door's outer face (x = 0.27) and the door turning out: it never enters the body.
+    check = collisions_check(_write(tmp_path))
+    assert check.passed, check.detail
+    assert check.name == "collisions"
+    # The handle is welded to the door; body-door, body-handle: 2 pairs at rest and at the upper limit.
+    assert check.detail.startswith("2 link pairs at 5 joint configurations")
+
+
+def test_door_turning_the_wrong_way_swings_through_the_side_wall(tmp_path: Path) -> None:
+    # Axis +z: the free edge swings inward; at 1.7 rad the door runs from the hinge
+    # (0.27, -0.28) back to (-0.23, -0.34), through the side wall.
+    check = collisions_check(_write(tmp_path, axis_z=1))
+    assert not check.passed
+    assert "door_hinge at upper (1.7)" in check.detail
+    assert "'body' and 'door'" in check.detail
+    assert max(_depths_mm(check.detail)) > 10
+
+
+def test_a_drawer_pushed_into_the_back_wall_fails_by_its_depth(tmp_path: Path) -> None:
+    # A drawer box x -0.2..0.2 sliding back (-x) by 0.06 m: its back at -0.26 lies 30 mm past
+    # the back wall's inner face (-0.23), the shortest way out.
+    drawer = (
+        f'<link name="drawer">{INERTIAL}<collision><geometry><box size="0.4 0.2 0.1"/></geometry></collision></link>'
+        '<joint name="drawer_slide" type="prismatic"><parent link="body"/><child link="drawer"/>'
+        '<origin xyz="0 0 0.4"/><axis xyz="-1 0 0"/><limit lower="0" upper="0.06" effort="1" velocity="1"/></joint>'
+    )
+    check = collisions_check(_write(tmp_path, extra=drawer))
+    assert not check.passed
+    problems = check.detail.split("; ")
+    alone = [p for p in problems if p.startswith("drawer_slide at upper (0.06)")]
+    assert len(alone) == 1 and "'body' and 'drawer'" in alone[0]
+    assert _depths_mm(alone[0]) == [pytest.approx(30.0, abs=0.1)]
+    # Three quarters of the way (45 mm back) it is 15 mm in; a quarter of the way, not in at all.
+    assert any(p.startswith("drawer_slide at 0.045 (75% of its range)") and "15.0 mm" in p for p in problems)
+    assert not any(p.startswith("drawer_slide at 0.015") for p in problems)
+
+
+def test_overlap_at_rest_is_reported_once_and_welded_links_are_not_compared(tmp_path: Path) -> None:
+    # A shelf link inside the back wall (x -0.25..-0.22 in a wall -0.25..-0.23) overlaps it
+    # at rest, by the 20 mm it must move to get out; the handle overlaps its own door by
+    # 10 mm, which is allowed: they are welded.
+    shelf = (
+        f'<link name="shelf">{INERTIAL}<collision><origin xyz="-0.235 0 0.4"/>'
+        '<geometry><box size="0.03 0.3 0.02"/></geometry></collision></link>'
+        '<joint name="shelf_slide" type="prismatic"><parent link="body"/><child link="shelf"/>'
+        '<origin xyz="0 0 0"/><axis xyz="1 0 0"/><limit lower="0" upper="0.001" effort="1" velocity="1"/></joint>'
+    )
+    check = collisions_check(_write(tmp_path, extra=shelf))
+    assert not check.passed
+    lines = check.detail.split("; ")
+    at_rest = [line for line in lines if line.startswith("at rest")]
+    assert at_rest == ["at rest: 'body' and 'shelf' pass 20.0 mm into each other"]
+    # Moving the shelf 1 mm out makes it no deeper, so it is not reported again.
+    assert not any(line.startswith("shelf_slide") for line in lines)
+    assert "handle" not in check.detail
+
+
+def test_touching_parts_and_mesh_margins_are_not_penetrations(tmp_path: Path) -> None:
+    # Two mesh cubes face to face: pybullet inflates each convex mesh by its margin and
+    # reports -2 mm, which is not an overlap.
+    (tmp_path / "cube.obj").write_text(trimesh.exchange.obj.export_obj(trimesh.creation.box((0.2, 0.2, 0.2))))
+    urdf = tmp_path / "model.urdf"
+    urdf.write_text(
+        f"""<robot name="cubes">
+  <link name="a">{INERTIAL}<collision><geometry><mesh filename="cube.obj"/></geometry></collision></link>
+  <link name="b">{INERTIAL}<collision><geometry><mesh filename="cube.obj"/></geometry></collision></link>
+  <joint name="slide" type="prismatic"><parent link="a"/><child link="b"/><origin xyz="0 0.2 0"/>
+    <axis xyz="0 1 0"/><limit lower="-0.0005" upper="0.1" effort="1" velocity="1"/></joint>
+</robot>"""
+    )
+    check = collisions_check(urdf)
+    assert check.passed, check.detail
+    # At the lower limit the cubes overlap by 0.5 mm: under the tolerance, but measured.
+    deepest = float(re.search(r"deepest contact ([0-9.]+) mm", check.detail).group(1))
+    assert deepest == pytest.approx(0.5, abs=0.05) and deepest < PENETRATION_TOLERANCE_M * 1000
+
+
+def test_continuous_joints_are_turned_round(tmp_path: Path) -> None:
+    # A bar on a continuous joint sticking out sideways: turned half round it hits a post.
+    urdf = tmp_path / "model.urdf"
+    urdf.write_text(
+        f"""<robot name="spinner">
+  <link name="base">{INERTIAL}<collision><origin xyz="0 -0.3 0"/><geometry><box size="0.05 0.05 0.05"/></geometry></collision></link>
+  <link name="bar">{INERTIAL}<collision><origin xyz="0.2 0 0"/><geometry><box size="0.4 0.02 0.02"/></geometry></collision></link>
+  <joint name="spin" type="continuous"><parent link="base"/><child link="bar"/><axis xyz="0 0 1"/></joint>
+</robot>"""
+    )
+    check = collisions_check(urdf)
+    assert not check.passed and "spin at -1.57 rad" in check.detail
+
+
+def test_the_gate_runs_the_check_and_skips_it_on_a_broken_tree(tmp_path: Path) -> None:
+    report = validate_path(_write(tmp_path / "good"))
+    assert [c.name for c in report.checks][-1] == "collisions" and report.checks[-1].passed
+    broken = _write(tmp_path / "broken", extra='<link name="orphan"/>')
+    report = validate_path(broken)
+    check = {c.name: c for c in report.checks}["collisions"]
+    assert not check.passed and check.detail.startswith("not run: pybullet crashes")
+
+
+@pytest.mark.bpy
+def test_a_modelled_cupboard_passes_and_its_door_mirrored_into_the_body_fails(tmp_path: Path) -> None:
+    from modeller import build_model
+
+    model = build_model(EXAMPLES / "kitchen" / "cupboard.yaml")
+    write_model_files(model, tmp_path / "good")
+    report = validate_path(tmp_path / "good")
+    assert report.ok, report.format()
+
+    # The left door turning the wrong way swings back through the side wall; at its upper
+    # limit it lies outside the wall again, so it is caught on the way.
+    hinge = model.joint("door_0_hinge")
+    hinge.axis = -hinge.axis
+    write_model_files(model, tmp_path / "bad")
+    check = {c.name: c for c in validate_path(tmp_path / "bad").checks}["collisions"]
+    assert not check.passed
+    assert "door_0_hinge at 0.8727 (50% of its range)" in check.detail
+    assert "'body' and 'door_0'" in check.detail
+    assert np.max(_depths_mm(check.detail)) > 5
