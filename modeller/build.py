@@ -12,11 +12,21 @@ from homemodel.yaml_specs import FieldError
 from modeller.blender_scene import reset_scene, save_blend
 from modeller.blender_textures import PhotoPlacement, apply_photos
 from modeller.blender_to_model import Assembly, model_from_scene
+from modeller.builders.appliances import (
+    build_dishwasher,
+    build_fridge,
+    build_microwave,
+    build_oven,
+    build_washing_machine,
+)
 from modeller.builders.bed import build_bed
 from modeller.builders.boxes import build_box, build_pill_box
 from modeller.builders.cup import build_cup
-from modeller.builders.appliances import build_dishwasher, build_fridge, build_microwave, build_oven, build_washing_machine
-from modeller.builders.cupboard import build_cupboard, build_wall_cabinet, build_wardrobe
+from modeller.builders.cupboard import (
+    build_cupboard,
+    build_wall_cabinet,
+    build_wardrobe,
+)
 from modeller.builders.cutlery import build_fork, build_knife, build_spoon
 from modeller.builders.remote_control import build_remote_control
 from modeller.builders.seating import build_chair, build_sofa

@@ -20,8 +20,8 @@ from semantic_map.nodes import (
     SWITCH_TYPES,
     Apartment,
     DefaultPosition,
+    Jointed,
     JointStateRecord,
-    LargeArticulatedObject,
     LargeObject,
     MapObject,
     Node,
@@ -160,8 +160,6 @@ class SemanticMap:
                 raise MapError(f"small object {object_id!r}: relation {relation!r} is not one of {', '.join(RELATIONS)}")
             if parking_positions:
                 raise MapError(f"small object {object_id!r}: parking positions belong to large objects")
-            if joint_positions:
-                raise MapError(f"small object {object_id!r}: has no joints")
             node = small_object_from_model(
                 model,
                 object_id=object_id,
@@ -172,6 +170,7 @@ class SemanticMap:
                 graspable=True if graspable is None else graspable,
                 properties=properties,
                 model_ref=model_ref,
+                joint_positions=joint_positions,
             )
             parent.small_objects.append(node)
         else:
@@ -259,7 +258,7 @@ class SemanticMap:
         object_from_grasp = grasp.object_from_grasp.matrix()
         joint_name = grasp.joint
         # Each joint's motion, in the object frame, applies to everything downstream of it.
-        while joint_name is not None and isinstance(obj, LargeArticulatedObject):
+        while joint_name is not None and isinstance(obj, Jointed):
             joint = obj.joint(joint_name)
             object_from_grasp = joint.object_motion(joint.position) @ object_from_grasp
             joint_name = joint.parent
@@ -316,7 +315,9 @@ class SemanticMap:
         self, object_id: str, joint_name: str, value: float | str, time: datetime | None = None
     ) -> None:
         """Set a joint's position (rad or m), or one of its named states such as "open"."""
-        obj = self._typed(object_id, LargeArticulatedObject)
+        obj = self.node(object_id)
+        if not isinstance(obj, Jointed):
+            raise MapError(f"{object_id!r} is a {type(obj).__name__}, which has no joints")
         joint = obj.joint(joint_name)
         if isinstance(value, str):
             state = next((s for s in joint.states if s.name == value), None)

@@ -232,8 +232,23 @@ class JointStateRecord:
 
 
 @dataclass(kw_only=True)
-class SmallObject:
-    """A household item on, in or under a large object; its pose is in the parent's frame."""
+class Jointed:
+    """What an object with joints has: a large articulated object, or a small one such as a
+    pill box with a hinged lid."""
+
+    joints: list[ObjectJoint] = field(default_factory=list)
+
+    def joint(self, name: str) -> ObjectJoint:
+        for joint in self.joints:
+            if joint.name == name:
+                return joint
+        raise MapError(f"object {self.id!r} has no joint {name!r} (it has {[j.name for j in self.joints]})")
+
+
+@dataclass(kw_only=True)
+class SmallObject(Jointed):
+    """A household item on, in or under a large object; its pose is in the parent's frame.
+    Its joints, if any (a lid's hinge), are in its own frame."""
 
     id: str
     type: str
@@ -246,7 +261,7 @@ class SmallObject:
     affordances: list[str] = field(default_factory=list)
     properties: dict[str, str] = field(default_factory=dict)
     model_ref: str | None = None
-    history: list[PoseRecord] = field(default_factory=list)
+    history: list[PoseRecord | JointStateRecord] = field(default_factory=list)
 
 
 @dataclass(kw_only=True)
@@ -268,16 +283,8 @@ class LargeObject:
 
 
 @dataclass(kw_only=True)
-class LargeArticulatedObject(LargeObject):
+class LargeArticulatedObject(LargeObject, Jointed):
     """A large object with joints (doors, drawers, knobs) moved by its grasp points."""
-
-    joints: list[ObjectJoint] = field(default_factory=list)
-
-    def joint(self, name: str) -> ObjectJoint:
-        for joint in self.joints:
-            if joint.name == name:
-                return joint
-        raise MapError(f"object {self.id!r} has no joint {name!r} (it has {[j.name for j in self.joints]})")
 
 
 @dataclass(kw_only=True)

@@ -98,6 +98,17 @@ def _grasp_points(model: Model) -> list[ObjectGraspPoint]:
     return points
 
 
+def _map_joints(model: Model, joint_positions: dict[str, float] | None) -> list[ObjectJoint]:
+    """The model's movable joints for the map, at `joint_positions` (default: zero)."""
+    positions = dict(joint_positions or {})
+    movable = model.movable_joints
+    unknown = sorted(set(positions) - {j.name for j in movable})
+    if unknown:
+        raise MapError(f"model {model.name!r}: no movable joints named {unknown}")
+    object_from_links = model.world_from_links()
+    return [_map_joint(model, j, object_from_links, positions.get(j.name)) for j in movable]
+
+
 def large_object_from_model(
     model: Model,
     *,
@@ -121,15 +132,9 @@ def large_object_from_model(
         properties=_properties(model, properties),
         model_ref=model_ref,
     )
-    positions = dict(joint_positions or {})
-    movable = model.movable_joints
-    unknown = sorted(set(positions) - {j.name for j in movable})
-    if unknown:
-        raise MapError(f"model {model.name!r}: no movable joints named {unknown}")
-    if not movable:
+    joints = _map_joints(model, joint_positions)
+    if not joints:
         return LargeObject(**common)  # type: ignore[arg-type]
-    object_from_links = model.world_from_links()
-    joints = [_map_joint(model, j, object_from_links, positions.get(j.name)) for j in movable]
     return LargeArticulatedObject(**common, joints=joints)  # type: ignore[arg-type]
 
 
@@ -144,11 +149,10 @@ def small_object_from_model(
     graspable: bool,
     properties: dict[str, str] | None,
     model_ref: str | None,
+    joint_positions: dict[str, float] | None = None,
 ) -> SmallObject:
-    """A small object; without default positions, where it is registered is its default."""
-    if model.movable_joints:
-        names = [j.name for j in model.movable_joints]
-        raise MapError(f"model {model.name!r} has movable joints {names}: only large objects may be articulated")
+    """A small object (with its joints, if it has any: a pill box's lid); without default
+    positions, where it is registered is its default."""
     positions = list(default_positions or [DefaultPosition(name="registered", parent_from_object=parent_from_object)])
     names = [p.name for p in positions]
     if len(set(names)) != len(names):
@@ -165,4 +169,5 @@ def small_object_from_model(
         affordances=_affordances(model),
         properties=_properties(model, properties),
         model_ref=model_ref,
+        joints=_map_joints(model, joint_positions),
     )

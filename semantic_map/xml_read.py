@@ -108,7 +108,8 @@ class _Reader:
                 self.at(p, lambda p=p: DefaultPosition(name=p.get("name"), parent_from_object=_pose(p)))
                 for p in el.iterfind(q("defaultPosition"))
             ],
-            history=self.history(el),  # type: ignore[arg-type]
+            joints=[self.joint(j) for j in el.iterfind(q("joint"))],
+            history=self.history(el),
         )
 
     def large_object(self, el: etree._Element) -> LargeObject:

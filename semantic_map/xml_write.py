@@ -104,6 +104,8 @@ def _small_object(owner: etree._Element, obj: SmallObject) -> None:
     for position in obj.default_positions:
         _posed(el, "defaultPosition", position.parent_from_object, name=position.name)
     _semantics(el, obj)
+    for joint in obj.joints:
+        _joint(el, joint)
     _grasp_points(el, obj.grasp_points)
     _history(el, obj.history)
 

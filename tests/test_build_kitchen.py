@@ -29,7 +29,17 @@ def test_build_writes_every_model_and_the_map(built: Path) -> None:
     import json
 
     rows = json.loads((built / "summary.json").read_text())
-    assert {r["id"] for r in rows} == {"table_1", "cupboard_1", "red_cup", "blue_cup"}
+    assert {r["id"] for r in rows} == {
+        "table_1",
+        "cupboard_1",
+        "fridge_1",
+        "oven_1",
+        "red_cup",
+        "blue_cup",
+        "bowl_1",
+        "sugar_container",
+        "pill_box",
+    }
     assert all(r["valid"] for r in rows), [r["failed_checks"] for r in rows]
     for row in rows:
         folder = built / "models" / row["id"]
@@ -37,6 +47,30 @@ def test_build_writes_every_model_and_the_map(built: Path) -> None:
             assert (folder / name).is_file(), f"{row['id']}: {name} missing"
     cupboard = next(r for r in rows if r["id"] == "cupboard_1")
     assert cupboard["joints"] >= 3 and cupboard["grasp_points"] >= 3
+
+
+def test_the_figure_47_scenario_is_in_the_map(built: Path) -> None:
+    """D3.1 Figure 47: a kitchen and a bathroom; a table, cupboard, fridge and oven in the
+    kitchen, each with parking positions; four small objects on the table; the pill box in
+    the cupboard with its lid's hinge; the oven's knobs with their discrete states."""
+    from semantic_map import LargeArticulatedObject, load_map
+
+    smap = load_map(built / "map.xml")
+    assert [r.id for r in smap.apartment.rooms] == ["kitchen", "bathroom"]
+    kitchen = smap.node("kitchen")
+    assert {o.type for o in kitchen.objects} == {"table", "cupboard", "fridge", "oven"}
+    for large in kitchen.objects:
+        assert smap.parking_positions(large.id), large.id
+    assert {s.type for s in smap.node("table_1").small_objects} == {"cup", "bowl", "sugar_container"}
+    pill_box = smap.node("pill_box")
+    assert (pill_box.parent, pill_box.relation) == ("cupboard_1", "in")
+    assert [j.name for j in pill_box.joints] == ["lid_hinge"]
+    for appliance in ("fridge_1", "oven_1"):
+        assert isinstance(smap.node(appliance), LargeArticulatedObject)
+    knobs = [j for j in smap.node("oven_1").joints if j.states]
+    assert knobs and all(j.states[0].name == "off" for j in knobs)
+    smap.set_joint_state("oven_1", knobs[0].name, knobs[0].states[2].name)
+    assert smap.node("oven_1").joint(knobs[0].name).position == pytest.approx(knobs[0].states[2].position)
 
 
 def test_every_built_model_passes_the_gate_from_the_cli(built: Path) -> None:

@@ -40,7 +40,9 @@ BLUE_CUP_POSE = transform_from_xyz_rpy((0.3, -0.1, 0.75), (0.0, 0.0, 0.4))
 
 
 def _link(name: str, mesh: trimesh.Trimesh, at: np.ndarray | None = None) -> Link:
-    visual = Visual(name=name, mesh=mesh, material=Material(name="grey"), link_from_visual=np.eye(4) if at is None else at)
+    visual = Visual(
+        name=name, mesh=mesh, material=Material(name="grey"), link_from_visual=np.eye(4) if at is None else at
+    )
     return Link(name=name, visuals=[visual])
 
 
@@ -52,7 +54,9 @@ def cup_model(category: str = "cup", colour: str = "white") -> Model:
     return Model(
         name=category,
         links=[_link("body", trimesh.creation.cylinder(radius=0.04, height=0.1, sections=12))],
-        grasp_points=[GraspPoint(name="side", link="body", link_from_grasp=transform_from_xyz_rpy((0.04, 0, 0.05)), kind="body")],
+        grasp_points=[
+            GraspPoint(name="side", link="body", link_from_grasp=transform_from_xyz_rpy((0.04, 0, 0.05)), kind="body")
+        ],
         category=category,
         affordances=["container"],
         properties={"colour": colour, "material": "ceramic"},
@@ -89,8 +93,15 @@ def cupboard_model() -> Model:
         ],
         joints=[hinge, knob],
         grasp_points=[
-            GraspPoint(name="door_handle", link="door", link_from_grasp=transform_from_xyz_rpy((-0.55, 0.45, 0.03)), kind="handle"),
-            GraspPoint(name="lock_knob", link="knob", link_from_grasp=transform_from_xyz_rpy((0, 0, 0.03)), kind="knob"),
+            GraspPoint(
+                name="door_handle",
+                link="door",
+                link_from_grasp=transform_from_xyz_rpy((-0.55, 0.45, 0.03)),
+                kind="handle",
+            ),
+            GraspPoint(
+                name="lock_knob", link="knob", link_from_grasp=transform_from_xyz_rpy((0, 0, 0.03)), kind="knob"
+            ),
         ],
         category="cupboard",
         affordances=["container"],
@@ -109,9 +120,14 @@ def fridge_model() -> Model:
     )
     return Model(
         name="fridge",
-        links=[_link("body", trimesh.creation.box((0.7, 0.6, 1.8))), _link("drawer", trimesh.creation.box((0.6, 0.5, 0.3)))],
+        links=[
+            _link("body", trimesh.creation.box((0.7, 0.6, 1.8))),
+            _link("drawer", trimesh.creation.box((0.6, 0.5, 0.3))),
+        ],
         joints=[drawer],
-        grasp_points=[GraspPoint(name="drawer_handle", link="drawer", link_from_grasp=transform_from_xyz_rpy((0.32, 0, 0.1)))],
+        grasp_points=[
+            GraspPoint(name="drawer_handle", link="drawer", link_from_grasp=transform_from_xyz_rpy((0.32, 0, 0.1)))
+        ],
         category="fridge",
         affordances=["container"],
     )
@@ -127,7 +143,12 @@ def build_house() -> SemanticMap:
     smap = SemanticMap.new(apartment_id="house", name="House")
     smap.add_room(room_id="kitchen", name="Kitchen", point_cloud="clouds/kitchen.pcd")
     smap.add_room(room_id="bathroom", name="Bathroom")
-    smap.add_switch(room_id="kitchen", switch_id="kitchen_light", world_from_switch=transform_from_xyz_rpy((0, 0.1, 1.2)), type="rotational")
+    smap.add_switch(
+        room_id="kitchen",
+        switch_id="kitchen_light",
+        world_from_switch=transform_from_xyz_rpy((0, 0.1, 1.2)),
+        type="rotational",
+    )
     smap.register_model(
         box_model("table", (1.2, 0.8, 0.75), affordances=["supporting_surface"]),
         object_id="table",
@@ -135,7 +156,11 @@ def build_house() -> SemanticMap:
         parent_from_object=TABLE_POSE,
         model_ref="models/table/model.urdf",
         # Given out of order: the map keeps the default first, the rest as given.
-        parking_positions=[parking("left", 1.0, 1.0, 0.0), parking("front", 2.0, 0.0, np.pi / 2, default=True), parking("right", 3.0, 1.0, np.pi)],
+        parking_positions=[
+            parking("left", 1.0, 1.0, 0.0),
+            parking("front", 2.0, 0.0, np.pi / 2, default=True),
+            parking("right", 3.0, 1.0, np.pi),
+        ],
     )
     smap.register_model(
         cupboard_model(),
@@ -159,7 +184,13 @@ def build_house() -> SemanticMap:
         ("sugar", cup_model("sugar_container"), (0.1, -0.2)),
     ]
     for object_id, model, (x, y) in on_table:
-        smap.register_model(model, object_id=object_id, parent_id="table", relation="on", parent_from_object=transform_from_xyz_rpy((x, y, 0.75)))
+        smap.register_model(
+            model,
+            object_id=object_id,
+            parent_id="table",
+            relation="on",
+            parent_from_object=transform_from_xyz_rpy((x, y, 0.75)),
+        )
     smap.register_model(
         cup_model(colour="white"),
         object_id="blue_cup",
@@ -195,7 +226,9 @@ def test_blue_cup_walk(house: SemanticMap) -> None:
     assert parent is not None and parent.id == "table"
     positions = house.parking_positions(parent.id)
     assert [(p.name, p.default) for p in positions] == [("front", True), ("left", False), ("right", False)]
-    np.testing.assert_allclose(np.asarray(positions[0].world_from_base), transform_from_xyz_rpy((2, 0, 0), (0, 0, np.pi / 2)), atol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(positions[0].world_from_base), transform_from_xyz_rpy((2, 0, 0), (0, 0, np.pi / 2)), atol=1e-12
+    )
     assert [m.id for m in house.find(type="cup")] == ["red_cup", "blue_cup"]
     assert house.find(type="cup", properties={"colour": "green"}) == []
 
@@ -228,7 +261,13 @@ def test_articulated_model_becomes_large_articulated_object(house: SemanticMap) 
     assert (cupboard.type, cupboard.affordances, cupboard.graspable) == ("cupboard", ["container"], False)
     assert cupboard.properties == {"colour": "white"}
     hinge, lock = cupboard.joints
-    assert (hinge.name, hinge.type, hinge.limits, hinge.position, hinge.parent) == ("door_hinge", "revolute", (0.0, 1.9), 0.0, None)
+    assert (hinge.name, hinge.type, hinge.limits, hinge.position, hinge.parent) == (
+        "door_hinge",
+        "revolute",
+        (0.0, 1.9),
+        0.0,
+        None,
+    )
     assert [(s.name, s.position) for s in hinge.states] == [("closed", 0.0), ("open", 1.57)]
     # The hinge axis is y in its rolled joint frame, z (vertical) in the object frame.
     np.testing.assert_allclose(hinge.axis, (0, 0, 1), atol=1e-12)
@@ -261,10 +300,14 @@ def test_grasp_points_follow_joint_states(house: SemanticMap) -> None:
     house.set_joint_state("cupboard", "lock", -0.7, time=T0)
     posed = model.world_from_grasp_points({"door_hinge": 1.2, "lock": -0.7})
     for name in ("door_handle", "lock_knob"):
-        np.testing.assert_allclose(house.world_from_grasp_point("cupboard", name), world_from_cupboard @ posed[name], atol=1e-12)
+        np.testing.assert_allclose(
+            house.world_from_grasp_point("cupboard", name), world_from_cupboard @ posed[name], atol=1e-12
+        )
     house.set_joint_state("fridge", "freezer_drawer", 0.3, time=T0)
     drawer = fridge_model().world_from_grasp_points({"freezer_drawer": 0.3})["drawer_handle"]
-    np.testing.assert_allclose(house.world_from_grasp_point("fridge", "drawer_handle"), house.world_from_object("fridge") @ drawer, atol=1e-12)
+    np.testing.assert_allclose(
+        house.world_from_grasp_point("fridge", "drawer_handle"), house.world_from_object("fridge") @ drawer, atol=1e-12
+    )
 
 
 def test_registration_errors(house: SemanticMap) -> None:
@@ -284,8 +327,6 @@ def test_registration_errors(house: SemanticMap) -> None:
             parent_id="kitchen",
             parking_positions=[parking("a", 0, 0, 0, default=True), parking("b", 1, 0, 0, default=True)],
         )
-    with pytest.raises(MapError, match="only large objects may be articulated"):
-        house.register_model(fridge_model(), object_id="toy_fridge", parent_id="table")
     with pytest.raises(MapError, match="relation .* applies to small objects only"):
         house.register_model(box_model("chair", (0.4, 0.4, 0.9)), object_id="chair", parent_id="kitchen", relation="on")
     with pytest.raises(MapError, match="not a valid id"):
@@ -319,7 +360,9 @@ def test_round_trip_is_exact_and_deterministic(house: SemanticMap, house_file: P
 def test_updates_survive_a_round_trip(house: SemanticMap, tmp_path: Path) -> None:
     house.update_pose("table", transform_from_xyz_rpy((2.5, 1.0, 0.0)), time=T0)
     house.set_joint_state("cupboard", "door_hinge", "open", time=T0 + timedelta(seconds=1))
-    house.move_object("bowl", parent_id="cupboard", relation="in", parent_from_object=transform_from_xyz_rpy((0, 0, 0.4)), time=T0)
+    house.move_object(
+        "bowl", parent_id="cupboard", relation="in", parent_from_object=transform_from_xyz_rpy((0, 0, 0.4)), time=T0
+    )
     path = tmp_path / "map.xml"
     save_map(house, path)
     loaded = load_map(path)
@@ -363,7 +406,11 @@ def test_schema_requires_a_default_parking_position(house_file: Path) -> None:
 
 
 def test_load_checks_joint_positions_against_limits(house_file: Path) -> None:
-    _invalid(house_file, 'name="door_hinge" type="revolute" position="0.0"', 'name="door_hinge" type="revolute" position="2.5"')
+    _invalid(
+        house_file,
+        'name="door_hinge" type="revolute" position="0.0"',
+        'name="door_hinge" type="revolute" position="2.5"',
+    )
     with pytest.raises(MapError, match=r"map\.xml: line \d+: joint 'door_hinge': position 2.5 is outside its limits"):
         load_map(house_file)
 
@@ -401,7 +448,9 @@ HOSTILE = {
     "external-entity": b'<?xml version="1.0"?>\n<!DOCTYPE x [<!ENTITY e SYSTEM "file:///etc/passwd">]>\n'
     b'<apartment xmlns="https://homemodel.dev/semantic-map/1" id="h" name="&e;"/>\n',
     "billion-laughs": b'<?xml version="1.0"?>\n<!DOCTYPE lolz [\n <!ENTITY lol "lol">\n'
-    + b"".join(b' <!ENTITY lol%d "%s">\n' % (i, (b"&lol%d;" % (i - 1) if i > 1 else b"&lol;") * 10) for i in range(1, 10))
+    + b"".join(
+        b' <!ENTITY lol%d "%s">\n' % (i, (b"&lol%d;" % (i - 1) if i > 1 else b"&lol;") * 10) for i in range(1, 10)
+    )
     + b']>\n<apartment xmlns="https://homemodel.dev/semantic-map/1" id="h" name="&lol9;"/>\n',
 }
 
@@ -423,7 +472,9 @@ def test_updates_keep_a_timestamped_history(house: SemanticMap, tmp_path: Path) 
     old_pose = cup.parent_from_object
     house.update_pose("blue_cup", transform_from_xyz_rpy((0.1, 0.1, 0.75)), time=T0)
     assert cup.history == [PoseRecord(until=T0, pose=old_pose, parent="table", relation="on")]
-    np.testing.assert_allclose(house.world_from_object("blue_cup"), TABLE_POSE @ transform_from_xyz_rpy((0.1, 0.1, 0.75)), atol=1e-12)
+    np.testing.assert_allclose(
+        house.world_from_object("blue_cup"), TABLE_POSE @ transform_from_xyz_rpy((0.1, 0.1, 0.75)), atol=1e-12
+    )
 
     house.set_joint_state("cupboard", "door_hinge", "open", time=T0 + timedelta(minutes=1))
     house.set_joint_state("cupboard", "door_hinge", 0.25, time=T0 + timedelta(minutes=2))
@@ -440,7 +491,10 @@ def test_updates_keep_a_timestamped_history(house: SemanticMap, tmp_path: Path) 
     save_map(house, path)
     text = path.read_text()
     assert '<jointState until="2025-03-01T09:31:00Z" joint="door_hinge" position="0.0"/>' in text
-    assert '<pose until="2025-03-01T09:30:00Z" parent="table" relation="on" xyz="0.3 -0.1 0.75" rpy="0.0 0.0 0.4"/>' in text
+    assert (
+        '<pose until="2025-03-01T09:30:00Z" parent="table" relation="on" xyz="0.3 -0.1 0.75" rpy="0.0 0.0 0.4"/>'
+        in text
+    )
     assert '<axis xyz="0.0 0.0 1.0"/>' in text  # float noise of the rolled joint frame rounded away
 
 
@@ -451,7 +505,7 @@ def test_history_refuses_bad_updates(house: SemanticMap) -> None:
         house.set_joint_state("cupboard", "door_hinge", "ajar", time=T0)
     with pytest.raises(MapError, match="has no joint 'lid'"):
         house.set_joint_state("cupboard", "lid", 0.1, time=T0)
-    with pytest.raises(MapError, match="not a LargeArticulatedObject"):
+    with pytest.raises(MapError, match="'table' is a LargeObject, which has no joints"):
         house.set_joint_state("table", "door_hinge", 0.1, time=T0)
     assert house.node("cupboard").history == []
     house.set_joint_state("cupboard", "door_hinge", 0.5, time=T0)
@@ -462,9 +516,40 @@ def test_history_refuses_bad_updates(house: SemanticMap) -> None:
 
 
 def test_move_object_records_where_it_was(house: SemanticMap) -> None:
-    house.move_object("blue_cup", parent_id="cupboard", relation="in", parent_from_object=transform_from_xyz_rpy((0, 0, 0.5)), time=T0)
+    house.move_object(
+        "blue_cup", parent_id="cupboard", relation="in", parent_from_object=transform_from_xyz_rpy((0, 0, 0.5)), time=T0
+    )
     cup = house.node("blue_cup")
     assert house.path_to("blue_cup") == ["house", "kitchen", "cupboard", "blue_cup"]
     assert (cup.parent, cup.relation) == ("cupboard", "in")
     assert [o.id for o in house.node("table").small_objects] == ["red_cup", "bowl", "sugar"]
     assert (cup.history[-1].parent, cup.history[-1].relation) == ("table", "on")
+
+
+def test_small_object_with_joints(house: SemanticMap, tmp_path: Path) -> None:
+    """A small object may be articulated (a pill box's lid): its joints, grasp points that
+    follow them and its joint-state history reach the map and survive a save and load."""
+    house.register_model(
+        fridge_model(),
+        object_id="toy_fridge",
+        parent_id="table",
+        parent_from_object=transform_from_xyz_rpy((0, 0, 0.75)),
+    )
+    toy = house.node("toy_fridge")
+    assert isinstance(toy, SmallObject) and [j.name for j in toy.joints] == ["freezer_drawer"]
+    closed = house.world_from_grasp_point("toy_fridge", "drawer_handle")
+    house.set_joint_state("toy_fridge", "freezer_drawer", 0.25, time=datetime(2026, 1, 1, tzinfo=timezone.utc))
+    opened = house.world_from_grasp_point("toy_fridge", "drawer_handle")
+    # The drawer slides 0.25 m along the toy's +x, which the table's pose turns in the map frame.
+    world_from_table = house.world_from_object("table")
+    np.testing.assert_allclose(opened[:3, 3] - closed[:3, 3], world_from_table[:3, :3] @ [0.25, 0, 0], atol=1e-9)
+    with pytest.raises(MapError, match="outside its limits"):
+        house.set_joint_state("toy_fridge", "freezer_drawer", 0.5)
+    path = tmp_path / "map.xml"
+    save_map(house, path)
+    loaded = load_map(path)
+    reloaded = loaded.node("toy_fridge")
+    assert isinstance(reloaded, SmallObject)
+    assert reloaded.joint("freezer_drawer").position == pytest.approx(0.25)
+    assert [r.joint for r in reloaded.history] == ["freezer_drawer"]
+    np.testing.assert_allclose(loaded.world_from_grasp_point("toy_fridge", "drawer_handle"), opened, atol=1e-9)

@@ -6,7 +6,13 @@ Each family of kinds has its module; `SPEC_TYPES` maps a spec's `kind` field to 
 
 from __future__ import annotations
 
-from modeller.specs.appliances import DishwasherSpec, FridgeSpec, MicrowaveSpec, OvenSpec, WashingMachineSpec
+from modeller.specs.appliances import (
+    DishwasherSpec,
+    FridgeSpec,
+    MicrowaveSpec,
+    OvenSpec,
+    WashingMachineSpec,
+)
 from modeller.specs.cabinets import CupboardSpec, WallCabinetSpec, WardrobeSpec
 from modeller.specs.common import (
     NAMED_COLOURS,
