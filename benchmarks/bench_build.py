@@ -1,11 +1,12 @@
-"""Benchmark: spec -> Blender build -> URDF/glTF export -> validation gate, per kitchen object.
+"""Benchmark: spec -> Blender build -> URDF/glTF export -> validation gate, per spec of the
+catalogue (every kind) and of the photo-textured examples.
 
 Baselines in the same run (these machines are shared and noisy, so ratios matter more
 than seconds): trimesh's own glTF export of the same meshes beside our glb writer, and a
 bare pybullet load of the URDF beside our whole validation gate (which also runs
 check_urdf, yourdfpy, the pybullet joint sweeps and the Khronos validator in node).
 
-Run: .venv/bin/python benchmarks/bench_build.py [--repeat 3]
+Run: .venv/bin/python benchmarks/bench_build.py [--repeat 3] [SPEC_FOLDER ...]
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ from articulation.urdf_export import write_urdf
 from articulation.validate import validate_path
 from modeller import build_model
 
-EXAMPLES = Path(__file__).resolve().parent.parent / "examples" / "kitchen"
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+DEFAULT_FOLDERS = (EXAMPLES / "catalogue", EXAMPLES / "textured")
 
 
 def _timed(fn) -> float:
@@ -55,8 +57,9 @@ def _pybullet_load(urdf: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="runs per object; the median is shown")
+    parser.add_argument("folders", nargs="*", type=Path, default=DEFAULT_FOLDERS, help="folders of specs")
     args = parser.parse_args()
-    specs = sorted(p for p in EXAMPLES.glob("*.yaml") if p.name != "home.yaml")
+    specs = [p for folder in args.folders for p in sorted(folder.glob("*.yaml")) if p.name != "home.yaml"]
     build_model(specs[0])  # warm: the first bpy call loads Blender
     table = Table(title=f"spec to validated model, median of {args.repeat} (seconds)")
     for column in ("spec", "build", "urdf+obj", "glb", "trimesh glb", "glb/trimesh", "validate", "pybullet load", "total"):
@@ -65,7 +68,7 @@ def main() -> None:
         for spec in specs:
             runs: dict[str, list[float]] = {}
             for r in range(args.repeat):
-                folder = Path(tmp) / f"{spec.stem}_{r}"
+                folder = Path(tmp) / f"{spec.parent.name}_{spec.stem}_{r}"
                 model = None
 
                 def build() -> None:
@@ -84,7 +87,7 @@ def main() -> None:
             med = {stage: statistics.median(times) for stage, times in runs.items()}
             total = med["build"] + med["urdf"] + med["glb"] + med["validate"]
             table.add_row(
-                spec.stem,
+                f"{spec.parent.name}/{spec.stem}",
                 f"{med['build']:.3f}",
                 f"{med['urdf']:.3f}",
                 f"{med['glb']:.3f}",
