@@ -1,0 +1,241 @@
+"""`homemodel completion library|train|run|benchmark`: a whole mesh of a new object from one depth image."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import typer
+from rich import box
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+)
+from rich.table import Table
+
+from homemodel.cli.errors import exit_on_error
+
+completion_app = typer.Typer(no_args_is_help=True)
+
+
+def _console() -> Console:
+    # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
+    return Console(width=None if sys.stdout.isatty() else 120)
+
+
+@contextlib.contextmanager
+def _progress_bar(console: Console) -> Iterator:
+    """A rich bar and the `progress(stage, done, total)` callback that drives it."""
+    with Progress(
+        TextColumn("[bold]{task.description:<24}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("starting", total=None)
+        yield lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total)
+
+
+def _print_table(console: Console, title: str, rows: list[tuple[str, str]]) -> None:
+    table = Table(title=title, box=box.SIMPLE_HEAD)
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    for name, value in rows:
+        table.add_row(name, value)
+    console.print(table)
+
+
+@completion_app.command("library")
+def library_command(
+    out: Path = typer.Option(..., "--out", help="folder to write LIBRARY/<class>/<class>_NNN.ply into"),
+    classes: str = typer.Option("bottle,bowl,cup,glass,spoon", "--classes", help="comma-separated classes"),
+    per_class: int = typer.Option(20, "--per-class", min=1, max=500, help="instances per class"),
+    seed: int = typer.Option(0, "--seed", help="seed of the generator"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Write the procedural class library (cups and mugs, bottles, glasses, bowls, spoons) to start from."""
+    from homemodel.atomic import atomic_dir
+    from shape_completion.library import write_procedural_library
+
+    with exit_on_error():
+        names = [c.strip() for c in classes.split(",") if c.strip()]
+        with atomic_dir(out, force=force) as tmp:
+            written = write_procedural_library(tmp, classes=names, per_class=per_class, seed=seed)
+    typer.echo(f"wrote {len(written)} meshes in {len(names)} classes to {out}")
+
+
+@completion_app.command("train")
+def train_command(
+    library_dir: Path = typer.Argument(..., help="LIBRARY/<class>/<mesh files>, metres, z up"),
+    out: Path = typer.Option(..., "--out", help="model file to write (joblib)"),
+    views: int = typer.Option(40, "--views", min=4, max=500, help="depth views per mesh on a sphere"),
+    filler_queries: int = typer.Option(
+        10, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
+    ),
+    seed: int = typer.Option(0, "--seed", help="random_state of every learner"),
+    force: bool = typer.Option(False, "--force", help="replace an existing model file"),
+) -> None:
+    """Render the library, learn the retrieval forest and the boosted filler, save the model."""
+    from homemodel.errors import OutputExistsError
+    from shape_completion.library import load_library
+    from shape_completion.model_io import save_model
+    from shape_completion.pipeline import ShapeCompleter
+
+    console = _console()
+    with exit_on_error():
+        if out.exists() and not force:
+            raise OutputExistsError(f"{out}: exists (use --force to replace it)")
+        library = load_library(library_dir)
+        with _progress_bar(console) as progress:
+            completer = ShapeCompleter(n_views=views, filler_queries_per_class=filler_queries, random_state=seed).fit(
+                library, progress=progress
+            )
+        save_model(completer, out)
+    _print_table(
+        console,
+        f"homemodel completion train {library_dir}",
+        [
+            ("classes", ", ".join(library.class_names)),
+            ("meshes", str(len(library.meshes))),
+            ("training views", str(len(completer.view_shape_))),
+            ("training s", f"{completer.training_seconds_:.1f}"),
+            ("library fingerprint", library.fingerprint[:16]),
+        ],
+    )
+    console.print(f"model: {out}")
+
+
+@completion_app.command("run")
+def run_command(
+    model_file: Path = typer.Argument(..., help="a model file from `homemodel completion train`"),
+    depth_png: Path = typer.Argument(..., help="16-bit depth PNG (units of depth_scale_m) or float EXR in metres"),
+    camera: Path = typer.Option(..., "--camera", help="camera.yaml: width, height, fx, fy, cx, cy, depth_scale_m"),
+    out: Path = typer.Option(..., "--out", help="model folder to write"),
+    mask: Path | None = typer.Option(None, "--mask", help="8-bit mask PNG, non-zero on the object"),
+    library: Path | None = typer.Option(None, "--library", help="refuse the model unless trained on this library"),
+    density_kg_m3: float = typer.Option(700.0, "--density", min=1.0, help="for the inertial, kg/m^3"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Complete the object seen in one depth image into a model folder, in the camera's frame (OpenCV)."""
+    from shape_completion.library import fingerprint_files, library_files
+    from shape_completion.model_export import completion_model, export_completion
+    from shape_completion.model_io import load_model
+    from shape_completion.query_input import load_query
+
+    console = _console()
+    with exit_on_error():
+        from homemodel.atomic import prepare_out_dir
+
+        prepare_out_dir(out, force=force, inputs=[model_file, depth_png, camera])
+        expected = fingerprint_files(library_files(library)) if library is not None else None
+        completer = load_model(model_file, library_fingerprint=expected)
+        depth, pinhole = load_query(depth_png, camera, mask)
+        completion = completer.complete(depth, pinhole)
+        fit = completion.fit
+        summary = {
+            "class": completion.class_name,
+            "retrieved": completion.retrieved_name,
+            "query_points": int(len(fit.query)),
+            "match_distance_m": fit.match_distance_m,
+            "fit_distance_m": fit.fit_distance_m,
+            "symmetry_planes": len(fit.planes_camera),
+            "triangles": int(len(completion.mesh.faces)),
+            "extents_m": [float(v) for v in completion.mesh.extents],
+            "watertight": bool(completion.mesh.is_watertight),
+            "seconds": completion.seconds,
+            "frame": "query camera, OpenCV (x right, y down, z forward), metres",
+        }
+        model = completion_model(
+            completion.mesh, name=depth_png.stem, category=completion.class_name, density_kg_m3=density_kg_m3
+        )
+        export_completion(model, out, summary=summary, force=force, inputs=(model_file, depth_png, camera))
+    rows = [
+        ("class (retrieved)", f"{completion.class_name} ({completion.retrieved_name})"),
+        ("match distance mm", f"{1000 * fit.match_distance_m:.2f}"),
+        ("fit distance mm", f"{1000 * fit.fit_distance_m:.2f}"),
+        ("symmetry planes", str(len(fit.planes_camera))),
+        ("triangles", str(len(completion.mesh.faces))),
+        ("size mm", " x ".join(f"{1000 * v:.0f}" for v in completion.mesh.extents)),
+    ] + [(f"{stage} s", f"{seconds:.2f}") for stage, seconds in completion.seconds.items()]
+    _print_table(console, f"homemodel completion run {depth_png}", rows)
+    console.print(f"model: {out}")
+
+
+@completion_app.command("benchmark")
+def benchmark_command(
+    library_dir: Path = typer.Argument(..., help="LIBRARY/<class>/<mesh files>"),
+    out: Path = typer.Option(..., "--out", help="folder for results.json, table.md, examples.png"),
+    train: int = typer.Option(15, "--train", min=2, help="training instances per class (first by name)"),
+    test: int = typer.Option(5, "--test", min=1, help="unseen test instances per class (the next ones)"),
+    views: int = typer.Option(40, "--views", min=4, max=500, help="depth views per training mesh"),
+    queries: int = typer.Option(4, "--queries", min=1, help="random query views per test instance"),
+    filler_queries: int = typer.Option(
+        10, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
+    ),
+    seed: int = typer.Option(0, "--seed", help="seed of the learners and the query views"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """D3.1 Table 1's protocol: per class, VoxelIOU and surface distance of each stage and of the oracle."""
+    from homemodel.atomic import (
+        atomic_dir,
+        prepare_out_dir,
+        write_bytes_atomic,
+        write_text_atomic,
+    )
+    from shape_completion.benchmark import STAGES, BenchmarkOptions, run_benchmark
+    from shape_completion.figures import examples_png
+    from shape_completion.library import load_library
+
+    console = _console()
+    options = BenchmarkOptions(
+        train_per_class=train,
+        test_per_class=test,
+        n_views=views,
+        queries_per_instance=queries,
+        filler_queries_per_class=filler_queries,
+        seed=seed,
+    )
+    with exit_on_error():
+        prepare_out_dir(out, force=force, inputs=[library_dir])
+        library = load_library(library_dir)
+        with _progress_bar(console) as progress:
+            result = run_benchmark(library, options, progress=progress)
+        means = result.class_means()
+        results = {
+            "options": vars(options),
+            "classes": means,
+            "training_seconds": result.training_seconds,
+            "mean_query_seconds": result.mean_query_seconds,
+            "max_query_seconds": result.max_query_seconds,
+            "queries": [vars(s) for s in result.scores],
+        }
+        with atomic_dir(out, force=force, inputs=[library_dir]) as tmp:
+            write_text_atomic(tmp / "results.json", json.dumps(results, indent=2) + "\n")
+            write_text_atomic(tmp / "table.md", result.markdown())
+            write_bytes_atomic(tmp / "examples.png", examples_png(result.examples))
+    table = Table(title=f"homemodel completion benchmark {library_dir}", box=box.SIMPLE_HEAD)
+    table.add_column("class")
+    for stage in STAGES:
+        table.add_column(f"IoU {stage}", justify="right")
+    for stage in STAGES:
+        table.add_column(f"dist {stage}", justify="right")
+    for class_name, row in means.items():
+        table.add_row(
+            class_name,
+            *(f"{row[f'iou_{st}']:.3f}" for st in STAGES),
+            *(f"{row[f'distance_{st}']:.4f}" for st in STAGES),
+        )
+    console.print(table)
+    console.print(
+        f"training: {result.training_seconds:.1f} s; query: mean {result.mean_query_seconds:.2f} s,"
+        f" max {result.max_query_seconds:.2f} s\nresults: {out}"
+    )

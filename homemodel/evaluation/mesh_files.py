@@ -1,0 +1,39 @@
+"""Read a mesh file (or a model folder's model.glb) into one triangle mesh, with one-line errors."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from homemodel.errors import InputError
+from homemodel.input_files import read_bounded
+
+MAX_MESH_BYTES = 1024 * 1024 * 1024
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
+# A model folder's model.glb turns the z-up model into glTF's y-up at its root node; this undoes it.
+Z_UP_FROM_Y_UP = trimesh.transformations.rotation_matrix(np.pi / 2, [1.0, 0.0, 0.0])
+
+
+def load_mesh(path: Path) -> trimesh.Trimesh:
+    """All the triangles of a mesh file, or of `model.glb` when `path` is a model folder,
+    in the file's frame (scene nodes' transforms applied); a model folder's in the model's z-up frame."""
+    path = Path(path)
+    model_folder = path.is_dir()
+    if model_folder:
+        path = path / "model.glb"
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise InputError(f"{path}: not a mesh file (expected one of {', '.join(MESH_SUFFIXES)} or a model folder)")
+    data = read_bounded(path, MAX_MESH_BYTES)
+    try:
+        loaded = trimesh.load(io.BytesIO(data), file_type=suffix[1:], force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types on corrupt files
+        raise InputError(f"{path}: cannot read the mesh: {type(exc).__name__}: {exc}") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise InputError(f"{path}: the file holds no triangles")
+    if model_folder:
+        loaded.apply_transform(Z_UP_FROM_Y_UP)
+    return loaded

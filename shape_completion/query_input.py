@@ -1,0 +1,69 @@
+"""Read a query: a 16-bit depth PNG (or float EXR), its camera.yaml, and an optional mask."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from homemodel.errors import InputError
+from homemodel.input_files import read_bounded
+from shape_completion.pipeline import check_query
+from shape_completion.render import Pinhole
+from turntable.camera import Camera, load_camera
+from turntable.depth_io import MAX_IMAGE_BYTES, read_depth_m
+
+
+def pinhole_of(camera: Camera) -> Pinhole:
+    return Pinhole(width=camera.width, height=camera.height, fx=camera.fx, fy=camera.fy, cx=camera.cx, cy=camera.cy)
+
+
+def undistorted_depth(depth_m: np.ndarray, camera: Camera) -> np.ndarray:
+    """The depth image resampled (nearest pixel, so depths are never mixed) to the distortion-free
+    pinhole camera with the same intrinsics."""
+    import cv2
+
+    map_x, map_y = cv2.initUndistortRectifyMap(
+        camera.matrix, camera.distortion_coefficients, None, camera.matrix, (camera.width, camera.height), cv2.CV_32FC1
+    )
+    return cv2.remap(depth_m, map_x, map_y, cv2.INTER_NEAREST, borderValue=float("nan"))
+
+
+def read_mask(path: Path) -> np.ndarray:
+    """An 8- or 16-bit single-channel image; non-zero pixels are the object."""
+    import cv2
+
+    image = cv2.imdecode(np.frombuffer(read_bounded(path, MAX_IMAGE_BYTES), np.uint8), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise InputError(f"{path}: not a readable image")
+    if image.ndim != 2:
+        raise InputError(f"{path}: a mask must be single-channel, got shape {image.shape}")
+    return image > 0
+
+
+def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = None) -> tuple[np.ndarray, Pinhole]:
+    """The object-only depth (metres, NaN elsewhere) and the pinhole camera it is seen with;
+    every problem is an InputError naming the file."""
+    camera = load_camera(Path(camera_path))
+    depth = read_depth_m(Path(depth_path), depth_scale_m=camera.depth_scale_m)
+    if depth.shape != (camera.height, camera.width):
+        raise InputError(
+            f"{depth_path}: the image is {depth.shape[1]}x{depth.shape[0]} px but {camera_path} says"
+            f" {camera.width}x{camera.height}"
+        )
+    mask = None
+    if mask_path is not None:
+        mask = read_mask(Path(mask_path))
+        if mask.shape != depth.shape:
+            raise InputError(
+                f"{mask_path}: the mask is {mask.shape[1]}x{mask.shape[0]} px, the depth image is"
+                f" {depth.shape[1]}x{depth.shape[0]}"
+            )
+        depth[~mask] = np.nan
+    if camera.has_distortion:
+        depth = undistorted_depth(depth, camera)
+    pinhole = pinhole_of(camera)
+    try:
+        return check_query(depth, pinhole, None), pinhole
+    except InputError as exc:
+        raise InputError(f"{depth_path}: {exc}") from None

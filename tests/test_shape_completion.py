@@ -1,0 +1,232 @@
+"""Shape completion end to end, through the command line: a small generated library, a model
+trained on it, unseen instances completed from rendered depth images and scored against the
+truth with the shared metrics."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from articulation.validate import validate_path
+from homemodel.cli import app
+from homemodel.errors import InputError
+from homemodel.evaluation import rock_surface_distance, rock_voxel_iou
+from homemodel.evaluation.mesh_files import load_mesh
+from shape_completion.model_io import load_model, save_model
+from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
+from shape_completion.procedural import generate_instances
+from turntable.camera import Camera, save_camera
+from turntable.depth_io import write_depth
+
+CLASSES = ("bottle", "cup", "spoon")
+TRAIN, TEST = 6, 2
+runner = CliRunner()
+
+
+def invoke(*args: str):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> dict:
+    root = tmp_path_factory.mktemp("completion")
+    result = invoke(
+        "completion", "library", "--out", root / "library", "--classes", ",".join(CLASSES), "--per-class", TRAIN
+    )
+    assert result.exit_code == 0, result.output
+    result = invoke(
+        "completion", "train", root / "library", "--out", root / "model.joblib", "--views", 20, "--filler-queries", 6
+    )
+    assert result.exit_code == 0, result.output
+    return {"root": root, "library": root / "library", "model": root / "model.joblib"}
+
+
+@pytest.fixture(scope="module")
+def completer(trained):
+    return load_model(trained["model"])
+
+
+@pytest.fixture(scope="module")
+def scores(completer) -> dict[str, list[list[float]]]:
+    """Per class, [IoU retrieval, IoU fitting, IoU filling, distance retrieval, distance filling] per query."""
+    rng = np.random.default_rng(11)
+    per_class = {}
+    for class_name in CLASSES:
+        # Instances the generator makes after the library's: never seen in training.
+        for mesh in generate_instances(class_name, TRAIN + TEST, seed=0)[TRAIN:]:
+            camera_from_object = random_query_pose(mesh, rng)
+            completion = completer.complete(render_query(mesh, FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
+            truth = mesh.copy().apply_transform(camera_from_object)
+            stages = (completion.retrieved, completion.deformed, completion.mesh)
+            per_class.setdefault(class_name, []).append(
+                [rock_voxel_iou(m, truth) for m in stages]
+                + [rock_surface_distance(m, truth, n_samples=20_000) for m in (stages[0], stages[2])]
+            )
+    return per_class
+
+
+def test_completion_beats_retrieval_on_unseen_instances(scores):
+    all_rows = np.array([row for rows in scores.values() for row in rows])
+    iou_retrieval, iou_fitting, iou_filling, distance_retrieval, distance_filling = all_rows.mean(axis=0)
+    assert iou_fitting > iou_retrieval + 0.05
+    assert iou_filling > iou_retrieval + 0.05
+    assert distance_filling < distance_retrieval
+    assert iou_filling > 0.45  # on a library of 6 meshes per class and 20 views each
+    for class_name, rows in scores.items():
+        assert np.mean(rows, axis=0)[2] > 0.3, class_name
+
+
+def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
+    mesh = generate_instances("bottle", TRAIN + 1, seed=0)[TRAIN]
+    camera_from_object = random_query_pose(mesh, np.random.default_rng(4))
+    camera = Camera(
+        width=FILLER_CAMERA.width,
+        height=FILLER_CAMERA.height,
+        fx=FILLER_CAMERA.fx,
+        fy=FILLER_CAMERA.fy,
+        cx=FILLER_CAMERA.cx,
+        cy=FILLER_CAMERA.cy,
+        depth_scale_m=0.0002,
+    )
+    save_camera(camera, tmp_path / "camera.yaml")
+    write_depth(tmp_path / "depth.png", render_query(mesh, FILLER_CAMERA, camera_from_object), depth_scale_m=0.0002)
+    result = invoke(
+        "completion",
+        "run",
+        trained["model"],
+        tmp_path / "depth.png",
+        "--camera",
+        tmp_path / "camera.yaml",
+        "--out",
+        tmp_path / "out",
+        "--library",
+        trained["library"],
+    )
+    assert result.exit_code == 0, result.output
+    assert validate_path(tmp_path / "out").ok
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["class"] == "bottle" and summary["seconds"]["total"] > 0
+    truth = mesh.copy().apply_transform(camera_from_object)
+    # One query of a 6-mesh class: well above what a wrong frame would give (about 0).
+    assert rock_voxel_iou(load_mesh(tmp_path / "out"), truth) > 0.45
+
+
+def test_bad_inputs_are_one_line_errors_and_write_nothing(trained, tmp_path):
+    camera = Camera(width=64, height=48, fx=60.0, fy=60.0, cx=31.5, cy=23.5, depth_scale_m=0.001)
+    save_camera(camera, tmp_path / "camera.yaml")
+    empty = np.full((48, 64), np.nan)
+    write_depth(tmp_path / "empty.png", empty, depth_scale_m=0.001)
+    write_depth(tmp_path / "wrong_size.png", np.full((40, 64), 0.5), depth_scale_m=0.001)
+    blob = empty.copy()
+    blob[10:30, 20:40] = 0.5
+    write_depth(tmp_path / "blob.png", blob, depth_scale_m=0.001)
+    save_camera(camera.model_copy(update={"depth_scale_m": 1.0}), tmp_path / "metres_camera.yaml")
+    write_depth(tmp_path / "in_mm.png", blob * 1000, depth_scale_m=1.0)  # 500 "metres" away
+    (tmp_path / "corrupt.png").write_bytes(b"\x89PNG not really")
+    cases = [
+        ("empty.png", "camera.yaml", "no valid depth"),
+        ("wrong_size.png", "camera.yaml", "64x40 px but"),
+        ("in_mm.png", "metres_camera.yaml", "does not match the camera"),
+        ("corrupt.png", "camera.yaml", "not a readable image"),
+        ("missing.png", "camera.yaml", "no such file"),
+    ]
+    for depth, camera_file, message in cases:
+        result = invoke(
+            "completion",
+            "run",
+            trained["model"],
+            tmp_path / depth,
+            "--camera",
+            tmp_path / camera_file,
+            "--out",
+            tmp_path / "out",
+        )
+        assert result.exit_code == 2, (depth, result.output)
+        assert message in result.output and depth in result.output, result.output
+        assert len(result.output.strip().splitlines()) == 1
+        assert not (tmp_path / "out").exists()
+
+
+def test_models_are_refused_for_another_library_or_format(trained, completer, tmp_path):
+    other = tmp_path / "other_library"
+    result = invoke("completion", "library", "--out", other, "--classes", "cup", "--per-class", 2, "--seed", 5)
+    assert result.exit_code == 0, result.output
+    result = invoke(
+        "completion",
+        "run",
+        trained["model"],
+        tmp_path / "d.png",
+        "--camera",
+        tmp_path / "c.yaml",
+        "--out",
+        tmp_path / "out",
+        "--library",
+        other,
+    )
+    assert result.exit_code == 2 and "another version of the library" in result.output
+    assert "model.joblib" in result.output
+    import joblib
+
+    payload = joblib.load(trained["model"])
+    payload["format_version"] = 99
+    joblib.dump(payload, tmp_path / "future.joblib")
+    with pytest.raises(InputError, match="future.joblib: model format version 99"):
+        load_model(tmp_path / "future.joblib")
+    (tmp_path / "junk.joblib").write_bytes(b"not a model")
+    with pytest.raises(InputError, match="junk.joblib: not a completion model"):
+        load_model(tmp_path / "junk.joblib")
+    completer.set_params(n_views=21)  # options that do not match the fingerprint
+    try:
+        save_model(completer, tmp_path / "tampered.joblib")
+    finally:
+        completer.set_params(n_views=20)
+    with pytest.raises(InputError, match="fingerprint does not match"):
+        load_model(tmp_path / "tampered.joblib")
+
+
+def test_library_errors_name_the_folder(tmp_path):
+    (tmp_path / "lib" / "cup").mkdir(parents=True)
+    result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.joblib")
+    assert result.exit_code == 2 and "no class folders with mesh files" in result.output
+    mesh = generate_instances("cup", 1)[0]
+    mesh.apply_scale(1000.0)  # millimetres
+    mesh.export(tmp_path / "lib" / "cup" / "a.ply")
+    mesh.export(tmp_path / "lib" / "cup" / "b.ply")
+    result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.joblib")
+    assert result.exit_code == 2 and "a.ply" in result.output and "in metres" in result.output
+
+
+def test_benchmark_writes_the_table_and_the_figure(tmp_path):
+    library = tmp_path / "library"
+    assert invoke("completion", "library", "--out", library, "--classes", "bottle", "--per-class", 4).exit_code == 0
+    result = invoke(
+        "completion",
+        "benchmark",
+        library,
+        "--out",
+        tmp_path / "bench",
+        "--train",
+        3,
+        "--test",
+        1,
+        "--views",
+        8,
+        "--queries",
+        1,
+        "--filler-queries",
+        3,
+    )
+    assert result.exit_code == 0, result.output
+    results = json.loads((tmp_path / "bench" / "results.json").read_text())
+    assert set(results["classes"]) == {"bottle"}
+    for row in results["classes"].values():
+        for stage in ("retrieval", "fitting", "filling", "oracle"):
+            assert 0.0 <= row[f"iou_{stage}"] <= 1.0 and row[f"distance_{stage}"] >= 0.0
+        assert row["iou_oracle"] > 0.4  # bottles of one generator resemble each other
+    assert "| bottle |" in (tmp_path / "bench" / "table.md").read_text()
+    assert (tmp_path / "bench" / "examples.png").read_bytes().startswith(b"\x89PNG")
+    result = invoke("completion", "benchmark", library, "--out", tmp_path / "b2", "--train", 4, "--test", 1)
+    assert result.exit_code == 2 and "needs 5" in result.output
