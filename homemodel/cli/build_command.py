@@ -2,22 +2,14 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import typer
 from rich import box
-from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
 from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.progress import make_console, progress_bar
 
 
 def build(
@@ -28,23 +20,14 @@ def build(
     """Build every object of a home from its measurements, validate each model, write the map."""
     from homemodel.build import build_home
 
-    # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
-    console = Console(width=None if sys.stdout.isatty() else 120)
+    console = make_console()
     with exit_on_error():
-        with Progress(
-            TextColumn("[bold]building[/] {task.description:<14}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=console,
-            transient=True,
-        ) as bar:
-            task = bar.add_task("specs", total=None)
+        with progress_bar(console, "building") as progress:
             result = build_home(
                 example_dir,
                 out,
                 force=force,
-                progress=lambda what, done, total: bar.update(task, description=what, completed=done, total=total),
+                progress=progress,
             )
     table = Table(title=f"homemodel build {example_dir}", box=box.SIMPLE_HEAD)
     for column in ("object", "kind", "parent"):

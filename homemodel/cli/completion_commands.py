@@ -2,56 +2,17 @@
 
 from __future__ import annotations
 
-import contextlib
 import json
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import typer
 from rich import box
-from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
 from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.progress import figures_table, make_console, progress_bar
 
 completion_app = typer.Typer(no_args_is_help=True)
-
-
-def _console() -> Console:
-    # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
-    return Console(width=None if sys.stdout.isatty() else 120)
-
-
-@contextlib.contextmanager
-def _progress_bar(console: Console) -> Iterator:
-    """A rich bar and the `progress(stage, done, total)` callback that drives it."""
-    with Progress(
-        TextColumn("[bold]{task.description:<24}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("starting", total=None)
-        yield lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total)
-
-
-def _print_table(console: Console, title: str, rows: list[tuple[str, str]]) -> None:
-    table = Table(title=title, box=box.SIMPLE_HEAD)
-    table.add_column("figure")
-    table.add_column("value", justify="right")
-    for name, value in rows:
-        table.add_row(name, value)
-    console.print(table)
 
 
 @completion_app.command("library")
@@ -90,26 +51,27 @@ def train_command(
     from shape_completion.model_io import save_model
     from shape_completion.pipeline import ShapeCompleter
 
-    console = _console()
+    console = make_console()
     with exit_on_error():
         if out.exists() and not force:
             raise OutputExistsError(f"{out}: exists (use --force to replace it)")
         library = load_library(library_dir)
-        with _progress_bar(console) as progress:
+        with progress_bar(console, "completion") as progress:
             completer = ShapeCompleter(n_views=views, filler_queries_per_class=filler_queries, random_state=seed).fit(
                 library, progress=progress
             )
         save_model(completer, out)
-    _print_table(
-        console,
-        f"homemodel completion train {library_dir}",
-        [
-            ("classes", ", ".join(library.class_names)),
-            ("meshes", str(len(library.meshes))),
-            ("training views", str(len(completer.view_shape_))),
-            ("training s", f"{completer.training_seconds_:.1f}"),
-            ("library fingerprint", library.fingerprint[:16]),
-        ],
+    console.print(
+        figures_table(
+            f"homemodel completion train {library_dir}",
+            [
+                ("classes", ", ".join(library.class_names)),
+                ("meshes", str(len(library.meshes))),
+                ("training views", str(len(completer.view_shape_))),
+                ("training s", f"{completer.training_seconds_:.1f}"),
+                ("library fingerprint", library.fingerprint[:16]),
+            ],
+        )
     )
     console.print(f"model: {out}")
 
@@ -131,7 +93,7 @@ def run_command(
     from shape_completion.model_io import load_model
     from shape_completion.query_input import load_query
 
-    console = _console()
+    console = make_console()
     with exit_on_error():
         from homemodel.atomic import prepare_out_dir
 
@@ -166,7 +128,7 @@ def run_command(
         ("triangles", str(len(completion.mesh.faces))),
         ("size mm", " x ".join(f"{1000 * v:.0f}" for v in completion.mesh.extents)),
     ] + [(f"{stage} s", f"{seconds:.2f}") for stage, seconds in completion.seconds.items()]
-    _print_table(console, f"homemodel completion run {depth_png}", rows)
+    console.print(figures_table(f"homemodel completion run {depth_png}", rows))
     console.print(f"model: {out}")
 
 
@@ -195,7 +157,7 @@ def benchmark_command(
     from shape_completion.figures import examples_png
     from shape_completion.library import load_library
 
-    console = _console()
+    console = make_console()
     options = BenchmarkOptions(
         train_per_class=train,
         test_per_class=test,
@@ -207,7 +169,7 @@ def benchmark_command(
     with exit_on_error():
         prepare_out_dir(out, force=force, inputs=[library_dir])
         library = load_library(library_dir)
-        with _progress_bar(console) as progress:
+        with progress_bar(console, "completion") as progress:
             result = run_benchmark(library, options, progress=progress)
         means = result.class_means()
         results = {
