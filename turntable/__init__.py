@@ -1,1 +1,12 @@
-"""AprilTag turntable capture to a metric, coloured mesh (D3.1 section 3.3.3). Not built yet: its issue has not landed."""
+"""AprilTag turntable capture to a metric, coloured mesh (D3.1 section 3.3.3).
+
+- `board`, `board_pdf`: the tag grid, board.yaml, the printable PDF;
+- `simulate`, `blender_render`: synthetic captures (Cycles colour, ray-cast depth, sensor noise);
+- `capture`, `camera`, `depth_io`, `poses_io`: the capture folder and its files;
+- `tags`, `pose`, `orbit`, `turntable_model`: detection, PnP, the axis, the joint pose refinement;
+- `fusion`, `meshing`, `texture`: merging, Poisson, the baked texture;
+- `reconstruct`, `outputs`, `picture`: the pipeline and its model folder.
+
+Only `blender_render` imports bpy (inside `simulate_capture`); reconstruction runs without it.
+See docs/turntable.md.
+"""

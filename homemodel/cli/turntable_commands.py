@@ -1,0 +1,285 @@
+"""`homemodel turntable board|simulate|reconstruct`: the AprilTag turntable (D3.1 section 3.3.3)."""
+
+from __future__ import annotations
+
+import enum
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import typer
+from rich import box
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+)
+from rich.table import Table
+
+from homemodel.cli.errors import exit_on_error
+
+turntable_app = typer.Typer(no_args_is_help=True)
+
+
+class PaperChoice(str, enum.Enum):
+    a4 = "a4"
+    a3 = "a3"
+    letter = "letter"
+
+
+class LightingChoice(str, enum.Enum):
+    studio = "studio"
+    ambient = "ambient"
+
+
+class DepthFormatChoice(str, enum.Enum):
+    png = "png"
+    exr = "exr"
+
+
+class DetectorChoice(str, enum.Enum):
+    apriltag = "apriltag"
+    opencv = "opencv"
+
+
+def _console() -> Console:
+    # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
+    return Console(width=None if sys.stdout.isatty() else 120)
+
+
+@contextmanager
+def _stage_bar(console: Console) -> Iterator[Callable[[str, int, int], None]]:
+    """A rich progress bar per stage, driven by the library's `progress(stage, done, total)`."""
+    with Progress(
+        TextColumn("[bold]{task.description:<14}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        tasks: dict[str, int] = {}
+
+        def report(stage: str, done: int, total: int) -> None:
+            if stage not in tasks:
+                tasks[stage] = bar.add_task(stage, total=total)
+            bar.update(tasks[stage], completed=done, total=total)
+
+        yield report
+
+
+def _table(title: str, rows: list[tuple[str, str]]) -> Table:
+    table = Table(title=title, box=box.SIMPLE_HEAD)
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    for name, value in rows:
+        table.add_row(name, value)
+    return table
+
+
+@turntable_app.command()
+def board(
+    out: Path = typer.Option(..., "--out", help="output folder: board.pdf and board.yaml"),
+    diameter_m: float = typer.Option(0.4, "--diameter-m", help="table diameter (m)"),
+    tag_size_m: float = typer.Option(0.03, "--tag-size-m", help="edge of each tag's black square (m)"),
+    paper: PaperChoice = typer.Option(PaperChoice.a4, "--paper", help="paper size; large tables tile over pages"),
+    first_id: int = typer.Option(0, "--first-id", help="first tag36h11 id to use"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Write a printable, true-to-scale tag36h11 grid for a round table, and its board.yaml."""
+    from homemodel.atomic import atomic_dir
+    from homemodel.errors import InputError
+    from turntable.board import grid_board, save_board
+    from turntable.board_pdf import write_board_pdf
+
+    with exit_on_error():
+        try:
+            layout = grid_board(table_diameter_m=diameter_m, tag_size_m=tag_size_m, first_id=first_id)
+        except ValueError as exc:
+            raise InputError(f"board: {exc}") from None
+        with atomic_dir(out, force=force) as tmp:
+            pages = write_board_pdf(layout, tmp / "board.pdf", paper=paper.value)
+            save_board(layout, tmp / "board.yaml")
+    ids = [t.id for t in layout.tags]
+    _console().print(
+        _table(
+            "homemodel turntable board",
+            [
+                ("table diameter", f"{diameter_m * 1000:.0f} mm"),
+                ("tag size", f"{tag_size_m * 1000:g} mm"),
+                ("tags", f"{len(ids)} (ids {ids[0]}-{ids[-1]})"),
+                ("pages", f"{pages} x {paper.value}"),
+            ],
+        )
+    )
+    typer.echo(f"board: {out / 'board.pdf'} (print at 100 %), {out / 'board.yaml'}")
+
+
+@turntable_app.command()
+def simulate(
+    mesh: Path = typer.Argument(..., help="object mesh (PLY, OBJ, STL, GLB...), metres unless --mesh-scale"),
+    out: Path = typer.Option(..., "--out", help="capture folder to write"),
+    frames: int = typer.Option(72, "--frames", help="frames over one turn"),
+    width: int = typer.Option(640, "--width"),
+    height: int = typer.Option(480, "--height"),
+    fov_deg: float = typer.Option(58.0, "--fov-deg", help="horizontal field of view"),
+    camera_distance_m: float = typer.Option(
+        0.6, "--camera-distance-m", help="tripod's horizontal distance from the axis"
+    ),
+    camera_height_m: float = typer.Option(0.4, "--camera-height-m", help="camera height above the table top"),
+    diameter_m: float = typer.Option(0.4, "--diameter-m", help="table diameter (m) of the generated board"),
+    tag_size_m: float = typer.Option(0.03, "--tag-size-m", help="tag size (m) of the generated board"),
+    board_yaml: Path | None = typer.Option(None, "--board", help="use this board.yaml instead of a generated grid"),
+    lighting: LightingChoice = typer.Option(LightingChoice.studio, "--lighting"),
+    samples: int = typer.Option(16, "--samples", help="Cycles samples per pixel"),
+    depth_format: DepthFormatChoice = typer.Option(DepthFormatChoice.png, "--depth-format"),
+    depth_scale_m: float = typer.Option(0.0001, "--depth-scale-m", help="metres per unit of the depth PNGs"),
+    depth_noise_m: float = typer.Option(
+        0.0, "--depth-noise-m", help="depth noise std at 0.7 m (grows with depth^2); 0: none"
+    ),
+    mesh_scale: float = typer.Option(1.0, "--mesh-scale", help="multiplies the mesh's coordinates into metres"),
+    seed: int = typer.Option(0, "--seed"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Render a synthetic turntable capture of MESH with Blender (Cycles, CPU): colour, depth, poses."""
+    from turntable.simulate import SimulationOptions, simulate_capture
+
+    options = SimulationOptions(
+        frames=frames,
+        width=width,
+        height=height,
+        horizontal_fov_deg=fov_deg,
+        camera_distance_m=camera_distance_m,
+        camera_height_m=camera_height_m,
+        table_diameter_m=diameter_m,
+        tag_size_m=tag_size_m,
+        board_path=board_yaml,
+        lighting=lighting.value,
+        samples=samples,
+        depth_format=depth_format.value,
+        depth_scale_m=depth_scale_m,
+        depth_noise_m=depth_noise_m,
+        mesh_scale=mesh_scale,
+        seed=seed,
+    )
+    console = _console()
+    with exit_on_error():
+        with _stage_bar(console) as report:
+            result = simulate_capture(mesh, out, options, force=force, progress=report)
+    console.print(
+        _table(
+            f"homemodel turntable simulate {mesh}",
+            [
+                ("frames", str(result.frames)),
+                ("colour (Cycles)", f"{result.render_s:.1f} s ({result.render_s / result.frames:.2f} s/frame)"),
+                ("depth (ray casting)", f"{result.depth_s:.1f} s"),
+            ],
+        )
+    )
+    typer.echo(f"capture: {out}")
+
+
+@turntable_app.command()
+def reconstruct(
+    capture_dir: Path = typer.Argument(..., help="capture folder: camera.yaml, board.yaml, color/, depth/"),
+    out: Path = typer.Option(..., "--out", help="model folder to write"),
+    name: str = typer.Option("turntable_object", "--name", help="model name"),
+    voxel_size_m: float = typer.Option(0.0015, "--voxel-size-m", help="merging voxel size"),
+    detector: DetectorChoice = typer.Option(DetectorChoice.apriltag, "--detector", help="tag detector"),
+    srgb: bool = typer.Option(False, "--srgb", help="colour images are sRGB-encoded (most cameras), not linear"),
+    min_tags: int = typer.Option(3, "--min-tags", help="frames seeing fewer board tags are skipped"),
+    refine: bool = typer.Option(
+        True, "--turntable-refinement/--no-turntable-refinement", help="refine all poses under the turntable's motion"
+    ),
+    texture_size_px: int = typer.Option(1024, "--texture-size-px", help="baked texture size; 0: no texture"),
+    density_kg_m3: float = typer.Option(500.0, "--density-kg-m3", help="for the inertial"),
+    picture: bool = typer.Option(False, "--picture", help="also draw picture.png: the mesh with the camera orbit"),
+    map_path: Path | None = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this map"),
+    parent_id: str | None = typer.Option(None, "--parent", "--room", help="map parent: a large object (or a room)"),
+    object_id: str | None = typer.Option(None, "--id", help="id in the map (default: --name)"),
+    xyz: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--xyz", help="position in the parent's frame (m)"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
+    from homemodel.errors import InputError
+    from turntable.capture import load_capture
+    from turntable.outputs import write_reconstruction
+    from turntable.pose import PoseOptions
+    from turntable.reconstruct import ReconstructionOptions, reconstruct_capture
+    from turntable.tags import DetectionOptions
+
+    options = ReconstructionOptions(
+        detection=DetectionOptions(detector=detector.value, intensity="srgb" if srgb else "linear"),
+        pose=PoseOptions(min_tags=min_tags),
+        voxel_size_m=voxel_size_m,
+        turntable_refinement=refine,
+        texture_size_px=texture_size_px,
+    )
+    console = _console()
+    with exit_on_error():
+        if map_path is not None and parent_id is None:
+            raise InputError("--map needs --parent (the large object, or room, the object belongs to)")
+        if not (voxel_size_m > 0 and density_kg_m3 > 0 and texture_size_px >= 0 and min_tags >= 1):
+            raise InputError(
+                "--voxel-size-m and --density-kg-m3 must be positive, --texture-size-px >= 0, --min-tags >= 1"
+            )
+        if map_path is not None:
+            from semantic_map import load_map
+
+            load_map(map_path).node(parent_id)  # an unknown parent fails now, not after the work
+        capture = load_capture(capture_dir)
+        with _stage_bar(console) as report:
+            result = reconstruct_capture(capture, options, progress=report)
+            start = time.perf_counter()
+            report("export", 0, 1)
+            write_reconstruction(
+                result, out, name=name, inputs=[capture_dir], density_kg_m3=density_kg_m3, picture=picture, force=force
+            )
+            export_s = time.perf_counter() - start
+    summary = result.summary()
+    rows = [
+        ("frames used", f"{summary['frames_used']} of {summary['frames_total']} ({summary['frames_skipped']} skipped)"),
+        ("tags per frame", "{mean:.1f} (min {min}, max {max})".format(**summary["tags_per_frame"])),
+        ("reprojection error", "{mean:.3f} px (max {max:.3f})".format(**summary["reprojection_error_px"])),
+        (
+            "orbit radius / circle RMS",
+            f"{summary['orbit']['radius_m'] * 1000:.1f} mm / {summary['orbit']['circle_rms_m'] * 1000:.3f} mm",
+        ),
+    ]
+    if summary["turntable_refinement"] is not None:
+        fit = summary["turntable_refinement"]
+        verdict = "applied" if fit["accepted"] else "rejected (kept PnP poses)"
+        rows.append(("turntable refinement", f"{verdict}: {fit['rms_px']:.3f} px vs PnP {fit['pnp_rms_px']:.3f} px"))
+    rows += [
+        ("points merged / after outliers", f"{summary['points_merged']} / {summary['points_after_outlier_removal']}"),
+        ("triangles", f"{summary['triangles']} (watertight: {'yes' if summary['watertight'] else 'no'})"),
+        ("extent", " x ".join(f"{v * 1000:.1f}" for v in summary["extent_m"]) + " mm"),
+    ]
+    rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in summary["stage_s"].items()]
+    rows.append(("time: export", f"{export_s:.2f} s"))
+    console.print(_table(f"homemodel turntable reconstruct {capture_dir}", rows))
+    for stem, reason in list(result.skipped.items())[:5]:
+        console.print(f"skipped {stem}: {reason}")
+    typer.echo(f"model: {out}")
+    if map_path is not None:
+        from homemodel.cli.map_commands import RelationChoice, add
+
+        add(
+            map_path=map_path,
+            model_dir=out,
+            object_id=object_id or name,
+            parent_id=parent_id,
+            relation=RelationChoice.on,
+            xyz=xyz,
+            rpy=(0.0, 0.0, 0.0),
+            parking=[],
+            properties=[],
+            graspable=None,
+            out=None,
+            force=False,
+        )

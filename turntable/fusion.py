@@ -1,0 +1,119 @@
+"""Merge the frames in the table frame: back-project each depth image, keep the points above
+the table top and inside the cylinder over the turntable's axis, and average coordinates,
+colours and viewing directions per voxel (D3.1 section 3.3.3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from homemodel.errors import ModelError
+from turntable.camera import Camera
+
+
+@dataclass(kw_only=True)
+class Cylinder:
+    """The region the object stands in, in the table frame."""
+
+    axis_xy_m: np.ndarray
+    radius_m: float
+    z_min_m: float  # above the table top, clear of its depth noise
+    z_max_m: float
+
+
+@dataclass(kw_only=True)
+class MergedCloud:
+    points: np.ndarray  # (N, 3) table frame
+    colors: np.ndarray  # (N, 3) in [0, 1]
+    view_dirs: np.ndarray  # (N, 3) unit, from the point towards the cameras that saw it
+    counts: np.ndarray  # (N,) raw points per voxel
+
+
+def pixel_rays(camera: Camera) -> np.ndarray:
+    """(H*W, 3) rays with z = 1 through every pixel centre, lens distortion removed."""
+    import cv2
+
+    u, v = np.meshgrid(np.arange(camera.width, dtype=np.float64), np.arange(camera.height, dtype=np.float64))
+    pixels = np.column_stack([u.ravel(), v.ravel()])
+    if camera.has_distortion:
+        normalized = cv2.undistortPoints(pixels.reshape(-1, 1, 2), camera.matrix, camera.distortion_coefficients)
+        xy = normalized.reshape(-1, 2)
+    else:
+        xy = (pixels - [camera.cx, camera.cy]) / [camera.fx, camera.fy]
+    return np.column_stack([xy, np.ones(len(xy))])
+
+
+_FLUSH_POINTS = 2_000_000
+
+
+@dataclass(kw_only=True)
+class VoxelAccumulator:
+    """Running sums per voxel. Frames are buffered and folded into the sums a few million
+    points at a time, so memory stays bounded and the grouping sort runs rarely."""
+
+    voxel_size_m: float
+    _keys: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    _sums: np.ndarray = field(default_factory=lambda: np.zeros((0, 10)))
+    _pending: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    _pending_points: int = 0
+
+    def add(self, points: np.ndarray, colors: np.ndarray, view_dirs: np.ndarray) -> None:
+        if len(points) == 0:
+            return
+        index = np.floor(points / self.voxel_size_m).astype(np.int64) + (1 << 20)
+        keys = (index[:, 0] << 42) | (index[:, 1] << 21) | index[:, 2]
+        self._pending.append((keys, np.column_stack([points, colors, view_dirs, np.ones(len(points))])))
+        self._pending_points += len(points)
+        if self._pending_points > _FLUSH_POINTS:
+            self._flush()
+
+    def _flush(self) -> None:
+        if not self._pending:
+            return
+        keys = np.concatenate([self._keys, *(k for k, _ in self._pending)])
+        values = np.concatenate([self._sums, *(v for _, v in self._pending)])
+        unique, inverse = np.unique(keys, return_inverse=True)
+        sums = np.empty((len(unique), values.shape[1]))
+        for column in range(values.shape[1]):
+            sums[:, column] = np.bincount(inverse, weights=values[:, column], minlength=len(unique))
+        self._keys, self._sums = unique, sums
+        self._pending, self._pending_points = [], 0
+
+    def cloud(self, min_count: int = 1) -> MergedCloud:
+        """The voxel centroids of coordinates and colours, and mean viewing directions."""
+        self._flush()
+        n = self._sums[:, 9]
+        keep = n >= min_count
+        if not np.any(keep):
+            raise ModelError("no depth point fell inside the object's cylinder above the table")
+        sums, n = self._sums[keep], n[keep, None]
+        view = sums[:, 6:9] / np.maximum(np.linalg.norm(sums[:, 6:9], axis=1, keepdims=True), 1e-12)
+        return MergedCloud(
+            points=sums[:, 0:3] / n, colors=sums[:, 3:6] / n, view_dirs=view, counts=n[:, 0].astype(np.int64)
+        )
+
+
+def frame_points(
+    depth_m: np.ndarray,
+    rgb: np.ndarray,
+    rays: np.ndarray,
+    table_from_camera: np.ndarray,
+    cylinder: Cylinder,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The frame's points inside `cylinder`, in the table frame, with colours in [0, 1] and
+    unit directions towards the camera."""
+    depth = depth_m.reshape(-1)
+    # No point of the cylinder lies farther than this from the camera: the floor and the
+    # room behind (most pixels) go before any arithmetic on them.
+    eye = table_from_camera[:3, 3]
+    reach = np.hypot(np.hypot(*(eye[:2] - cylinder.axis_xy_m)) + cylinder.radius_m, max(abs(eye[2]), abs(eye[2] - cylinder.z_max_m)))
+    index = np.flatnonzero(depth < reach)  # NaN compares False
+    points = (rays[index] * depth[index, None]) @ table_from_camera[:3, :3].T + eye
+    radial = np.hypot(points[:, 0] - cylinder.axis_xy_m[0], points[:, 1] - cylinder.axis_xy_m[1])
+    inside = (points[:, 2] > cylinder.z_min_m) & (points[:, 2] < cylinder.z_max_m) & (radial < cylinder.radius_m)
+    points = points[inside]
+    colors = rgb.reshape(-1, 3)[index[inside]].astype(np.float64) / 255.0
+    to_camera = eye - points
+    to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
+    return points, colors, to_camera

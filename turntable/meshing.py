@@ -1,0 +1,175 @@
+"""From the merged cloud to a closed, coloured mesh: statistical outlier removal, normals
+turned towards the cameras (outward), screened Poisson reconstruction, density trimming."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from homemodel.errors import ModelError
+from turntable.fusion import Cylinder, MergedCloud
+
+# Poisson's cube around the points, relative to their extent: room for the surface to close
+# below the footprint instead of being cut open by the cube's face.
+_POISSON_SCALE = 1.5
+
+
+@dataclass(kw_only=True)
+class MeshingOptions:
+    outlier_neighbours: int = 20
+    outlier_std_ratio: float = 2.5
+    normal_neighbours: int = 24
+    poisson_depth: int | None = None  # None: octree cells about one voxel wide
+    density_quantile: float = 0.03  # drop the Poisson vertices least supported by points
+    max_triangles: int = 80_000  # quadric decimation above this
+    close_bottom: bool = True  # add the footprint on the table top, so the mesh closes there
+    min_points: int = 200
+
+
+@dataclass(kw_only=True)
+class MeshingFigures:
+    points_in: int
+    points_after_outliers: int
+    triangles_poisson: int
+    triangles: int
+    density_trimmed: bool  # False: trimming would have left the mesh open, Poisson's closed surface kept
+
+
+def _o3d_cloud(points: np.ndarray, colors: np.ndarray | None = None):  # noqa: ANN202
+    import open3d as o3d
+
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
+    if colors is not None:
+        cloud.colors = o3d.utility.Vector3dVector(np.clip(colors, 0.0, 1.0))
+    return cloud
+
+
+def remove_outliers(cloud: MergedCloud, options: MeshingOptions) -> MergedCloud:
+    """Statistical outlier removal: drop points whose mean neighbour distance is far above the
+    cloud's (stray depth at silhouettes, the odd mis-posed frame)."""
+    _, kept = _o3d_cloud(cloud.points).remove_statistical_outlier(options.outlier_neighbours, options.outlier_std_ratio)
+    kept = np.asarray(kept, dtype=np.int64)
+    return MergedCloud(
+        points=cloud.points[kept], colors=cloud.colors[kept], view_dirs=cloud.view_dirs[kept], counts=cloud.counts[kept]
+    )
+
+
+def poisson_mesh(
+    cloud: MergedCloud, cylinder: Cylinder, voxel_size_m: float, options: MeshingOptions
+) -> tuple[trimesh.Trimesh, np.ndarray, MeshingFigures]:
+    """A watertight-as-possible mesh in the table frame and its vertex colours (V, 3) in [0, 1]."""
+    import open3d as o3d
+
+    points_in = len(cloud.points)
+    if points_in < options.min_points:
+        raise ModelError(f"only {points_in} merged points above the table: too few for a mesh")
+    cloud = remove_outliers(cloud, options)
+    pcd = _o3d_cloud(cloud.points, cloud.colors)
+    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(options.normal_neighbours))
+    normals = np.asarray(pcd.normals)
+    # Outward = towards the cameras that saw the point (a turntable sees no inside).
+    flip = np.sum(normals * cloud.view_dirs, axis=1) < 0
+    normals[flip] *= -1
+    if options.close_bottom:
+        base = footprint_points(cloud.points, cylinder.z_min_m, voxel_size_m)
+        pcd.points.extend(o3d.utility.Vector3dVector(base))
+        normals = np.concatenate([normals, np.tile([0.0, 0.0, -1.0], (len(base), 1))])
+        pcd.colors.extend(o3d.utility.Vector3dVector(np.zeros_like(base)))
+    pcd.normals = o3d.utility.Vector3dVector(normals)
+    extent = float(np.max(np.ptp(cloud.points, axis=0)))
+    depth = options.poisson_depth or int(np.clip(math.ceil(math.log2(_POISSON_SCALE * extent / voxel_size_m)), 6, 10))
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        o3d_mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
+            pcd, depth=depth, scale=_POISSON_SCALE
+        )
+    densities = np.asarray(densities)
+    triangles_poisson = len(o3d_mesh.triangles)
+    if triangles_poisson == 0:
+        raise ModelError("Poisson reconstruction returned an empty mesh")
+    vertices = np.asarray(o3d_mesh.vertices)
+    # Trim unsupported surface (Poisson's closure where no camera looked) and anything
+    # outside the cylinder the object stands in. The band between the footprint and the
+    # lowest kept points has no points by construction: trimming it would cut the bottom off.
+    weak = densities < np.quantile(densities, options.density_quantile)
+    weak &= vertices[:, 2] > cylinder.z_min_m + 3 * voxel_size_m
+    radial = np.hypot(vertices[:, 0] - cylinder.axis_xy_m[0], vertices[:, 1] - cylinder.axis_xy_m[1])
+    untrimmed = _to_trimesh(o3d_mesh)
+    o3d_mesh.remove_vertices_by_mask(weak | (radial > cylinder.radius_m))
+    mesh = _to_trimesh(o3d_mesh)
+    # Trimming opens holes where the surface was unsupported (inside a mug, under a
+    # handle); a closed solid is what collision, inertia and VoxelIOU need, so small holes
+    # are filled and, if the trimmed mesh stays open, Poisson's closed surface is kept.
+    trimesh.repair.fill_holes(mesh)
+    trimmed = bool(mesh.is_watertight and len(mesh.faces))
+    if not trimmed:
+        mesh = untrimmed
+    mesh = decimate_mesh(mesh, options.max_triangles)
+    if len(mesh.faces) == 0:
+        raise ModelError("the trimmed Poisson mesh is empty")
+    colors = _vertex_colors(mesh, cloud)
+    figures = MeshingFigures(
+        points_in=points_in,
+        points_after_outliers=len(cloud.points),
+        triangles_poisson=triangles_poisson,
+        triangles=len(mesh.faces),
+        density_trimmed=trimmed,
+    )
+    return mesh, colors, figures
+
+
+def _to_trimesh(o3d_mesh) -> trimesh.Trimesh:  # noqa: ANN001
+    mesh = trimesh.Trimesh(np.asarray(o3d_mesh.vertices), np.asarray(o3d_mesh.triangles), process=True)
+    return _on_table_top(mesh)
+
+
+def decimate_mesh(mesh: trimesh.Trimesh, max_triangles: int) -> trimesh.Trimesh:
+    import open3d as o3d
+
+    if len(mesh.faces) <= max_triangles:
+        return mesh
+    o3d_mesh = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces)
+    )
+    simple = o3d_mesh.simplify_quadric_decimation(max_triangles)
+    return trimesh.Trimesh(np.asarray(simple.vertices), np.asarray(simple.triangles), process=True)
+
+
+def _on_table_top(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The biggest connected piece (trimming leaves islands), flattened onto the table top:
+    the object stands on it, so nothing lies below z = 0."""
+    pieces = mesh.split(only_watertight=False)
+    if len(pieces) > 1:
+        mesh = max(pieces, key=lambda piece: len(piece.faces))
+    vertices = mesh.vertices.copy()
+    vertices[:, 2] = np.maximum(vertices[:, 2], 0.0)
+    return trimesh.Trimesh(vertices, mesh.faces, process=False)
+
+
+def footprint_points(points: np.ndarray, z_min_m: float, spacing_m: float) -> np.ndarray:
+    """Points on the table top (z = 0) under the object: the outline of its lowest points,
+    holes filled. Depth cannot see where the object touches the table, and without these
+    Poisson leaves the bottom open or balloons below it."""
+    from scipy import ndimage
+
+    low = points[points[:, 2] < z_min_m + 4 * spacing_m]
+    if len(low) < 3:
+        return np.zeros((0, 3))
+    origin = low[:, :2].min(axis=0) - 3 * spacing_m
+    cells = np.floor((low[:, :2] - origin) / spacing_m).astype(np.int64)
+    mask = np.zeros(tuple(cells.max(axis=0) + 4), dtype=bool)
+    mask[cells[:, 0], cells[:, 1]] = True
+    mask = ndimage.binary_fill_holes(ndimage.binary_closing(mask, iterations=2))
+    ii, jj = np.nonzero(mask)
+    return np.column_stack([origin + (np.column_stack([ii, jj]) + 0.5) * spacing_m, np.zeros(len(ii))])
+
+
+def _vertex_colors(mesh: trimesh.Trimesh, cloud: MergedCloud, neighbours: int = 4) -> np.ndarray:
+    """Colour of each vertex: inverse-distance mean of its nearest merged points."""
+    from scipy.spatial import cKDTree
+
+    distances, index = cKDTree(cloud.points).query(mesh.vertices, k=neighbours, workers=-1)
+    weights = 1.0 / np.maximum(distances, 1e-6)
+    return np.einsum("vk,vkc->vc", weights, cloud.colors[index]) / weights.sum(axis=1, keepdims=True)

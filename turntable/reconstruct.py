@@ -1,0 +1,252 @@
+"""`reconstruct_capture`: a turntable capture folder to a metric, coloured mesh (D3.1 section 3.3.3).
+
+Stages: tag detection and PnP per frame; the turntable's axis from a circle through the
+board origin's orbit; merging of the frames in the table frame inside the cylinder over the
+axis, on a voxel grid averaging coordinates and colours; outlier removal, outward normals,
+Poisson with density trimming; colour baked into a texture on xatlas UVs.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import trimesh
+
+from homemodel.errors import ModelError
+from turntable.capture import Capture, FrameError, read_color, read_depth
+from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_points, pixel_rays
+from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
+from turntable.orbit import TableAxis, table_axis
+from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table
+from turntable.tags import DetectionOptions, detect_tags
+from turntable.turntable_model import TurntableFit, fit_turntable
+
+Progress = Callable[[str, int, int], None]
+STAGES = ("poses", "axis", "merge", "mesh", "texture")
+
+
+@dataclass(kw_only=True)
+class ReconstructionOptions:
+    detection: DetectionOptions = field(default_factory=DetectionOptions)
+    pose: PoseOptions = field(default_factory=PoseOptions)
+    meshing: MeshingOptions = field(default_factory=MeshingOptions)
+    voxel_size_m: float = 0.0015
+    plane_margin_m: float = 0.004  # the object starts this far above the table top (clears its depth noise)
+    cylinder_radius_m: float | None = None  # None: the table's radius about the axis, less 1 cm
+    max_height_m: float = 1.0
+    min_frames: int = 3
+    turntable_refinement: bool = True  # refine all poses together under the turntable's motion
+    texture_size_px: int = 1024  # 0: no texture (vertex colours in the PLY only)
+    texture_max_triangles: int = 12_000  # the exported visual is decimated to this for xatlas
+    workers: int = 2  # threads reading images and detecting tags
+
+
+@dataclass(kw_only=True)
+class Reconstruction:
+    """The mesh in the table frame with its colours, and every figure the summary reports."""
+
+    mesh: trimesh.Trimesh
+    vertex_colors: np.ndarray  # (V, 3) in [0, 1]
+    textured_mesh: trimesh.Trimesh | None  # split along UV seams
+    uv: np.ndarray | None
+    texture: np.ndarray | None  # (H, W, 3) uint8
+    poses: dict[str, FramePose]
+    skipped: dict[str, str]  # frame stem -> "image: ...", "pose: ..." or "unpaired: ..."
+    axis: TableAxis
+    turntable_fit: TurntableFit | None
+    cylinder: Cylinder
+    cloud: MergedCloud
+    meshing: MeshingFigures
+    stage_s: dict[str, float]
+    frames_total: int
+
+    def summary(self) -> dict:
+        tags = np.array([p.tags for p in self.poses.values()])
+        errors = np.array([p.reprojection_error_px for p in self.poses.values()])
+        reasons: dict[str, int] = {}
+        for reason in self.skipped.values():  # "kind: details", kind one of image, pose, unpaired
+            kind = reason.split(":", 1)[0]
+            reasons[kind] = reasons.get(kind, 0) + 1
+        return {
+            "frames_total": self.frames_total,
+            "frames_used": len(self.poses),
+            "frames_skipped": len(self.skipped),
+            "skip_reasons": reasons,
+            "tags_per_frame": {"mean": float(tags.mean()), "min": int(tags.min()), "max": int(tags.max())},
+            "reprojection_error_px": {"mean": float(errors.mean()), "max": float(errors.max())},
+            "orbit": {
+                "radius_m": self.axis.orbit.radius_m,
+                "circle_rms_m": self.axis.orbit.rms_m,
+                "axis_xy_m": self.axis.axis_xy_m.tolist(),
+                "axis_tilt_deg": self.axis.tilt_deg,
+                "axis_spread_m": self.axis.axis_spread_m,
+            },
+            "turntable_refinement": None
+            if self.turntable_fit is None
+            else {
+                "accepted": self.turntable_fit.accepted,
+                "rms_px": self.turntable_fit.rms_px,
+                "pnp_rms_px": self.turntable_fit.pnp_rms_px,
+            },
+            "cylinder": {"radius_m": self.cylinder.radius_m, "z_min_m": self.cylinder.z_min_m},
+            "points_merged": self.meshing.points_in,
+            "points_after_outlier_removal": self.meshing.points_after_outliers,
+            "triangles_poisson": self.meshing.triangles_poisson,
+            "triangles": self.meshing.triangles,
+            "density_trimmed": self.meshing.density_trimmed,
+            "watertight": bool(self.mesh.is_watertight),
+            "extent_m": np.ptp(self.mesh.vertices, axis=0).tolist(),
+            "stage_s": dict(self.stage_s),
+            "total_s": float(sum(self.stage_s.values())),
+        }
+
+
+def _parallel(workers: int, function: Callable, items: list) -> Iterator:
+    """`map` over threads (OpenCV, the AprilTag library and PNG decoding release the GIL)."""
+    if workers <= 1:
+        yield from map(function, items)
+        return
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        yield from pool.map(function, items)
+
+
+def estimate_poses(
+    capture: Capture, options: ReconstructionOptions, report: Progress
+) -> tuple[dict[str, FramePose], dict[str, str]]:
+    """Pose per frame; frames with unreadable images or too few tags are skipped with a reason."""
+    import cv2
+
+    def one(frame) -> tuple[str, FramePose | str]:  # noqa: ANN001
+        try:
+            gray = cv2.cvtColor(read_color(frame.color, capture.camera), cv2.COLOR_RGB2GRAY)
+            detections = detect_tags(gray, options.detection)
+            return frame.stem, estimate_camera_from_table(detections, capture.board, capture.camera, options.pose)
+        except FrameError as exc:
+            return frame.stem, f"image: {exc}"
+        except PoseSkip as exc:
+            return frame.stem, f"pose: {exc}"
+
+    poses: dict[str, FramePose] = {}
+    skipped = {stem: "unpaired: a colour or a depth image without its partner" for stem in capture.unpaired}
+    for done, (stem, result) in enumerate(_parallel(options.workers, one, capture.frames), start=1):
+        if isinstance(result, FramePose):
+            poses[stem] = result
+        else:
+            skipped[stem] = result
+        report("poses", done, len(capture.frames))
+    if len(poses) < options.min_frames:
+        examples = "; ".join(f"{s}: {r}" for s, r in list(skipped.items())[:3])
+        raise ModelError(
+            f"{capture.folder}: only {len(poses)} of {len(capture.frames)} frames have a pose, "
+            f"{options.min_frames} needed ({examples})"
+        )
+    return poses, skipped
+
+
+def object_cylinder(capture: Capture, axis: TableAxis, options: ReconstructionOptions) -> Cylinder:
+    if options.cylinder_radius_m is not None:
+        radius = options.cylinder_radius_m
+    else:
+        radius = capture.board.radius_m - float(np.linalg.norm(axis.axis_xy_m)) - 0.01
+    if radius <= 0:
+        raise ModelError(f"cylinder radius {radius:.3f} m: the turntable axis lies off the board")
+    return Cylinder(
+        axis_xy_m=axis.axis_xy_m, radius_m=radius, z_min_m=options.plane_margin_m, z_max_m=options.max_height_m
+    )
+
+
+def merge_frames(
+    capture: Capture,
+    poses: dict[str, FramePose],
+    skipped: dict[str, str],
+    cylinder: Cylinder,
+    options: ReconstructionOptions,
+    report: Progress,
+) -> MergedCloud:
+    rays = pixel_rays(capture.camera)
+    accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
+    frames = [f for f in capture.frames if f.stem in poses]
+
+    def one(frame) -> tuple[str, tuple | str]:  # noqa: ANN001
+        try:
+            depth = read_depth(frame.depth, capture.camera)
+            rgb = read_color(frame.color, capture.camera)
+        except FrameError as exc:
+            return frame.stem, f"image: {exc}"
+        table_from_camera = np.linalg.inv(poses[frame.stem].camera_from_table)
+        return frame.stem, frame_points(depth, rgb, rays, table_from_camera, cylinder)
+
+    for done, (stem, result) in enumerate(_parallel(options.workers, one, frames), start=1):
+        if isinstance(result, str):
+            skipped[stem] = result
+            del poses[stem]
+        else:
+            accumulator.add(*result)
+        report("merge", done, len(frames))
+    if len(poses) < options.min_frames:
+        raise ModelError(f"{capture.folder}: only {len(poses)} frames have readable depth, {options.min_frames} needed")
+    return accumulator.cloud()
+
+
+def reconstruct_capture(
+    capture: Capture, options: ReconstructionOptions | None = None, progress: Progress | None = None
+) -> Reconstruction:
+    """Run the pipeline on a loaded capture (see `turntable.capture.load_capture`)."""
+    from turntable.texture import bake_vertex_colors, decimated
+
+    options = options or ReconstructionOptions()
+    report = progress or (lambda _stage, _done, _total: None)
+    stage_s: dict[str, float] = {}
+    start = time.perf_counter()
+    poses, skipped = estimate_poses(capture, options, report)
+    stage_s["poses"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    report("axis", 0, 1)
+    axis = table_axis([p.camera_from_table for p in poses.values()])
+    fit = None
+    if options.turntable_refinement and len(poses) >= options.min_frames:
+        fit = fit_turntable(poses, axis.orbit, capture.camera)
+        if fit.accepted:
+            poses = {s: replace(p, camera_from_table=fit.camera_from_tables[s]) for s, p in poses.items()}
+            axis = table_axis([p.camera_from_table for p in poses.values()])
+    cylinder = object_cylinder(capture, axis, options)
+    stage_s["axis"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    cloud = merge_frames(capture, poses, skipped, cylinder, options, report)
+    stage_s["merge"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    report("mesh", 0, 1)
+    mesh, colors, figures = poisson_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
+    stage_s["mesh"] = time.perf_counter() - start
+
+    textured = uv = texture = None
+    if options.texture_size_px > 0:
+        start = time.perf_counter()
+        report("texture", 0, 1)
+        textured, uv, texture = bake_vertex_colors(
+            *decimated(mesh, colors, options.texture_max_triangles), size_px=options.texture_size_px
+        )
+        stage_s["texture"] = time.perf_counter() - start
+    return Reconstruction(
+        mesh=mesh,
+        vertex_colors=colors,
+        textured_mesh=textured,
+        uv=uv,
+        texture=texture,
+        poses=poses,
+        skipped=skipped,
+        axis=axis,
+        turntable_fit=fit,
+        cylinder=cylinder,
+        cloud=cloud,
+        meshing=figures,
+        stage_s=stage_s,
+        frames_total=len(capture.frames) + len(capture.unpaired),
+    )

@@ -1,0 +1,374 @@
+"""A synthetic turntable capture of a mesh: the folder `homemodel turntable reconstruct` reads,
+plus the truth to test it against.
+
+A fixed camera on a tripod looks down at a round table that turns once, at constant speed,
+about a vertical axis that crosses the board off its origin (`axis_offset_m`, so the circle
+fit has something to find). Colour comes from Blender's Cycles; depth from open3d's ray
+casting of the very same triangles from the very same camera (pixel centres, exact), so
+the two are registered by construction. The optional noise model is that of a structured-light
+sensor: Gaussian noise whose deviation grows with the square of the depth, and no depth at
+grazing angles or next to depth edges.
+
+Writes `camera.yaml`, `board.yaml`, `color/`, `depth/`, `true_poses.json` (camera_from_table
+per frame), `ground_truth.ply` (the object in the table frame, with its colours) and
+`simulation.json` (the options, so `resimulate_depth` can render the same scene's depth again
+under another noise level).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import trimesh
+
+from homemodel.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.errors import InputError
+from homemodel.input_files import read_bounded
+from turntable.board import Board, grid_board, load_board, save_board
+from turntable.camera import Camera, load_camera, save_camera
+from turntable.depth_io import write_depth
+from turntable.poses_io import read_poses, write_poses
+
+Progress = Callable[[str, int, int], None]
+NOISE_REFERENCE_DEPTH_M = 0.7
+TRUE_POSES = "true_poses.json"
+GROUND_TRUTH = "ground_truth.ply"
+SIMULATION_JSON = "simulation.json"
+_TABLE_THICKNESS_M = 0.02
+_TABLE_TOP_BELOW_TAGS_M = 5e-5  # the tags' paper lies on the table top
+_FLOOR_BELOW_TABLE_M = 0.7
+
+
+@dataclass(kw_only=True)
+class SimulationOptions:
+    frames: int = 72
+    width: int = 640
+    height: int = 480
+    horizontal_fov_deg: float = 58.0
+    camera_distance_m: float = 0.6  # horizontal, from the turntable axis
+    camera_height_m: float = 0.4  # above the table top
+    table_diameter_m: float = 0.4
+    tag_size_m: float = 0.03
+    board_path: Path | None = None  # a board.yaml to use instead of a generated grid
+    axis_offset_m: tuple[float, float] = (0.011, -0.007)  # where the turntable axis crosses the board
+    lighting: Literal["studio", "ambient"] = "studio"
+    samples: int = 16
+    depth_format: Literal["png", "exr"] = "png"
+    depth_scale_m: float = 0.0001
+    depth_noise_m: float = 0.0  # standard deviation at 0.7 m; grows with depth squared
+    grazing_angle_deg: float = 78.0  # no depth beyond this angle between ray and surface normal
+    edge_jump_m: float = 0.01  # no depth next to a depth jump larger than this
+    mesh_scale: float = 1.0  # multiplies the mesh's coordinates into metres
+    seed: int = 0
+
+    def check(self) -> None:
+        positive = ("frames", "width", "height", "camera_distance_m", "table_diameter_m", "tag_size_m", "samples")
+        for name in positive:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise InputError(f"simulation option {name}={value!r} must be positive")
+        if not 1 <= self.horizontal_fov_deg <= 170:
+            raise InputError(f"simulation option horizontal_fov_deg={self.horizontal_fov_deg} is not in [1, 170]")
+        if not (math.isfinite(self.camera_height_m) and self.camera_height_m > 0):
+            raise InputError(f"simulation option camera_height_m={self.camera_height_m} must be above the table")
+        if not (math.isfinite(self.depth_noise_m) and self.depth_noise_m >= 0):
+            raise InputError(f"simulation option depth_noise_m={self.depth_noise_m} must be zero or positive")
+        if not (math.isfinite(self.mesh_scale) and self.mesh_scale > 0):
+            raise InputError(f"simulation option mesh_scale={self.mesh_scale} must be positive")
+
+
+@dataclass(kw_only=True)
+class SimulationResult:
+    out_dir: Path
+    frames: int
+    render_s: float
+    depth_s: float
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = np.array([0.0, 0.0, 1.0])) -> np.ndarray:
+    """`world_from_camera` of an OpenCV camera at `eye` looking at `target`, image up along `up`."""
+    z = target - eye
+    z = z / np.linalg.norm(z)
+    x = np.cross(z, up)
+    x = x / np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    m[:3, 3] = eye
+    return m
+
+
+def camera_for(options: SimulationOptions) -> Camera:
+    f = options.width / 2 / math.tan(math.radians(options.horizontal_fov_deg) / 2)
+    return Camera(
+        width=options.width,
+        height=options.height,
+        fx=f,
+        fy=f,
+        cx=(options.width - 1) / 2,
+        cy=(options.height - 1) / 2,
+        depth_scale_m=options.depth_scale_m,
+    )
+
+
+def load_object_mesh(path: Path, scale: float) -> tuple[trimesh.Trimesh, np.ndarray]:
+    """The mesh (in metres) and its per-vertex linear RGBA in [0, 1] (light grey when it has none)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such mesh file")
+    try:
+        loaded = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types for broken files
+        raise InputError(f"{path}: cannot read the mesh: {exc}") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise InputError(f"{path}: holds no triangles")
+    if not np.all(np.isfinite(loaded.vertices)):
+        raise InputError(f"{path}: has non-finite vertex coordinates")
+    mesh = trimesh.Trimesh(loaded.vertices * scale, loaded.faces, process=False)
+    rgba = np.full((len(mesh.vertices), 4), 0.7)
+    if loaded.visual.kind in ("vertex", "texture", "face"):
+        colours = (
+            loaded.visual.to_color().vertex_colors if loaded.visual.kind == "texture" else loaded.visual.vertex_colors
+        )
+        rgba = np.asarray(colours, dtype=np.float64)[: len(mesh.vertices)] / 255.0
+    return mesh, rgba
+
+
+def _place_on_table(mesh: trimesh.Trimesh, axis_table: np.ndarray) -> trimesh.Trimesh:
+    """The object centred on the turntable's axis, standing on the table top (z = 0)."""
+    lo, hi = mesh.bounds
+    offset = np.array([axis_table[0] - (lo[0] + hi[0]) / 2, axis_table[1] - (lo[1] + hi[1]) / 2, -lo[2]])
+    placed = mesh.copy()
+    placed.apply_translation(offset)
+    return placed
+
+
+def _table_meshes(board: Board, axis_table: np.ndarray) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    radius = board.radius_m * 1.03
+    table = trimesh.creation.cylinder(radius=radius, height=_TABLE_THICKNESS_M, sections=256)
+    table.apply_translation([axis_table[0], axis_table[1], -_TABLE_THICKNESS_M / 2 - _TABLE_TOP_BELOW_TAGS_M])
+    floor = trimesh.creation.box((8.0, 8.0, 0.01))
+    floor.apply_translation([axis_table[0], axis_table[1], -_FLOOR_BELOW_TABLE_M])
+    return table, floor
+
+
+def turntable_motion(options: SimulationOptions, object_height_m: float) -> tuple[np.ndarray, list[np.ndarray]]:
+    """`camera_from_world` of the tripod and `world_from_table` per frame.
+
+    The world frame has z along the turntable axis and its origin where the axis meets the
+    table top; the table turns counter-clockwise (seen from above) once over the frames.
+    """
+    axis_table = np.array([*options.axis_offset_m, 0.0])
+    eye = np.array([0.0, -options.camera_distance_m, options.camera_height_m])
+    target = np.array([0.0, 0.0, min(object_height_m * 0.35, options.camera_height_m * 0.5)])
+    camera_from_world = np.linalg.inv(look_at(eye, target))
+    world_from_tables = []
+    for k in range(options.frames):
+        world_from_table = trimesh.transformations.rotation_matrix(2 * math.pi * k / options.frames, [0, 0, 1])
+        world_from_table[:3, 3] = -world_from_table[:3, :3] @ axis_table
+        world_from_tables.append(world_from_table)
+    return camera_from_world, world_from_tables
+
+
+def _lights(
+    options: SimulationOptions, world_from_tables: list[np.ndarray]
+) -> tuple[list[list[np.ndarray]], list[float], float]:
+    """Per frame, the table-frame pose of each light; their powers; the ambient strength."""
+    if options.lighting == "ambient":
+        return [[] for _ in world_from_tables], [], 0.85
+    # A key light above and to the left of the camera, standing still like the tripod.
+    d, h = options.camera_distance_m, options.camera_height_m
+    world_from_light = look_at(np.array([-0.5 * d, -0.8 * d, h + 0.5]), np.zeros(3))
+    return [[np.linalg.inv(w) @ world_from_light] for w in world_from_tables], [12.0], 0.35
+
+
+def depth_raycaster(scene_mesh: trimesh.Trimesh):  # noqa: ANN201 (open3d type)
+    import open3d as o3d
+
+    raycaster = o3d.t.geometry.RaycastingScene()
+    raycaster.add_triangles(
+        o3d.core.Tensor(np.asarray(scene_mesh.vertices, dtype=np.float32)),
+        o3d.core.Tensor(np.asarray(scene_mesh.faces, dtype=np.uint32)),
+    )
+    return raycaster
+
+
+def render_depth(raycaster, camera: Camera, camera_from_table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+    """Depth (z along the optical axis, NaN where no hit) and the cosine between each ray and
+    the surface it hits, at every pixel centre."""
+    import open3d as o3d
+
+    u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
+    directions_camera = np.stack(
+        [(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u, dtype=float)], -1
+    )
+    table_from_camera = np.linalg.inv(camera_from_table)
+    directions = directions_camera.reshape(-1, 3) @ table_from_camera[:3, :3].T
+    origins = np.broadcast_to(table_from_camera[:3, 3], directions.shape)
+    rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
+    hits = raycaster.cast_rays(o3d.core.Tensor(rays))
+    t = hits["t_hit"].numpy().astype(np.float64)  # in units of the direction, whose z is 1: depth
+    normals = hits["primitive_normals"].numpy().astype(np.float64)
+    unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    cosine = np.abs(np.sum(unit * normals, axis=1))
+    depth = np.where(np.isfinite(t), t, np.nan)
+    return depth.reshape(camera.height, camera.width), cosine.reshape(camera.height, camera.width)
+
+
+def add_sensor_noise(
+    depth_m: np.ndarray, cosine: np.ndarray, options: SimulationOptions, rng: np.random.Generator
+) -> np.ndarray:
+    """Structured-light noise: N(0, sigma * (z / 0.7 m)^2), holes at grazing angles and depth edges."""
+    noisy = depth_m + rng.normal(size=depth_m.shape) * options.depth_noise_m * (depth_m / NOISE_REFERENCE_DEPTH_M) ** 2
+    noisy[cosine < math.cos(math.radians(options.grazing_angle_deg))] = np.nan
+    padded = np.pad(depth_m, 1, mode="edge")
+    neighbours = [
+        padded[1 + dy : 1 + dy + depth_m.shape[0], 1 + dx : 1 + dx + depth_m.shape[1]]
+        for dy in (-1, 0, 1)
+        for dx in (-1, 0, 1)
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN neighbourhoods: no depth there anyway
+        jump = np.nanmax(np.abs(np.stack(neighbours) - depth_m), axis=0)
+    near_edge = (jump > options.edge_jump_m) | np.any(np.isnan(np.stack(neighbours)), axis=0)
+    noisy[near_edge] = np.nan
+    return noisy
+
+
+def _write_depth_frames(
+    folder: Path,
+    scene_mesh: trimesh.Trimesh,
+    camera: Camera,
+    camera_from_tables: dict[str, np.ndarray],
+    options: SimulationOptions,
+    report: Progress,
+) -> None:
+    raycaster = depth_raycaster(scene_mesh)
+    rng = np.random.default_rng(options.seed)
+    for k, (stem, camera_from_table) in enumerate(sorted(camera_from_tables.items())):
+        depth, cosine = render_depth(raycaster, camera, camera_from_table)
+        if options.depth_noise_m > 0:
+            depth = add_sensor_noise(depth, cosine, options, rng)
+        write_depth(folder / f"{stem}.{options.depth_format}", depth, depth_scale_m=options.depth_scale_m)
+        report("render depth", k + 1, len(camera_from_tables))
+
+
+def _scene(options: SimulationOptions, board: Board, placed: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Everything depth sees: the object, the table (its top just under the tags), the floor."""
+    table, floor = _table_meshes(board, np.array([*options.axis_offset_m, 0.0]))
+    return trimesh.util.concatenate([placed, table, floor])
+
+
+def simulate_capture(
+    mesh_path: Path,
+    out_dir: Path,
+    options: SimulationOptions | None = None,
+    *,
+    force: bool = False,
+    progress: Progress | None = None,
+) -> SimulationResult:
+    """Render a capture of the mesh at `mesh_path` into `out_dir` (atomically)."""
+    import time
+
+    from turntable.blender_render import RenderScene, render_colour_frames
+
+    options = options or SimulationOptions()
+    options.check()
+    report = progress or (lambda _stage, _done, _total: None)
+    board = (
+        load_board(options.board_path)
+        if options.board_path
+        else grid_board(table_diameter_m=options.table_diameter_m, tag_size_m=options.tag_size_m)
+    )
+    camera = camera_for(options)
+    mesh, rgba = load_object_mesh(mesh_path, options.mesh_scale)
+    axis_table = np.array([*options.axis_offset_m, 0.0])
+    placed = _place_on_table(mesh, axis_table)
+    footprint = np.max(np.linalg.norm(placed.vertices[:, :2] - axis_table[:2], axis=1))
+    if footprint > board.radius_m * 0.9:
+        raise InputError(
+            f"{mesh_path}: the object ({footprint:.3f} m from the axis) does not fit on a {board.radius_m:.3f} m-radius table"
+        )
+    table, floor = _table_meshes(board, axis_table)
+    camera_from_world, world_from_tables = turntable_motion(options, float(placed.bounds[1, 2]))
+    stems = [f"{k:06d}" for k in range(options.frames)]
+    camera_from_tables = {stem: camera_from_world @ w for stem, w in zip(stems, world_from_tables)}
+    table_from_lights, powers, ambient = _lights(options, world_from_tables)
+    with atomic_dir(Path(out_dir), force=force, inputs=[Path(mesh_path)]) as tmp:
+        (tmp / "color").mkdir()
+        (tmp / "depth").mkdir()
+        save_camera(camera, tmp / "camera.yaml")
+        save_board(board, tmp / "board.yaml")
+        start = time.perf_counter()
+        scene = RenderScene(
+            object_mesh=placed,
+            object_rgba=rgba,
+            table_mesh=table,
+            floor_mesh=floor,
+            board=board,
+            camera=camera,
+            table_from_cameras=[np.linalg.inv(camera_from_tables[s]) for s in stems],
+            table_from_lights=table_from_lights,
+            light_power_w=powers,
+            ambient_strength=ambient,
+            samples=options.samples,
+            seed=options.seed,
+        )
+        render_colour_frames(scene, tmp / "color", progress=lambda done: report("render colour", done, options.frames))
+        render_s = time.perf_counter() - start
+        start = time.perf_counter()
+        _write_depth_frames(tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, report)
+        write_poses(tmp / TRUE_POSES, camera_from_tables)
+        truth = trimesh.Trimesh(
+            placed.vertices, placed.faces, vertex_colors=np.round(rgba * 255).astype(np.uint8), process=False
+        )
+        write_bytes_atomic(tmp / GROUND_TRUTH, truth.export(file_type="ply"))
+        write_text_atomic(tmp / SIMULATION_JSON, json.dumps(_options_json(options), indent=1) + "\n")
+        depth_s = time.perf_counter() - start
+    return SimulationResult(out_dir=Path(out_dir), frames=options.frames, render_s=render_s, depth_s=depth_s)
+
+
+def _options_json(options: SimulationOptions) -> dict:
+    data = dataclasses.asdict(options)
+    data["board_path"] = None if options.board_path is None else str(options.board_path)
+    return data
+
+
+def resimulate_depth(
+    capture_dir: Path, out_dir: Path, *, depth_noise_m: float, seed: int = 0, force: bool = False
+) -> Path:
+    """A copy of a simulated capture with its depth rendered again under another noise level
+    (the colour frames, poses and truth are the same): the same scene, rebuilt from
+    `simulation.json`, `board.yaml` and `ground_truth.ply`, without rendering colour again."""
+    import shutil
+
+    capture_dir = Path(capture_dir)
+    try:
+        saved = json.loads(read_bounded(capture_dir / SIMULATION_JSON, 1 << 20))
+        saved["board_path"] = None if saved["board_path"] is None else Path(saved["board_path"])
+        saved["axis_offset_m"] = tuple(saved["axis_offset_m"])
+        options = SimulationOptions(**{**saved, "depth_noise_m": depth_noise_m, "seed": seed})
+    except (ValueError, TypeError, KeyError) as exc:
+        raise InputError(f"{capture_dir / SIMULATION_JSON}: not a simulation record: {exc}") from None
+    options.check()
+    board = load_board(capture_dir / "board.yaml")
+    camera = load_camera(capture_dir / "camera.yaml")
+    placed = trimesh.load(capture_dir / GROUND_TRUTH, force="mesh", process=False)
+    camera_from_tables = read_poses(capture_dir / TRUE_POSES)
+    with atomic_dir(Path(out_dir), force=force, inputs=[capture_dir]) as tmp:
+        for name in ("camera.yaml", "board.yaml", TRUE_POSES, GROUND_TRUTH):
+            shutil.copy2(capture_dir / name, tmp / name)
+        shutil.copytree(capture_dir / "color", tmp / "color")
+        (tmp / "depth").mkdir()
+        _write_depth_frames(
+            tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, lambda *_: None
+        )
+        write_text_atomic(tmp / SIMULATION_JSON, json.dumps(_options_json(options), indent=1) + "\n")
+    return Path(out_dir)
