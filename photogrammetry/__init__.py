@@ -1,1 +1,8 @@
-"""Photos to a textured, metric mesh through COLMAP (D3.1 section 3.3.3). Not built yet: its issue has not landed."""
+"""Photos to a textured, metric, cleaned mesh through COLMAP on the CPU (D3.1 section 3.3.3).
+
+`photogrammetry.pipeline.reconstruct` runs the stages: `sfm` (pycolmap), `stereo` (CPU
+semi-global matching; `patch_match` where pycolmap has CUDA), `support_plane`, `markers` and
+`metric_frame` (scale and levelling), `visibility` and `cleaning` (the manual clean-up of
+Figure 17), `texturing` (xatlas and projection). `synthetic_scene` renders a photo set with
+ground truth in Blender for the tests and the benchmark; `picture` draws the cameras.
+"""

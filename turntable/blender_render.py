@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from homemodel.c_output import captured_c_output
 from turntable.board import TAG_CELLS, Board, tag_bits
 from turntable.camera import Camera
 
@@ -81,7 +82,9 @@ def render_colour_frames(scene: RenderScene, color_dir: Path, progress: Callable
 
     bpy.app.handlers.render_write.append(_on_write)
     try:
-        bpy.ops.render.render(animation=True)
+        # Blender logs every tile and saved file on fds 1 and 2; the library does not print.
+        with captured_c_output():
+            bpy.ops.render.render(animation=True)
     finally:
         bpy.app.handlers.render_write.remove(_on_write)
         bpy.ops.wm.read_factory_settings(use_empty=True)

@@ -107,7 +107,9 @@ def frame_points(
     # No point of the cylinder lies farther than this from the camera: the floor and the
     # room behind (most pixels) go before any arithmetic on them.
     eye = table_from_camera[:3, 3]
-    reach = np.hypot(np.hypot(*(eye[:2] - cylinder.axis_xy_m)) + cylinder.radius_m, max(abs(eye[2]), abs(eye[2] - cylinder.z_max_m)))
+    reach = np.hypot(
+        np.hypot(*(eye[:2] - cylinder.axis_xy_m)) + cylinder.radius_m, max(abs(eye[2]), abs(eye[2] - cylinder.z_max_m))
+    )
     index = np.flatnonzero(depth < reach)  # NaN compares False
     points = (rays[index] * depth[index, None]) @ table_from_camera[:3, :3].T + eye
     radial = np.hypot(points[:, 0] - cylinder.axis_xy_m[0], points[:, 1] - cylinder.axis_xy_m[1])

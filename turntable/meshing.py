@@ -82,8 +82,10 @@ def poisson_mesh(
     extent = float(np.max(np.ptp(cloud.points, axis=0)))
     depth = options.poisson_depth or int(np.clip(math.ceil(math.log2(_POISSON_SCALE * extent / voxel_size_m)), 6, 10))
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        # One thread: Open3D's multi-threaded Poisson segfaults now and then on a busy
+        # machine (isl-org/Open3D#6828, #7229); it did here, in a test run.
         o3d_mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
-            pcd, depth=depth, scale=_POISSON_SCALE
+            pcd, depth=depth, scale=_POISSON_SCALE, n_threads=1
         )
     densities = np.asarray(densities)
     triangles_poisson = len(o3d_mesh.triangles)

@@ -168,7 +168,11 @@ def refine_edges(image: np.ndarray, corners: np.ndarray) -> np.ndarray:
     fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
     step = offsets[..., 1] - offsets[..., 0]
     crossing = offsets[..., :1] + (i + fraction) * step[..., None]  # (T, 4, N)
-    points = start[:, :, None, :] + _ALONG[None, None, :, None] * side[:, :, None, :] + crossing[..., None] * outward[:, :, None, :]
+    points = (
+        start[:, :, None, :]
+        + _ALONG[None, None, :, None] * side[:, :, None, :]
+        + crossing[..., None] * outward[:, :, None, :]
+    )
     # Each side's line through its usable crossing points (total least squares).
     weight = usable.astype(np.float64)
     count = weight.sum(axis=-1)

@@ -1,0 +1,197 @@
+"""The manual clean-up of D3.1 Figure 17, done automatically.
+
+In the model frame (z up from the support plane, which is z = 0) the support surface and
+everything at its height is removed, the object is the cluster of points above it nearest to
+where the photos look, small disconnected pieces are dropped, and after Poisson meshing the
+mesh is cut at the support plane and its bottom closed with a flat cap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from homemodel.errors import ModelError
+
+
+@dataclass(kw_only=True)
+class CleaningOptions:
+    """Lengths are fractions of the scene scale (the median camera distance to the focus point)."""
+
+    roi_fraction: float = 0.6  # only points this near the focus point (where the cameras look) count
+    voxel_fraction: float = 0.002  # points are averaged into voxels of this size
+    plane_clearance_fraction: float = 0.006  # points lower than this above the plane are the plane
+    cluster_gap_fraction: float = 0.012  # points further apart than this are separate pieces
+    min_piece_share: float = 0.02  # pieces with fewer points than this share of the object are dropped
+    poisson_cell_voxels: float = 3.0  # the finest Poisson cells, in voxels: finer only adds noise and time
+
+
+@dataclass(kw_only=True)
+class ObjectPoints:
+    points: np.ndarray  # (N, 3), model frame
+    normals: np.ndarray  # (N, 3), pointing out (towards the cameras that saw them)
+    colours: np.ndarray  # (N, 3), 0..1
+    removed_plane_points: int
+    dropped_pieces: int
+
+
+def downsample(
+    points: np.ndarray, colours: np.ndarray, to_camera: np.ndarray, voxel: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Average points, colours and view directions per voxel (the fusion of overlapping depth maps)."""
+    cells = np.floor((points - points.min(axis=0)) / voxel).astype(np.int64)
+    span = cells.max(axis=0) + 1
+    keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]  # one integer per voxel: a fast unique
+    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        sums = np.zeros((len(counts), values.shape[1]))
+        np.add.at(sums, inverse, values)
+        return sums / counts[:, None]
+
+    directions = mean(to_camera)
+    directions /= np.maximum(np.linalg.norm(directions, axis=1, keepdims=True), 1e-12)
+    return mean(points), mean(colours), directions
+
+
+def plane_clearance(heights: np.ndarray, minimum: float) -> float:
+    """How far above the plane a point must lie not to be the plane: at least `minimum`, and
+    four robust standard deviations of the plane's own height noise."""
+    near = heights[np.abs(heights) < 4 * minimum]
+    if len(near) < 100:
+        return minimum
+    sigma = 1.4826 * np.median(np.abs(near - np.median(near)))
+    return float(max(minimum, 4 * sigma))
+
+
+def segment_object(
+    points: np.ndarray,
+    colours: np.ndarray,
+    to_camera: np.ndarray,
+    focus: np.ndarray,
+    scene_scale: float,
+    options: CleaningOptions,
+) -> ObjectPoints:
+    """The object's points: above the plane, in the piece nearest `focus`, with outward normals."""
+    import open3d as o3d
+
+    clearance = plane_clearance(points[:, 2], options.plane_clearance_fraction * scene_scale)
+    above = points[:, 2] > clearance
+    removed = int((~above).sum())
+    points, colours, to_camera = points[above], colours[above], to_camera[above]
+    # Stray points (the tail of the plane's noise, lone mismatches) have few neighbours; a
+    # surface sampled at the voxel size has about 25 within three voxels.
+    voxel = options.voxel_fraction * scene_scale
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    _, dense_enough = cloud.remove_radius_outlier(nb_points=8, radius=3 * voxel)
+    points, colours, to_camera = points[dense_enough], colours[dense_enough], to_camera[dense_enough]
+    if len(points) < 100:
+        raise ModelError(f"only {len(points)} dense points lie above the support plane: no object to mesh")
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    labels = np.asarray(cloud.cluster_dbscan(eps=options.cluster_gap_fraction * scene_scale, min_points=4))
+    # The object is the piece nearest the point the cameras look at; others (background
+    # furniture, a cable, a stray mismatch) are dropped.
+    pieces = [label for label in np.unique(labels) if label >= 0]
+    if not pieces:
+        raise ModelError("the dense points above the support plane form no object")
+    distances = {label: np.min(np.linalg.norm(points[labels == label] - focus, axis=1)) for label in pieces}
+    sizes = {label: int((labels == label).sum()) for label in pieces}
+    nearest = min(pieces, key=lambda label: distances[label] / np.sqrt(sizes[label]))
+    keep = labels == nearest
+    # Pieces touching the object's bounding box that are large enough are parts of it (a handle).
+    lo, hi = points[keep].min(axis=0), points[keep].max(axis=0)
+    margin = options.cluster_gap_fraction * scene_scale * 2
+    for label in pieces:
+        if label == nearest or sizes[label] < options.min_piece_share * keep.sum():
+            continue
+        inside = np.all((points[labels == label] > lo - margin) & (points[labels == label] < hi + margin), axis=1)
+        if inside.mean() > 0.5:
+            keep |= labels == label
+    cloud = cloud.select_by_index(np.nonzero(keep)[0])
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=24))
+    normals = np.asarray(cloud.normals)
+    flip = np.sum(normals * to_camera[keep], axis=1) < 0
+    normals[flip] *= -1
+    return ObjectPoints(
+        points=points[keep],
+        normals=normals,
+        colours=colours[keep],
+        removed_plane_points=removed,
+        dropped_pieces=len(pieces) - len(np.unique(labels[keep])),
+    )
+
+
+def floor_points(points: np.ndarray, *, spacing: float, base_share: float = 0.1) -> np.ndarray:
+    """Points on z = 0 filling the object's footprint (the convex hull of its lowest tenth in
+    height): the bottom no photo sees, stated so that Poisson closes it flat, not in a bulge."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    base = points[points[:, 2] <= points[:, 2].min() + base_share * np.ptp(points[:, 2])][:, :2]
+    try:
+        hull = ConvexHull(base)
+    except (QhullError, ValueError):
+        return np.zeros((0, 3))
+    lo, hi = base.min(axis=0), base.max(axis=0)
+    x, y = np.meshgrid(np.arange(lo[0], hi[0], spacing), np.arange(lo[1], hi[1], spacing))
+    grid = np.column_stack([x.ravel(), y.ravel()])
+    # Inside a convex polygon: on the inner side of every edge's line.
+    inside = grid[np.all(grid @ hull.equations[:, :2].T + hull.equations[:, 2] <= 0, axis=1)]
+    return np.column_stack([inside, np.zeros(len(inside))])
+
+
+def mesh_object(obj: ObjectPoints, scene_scale: float, options: CleaningOptions) -> trimesh.Trimesh:
+    """Poisson surface of the object's points, cut at the support plane and closed at the bottom."""
+    import open3d as o3d
+
+    voxel = options.voxel_fraction * scene_scale
+    floor = floor_points(obj.points, spacing=voxel)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.vstack([obj.points, floor])))
+    normals = np.vstack([obj.normals, np.tile([0.0, 0.0, -1.0], (len(floor), 1))])
+    cloud.normals = o3d.utility.Vector3dVector(normals)
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        poisson, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
+            cloud, depth=0, width=options.poisson_cell_voxels * voxel, scale=1.1, linear_fit=False
+        )
+    mesh = trimesh.Trimesh(np.asarray(poisson.vertices), np.asarray(poisson.triangles), process=True)
+    # Poisson closes the surface below the object, where no photo saw it, with a smooth bulge
+    # through the support plane: cut it at the plane and close the cut with a flat cap.
+    mesh = mesh.slice_plane(np.zeros(3), np.array([0.0, 0.0, 1.0]), cap=True)
+    if len(mesh.faces) == 0:
+        raise ModelError("the Poisson surface lies entirely below the support plane")
+    return largest_piece(mesh)
+
+
+def to_open3d(mesh: trimesh.Trimesh):
+    import open3d as o3d
+
+    return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces))
+
+
+def largest_piece(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The largest connected piece (Poisson leaves small bubbles)."""
+    pieces = mesh.split(only_watertight=False)
+    if len(pieces) == 0:
+        raise ModelError("the mesh has no faces")
+    return max(pieces, key=lambda m: len(m.faces))
+
+
+def finish_mesh(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
+    """Near-duplicate vertices merged (the cap's seam), small holes closed, decimated to
+    `max_faces` with its topology kept, so a closed surface stays closed (pymeshlab)."""
+    import pymeshlab
+
+    meshes = pymeshlab.MeshSet()
+    meshes.add_mesh(pymeshlab.Mesh(mesh.vertices, mesh.faces))
+    meshes.meshing_merge_close_vertices(threshold=pymeshlab.PercentageValue(0.01))
+    meshes.meshing_repair_non_manifold_edges()
+    meshes.meshing_close_holes(maxholesize=100)
+    if meshes.current_mesh().face_number() > max_faces:
+        meshes.meshing_decimation_quadric_edge_collapse(targetfacenum=max_faces, preservetopology=True, qualitythr=0.5)
+        meshes.meshing_close_holes(maxholesize=100)
+    result = meshes.current_mesh()
+    finished = trimesh.Trimesh(result.vertex_matrix(), result.face_matrix(), process=True)
+    if len(finished.faces) == 0:
+        raise ModelError("the mesh has no faces after repair")
+    return finished

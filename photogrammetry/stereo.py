@@ -1,0 +1,196 @@
+"""Dense depth on the CPU: semi-global matching on rectified pairs of registered views.
+
+pycolmap's PatchMatch stereo needs CUDA. Here each view (the reference) is paired with its
+best neighbours; each pair is rectified (`cv2.stereoRectify`), matched with OpenCV's SGBM
+(with its left-right check), and the disparity turned back into depth along the reference's
+own pixel rays. A pixel keeps a depth only where at least `min_agreeing_pairs` pairs agree:
+the consistency filter across views that removes occlusions and mismatches.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from photogrammetry.photos import read_rgb
+from photogrammetry.sfm import SparseModel, View
+
+MAX_DISPARITIES = 256
+
+
+@dataclass(kw_only=True)
+class DenseOptions:
+    """Options of the dense depth stage."""
+
+    max_image_size_px: int = 800  # depth maps are computed on views shrunk to this longer side
+    neighbours: int = 4  # source views paired with each reference view
+    min_agreeing_pairs: int = 2
+    depth_tolerance: float = 0.01  # pairs agree when their depths differ by less than this fraction
+    min_angle_deg: float = 4.0  # triangulation angle of a good pair (at the scene)
+    max_angle_deg: float = 35.0
+    block_size_px: int = 5
+
+
+@dataclass(kw_only=True)
+class DepthMap:
+    """Depth (metres or SfM units, 0 = none) along the pixel rays of a shrunk view."""
+
+    view_index: int
+    depth: np.ndarray  # (H, W) float32
+    colour: np.ndarray  # (H, W, 3) uint8
+    intrinsics: np.ndarray  # 3x3 for this resolution
+
+
+def choose_neighbours(model: SparseModel, options: DenseOptions) -> list[list[int]]:
+    """For each view, the views that share the most sparse points at a good triangulation angle."""
+    n = len(model.views)
+    centres = np.array([v.centre_world for v in model.views])
+    shared = np.zeros((n, n))
+    for point, seen_by in zip(model.points_world, model.point_views):
+        rays = centres[seen_by] - point
+        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+        angles = np.degrees(np.arccos(np.clip(rays @ rays.T, -1, 1)))
+        good = (angles >= options.min_angle_deg) & (angles <= options.max_angle_deg)
+        shared[np.ix_(seen_by, seen_by)] += good
+    np.fill_diagonal(shared, 0)
+    return [[int(j) for j in np.argsort(-shared[i])[: options.neighbours] if shared[i, j] > 0] for i in range(n)]
+
+
+def _depth_range(model: SparseModel, view_index: int) -> tuple[float, float]:
+    """Near and far depth of the sparse points a view sees, with a margin."""
+    view = model.views[view_index]
+    seen = np.array([view_index in v for v in model.point_views])
+    points = model.points_world[seen] if seen.sum() >= 10 else model.points_world
+    depths = (points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3])[:, 2]
+    depths = depths[depths > 0]
+    near, far = np.percentile(depths, [1, 99])
+    return float(near) * 0.8, float(far) * 1.25
+
+
+def _pair_depth(
+    ref: np.ndarray,
+    src: np.ndarray,
+    k_ref: np.ndarray,
+    k_src: np.ndarray,
+    src_from_ref: np.ndarray,
+    depth_range: tuple[float, float],
+    options: DenseOptions,
+) -> np.ndarray:
+    """Depth along the reference's pixel rays from one rectified pair (0 where unmatched)."""
+    import cv2
+
+    h, w = ref.shape[:2]
+    size = (round(w * 1.2), round(h * 1.2))  # a larger canvas: converging views rotate out of frame
+    r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(
+        k_ref, None, k_src, None, (w, h), src_from_ref[:3, :3], src_from_ref[:3, 3],
+        flags=cv2.CALIB_ZERO_DISPARITY, alpha=1, newImageSize=size,
+    )  # fmt: skip
+    vertical = abs(p2[1, 3]) > abs(p2[0, 3])
+    baseline_px = p2[1, 3] if vertical else p2[0, 3]  # focal length times the signed baseline
+    maps_ref = cv2.initUndistortRectifyMap(k_ref, None, r1, p1, size, cv2.CV_32FC1)
+    maps_src = cv2.initUndistortRectifyMap(k_src, None, r2, p2, size, cv2.CV_32FC1)
+    rect_ref = cv2.remap(ref, *maps_ref, cv2.INTER_LINEAR)
+    rect_src = cv2.remap(src, *maps_src, cv2.INTER_LINEAR)
+    # SGBM matches left to right along rows: transpose a vertical pair, mirror a pair whose
+    # source lies on the reference's left, so disparities come out positive.
+    if vertical:
+        rect_ref, rect_src = rect_ref.transpose(1, 0, 2).copy(), rect_src.transpose(1, 0, 2).copy()
+    if baseline_px > 0:
+        rect_ref, rect_src = rect_ref[:, ::-1].copy(), rect_src[:, ::-1].copy()
+    near, far = depth_range
+    d_min = max(int(np.floor(abs(baseline_px) / far)), 0)
+    d_max = int(np.ceil(abs(baseline_px) / near))
+    num = int(np.clip(np.ceil((d_max - d_min) / 16) * 16, 16, MAX_DISPARITIES))
+    if d_min + num >= rect_ref.shape[1] // 2:
+        return np.zeros((h, w), np.float32)  # the views converge too much to match along rows
+    block = options.block_size_px
+    sgbm = cv2.StereoSGBM_create(
+        minDisparity=d_min, numDisparities=num, blockSize=block,
+        P1=8 * 3 * block**2, P2=32 * 3 * block**2, disp12MaxDiff=1,
+        uniquenessRatio=10, speckleWindowSize=100, speckleRange=2, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY,
+    )  # fmt: skip
+    disparity = sgbm.compute(rect_ref, rect_src).astype(np.float32) / 16.0
+    if baseline_px > 0:
+        disparity = disparity[:, ::-1]
+    if vertical:
+        disparity = disparity.T
+    disparity[disparity <= d_min] = 0  # SGBM's "no match" is d_min - 1
+    # Each reference pixel's ray in the rectified frame, where the disparity is looked up.
+    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    rays = np.stack([u, v, np.ones_like(u)], axis=-1) @ np.linalg.inv(k_ref).T
+    rect_rays = rays @ r1.T
+    rect_px = rect_rays @ p1[:3, :3].T
+    map_x = (rect_px[..., 0] / rect_px[..., 2]).astype(np.float32)
+    map_y = (rect_px[..., 1] / rect_px[..., 2]).astype(np.float32)
+    sampled = cv2.remap(disparity, map_x, map_y, cv2.INTER_NEAREST, borderValue=0)
+    valid = sampled > 0
+    rect_depth = np.where(valid, abs(baseline_px) / np.where(valid, sampled, 1), 0)  # depth along rectified z
+    # A point on the ray at rectified depth Z has reference depth Z * ray_z / rect_ray_z (ray_z = 1).
+    depth = rect_depth / rect_rays[..., 2]
+    depth[(depth < near) | (depth > far)] = 0
+    return depth.astype(np.float32)
+
+
+def _agreeing_depth(candidates: np.ndarray, options: DenseOptions) -> np.ndarray:
+    """Per pixel, the mean of the pair depths that agree with their median, where enough do."""
+    stack = np.where(candidates > 0, candidates, np.nan)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN pixels: no pair matched there
+        median = np.nanmedian(stack, axis=0)
+        agree = np.abs(stack - median) <= options.depth_tolerance * median
+        count = agree.sum(axis=0)
+        mean = np.nansum(np.where(agree, stack, 0), axis=0) / np.maximum(count, 1)
+    return np.where(count >= options.min_agreeing_pairs, mean, 0).astype(np.float32)
+
+
+def compute_depth_maps(
+    model: SparseModel,
+    options: DenseOptions | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[DepthMap]:
+    """A filtered depth map for every registered view."""
+    options = options or DenseOptions()
+    neighbours = choose_neighbours(model, options)
+    images, factors = [], []
+    for view in model.views:
+        image = read_rgb(view.image_path, max_side_px=options.max_image_size_px)
+        images.append(image)
+        factors.append(image.shape[1] / view.width_px)
+    maps = []
+    for i, view in enumerate(model.views):
+        k_ref = view.scaled(factors[i])
+        candidates = []
+        for j in neighbours[i]:
+            src_from_ref = model.views[j].camera_from_world @ np.linalg.inv(view.camera_from_world)
+            candidates.append(
+                _pair_depth(images[i], images[j], k_ref, model.views[j].scaled(factors[j]), src_from_ref,
+                            _depth_range(model, i), options)
+            )  # fmt: skip
+        depth = (
+            _agreeing_depth(np.array(candidates), options) if candidates else np.zeros(images[i].shape[:2], np.float32)
+        )
+        maps.append(DepthMap(view_index=i, depth=depth, colour=images[i], intrinsics=k_ref))
+        if progress:
+            progress(i + 1, len(model.views))
+    return maps
+
+
+def depth_maps_to_points(model: SparseModel, maps: list[DepthMap]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World points, their colours (0..1) and the unit direction from each point to its camera."""
+    all_points, all_colours, all_dirs = [], [], []
+    for depth_map in maps:
+        view: View = model.views[depth_map.view_index]
+        v, u = np.nonzero(depth_map.depth)
+        z = depth_map.depth[v, u].astype(np.float64)
+        rays = np.column_stack([u, v, np.ones_like(u)]) @ np.linalg.inv(depth_map.intrinsics).T
+        camera_points = rays * z[:, None]
+        world_from_camera = np.linalg.inv(view.camera_from_world)
+        points = camera_points @ world_from_camera[:3, :3].T + world_from_camera[:3, 3]
+        to_camera = view.centre_world - points
+        all_points.append(points)
+        all_colours.append(depth_map.colour[v, u] / 255.0)
+        all_dirs.append(to_camera / np.linalg.norm(to_camera, axis=1, keepdims=True))
+    return np.vstack(all_points), np.vstack(all_colours), np.vstack(all_dirs)

@@ -1,0 +1,351 @@
+"""A synthetic photo set with ground truth, rendered with Blender (bpy, Cycles on the CPU).
+
+A textured vase-like object stands on a textured table, ringed by ArUco/AprilTag markers of
+known size, photographed from `n_views` cameras on two rings: the set-up of D3.1 Figure 16
+with every camera, the true mesh and the scale known. The world frame is marker 0's frame
+(x along its top edge, y up its left edge, z up out of the table), the frame a reconstruction
+with markers is expressed in, so a result can be compared with the truth without alignment.
+
+bpy is imported only inside `_render_in_blender`, which runs in a child process
+(`python -m photogrammetry.synthetic_scene SPEC.json`) so Blender's libraries never share a
+process with open3d or pycolmap.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from homemodel.errors import InputError
+
+SCENE_FILE = "scene.json"
+TRUTH_MESH_FILE = "object_truth.ply"
+
+
+@dataclass(kw_only=True)
+class SceneOptions:
+    n_views: int = 40
+    width_px: int = 640
+    height_px: int = 480
+    lens_mm: float = 35.0
+    sensor_width_mm: float = 36.0
+    samples: int = 16
+    marker_size_m: float = 0.04
+    dictionary: str = "apriltag_36h11"
+    seed: int = 0
+
+
+@dataclass(kw_only=True)
+class SyntheticScene:
+    """What a rendered set holds: its folder, the photos, the truth."""
+
+    folder: Path
+    image_paths: list[Path]
+    truth_mesh: trimesh.Trimesh  # in marker 0's frame, metres
+    camera_from_world: dict[str, np.ndarray]  # OpenCV convention, by image name
+    fx_px: float
+    marker_size_m: float
+    dictionary: str
+
+    @property
+    def object_size_m(self) -> float:
+        """The bounding-box diagonal of the true object."""
+        return float(np.linalg.norm(self.truth_mesh.extents))
+
+
+# The object: a surface of revolution (radius in metres against height), closed at both ends.
+_OBJECT_CENTRE_XY_M = (0.17, 0.0)
+_PROFILE_Z_M = np.linspace(0.0, 0.14, 15)
+_PROFILE_R_M = 0.045 + 0.012 * np.sin(_PROFILE_Z_M / 0.14 * np.pi * 1.3) - 0.01 * (_PROFILE_Z_M / 0.14) ** 2
+_SEGMENTS = 64
+
+
+def truth_object_mesh() -> tuple[trimesh.Trimesh, np.ndarray]:
+    """The object in the world frame and its per-vertex UVs (u around, v up)."""
+    rings = len(_PROFILE_Z_M)
+    angles = np.linspace(0, 2 * np.pi, _SEGMENTS + 1)  # the seam column is duplicated for the UVs
+    r, a = np.meshgrid(_PROFILE_R_M, angles, indexing="ij")
+    z = np.repeat(_PROFILE_Z_M[:, None], _SEGMENTS + 1, axis=1)
+    side = np.stack([r * np.cos(a), r * np.sin(a), z], axis=-1).reshape(-1, 3)
+    u, v = np.meshgrid(angles / (2 * np.pi), _PROFILE_Z_M / _PROFILE_Z_M[-1], indexing="xy")
+    side_uv = np.stack([u, v], axis=-1).reshape(-1, 2) * [1.0, 0.8]
+    faces = []
+    cols = _SEGMENTS + 1
+    for i in range(rings - 1):
+        for j in range(_SEGMENTS):
+            a0, a1, b0, b1 = i * cols + j, i * cols + j + 1, (i + 1) * cols + j, (i + 1) * cols + j + 1
+            faces += [[a0, a1, b1], [a0, b1, b0]]
+    vertices, uvs = [side], [side_uv]
+    count = len(side)
+    for ring, up in ((0, False), (rings - 1, True)):  # caps: a centre vertex fanned to the ring
+        centre = np.array([[0.0, 0.0, _PROFILE_Z_M[ring]]])
+        ring_idx = ring * cols + np.arange(_SEGMENTS)
+        cap_uv = 0.5 + 0.1 * np.stack([np.cos(angles[:-1]), np.sin(angles[:-1])], axis=-1)
+        vertices += [centre, side[ring_idx]]
+        uvs += [np.array([[0.5, 0.9]]), np.column_stack([cap_uv[:, 0], 0.8 + cap_uv[:, 1] * 0.4])]
+        c = count
+        ring_new = count + 1 + np.arange(_SEGMENTS)
+        for j in range(_SEGMENTS):
+            k = (j + 1) % _SEGMENTS
+            faces.append([c, ring_new[k], ring_new[j]] if not up else [c, ring_new[j], ring_new[k]])
+        count += 1 + _SEGMENTS
+    mesh = trimesh.Trimesh(np.vstack(vertices), np.array(faces), process=False)
+    mesh.apply_translation([*_OBJECT_CENTRE_XY_M, 0.0])
+    return mesh, np.vstack(uvs)
+
+
+def _noise_texture(rng: np.random.Generator, size_px: tuple[int, int], contrast: float) -> np.ndarray:
+    """Multi-scale coloured noise with dots: many SIFT features and locally unique patches."""
+    import cv2
+
+    h, w = size_px
+    image = np.zeros((h, w, 3), np.float32)
+    for scale in (2, 5, 11, 23):
+        layer = rng.normal(size=(h // scale + 2, w // scale + 2, 3)).astype(np.float32)
+        image += cv2.resize(layer, (w, h), interpolation=cv2.INTER_CUBIC) * (scale**0.5)
+    image = (image - image.mean()) / image.std()
+    image = 0.5 + contrast * 0.18 * image
+    for _ in range(h * w // 2500):
+        centre = (int(rng.integers(0, w)), int(rng.integers(0, h)))
+        colour = tuple(float(c) for c in rng.uniform(0, 1, 3))
+        cv2.circle(image, centre, int(rng.integers(2, 12)), colour, -1, lineType=cv2.LINE_AA)
+    return (np.clip(image, 0, 1) * 255).astype(np.uint8)
+
+
+def marker_layout(marker_size_m: float) -> list[tuple[int, float, float, float]]:
+    """(id, x, y, yaw) of the markers: marker 0 at the origin, the others on a ring around the object."""
+    layout = [(0, 0.0, 0.0, 0.0)]
+    cx, cy = _OBJECT_CENTRE_XY_M
+    for k, angle in enumerate(np.deg2rad([60, 120, 180, 240, 300]), start=1):
+        radius = 0.17 + 0.01 * k % 3
+        layout.append((k, cx + radius * np.cos(angle + np.pi), cy + radius * np.sin(angle + np.pi), 0.4 * k))
+    return layout
+
+
+def _marker_image(dictionary: str, marker_id: int, px_per_cell: int = 16) -> np.ndarray:
+    """The marker with one white cell of margin (the quiet zone a detector needs)."""
+    import cv2
+
+    from photogrammetry.markers import aruco_dictionary
+
+    d = aruco_dictionary(dictionary)
+    cells = d.markerSize + 2
+    side = cells * px_per_cell
+    tag = cv2.aruco.generateImageMarker(d, marker_id, side)
+    margin = px_per_cell
+    return cv2.copyMakeBorder(tag, margin, margin, margin, margin, cv2.BORDER_CONSTANT, value=255)
+
+
+def _camera_centres(n_views: int, rng: np.random.Generator) -> np.ndarray:
+    """Two rings around the object, lower and higher, with a little jitter."""
+    cx, cy = _OBJECT_CENTRE_XY_M
+    low = n_views // 2
+    centres = []
+    for i in range(n_views):
+        ring = 0 if i < low else 1
+        count = low if ring == 0 else n_views - low
+        k = i if ring == 0 else i - low
+        azimuth = 2 * np.pi * (k + 0.5 * ring) / count + rng.normal(0, 0.03)
+        elevation = np.deg2rad(28 if ring == 0 else 52) + rng.normal(0, 0.03)
+        distance = 0.42 + rng.normal(0, 0.015)
+        centres.append(
+            [
+                cx + distance * np.cos(elevation) * np.cos(azimuth),
+                cy + distance * np.cos(elevation) * np.sin(azimuth),
+                0.06 + distance * np.sin(elevation),
+            ]
+        )
+    return np.array(centres)
+
+
+def _look_at(centre: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """world_from_camera in the OpenCV convention (x right, y down, z forward)."""
+    forward = (target - centre) / np.linalg.norm(target - centre)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    world_from_camera = np.eye(4)
+    world_from_camera[:3, :3] = np.column_stack([right, down, forward])
+    world_from_camera[:3, 3] = centre
+    return world_from_camera
+
+
+def render_scene(folder: Path, options: SceneOptions | None = None) -> SyntheticScene:
+    """Render the photo set into `folder` (images/, scene.json, the true mesh); reuse it if present."""
+    options = options or SceneOptions()
+    folder = Path(folder)
+    spec_path = folder / SCENE_FILE
+    wanted = asdict(options)
+    if spec_path.is_file():
+        spec = json.loads(spec_path.read_text())
+        if spec.get("options") == wanted and all((folder / "images" / v["name"]).is_file() for v in spec["views"]):
+            return load_scene(folder)
+    rng = np.random.default_rng(options.seed)
+    (folder / "images").mkdir(parents=True, exist_ok=True)
+    (folder / "textures").mkdir(exist_ok=True)
+    import cv2
+
+    mesh, uv = truth_object_mesh()
+    mesh.export(folder / TRUTH_MESH_FILE)
+    cv2.imwrite(str(folder / "textures" / "object.png"), _noise_texture(rng, (512, 1024), contrast=1.0))
+    cv2.imwrite(str(folder / "textures" / "table.png"), _noise_texture(rng, (1024, 1024), contrast=0.6))
+    markers = []
+    for marker_id, x, y, yaw in marker_layout(options.marker_size_m):
+        path = folder / "textures" / f"marker_{marker_id}.png"
+        cv2.imwrite(str(path), _marker_image(options.dictionary, marker_id))
+        markers.append({"id": marker_id, "x": x, "y": y, "yaw": yaw, "texture": path.name})
+    target = np.array([*_OBJECT_CENTRE_XY_M, 0.06])
+    fx = options.lens_mm / options.sensor_width_mm * options.width_px
+    views = []
+    for i, centre in enumerate(_camera_centres(options.n_views, rng)):
+        world_from_camera = _look_at(centre, target + rng.normal(0, 0.01, 3))
+        views.append({"name": f"view_{i:03d}.png", "world_from_camera": world_from_camera.tolist()})
+    spec = {
+        "options": wanted,
+        "fx_px": fx,
+        "object": {"vertices": mesh.vertices.tolist(), "faces": mesh.faces.tolist(), "uv": uv.tolist()},
+        "markers": markers,
+        "views": views,
+    }
+    render_spec = folder / "render_spec.json"
+    render_spec.write_text(json.dumps(spec))
+    result = subprocess.run(
+        [sys.executable, "-m", "photogrammetry.synthetic_scene", str(render_spec)],
+        capture_output=True,
+        text=True,
+    )
+    if result.returncode != 0:
+        raise InputError(f"{folder}: Blender rendering failed: {result.stderr.strip().splitlines()[-1:]}")
+    render_spec.unlink()
+    del spec["object"]
+    spec_path.write_text(json.dumps(spec, indent=1))
+    return load_scene(folder)
+
+
+def load_scene(folder: Path) -> SyntheticScene:
+    spec = json.loads((Path(folder) / SCENE_FILE).read_text())
+    options = SceneOptions(**spec["options"])
+    return SyntheticScene(
+        folder=Path(folder),
+        image_paths=[Path(folder) / "images" / v["name"] for v in spec["views"]],
+        truth_mesh=trimesh.load(Path(folder) / TRUTH_MESH_FILE, process=False),  # the world is marker 0's frame
+        camera_from_world={v["name"]: np.linalg.inv(np.array(v["world_from_camera"])) for v in spec["views"]},
+        fx_px=spec["fx_px"],
+        marker_size_m=options.marker_size_m,
+        dictionary=options.dictionary,
+    )
+
+
+def _render_in_blender(spec_path: Path) -> None:
+    """Build the scene in Blender and render every view (runs in the child process)."""
+    import bpy
+
+    spec = json.loads(spec_path.read_text())
+    options = SceneOptions(**spec["options"])
+    folder = spec_path.parent
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+
+    def textured(name: str, image_name: str, vertices, faces, uv, *, interpolation: str = "Linear"):
+        mesh = bpy.data.meshes.new(name)
+        mesh.from_pydata([tuple(v) for v in vertices], [], [tuple(f) for f in faces])
+        layer = mesh.uv_layers.new(name="UVMap")
+        for loop in mesh.loops:
+            layer.data[loop.index].uv = tuple(uv[loop.vertex_index])
+        material = bpy.data.materials.new(name)
+        material.use_nodes = True
+        nodes = material.node_tree.nodes
+        nodes.remove(nodes["Principled BSDF"])
+        bsdf = nodes.new("ShaderNodeBsdfDiffuse")  # matte: cheaper to render than Principled
+        material.node_tree.links.new(bsdf.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = bpy.data.images.load(str(folder / "textures" / image_name))
+        tex.interpolation = interpolation
+        material.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["Color"])
+        mesh.materials.append(material)
+        obj = bpy.data.objects.new(name, mesh)
+        scene.collection.objects.link(obj)
+        return obj
+
+    obj = spec["object"]
+    textured("object", "object.png", obj["vertices"], obj["faces"], obj["uv"])
+    half = 0.6
+    table_xy = np.array([[-half, -half], [half, -half], [half, half], [-half, half]]) + _OBJECT_CENTRE_XY_M
+    table_v = [[x, y, 0.0] for x, y in table_xy]
+    textured("table", "table.png", table_v, [[0, 1, 2, 3]], [[0, 0], [1, 0], [1, 1], [0, 1]])
+    for m in spec["markers"]:
+        # The printed sheet: the marker plus its one-cell margin, 0.2 mm above the table.
+        cells = _cells(options.dictionary)
+        h = options.marker_size_m / 2 * (cells + 2) / cells
+        c, s = np.cos(m["yaw"]), np.sin(m["yaw"])
+        corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]]) @ np.array([[c, s], [-s, c]])
+        verts = [[m["x"] + x, m["y"] + y, 0.0002] for x, y in corners]
+        textured(
+            f"marker_{m['id']}",
+            m["texture"],
+            verts,
+            [[0, 1, 2, 3]],
+            [[0, 0], [1, 0], [1, 1], [0, 1]],
+            interpolation="Closest",
+        )
+
+    world = bpy.data.worlds.new("world")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.6, 0.6, 0.6, 1.0)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.6
+    scene.world = world
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", type="SUN"))
+    sun.data.energy = 2.5
+    sun.data.angle = np.deg2rad(20)
+    sun.rotation_euler = (np.deg2rad(35), np.deg2rad(10), np.deg2rad(40))
+    scene.collection.objects.link(sun)
+
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.data.lens = options.lens_mm
+    camera.data.sensor_fit = "HORIZONTAL"
+    camera.data.sensor_width = options.sensor_width_mm
+    camera.data.clip_start = 0.01
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = options.samples
+    # Direct light and one diffuse bounce are enough for matte objects, and far faster.
+    scene.cycles.use_denoising = False
+    scene.cycles.use_adaptive_sampling = False
+    scene.cycles.max_bounces = 1
+    scene.cycles.diffuse_bounces = 1
+    scene.cycles.glossy_bounces = 0
+    scene.cycles.transmission_bounces = 0
+    scene.cycles.transparent_max_bounces = 0
+    scene.cycles.seed = options.seed
+    scene.render.resolution_x = options.width_px
+    scene.render.resolution_y = options.height_px
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGB"
+    # Linear-to-display without a filmic curve: marker corners are not biased (DESIGN.md).
+    scene.view_settings.view_transform = "Standard"
+    from mathutils import Matrix
+
+    opencv_from_blender = np.diag([1.0, -1.0, -1.0, 1.0])
+    for view in spec["views"]:
+        camera.matrix_world = Matrix((np.array(view["world_from_camera"]) @ opencv_from_blender).tolist())
+        scene.render.filepath = str(folder / "images" / view["name"])
+        bpy.ops.render.render(write_still=True)
+
+
+def _cells(dictionary: str) -> int:
+    from photogrammetry.markers import aruco_dictionary
+
+    return aruco_dictionary(dictionary).markerSize + 2
+
+
+if __name__ == "__main__":
+    _render_in_blender(Path(sys.argv[1]))

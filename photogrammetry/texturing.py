@@ -1,0 +1,187 @@
+"""A UV atlas (xatlas) and a colour texture baked from the photos by projection.
+
+Every texel is placed on the mesh (its triangle and barycentric coordinates), projected into
+every view, and kept from the views that see it unoccluded (a ray-cast depth buffer per view),
+weighted by how squarely the view faces the surface (cos^4 of the view angle), so grazing
+and occluded views do not smear the texture.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from homemodel.errors import ModelError
+from photogrammetry.cleaning import to_open3d
+from photogrammetry.photos import read_rgb
+from photogrammetry.sfm import View
+
+
+@dataclass(kw_only=True)
+class TextureOptions:
+    size_px: int = 2048
+    charts: int = 300  # xatlas is fast with many small charts, slow with a few large ones
+    depth_buffer_px: int = 480  # longer side of the per-view visibility depth buffers
+    max_image_px: int = 1600  # colour is sampled from the photos shrunk to this longer side
+    min_cos: float = 0.15  # views more grazing than this never contribute
+    padding_px: int = 4
+
+
+@dataclass(kw_only=True)
+class TexturedMesh:
+    mesh: trimesh.Trimesh  # vertices split along the atlas seams
+    uv: np.ndarray  # (V, 2), OpenGL convention (v up)
+    texture: np.ndarray  # (size, size, 3) uint8 RGB
+    covered_share: float  # share of the atlas texels that some view saw
+
+
+def uv_atlas(mesh: trimesh.Trimesh, options: TextureOptions) -> tuple[trimesh.Trimesh, np.ndarray]:
+    """The mesh with its vertices split along chart seams, and one UV per vertex."""
+    import xatlas
+
+    chart_options = xatlas.ChartOptions()
+    chart_options.max_iterations = 1
+    chart_options.max_chart_area = float(mesh.area) / options.charts
+    pack_options = xatlas.PackOptions()
+    pack_options.resolution = options.size_px
+    pack_options.padding = options.padding_px
+    pack_options.bilinear = True
+    atlas = xatlas.Atlas()
+    # xatlas needs float32 vertices and uint32 faces (other types crash it).
+    atlas.add_mesh(mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32))
+    atlas.generate(chart_options, pack_options)
+    vmapping, faces, uv = atlas[0]
+    split = trimesh.Trimesh(mesh.vertices[vmapping], faces.astype(np.int64), process=False)
+    return split, uv.astype(np.float64)
+
+
+def _texel_surface(mesh: trimesh.Trimesh, uv: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The texels inside some triangle: their (row, col), 3D point and surface normal."""
+    import cv2
+
+    face_ids = np.full((size, size), -1, np.int32)
+    corners_px = np.stack([uv[:, 0] * size - 0.5, (1 - uv[:, 1]) * size - 0.5], axis=1)
+    triangles = np.round(corners_px[mesh.faces] * 16).astype(np.int32)  # 4 bits of sub-pixel precision
+    for index, triangle in enumerate(triangles):
+        cv2.fillConvexPoly(face_ids, triangle, int(index), lineType=cv2.LINE_8, shift=4)
+    rows, cols = np.nonzero(face_ids >= 0)
+    faces = face_ids[rows, cols]
+    # Barycentric coordinates of each texel centre in its triangle's UV corners.
+    a, b, c = (corners_px[mesh.faces[faces, k]] for k in range(3))
+    p = np.stack([cols, rows], axis=1).astype(np.float64)
+    v0, v1, v2 = b - a, c - a, p - a
+    denominator = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
+    denominator = np.where(np.abs(denominator) < 1e-12, 1e-12, denominator)
+    w1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / denominator
+    w2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / denominator
+    weights = np.clip(np.stack([1 - w1 - w2, w1, w2], axis=1), 0, 1)
+    weights /= weights.sum(axis=1, keepdims=True)
+    triangle_points = mesh.vertices[mesh.faces[faces]]
+    points = np.einsum("nk,nkd->nd", weights, triangle_points)
+    normals = np.einsum("nk,nkd->nd", weights, mesh.vertex_normals[mesh.faces[faces]])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    return np.stack([rows, cols], axis=1), points, normals
+
+
+def _depth_buffer(scene, view: View, max_side_px: int) -> tuple[np.ndarray, np.ndarray]:
+    """Ray-cast depth (along the optical axis) of the mesh in a shrunk view, and that view's K."""
+    import open3d as o3d
+
+    factor = min(1.0, max_side_px / max(view.width_px, view.height_px))
+    width, height = round(view.width_px * factor), round(view.height_px * factor)
+    k = view.scaled(factor)
+    u, v = np.meshgrid(np.arange(width), np.arange(height))
+    rays_camera = np.stack([u, v, np.ones_like(u)], axis=-1).reshape(-1, 3) @ np.linalg.inv(k).T
+    world_from_camera = np.linalg.inv(view.camera_from_world)
+    directions = rays_camera @ world_from_camera[:3, :3].T  # camera z = 1: t_hit is the depth
+    origins = np.broadcast_to(world_from_camera[:3, 3], directions.shape)
+    rays = o3d.core.Tensor(np.hstack([origins, directions]).astype(np.float32))
+    depth = scene.cast_rays(rays)["t_hit"].numpy().reshape(height, width)
+    return depth, k
+
+
+def bake_texture(
+    mesh: trimesh.Trimesh,
+    views: list[View],
+    options: TextureOptions | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> TexturedMesh:
+    """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame)."""
+    import open3d as o3d
+
+    options = options or TextureOptions()
+    split, uv = uv_atlas(mesh, options)
+    size = options.size_px
+    texels, points, normals = _texel_surface(split, uv, size)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(to_open3d(mesh)))
+    colour_sum = np.zeros((len(points), 3))
+    weight_sum = np.zeros(len(points))
+    for index, view in enumerate(views):
+        depth, k_depth = _depth_buffer(scene, view, options.depth_buffer_px)
+        camera_points = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
+        z = camera_points[:, 2]
+        to_camera = view.centre_world - points
+        to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
+        cos = np.sum(normals * to_camera, axis=1)
+        usable = (z > 0) & (cos > options.min_cos)
+        px = camera_points[usable] @ k_depth.T
+        col, row = (px[:, 0] / px[:, 2]).round().astype(int), (px[:, 1] / px[:, 2]).round().astype(int)
+        inside = (col >= 0) & (col < depth.shape[1]) & (row >= 0) & (row < depth.shape[0])
+        candidates = np.nonzero(usable)[0][inside]
+        buffer_depth = depth[row[inside], col[inside]]
+        # Visible: nothing in front of the texel along this pixel's ray (a tolerance for the
+        # depth buffer's coarser sampling of the surface).
+        visible = candidates[z[candidates] <= buffer_depth * 1.01 + 1e-9]
+        if len(visible):
+            image = read_rgb(view.image_path, max_side_px=options.max_image_px)
+            k_image = view.scaled(image.shape[1] / view.width_px)
+            px = camera_points[visible] @ k_image.T
+            colours = _sample_bilinear(image, px[:, :2] / px[:, 2:])
+            weight = cos[visible] ** 4
+            colour_sum[visible] += weight[:, None] * colours
+            weight_sum[visible] += weight
+        if progress:
+            progress(index + 1, len(views))
+    seen = weight_sum > 0
+    if not seen.any():
+        raise ModelError("no view sees the mesh: cannot bake a texture")
+    texture = np.zeros((size, size, 3), np.uint8)
+    colours = np.zeros((len(points), 3))
+    colours[seen] = colour_sum[seen] / weight_sum[seen, None]
+    colours[~seen] = colours[seen].mean(axis=0)  # texels no photo saw (the bottom): the mean colour
+    texture[texels[:, 0], texels[:, 1]] = np.clip(colours, 0, 255).astype(np.uint8)
+    return TexturedMesh(
+        mesh=split, uv=uv, texture=_pad_charts(texture, texels, options.padding_px), covered_share=float(seen.mean())
+    )
+
+
+def _sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Colours at sub-pixel positions (cv2.remap, its maps folded into rows under its size limit)."""
+    import cv2
+
+    width = 4096
+    count = len(xy)
+    padded = np.zeros((-(-count // width) * width, 2), np.float32)
+    padded[:count] = xy
+    maps = padded.reshape(-1, width, 2)
+    sampled = cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+    return sampled.reshape(-1, image.shape[2])[:count].astype(np.float64)
+
+
+def _pad_charts(texture: np.ndarray, texels: np.ndarray, padding_px: int) -> np.ndarray:
+    """Grow each chart's colours into its gutter so bilinear filtering and mip-maps do not
+    bleed the black background into the model."""
+    import cv2
+
+    filled = np.zeros(texture.shape[:2], np.uint8)
+    filled[texels[:, 0], texels[:, 1]] = 1
+    for _ in range(padding_px):
+        grown = cv2.dilate(texture, np.ones((3, 3), np.uint8))
+        ring = (cv2.dilate(filled, np.ones((3, 3), np.uint8)) > 0) & (filled == 0)
+        texture[ring] = grown[ring]
+        filled[ring] = 1
+    return texture

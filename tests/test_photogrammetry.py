@@ -1,0 +1,220 @@
+"""photogrammetry: the stages on generated inputs with known answers, and bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import trimesh
+
+from homemodel.errors import InputError
+from photogrammetry.cleaning import CleaningOptions, mesh_object, segment_object
+from photogrammetry.markers import aruco_dictionary, detect_markers, triangulate_markers
+from photogrammetry.metric_frame import metric_frame
+from photogrammetry.photos import list_photos
+from photogrammetry.support_plane import find_support_plane, focus_point
+
+K = np.array([[800.0, 0.0, 399.5], [0.0, 800.0, 299.5], [0.0, 0.0, 1.0]])
+
+
+def _look_at(centre, target) -> np.ndarray:
+    """camera_from_world, OpenCV convention, z up in the world."""
+    forward = (np.asarray(target, float) - centre) / np.linalg.norm(np.asarray(target, float) - centre)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    world_from_camera = np.eye(4)
+    world_from_camera[:3, :3] = np.column_stack([right, down, forward])
+    world_from_camera[:3, 3] = centre
+    return np.linalg.inv(world_from_camera)
+
+
+def _ring_cameras(n: int, radius: float, height: float, target=(0.0, 0.0, 0.0)) -> list[np.ndarray]:
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return [_look_at(np.array([radius * np.cos(a), radius * np.sin(a), height]), target) for a in angles]
+
+
+# ---------------------------------------------------------------- photos
+
+
+def test_list_photos_ignores_other_files_and_sorts(tmp_path: Path) -> None:
+    for name in ("b.png", "a.JPG"):
+        cv2.imwrite(str(tmp_path / name), np.full((80, 100, 3), 128, np.uint8))
+    (tmp_path / "notes.txt").write_text("not a photo")
+    assert [p.name for p in list_photos(tmp_path)] == ["a.JPG", "b.png"]
+
+
+def test_list_photos_names_the_corrupt_file(tmp_path: Path) -> None:
+    cv2.imwrite(str(tmp_path / "good.png"), np.zeros((100, 100, 3), np.uint8))
+    (tmp_path / "broken.jpg").write_bytes(b"\xff\xd8\xff\xe0 this is not really a jpeg")
+    with pytest.raises(InputError, match="broken.jpg: cannot be read"):
+        list_photos(tmp_path)
+
+
+@pytest.mark.parametrize("case", ["missing", "empty", "tiny"])
+def test_list_photos_refuses_unusable_folders(tmp_path: Path, case: str) -> None:
+    folder = tmp_path / "photos"
+    if case != "missing":
+        folder.mkdir()
+    if case == "tiny":
+        cv2.imwrite(str(folder / "tiny.png"), np.zeros((20, 20, 3), np.uint8))
+    expected = {"missing": "not a folder", "empty": "holds no photos", "tiny": "tiny.png: 20x20 px is too small"}[case]
+    with pytest.raises(InputError, match=expected):
+        list_photos(folder)
+
+
+# ---------------------------------------------------------------- markers and the metric frame
+
+
+def _marker_photo(camera_from_world: np.ndarray, markers: dict[int, np.ndarray], dictionary: str) -> np.ndarray:
+    """A photo of flat markers (world corners, OpenCV order) on a white table, drawn by homography."""
+    d = aruco_dictionary(dictionary)
+    photo = np.full((600, 800), 255, np.uint8)
+    side_px = (d.markerSize + 2) * 20
+    for marker_id, corners in markers.items():
+        tag = cv2.aruco.generateImageMarker(d, marker_id, side_px)
+        camera = corners @ camera_from_world[:3, :3].T + camera_from_world[:3, 3]
+        px = camera @ K.T
+        px = (px[:, :2] / px[:, 2:]).astype(np.float32)
+        # Tag image corners in OpenCV's order: the outer corners of its pixel grid.
+        src = np.array([[0, 0], [side_px, 0], [side_px, side_px], [0, side_px]], np.float32) - 0.5
+        warp = cv2.getPerspectiveTransform(src, px)
+        drawn = cv2.warpPerspective(tag, warp, (800, 600), flags=cv2.INTER_AREA, borderValue=255)
+        mask = cv2.warpPerspective(np.ones_like(tag), warp, (800, 600), flags=cv2.INTER_NEAREST) > 0
+        photo[mask] = drawn[mask]
+    return photo
+
+
+def _square(centre_xy, size: float, yaw: float) -> np.ndarray:
+    h = size / 2
+    c, s = np.cos(yaw), np.sin(yaw)
+    local = np.array([[-h, h], [h, h], [h, -h], [-h, -h]])  # top-left, top-right, bottom-right, bottom-left
+    xy = local @ np.array([[c, s], [-s, c]]) + centre_xy
+    return np.column_stack([xy, np.zeros(4)])
+
+
+def test_markers_give_scale_origin_and_axes() -> None:
+    """Markers of 5 cm seen by a ring of cameras in a frame scaled by 1/7.3, rotated and shifted:
+    the metric frame recovers the scale, puts marker 3's centre at the origin and its top edge on x."""
+    size_m = 0.05
+    markers = {
+        3: _square((0.1, 0.05), size_m, 0.3),
+        7: _square((-0.12, 0.02), size_m, 1.1),
+        9: _square((0.0, -0.14), size_m, -0.5),
+    }
+    cameras = _ring_cameras(8, 0.45, 0.35)
+    sightings = []
+    for i, camera_from_world in enumerate(cameras):
+        photo = _marker_photo(camera_from_world, markers, "4x4_50")
+        sightings += detect_markers(photo, f"v{i}", "4x4_50")
+    assert {s.marker_id for s in sightings} == {3, 7, 9}
+    # The SfM frame: world scaled down, rotated about a tilted axis, moved.
+    sfm_from_world = np.eye(4)
+    rotation = trimesh.transformations.rotation_matrix(0.7, [0.3, -0.5, 0.8])[:3, :3]
+    sfm_from_world[:3, :3] = rotation / 7.3
+    sfm_from_world[:3, 3] = [0.4, -1.2, 2.0]
+    world_from_sfm = np.linalg.inv(sfm_from_world)
+    projections = {}
+    for i, camera_from_world in enumerate(cameras):
+        camera_from_sfm = camera_from_world @ world_from_sfm
+        camera_from_sfm[:3, :] /= 7.3  # SfM cameras live in SfM units too
+        projections[f"v{i}"] = K @ camera_from_sfm[:3, :]
+    triangulated = triangulate_markers(sightings, projections)
+    assert [m.marker_id for m in triangulated] == [3, 7, 9]
+    frame = metric_frame(
+        plane=None,
+        markers=triangulated,
+        marker_size_m=size_m,
+        object_centre_sfm=np.zeros(3),
+        x_hint_sfm=np.array([1.0, 0, 0]),
+    )
+    assert frame.scaled and frame.levelled
+    assert frame.scale == pytest.approx(7.3, rel=0.003)
+    # The expected model frame: marker 3's frame in the world.
+    c, s = np.cos(0.3), np.sin(0.3)
+    model_from_world = np.linalg.inv(np.array([[c, -s, 0, 0.1], [s, c, 0, 0.05], [0, 0, 1, 0], [0, 0, 0, 1.0]]))
+    test_points = np.array([[0.1, 0.05, 0.0], [0.0, 0.0, 0.1], [-0.2, 0.1, 0.05]])
+    expected = test_points @ model_from_world[:3, :3].T + model_from_world[:3, 3]
+    in_sfm = test_points @ sfm_from_world[:3, :3].T + sfm_from_world[:3, 3]
+    assert np.abs(frame.apply(in_sfm) - expected).max() < 0.5e-3  # half a millimetre
+
+
+def test_no_markers_keeps_sfm_units_and_says_so() -> None:
+    frame = metric_frame(
+        plane=None, markers=[], marker_size_m=None, object_centre_sfm=np.ones(3), x_hint_sfm=np.array([1.0, 0, 0])
+    )
+    assert not frame.scaled and frame.scale == 1.0
+    assert np.allclose(frame.apply(np.ones((1, 3))), 0)
+
+
+def test_focus_point_is_where_the_cameras_look() -> None:
+    target = np.array([0.3, -0.2, 0.1])
+    cameras = _ring_cameras(10, 1.0, 0.6, target)
+    centres = np.array([np.linalg.inv(c)[:3, 3] for c in cameras])
+    axes = np.array([c[2, :3] for c in cameras])
+    assert np.allclose(focus_point(centres, axes), target, atol=1e-9)
+
+
+# ---------------------------------------------------------------- support plane and cleaning
+
+
+def _table_scene(rng: np.random.Generator):
+    """A 0.1 m radius, 0.15 m tall cylinder standing on a noisy 1 m table, plus a far-off clutter
+    blob and random outliers; the table tilted and shifted as SfM would leave it."""
+    table = np.column_stack([rng.uniform(-0.5, 0.5, (60000, 2)), rng.normal(0, 0.0008, 60000)])
+    angle = rng.uniform(0, 2 * np.pi, 30000)
+    height = rng.uniform(0, 0.15, 30000)
+    side = np.column_stack([0.1 * np.cos(angle), 0.1 * np.sin(angle), height])
+    r = 0.1 * np.sqrt(rng.uniform(0, 1, 8000))
+    a = rng.uniform(0, 2 * np.pi, 8000)
+    top = np.column_stack([r * np.cos(a), r * np.sin(a), np.full(8000, 0.15)])
+    obj = np.vstack([side, top])
+    clutter = rng.normal([0.4, 0.35, 0.05], 0.02, (3000, 3))
+    outliers = rng.uniform([-0.5, -0.5, 0.0], [0.5, 0.5, 0.3], (300, 3))
+    points = np.vstack([table, obj, clutter, outliers])
+    normals_out = np.vstack(
+        [np.tile([0, 0, 1.0], (len(table), 1)), np.column_stack([np.cos(angle), np.sin(angle), np.zeros_like(angle)]),
+         np.tile([0, 0, 1.0], (8000, 1)), np.tile([0, 0, 1.0], (3300, 1))]
+    )  # fmt: skip
+    return points, normals_out, len(table)
+
+
+def test_support_plane_found_and_removed_object_kept(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    points, to_camera, n_table = _table_scene(rng)
+    world_from_sfm = trimesh.transformations.rotation_matrix(0.4, [1.0, 0.2, 0.0])
+    world_from_sfm[:3, 3] = [0.2, 0.1, -0.3]
+    sfm_points = points @ np.linalg.inv(world_from_sfm)[:3, :3].T + np.linalg.inv(world_from_sfm)[:3, 3]
+    cameras = _ring_cameras(12, 0.6, 0.45, (0, 0, 0.07))
+    centres = np.array([(np.linalg.inv(world_from_sfm) @ np.linalg.inv(c))[:3, 3] for c in cameras])
+    up = np.linalg.inv(world_from_sfm)[:3, :3] @ np.array([0, 0, 1.0])
+    plane = find_support_plane(sfm_points, centres, up, threshold=0.003)
+    assert plane is not None
+    true_normal = np.linalg.inv(world_from_sfm)[:3, :3] @ [0, 0, 1.0]
+    assert np.degrees(np.arccos(min(1.0, plane.normal @ true_normal))) < 0.5
+    assert np.abs(plane.height(sfm_points[:n_table])).mean() < 0.002
+
+    scene_scale = 0.6
+    frame = metric_frame(plane=plane, markers=[], marker_size_m=None, object_centre_sfm=sfm_points[n_table:].mean(axis=0),
+                         x_hint_sfm=np.array([1.0, 0, 0]))  # fmt: skip
+    model_points = frame.apply(sfm_points)
+    obj = segment_object(model_points, np.zeros_like(points), to_camera @ world_from_sfm[:3, :3] @ frame.model_from_sfm[:3, :3].T,
+                         model_points[n_table:n_table + 38000].mean(axis=0), scene_scale, CleaningOptions())  # fmt: skip
+    heights = obj.points[:, 2]
+    assert heights.min() > 0.002  # the table is gone
+    radial = np.linalg.norm(obj.points[:, :2] - obj.points[:, :2].mean(axis=0), axis=1)
+    assert radial.max() < 0.11  # the clutter and the outliers around are gone
+    assert len(obj.points) > 0.9 * 38000 * (1 - 0.006 * scene_scale / 0.15)
+
+    mesh = mesh_object(obj, scene_scale, CleaningOptions())
+    truth = trimesh.creation.cylinder(radius=0.1, height=0.15, sections=128)
+    truth.apply_translation([0, 0, 0.075])
+    centred = mesh.copy()
+    centred.apply_translation([*-obj.points[:, :2].mean(axis=0), 0])
+    from homemodel.evaluation import mean_surface_distance_m
+
+    assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-6)  # cut at the support plane ...
+    assert mean_surface_distance_m(centred, truth) < 0.0025  # ... with the bottom closed like the truth's
+    assert abs(mesh.extents[2] - 0.15) < 0.003

@@ -1,0 +1,226 @@
+"""photogrammetry end to end: real photos (Kermit), a Blender-rendered set with ground truth,
+and the refusals (unreadable photos, too few registered, unrelated scenes) through the CLI."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import trimesh
+from typer.testing import CliRunner
+
+from homemodel.cli import app
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+KERMIT = DATA / "photogrammetry" / "kermit"
+SWATBOTICS = DATA / "apriltag" / "swatbotics"
+# The rendered set is cached here between runs (rendering is most of this file's time).
+SCENE_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "photogrammetry_scene"
+
+runner = CliRunner()
+
+
+def _reconstruct(*args: str):
+    return runner.invoke(app, ["photogrammetry", "reconstruct", *args], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def kermit_model(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("kermit") / "model"
+    result = _reconstruct(str(KERMIT), "--out", str(out), "--texture-px", "1024", "--picture")
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_kermit_registers_every_photo_and_gives_a_dense_textured_mesh(kermit_model: Path) -> None:
+    summary = json.loads((kermit_model / "summary.json").read_text())
+    assert summary["photos"] == 11 and summary["registered"] == 11 and summary["unregistered"] == []
+    assert summary["reprojection_error_px"] < 1.0
+    assert summary["dense_points"] > 100_000  # dense: far more than the ~650 sparse points
+    assert summary["dense_points"] > 100 * summary["sparse_points"]
+    assert summary["faces"] > 5000
+    assert summary["scaled"] is False and "unscaled" in summary["units"]
+    mesh = trimesh.load(kermit_model / "meshes" / "body_body.obj", force="mesh")
+    assert len(mesh.faces) == summary["faces"]
+    texture = cv2.imread(str(kermit_model / "meshes" / "object_material_texture.png"))
+    assert texture.shape == (1024, 1024, 3) and texture.std() > 20  # a photo texture, not a flat colour
+    assert (kermit_model / "cameras.png").stat().st_size > 10_000
+
+
+def test_kermit_model_passes_the_validation_gate(kermit_model: Path) -> None:
+    from articulation.validate import validate_path
+
+    report = validate_path(kermit_model)
+    assert report.ok, report.format()
+
+
+def test_unreadable_photo_is_refused_by_name_and_nothing_is_written(tmp_path: Path) -> None:
+    photos = tmp_path / "photos"
+    shutil.copytree(KERMIT, photos)
+    (photos / "kermit005.jpg").write_bytes(b"\xff\xd8\xff" + bytes(200))
+    out = tmp_path / "out"
+    result = _reconstruct(str(photos), "--out", str(out))
+    assert result.exit_code == 2
+    assert "kermit005.jpg: cannot be read" in result.output
+    assert not out.exists()
+
+
+def test_too_few_registered_photos_are_refused(tmp_path: Path) -> None:
+    photos = tmp_path / "noise"
+    photos.mkdir()
+    rng = np.random.default_rng(0)
+    for i in range(3):  # three unrelated random images: features, but nothing in common
+        cv2.imwrite(str(photos / f"{i}.png"), rng.integers(0, 256, (240, 320, 3), dtype=np.uint8))
+    out = tmp_path / "out"
+    result = _reconstruct(str(photos), "--out", str(out), "--max-features", "1024")
+    assert result.exit_code == 2
+    assert "only 0 of 3 photos registered" in result.output
+    assert not out.exists()
+
+
+def test_unrelated_scenes_are_refused(tmp_path: Path) -> None:
+    photos = tmp_path / "mixed"
+    photos.mkdir()
+    for path in sorted(KERMIT.glob("*.jpg"))[:6] + sorted(SWATBOTICS.glob("*.JPG"))[:8]:
+        shutil.copy(path, photos)
+    result = _reconstruct(str(photos), "--out", str(tmp_path / "out"), "--max-features", "2048")
+    assert result.exit_code == 2
+    assert "unrelated scenes" in result.output and "kermit000.jpg" in result.output
+
+
+def test_bad_options_are_refused_before_any_work(tmp_path: Path) -> None:
+    result = _reconstruct(str(KERMIT), "--out", str(tmp_path / "o"), "--marker-size-m", "-0.04")
+    assert result.exit_code == 2 and "marker size must be a positive length" in result.output
+    result = _reconstruct(str(KERMIT), "--out", str(tmp_path / "o"), "--map", str(tmp_path / "map.xml"))
+    assert result.exit_code == 2 and "--map and --parent go together" in result.output
+    assert not (tmp_path / "o").exists()
+
+
+# ---------------------------------------------------------------- the rendered set with ground truth
+
+
+@pytest.fixture(scope="module")
+def rendered_scene():
+    from photogrammetry.synthetic_scene import SceneOptions, render_scene
+
+    return render_scene(SCENE_CACHE, SceneOptions(n_views=40, width_px=640, height_px=480, samples=4))
+
+
+@pytest.fixture(scope="module")
+def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
+    """The rendered set reconstructed with its markers and registered into a map, on the table."""
+    from test_semantic_map import build_house
+
+    from semantic_map import save_map
+
+    folder = tmp_path_factory.mktemp("rendered")
+    map_path = folder / "map.xml"
+    save_map(build_house(), map_path)
+    out = folder / "vase"
+    args = [
+        str(rendered_scene.folder / "images"),
+        "--out",
+        str(out),
+        "--marker-size-m",
+        str(rendered_scene.marker_size_m),
+    ]
+    args += ["--dictionary", rendered_scene.dictionary, "--max-features", "1024", "--depth-image-px", "640"]
+    args += ["--texture-px", "1024", "--name", "vase", "--map", str(map_path), "--parent", "table"]
+    result = _reconstruct(*args, "--xyz", "0.2", "0.1", "0.75")
+    assert result.exit_code == 0, result.output
+    return out, map_path
+
+
+@pytest.fixture(scope="module")
+def rendered_model(rendered_run) -> Path:
+    return rendered_run[0]
+
+
+@pytest.mark.bpy
+def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Path) -> None:
+    """Scale error at most 1%: from the cameras (a similarity fit of the estimated to the true
+    camera centres, both in marker 0's frame) and from the mesh's height."""
+    cameras = json.loads((rendered_model / "cameras.json").read_text())
+    estimated = np.array([np.linalg.inv(np.array(c["camera_from_model"]))[:3, 3] for c in cameras])
+    true = np.array([np.linalg.inv(rendered_scene.camera_from_world[c["name"]])[:3, 3] for c in cameras])
+    assert len(cameras) == 40
+    assert np.linalg.norm(estimated - true, axis=1).max() < 0.004  # 4 mm at 0.42 m: scale, origin, axes
+    scale = np.sqrt(((true - true.mean(0)) ** 2).sum() / ((estimated - estimated.mean(0)) ** 2).sum())
+    assert abs(scale - 1) < 0.01
+    summary = json.loads((rendered_model / "summary.json").read_text())
+    assert summary["scaled"] and summary["levelled"] and summary["markers"] == [0, 1, 2, 3, 4, 5]
+    true_height = rendered_scene.truth_mesh.extents[2]
+    assert abs(summary["extents"][2] / true_height - 1) < 0.01
+
+
+@pytest.mark.bpy
+def test_rendered_set_mesh_matches_the_truth_without_the_table(rendered_scene, rendered_model: Path) -> None:
+    from homemodel.evaluation import mean_surface_distance_m
+
+    mesh = trimesh.load(rendered_model / "meshes" / "body_body.obj", force="mesh")
+    truth = rendered_scene.truth_mesh
+    assert mean_surface_distance_m(mesh, truth) <= 0.01 * rendered_scene.object_size_m
+    # No support plane left: nothing of the mesh reaches beyond the object's footprint.
+    assert np.all(mesh.bounds[0, :2] > truth.bounds[0, :2] - 0.004)
+    assert np.all(mesh.bounds[1, :2] < truth.bounds[1, :2] + 0.004)
+    assert mesh.bounds[0, 2] > -0.001
+    # The bottom is closed: no edge borders a single triangle (vertices are split at UV seams
+    # in the file, so they are merged by position first).
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    _, uses = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    assert (uses == 1).sum() == 0
+    assert json.loads((rendered_model / "summary.json").read_text())["watertight"]
+
+
+@pytest.mark.bpy
+def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered_model: Path) -> None:
+    """The baked texture, looked up at points of the reconstructed surface, correlates with the
+    true texture at the nearest points of the true surface (shading differs, the pattern not)."""
+    from photogrammetry.synthetic_scene import truth_object_mesh
+
+    model = trimesh.load(rendered_model / "meshes" / "body_body.obj", force="mesh", process=False)
+    baked = cv2.cvtColor(cv2.imread(str(rendered_model / "meshes" / "vase_material_texture.png")), cv2.COLOR_BGR2GRAY)
+    truth_image = cv2.cvtColor(cv2.imread(str(rendered_scene.folder / "textures" / "object.png")), cv2.COLOR_BGR2GRAY)
+    truth, truth_uv = truth_object_mesh()
+    points, face_index = trimesh.sample.sample_surface(model, 20000, seed=0)
+    side = (points[:, 2] > 0.01) & (points[:, 2] < 0.13)  # the side wall: the caps' UVs are not comparable
+    points, face_index = points[side], face_index[side]
+
+    def lookup(mesh, uv, image, pts, faces):
+        bary = trimesh.triangles.points_to_barycentric(mesh.triangles[faces], pts)
+        coords = np.einsum("nk,nkd->nd", bary, uv[mesh.faces[faces]])
+        h, w = image.shape
+        return image[
+            np.clip(((1 - coords[:, 1]) * h).astype(int), 0, h - 1), np.clip((coords[:, 0] * w).astype(int), 0, w - 1)
+        ]
+
+    baked_values = lookup(model, model.visual.uv, baked, points, face_index)
+    closest, _, truth_faces = trimesh.proximity.closest_point(truth, points)
+    seam = np.abs(np.arctan2(closest[:, 1], closest[:, 0] - truth.centroid[0])) > 3.0  # avoid the UV seam
+    truth_values = lookup(truth, truth_uv, truth_image, closest, truth_faces)
+    correlation = np.corrcoef(baked_values[~seam].astype(float), truth_values[~seam].astype(float))[0, 1]
+    assert correlation > 0.5
+
+
+@pytest.mark.bpy
+def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
+    from semantic_map import SmallObject, load_map
+
+    out, map_path = rendered_run
+    smap = load_map(map_path)
+    vase = smap.node("vase")
+    assert isinstance(vase, SmallObject) and vase.parent == "table" and vase.relation == "on"
+    assert smap.path_to("vase") == ["house", "kitchen", "table", "vase"]
+    assert (map_path.parent / vase.model_ref).resolve() == (out / "model.urdf").resolve()
+
+
+@pytest.mark.bpy
+def test_rendered_model_passes_the_validation_gate(rendered_model: Path) -> None:
+    from articulation.validate import validate_path
+
+    report = validate_path(rendered_model)
+    assert report.ok, report.format()
