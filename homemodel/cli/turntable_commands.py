@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import enum
+import io
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -50,6 +52,17 @@ class DetectorChoice(str, enum.Enum):
 def _console() -> Console:
     # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
     return Console(width=None if sys.stdout.isatty() else 120)
+
+
+def _console_beside_blender() -> Console:
+    """A console on a copy of stdout's descriptor: while Blender renders, fds 1 and 2 are
+    redirected to swallow its log, and the progress bar must stay visible."""
+    try:
+        fd = os.dup(sys.stdout.fileno())
+    except (AttributeError, OSError, io.UnsupportedOperation):  # not a real file (a test runner)
+        return _console()
+    stream = open(fd, "w", buffering=1, encoding="utf-8")  # noqa: SIM115 (lives as long as the command)
+    return Console(file=stream, width=None if stream.isatty() else 120)
 
 
 @contextmanager
@@ -167,7 +180,7 @@ def simulate(
         mesh_scale=mesh_scale,
         seed=seed,
     )
-    console = _console()
+    console = _console_beside_blender()
     with exit_on_error():
         with _stage_bar(console) as report:
             result = simulate_capture(mesh, out, options, force=force, progress=report)
