@@ -4,22 +4,14 @@ cleaned mesh through COLMAP on the CPU (D3.1 section 3.3.3, without 123D Catch's
 from __future__ import annotations
 
 import enum
-import sys
 from pathlib import Path
 
 import typer
 from rich import box
-from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
 from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.progress import make_console, stage_bars
 
 photogrammetry_app = typer.Typer(no_args_is_help=True)
 
@@ -111,7 +103,7 @@ def reconstruct(
     from photogrammetry.stereo import DenseOptions
     from photogrammetry.texturing import TextureOptions
 
-    console = Console(width=None if sys.stdout.isatty() else 120)
+    console = make_console()
     with exit_on_error():
         if (map_path is None) != (parent is None):
             raise InputError("--map and --parent go together")
@@ -140,24 +132,7 @@ def reconstruct(
             dictionary=dictionary.value,
             max_faces=max_faces,
         )
-        with Progress(
-            TextColumn("[bold]{task.description:<14}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=console,
-            transient=True,
-        ) as bar:
-            tasks: dict[str, int] = {}
-
-            def progress(stage: str, done: int, total: int | None) -> None:
-                for other, task in tasks.items():  # a new stage finishes the previous ones
-                    if other != stage:
-                        bar.update(task, completed=bar.tasks[task].total or 1, total=bar.tasks[task].total or 1)
-                if stage not in tasks:
-                    tasks[stage] = bar.add_task(stage, total=total)
-                bar.update(tasks[stage], completed=done, total=total)
-
+        with stage_bars(console) as progress:
             with temporary_work_dir() as work, atomic_dir(out, force=force, inputs=[photos_dir]) as tmp:
                 result = run(photos_dir, options, progress, work_dir=Path(work))
                 summary = write_reconstruction(result, tmp, name=name, density_kg_m3=density_kg_m3)

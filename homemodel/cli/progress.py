@@ -13,6 +13,7 @@ from rich.progress import (
     BarColumn,
     MofNCompleteColumn,
     Progress,
+    TaskID,
     TextColumn,
     TimeElapsedColumn,
 )
@@ -40,6 +41,32 @@ def progress_bar(console: Console, verb: str) -> Iterator[ProgressCallback]:
     ) as bar:
         task = bar.add_task("starting", total=None)
         yield lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total)
+
+
+@contextlib.contextmanager
+def stage_bars(console: Console) -> Iterator[ProgressCallback]:
+    """A bar per stage of a pipeline, each finished when the next one starts, and the
+    `progress(stage, done, total)` callback that drives them."""
+    with Progress(
+        TextColumn("[bold]{task.description:<14}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        tasks: dict[str, TaskID] = {}
+
+        def progress(stage: str, done: int, total: int | None) -> None:
+            for other, task in tasks.items():
+                if other != stage:
+                    finished = bar.tasks[task].total or 1
+                    bar.update(task, completed=finished, total=finished)
+            if stage not in tasks:
+                tasks[stage] = bar.add_task(stage, total=total)
+            bar.update(tasks[stage], completed=done, total=total)
+
+        yield progress
 
 
 def figures_table(title: str, rows: list[tuple[str, str]]) -> Table:

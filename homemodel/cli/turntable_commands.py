@@ -7,23 +7,13 @@ import io
 import os
 import sys
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import typer
-from rich import box
 from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
-from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.progress import figures_table, make_console, stage_bars
 
 turntable_app = typer.Typer(no_args_is_help=True)
 
@@ -49,50 +39,15 @@ class DetectorChoice(str, enum.Enum):
     opencv = "opencv"
 
 
-def _console() -> Console:
-    # Piped into a file or CI log, rich would assume 80 columns and truncate the table.
-    return Console(width=None if sys.stdout.isatty() else 120)
-
-
 def _console_beside_blender() -> Console:
     """A console on a copy of stdout's descriptor: while Blender renders, fds 1 and 2 are
     redirected to swallow its log, and the progress bar must stay visible."""
     try:
         fd = os.dup(sys.stdout.fileno())
     except (AttributeError, OSError, io.UnsupportedOperation):  # not a real file (a test runner)
-        return _console()
+        return make_console()
     stream = open(fd, "w", buffering=1, encoding="utf-8")  # noqa: SIM115 (lives as long as the command)
     return Console(file=stream, width=None if stream.isatty() else 120)
-
-
-@contextmanager
-def _stage_bar(console: Console) -> Iterator[Callable[[str, int, int], None]]:
-    """A rich progress bar per stage, driven by the library's `progress(stage, done, total)`."""
-    with Progress(
-        TextColumn("[bold]{task.description:<14}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        tasks: dict[str, int] = {}
-
-        def report(stage: str, done: int, total: int) -> None:
-            if stage not in tasks:
-                tasks[stage] = bar.add_task(stage, total=total)
-            bar.update(tasks[stage], completed=done, total=total)
-
-        yield report
-
-
-def _table(title: str, rows: list[tuple[str, str]]) -> Table:
-    table = Table(title=title, box=box.SIMPLE_HEAD)
-    table.add_column("figure")
-    table.add_column("value", justify="right")
-    for name, value in rows:
-        table.add_row(name, value)
-    return table
 
 
 @turntable_app.command()
@@ -119,8 +74,8 @@ def board(
             pages = write_board_pdf(layout, tmp / "board.pdf", paper=paper.value)
             save_board(layout, tmp / "board.yaml")
     ids = [t.id for t in layout.tags]
-    _console().print(
-        _table(
+    make_console().print(
+        figures_table(
             "homemodel turntable board",
             [
                 ("table diameter", f"{diameter_m * 1000:.0f} mm"),
@@ -182,10 +137,10 @@ def simulate(
     )
     console = _console_beside_blender()
     with exit_on_error():
-        with _stage_bar(console) as report:
+        with stage_bars(console) as report:
             result = simulate_capture(mesh, out, options, force=force, progress=report)
     console.print(
-        _table(
+        figures_table(
             f"homemodel turntable simulate {mesh}",
             [
                 ("frames", str(result.frames)),
@@ -233,7 +188,7 @@ def reconstruct(
         turntable_refinement=refine,
         texture_size_px=texture_size_px,
     )
-    console = _console()
+    console = make_console()
     with exit_on_error():
         if map_path is not None and parent_id is None:
             raise InputError("--map needs --parent (the large object, or room, the object belongs to)")
@@ -246,7 +201,7 @@ def reconstruct(
 
             load_map(map_path).node(parent_id)  # an unknown parent fails now, not after the work
         capture = load_capture(capture_dir)
-        with _stage_bar(console) as report:
+        with stage_bars(console) as report:
             result = reconstruct_capture(capture, options, progress=report)
             start = time.perf_counter()
             report("export", 0, 1)
@@ -275,7 +230,7 @@ def reconstruct(
     ]
     rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in summary["stage_s"].items()]
     rows.append(("time: export", f"{export_s:.2f} s"))
-    console.print(_table(f"homemodel turntable reconstruct {capture_dir}", rows))
+    console.print(figures_table(f"homemodel turntable reconstruct {capture_dir}", rows))
     for stem, reason in list(result.skipped.items())[:5]:
         console.print(f"skipped {stem}: {reason}")
     typer.echo(f"model: {out}")
