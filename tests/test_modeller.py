@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import time
@@ -11,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from spec_edits import with_field, write_spec
 
 from homemodel.errors import SpecError
 from homemodel.transforms import transform_points
@@ -22,23 +22,6 @@ TOL_M = 1e-3
 
 def _example(name: str) -> dict:
     return yaml.safe_load((EXAMPLES / f"{name}.yaml").read_text())
-
-
-def _write(tmp_path: Path, data: dict, name: str = "spec.yaml") -> Path:
-    path = tmp_path / name
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
-def _set(data: dict, dotted: str, value: object) -> dict:
-    """A copy of `data` with the field at the dotted path (list indices as numbers) set."""
-    data = copy.deepcopy(data)
-    *parents, last = [int(p) if p.isdigit() else p for p in dotted.split(".")]
-    node = data
-    for part in parents:
-        node = node.setdefault(part, {}) if isinstance(node, dict) else node[part]
-    node[last] = value
-    return data
 
 
 def _world_vertices(model, link: str, positions: dict[str, float] | None = None) -> np.ndarray:
@@ -97,7 +80,7 @@ REFUSALS = [
 def test_impossible_spec_is_refused_naming_file_and_field(
     tmp_path: Path, example: str, field: str, value: object, blamed: str, words: str
 ) -> None:
-    path = _write(tmp_path, _set(_example(example), field, value))
+    path = write_spec(tmp_path, with_field(_example(example), field, value))
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)
@@ -279,8 +262,8 @@ def test_cupboard_links_have_materials_collisions_and_mass(cupboard) -> None:
 @pytest.mark.bpy
 @pytest.mark.parametrize("legs", [{"size_m": 0.05, "inset_m": 0.04}, {"diameter_m": 0.06, "inset_m": 0.02}])
 def test_table_has_the_measured_size(tmp_path: Path, legs: dict) -> None:
-    data = _set(_example("table"), "legs", legs)
-    model = build_model(_write(tmp_path, data, "table.yaml"))
+    data = with_field(_example("table"), "legs", legs)
+    model = build_model(write_spec(tmp_path, data, "table.yaml"))
     top = data["top"]
     assert [link.name for link in model.links] == ["body"] and model.joints == []
     assert model.affordances == ["supporting_surface"] and model.category == "table"
@@ -338,7 +321,7 @@ def test_cup_with_numeric_colour_and_no_handle(tmp_path: Path) -> None:
     data = _example("blue_cup")
     del data["handle"]
     data["colour"] = [0.2, 0.4, 0.6]
-    model = build_model(_write(tmp_path, data, "plain.yaml"))
+    model = build_model(write_spec(tmp_path, data, "plain.yaml"))
     assert model.properties == {} and [g.kind for g in model.grasp_points] == ["body"]
     assert [v.name for v in model.link("body").visuals] == ["body"]
     assert model.link("body").visuals[0].material.rgba == pytest.approx((0.2, 0.4, 0.6, 1.0))

@@ -4,7 +4,6 @@ measurements and through the whole validation gate, and their impossible specs r
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 from pathlib import Path
@@ -12,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from spec_edits import with_field
 
 from articulation.export import write_model_files
 from articulation.validate import validate_path
@@ -37,16 +37,6 @@ TOL_M = 1e-3
 
 def _example(name: str) -> dict:
     return yaml.safe_load((CATALOGUE / f"{name}.yaml").read_text())
-
-
-def _set(data: dict, dotted: str, value: object) -> dict:
-    data = copy.deepcopy(data)
-    *parents, last = [int(p) if p.isdigit() else p for p in dotted.split(".")]
-    node = data
-    for part in parents:
-        node = node[part]
-    node[last] = value
-    return data
 
 
 def _vertices(model, link: str, positions: dict | None = None, *, skip: tuple[str, ...] = ()) -> np.ndarray:
@@ -412,7 +402,7 @@ def test_impossible_spec_is_refused_naming_file_and_field(
     tmp_path: Path, example: str, field: str, value: object, blamed: str, words: str
 ) -> None:
     path = tmp_path / f"{example}.yaml"
-    path.write_text(yaml.safe_dump(_set(_example(example), field, value)))
+    path.write_text(yaml.safe_dump(with_field(_example(example), field, value)))
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)

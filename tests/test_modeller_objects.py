@@ -9,7 +9,6 @@ yourdfpy, the collision sweep and the Khronos glTF validator).
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 from collections.abc import Callable
@@ -19,6 +18,7 @@ import numpy as np
 import pytest
 import trimesh
 import yaml
+from spec_edits import with_field, write_spec
 
 from articulation.model import Box, Cylinder, MeshGeometry, Model
 from homemodel.errors import SpecError
@@ -52,23 +52,6 @@ KINDS = [
 
 def _example(kind: str) -> dict:
     return yaml.safe_load((CATALOGUE / f"{kind}.yaml").read_text())
-
-
-def _write(tmp_path: Path, data: dict, name: str = "spec.yaml") -> Path:
-    path = tmp_path / name
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
-def _set(data: dict, dotted: str, value: object) -> dict:
-    """A copy of `data` with the field at the dotted path (list indices as numbers) set."""
-    data = copy.deepcopy(data)
-    *parents, last = [int(p) if p.isdigit() else p for p in dotted.split(".")]
-    node = data
-    for part in parents:
-        node = node.setdefault(part, {}) if isinstance(node, dict) else node[part]
-    node[last] = value
-    return data
 
 
 def _default_spec(kind: str):
@@ -244,7 +227,7 @@ REFUSALS = [
 def test_impossible_spec_is_refused_naming_file_and_field(
     tmp_path: Path, kind: str, field: str, value: object, blamed: str, words: str
 ) -> None:
-    path = _write(tmp_path, _set(_example(kind), field, value))
+    path = write_spec(tmp_path, with_field(_example(kind), field, value))
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)
@@ -254,7 +237,7 @@ def test_impossible_spec_is_refused_naming_file_and_field(
 
 
 def test_rectangular_table_refuses_a_diameter(tmp_path: Path) -> None:
-    path = _write(tmp_path, {"kind": "table", "top": {"length_m": 1.0, "width_m": 0.6, "diameter_m": 0.9}})
+    path = write_spec(tmp_path, {"kind": "table", "top": {"length_m": 1.0, "width_m": 0.6, "diameter_m": 0.9}})
     with pytest.raises(SpecError, match=r"top\.diameter_m: a rectangular top is measured by length_m and width_m"):
         load_spec(path)
 
@@ -338,7 +321,7 @@ def test_pedestal_table_has_its_foot_and_column(catalogue) -> None:
 @pytest.mark.parametrize("legs", [{"size_m": 0.05, "inset_m": 0.04}, {"diameter_m": 0.06, "inset_m": 0.02}])
 def test_round_table_legs_stand_on_the_diagonals_inset_from_the_rim(tmp_path: Path, legs: dict) -> None:
     data = {"kind": "table", "top": {"shape": "round", "diameter_m": 0.9}, "height_m": 0.72, "legs": legs}
-    model = build_model(_write(tmp_path, data, "round.yaml"))
+    model = build_model(write_spec(tmp_path, data, "round.yaml"))
     radius = 0.45
     legs_found = [v.mesh for v in model.link("body").visuals if v.name.startswith("body.leg_")]
     assert len(legs_found) == 4
@@ -413,8 +396,8 @@ def test_bed_mattress_on_its_frame_between_the_boards(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_bed_without_legs_or_footboard(tmp_path: Path) -> None:
-    data = _set(_set(_example("bed"), "frame_thickness_m", 0.3), "footboard_height_m", 0)
-    model = build_model(_write(tmp_path, data, "divan.yaml"))
+    data = with_field(with_field(_example("bed"), "frame_thickness_m", 0.3), "footboard_height_m", 0)
+    model = build_model(write_spec(tmp_path, data, "divan.yaml"))
     names = [v.name for v in model.link("body").visuals]
     assert not any(n.startswith("body.leg_") for n in names) and "body.footboard" not in names
     assert _visual(model, "body.frame").bounds[0, 2] == pytest.approx(0.0, abs=1e-6)
@@ -536,7 +519,7 @@ def test_glass_tapers_between_its_measured_diameters(catalogue) -> None:
 @pytest.mark.bpy
 @pytest.mark.parametrize("style", ["flat", "deep"])
 def test_plate_well_rim_and_style(tmp_path: Path, style: str) -> None:
-    model = build_model(_write(tmp_path, {"kind": "plate", "style": style}, f"{style}.yaml"))
+    model = build_model(write_spec(tmp_path, {"kind": "plate", "style": style}, f"{style}.yaml"))
     spec = load_spec(tmp_path / f"{style}.yaml")
     body = _visual(model, "body")
     assert body.is_volume
