@@ -36,6 +36,21 @@ class _ApplianceSpec(CabinetSpec):
     door_gap_m: Offset = Field(0.003, description="clearance between the body and its doors and drawers")
     handle_colour: Colour = "silver"
 
+    def _bottom_drawer(
+        self, top_m: float, depth_m: float, travel_fraction: float, handle: DrawerHandle | None = None
+    ) -> DrawerSpec:
+        """A default layout's drawer across the whole front, from the floor up to `top_m`."""
+        g = self.door_gap_m
+        return DrawerSpec(
+            left_m=g,
+            width_m=self.width_m - 2 * g,
+            bottom_m=g,
+            height_m=top_m - 1.5 * g,
+            depth_m=depth_m,
+            travel_m=round(travel_fraction * depth_m, 3),
+            handle=handle or DrawerHandle(),
+        )
+
 
 def _knob_row(spec: CabinetSpec, panel: Panel, count: int, states: list[str], step_deg: float) -> list[ControlKnob]:
     """`count` knobs evenly across the middle of `panel`."""
@@ -81,18 +96,8 @@ class FridgeSpec(_ApplianceSpec):
         if self.drawers is None:
             self.drawers = []
             if split > 0:
-                drawer_depth = round(self.inner_depth_m - 0.05, 3)
-                self.drawers = [
-                    DrawerSpec(
-                        left_m=g,
-                        width_m=self.width_m - 2 * g,
-                        bottom_m=g,
-                        height_m=split - 1.5 * g,
-                        depth_m=drawer_depth,
-                        travel_m=round(0.8 * drawer_depth, 3),
-                        handle=DrawerHandle(length_m=min(0.4, 0.6 * self.width_m), height_m=split - 0.06),
-                    )
-                ]
+                handle = DrawerHandle(length_m=min(0.4, 0.6 * self.width_m), height_m=split - 0.06)
+                self.drawers = [self._bottom_drawer(split, round(self.inner_depth_m - 0.05, 3), 0.8, handle)]
         if self.doors is None:
             bottom = split + g / 2 if split > 0 else g
             self.doors = [
@@ -190,17 +195,7 @@ class OvenSpec(_ApplianceSpec):
         if self.drawers is None:
             self.drawers = []
             if drawer_top > 0:
-                depth = round(self.inner_depth_m - 0.1, 3)
-                self.drawers = [
-                    DrawerSpec(
-                        left_m=g,
-                        width_m=self.width_m - 2 * g,
-                        bottom_m=g,
-                        height_m=drawer_top - 1.5 * g,
-                        depth_m=depth,
-                        travel_m=round(0.7 * depth, 3),
-                    )
-                ]
+                self.drawers = [self._bottom_drawer(drawer_top, round(self.inner_depth_m - 0.1, 3), 0.7)]
                 if not self.shelves:
                     self.shelves = [Shelf(height_m=drawer_top + t)]
         if self.doors is None:
