@@ -98,15 +98,11 @@ def tsdf_baseline(capture_dir: Path, result) -> tuple[trimesh.Trimesh, float]:  
 
 
 def pose_error_mm_deg(result, capture_dir: Path) -> tuple[float, float]:  # noqa: ANN001
+    from homemodel.evaluation import camera_pose_errors
     from turntable.poses_io import read_poses
 
-    truth = read_poses(capture_dir / "true_poses.json")
-    centres, angles = [], []
-    for stem, pose in result.poses.items():
-        estimated, true = pose.camera_from_table, truth[stem]
-        centres.append(np.linalg.norm(np.linalg.inv(estimated)[:3, 3] - np.linalg.inv(true)[:3, 3]))
-        relative = estimated[:3, :3] @ true[:3, :3].T
-        angles.append(np.degrees(np.arccos(np.clip((np.trace(relative) - 1) / 2, -1.0, 1.0))))
+    estimated = {stem: pose.camera_from_table for stem, pose in result.poses.items()}
+    centres, angles = camera_pose_errors(estimated, read_poses(capture_dir / "true_poses.json"))
     return float(np.median(centres) * 1000), float(np.median(angles))
 
 

@@ -187,3 +187,16 @@ def test_eval_commands_print_the_figures_and_refuse_bad_files(tmp_path):
     assert float(figures["mean_surface_distance_m"]) < 1e-7 and float(figures["f_score@0.01"]) == 1.0
     result = runner.invoke(app, ["eval", "voxel-iou", str(tmp_path / "a.stl"), str(tmp_path / "none.obj")])
     assert result.exit_code == 2 and "none.obj: no such file" in result.output
+
+
+def test_camera_pose_errors_are_the_centre_distance_and_the_rotation_angle():
+    from homemodel.evaluation import camera_pose_errors
+    from homemodel.transforms import transform_from_xyz_rpy
+
+    true = transform_from_xyz_rpy((0.1, -0.2, 0.7), (0.3, 0.1, -0.4))
+    # The camera moved 2 mm along its own x and turned 0.5 degrees about its own z.
+    camera_from_true_camera = transform_from_xyz_rpy((-0.002, 0, 0), (0, 0, np.radians(0.5)))
+    estimated = camera_from_true_camera @ true
+    centres, angles = camera_pose_errors({"f0": estimated, "f1": true}, {"f0": true, "f1": true, "f2": true})
+    np.testing.assert_allclose(centres, [0.002, 0.0], atol=1e-12)
+    np.testing.assert_allclose(angles, [0.5, 0.0], atol=1e-6)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from spec_edits import with_field
+from spec_edits import with_field, write_spec
 
 from articulation.export import write_model_files
 from articulation.validate import validate_path
@@ -401,8 +401,7 @@ REFUSALS = [
 def test_impossible_spec_is_refused_naming_file_and_field(
     tmp_path: Path, example: str, field: str, value: object, blamed: str, words: str
 ) -> None:
-    path = tmp_path / f"{example}.yaml"
-    path.write_text(yaml.safe_dump(with_field(_example(example), field, value)))
+    path = write_spec(tmp_path, with_field(_example(example), field, value), f"{example}.yaml")
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)

@@ -16,7 +16,7 @@ import pytest
 import trimesh
 from typer.testing import CliRunner
 
-from homemodel.evaluation import mean_surface_distance_m, voxel_iou
+from homemodel.evaluation import camera_pose_errors, mean_surface_distance_m, voxel_iou
 from turntable.capture import load_capture
 from turntable.poses_io import read_poses
 from turntable.reconstruct import Reconstruction, reconstruct_capture
@@ -92,14 +92,8 @@ def noisy_reconstructions(
 
 def pose_errors(result: Reconstruction, capture: Path) -> tuple[np.ndarray, np.ndarray]:
     """Per frame: camera-centre error (m) and rotation error (degrees) against the truth."""
-    truth = read_poses(capture / "true_poses.json")
-    centres, angles = [], []
-    for stem, pose in result.poses.items():
-        estimated, true = pose.camera_from_table, truth[stem]
-        centres.append(np.linalg.norm(np.linalg.inv(estimated)[:3, 3] - np.linalg.inv(true)[:3, 3]))
-        relative = estimated[:3, :3] @ true[:3, :3].T
-        angles.append(np.degrees(np.arccos(np.clip((np.trace(relative) - 1) / 2, -1.0, 1.0))))
-    return np.array(centres), np.array(angles)
+    estimated = {stem: pose.camera_from_table for stem, pose in result.poses.items()}
+    return camera_pose_errors(estimated, read_poses(capture / "true_poses.json"))
 
 
 @pytest.mark.parametrize("name", OBJECTS)
