@@ -74,3 +74,19 @@ def transform_points(a_from_b: np.ndarray, points_b: np.ndarray) -> np.ndarray:
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise ValueError(f"{pts.shape=} but expected (N, 3)")
     return pts @ a_from_b[:3, :3].T + a_from_b[:3, 3]
+
+
+def world_from_camera_looking_at(
+    eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0.0, 0.0, 1.0)
+) -> np.ndarray:
+    """`world_from_camera` of an OpenCV camera (x right, y down, z forward) at `eye` looking
+    at `target`, with the image's up along `up` (which must not be along the view)."""
+    eye = np.asarray(eye, dtype=np.float64)
+    forward = np.asarray(target, dtype=np.float64) - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, np.asarray(up, dtype=np.float64))
+    right /= np.linalg.norm(right)
+    world_from_camera = np.eye(4)
+    world_from_camera[:3, :3] = np.column_stack([right, np.cross(forward, right), forward])
+    world_from_camera[:3, 3] = eye
+    return world_from_camera

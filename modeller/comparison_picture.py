@@ -23,6 +23,7 @@ from articulation.model import Model
 from homemodel.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
 from homemodel.c_output import captured_c_output
 from homemodel.errors import InputError, SpecError
+from homemodel.transforms import world_from_camera_looking_at
 from modeller.blender_textures import PhotoPlacement
 from modeller.photo_texture import read_photo
 
@@ -116,14 +117,7 @@ def three_quarter_camera(
     elevation = np.radians(30.0)
     direction = np.array([np.cos(elevation) * np.cos(heading), np.cos(elevation) * np.sin(heading), np.sin(elevation)])
     distance = radius / np.sin(np.radians(fov_deg) / 2) * 1.05
-    position = centre + distance * direction
-    forward = -direction
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    camera_from_model = np.eye(4)
-    camera_from_model[:3, :3] = np.vstack([right, down, forward])
-    camera_from_model[:3, 3] = -camera_from_model[:3, :3] @ position
+    camera_from_model = np.linalg.inv(world_from_camera_looking_at(centre + distance * direction, centre))
     focal = image_size[1] / 2 / np.tan(np.radians(fov_deg) / 2)
     return camera_from_model, focal
 

@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 
 from homemodel.errors import InputError
+from homemodel.transforms import world_from_camera_looking_at
 
 SCENE_FILE = "scene.json"
 TRUTH_MESH_FILE = "object_truth.ply"
@@ -164,18 +165,6 @@ def _camera_centres(n_views: int, rng: np.random.Generator) -> np.ndarray:
     return np.array(centres)
 
 
-def _look_at(centre: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """world_from_camera in the OpenCV convention (x right, y down, z forward)."""
-    forward = (target - centre) / np.linalg.norm(target - centre)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    world_from_camera = np.eye(4)
-    world_from_camera[:3, :3] = np.column_stack([right, down, forward])
-    world_from_camera[:3, 3] = centre
-    return world_from_camera
-
-
 def render_scene(folder: Path, options: SceneOptions | None = None) -> SyntheticScene:
     """Render the photo set into `folder` (images/, scene.json, the true mesh); reuse it if present."""
     options = options or SceneOptions()
@@ -204,7 +193,7 @@ def render_scene(folder: Path, options: SceneOptions | None = None) -> Synthetic
     fx = options.lens_mm / options.sensor_width_mm * options.width_px
     views = []
     for i, centre in enumerate(_camera_centres(options.n_views, rng)):
-        world_from_camera = _look_at(centre, target + rng.normal(0, 0.01, 3))
+        world_from_camera = world_from_camera_looking_at(centre, target + rng.normal(0, 0.01, 3))
         views.append({"name": f"view_{i:03d}.png", "world_from_camera": world_from_camera.tolist()})
     spec = {
         "options": wanted,

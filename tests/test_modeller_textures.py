@@ -14,6 +14,7 @@ import pytest
 import yaml
 
 from homemodel.errors import SpecError
+from homemodel.transforms import transform_points, world_from_camera_looking_at
 from modeller import load_spec
 from modeller.photo_texture import detect_quad, rectify_planar, rectify_wrap
 from modeller.specs.photos import FacePhoto
@@ -46,11 +47,7 @@ def _paste(photo: np.ndarray, design: np.ndarray, corners: np.ndarray) -> None:
 
 
 def _project(points_m: np.ndarray, eye_m: tuple, target_m: tuple, size_px: tuple[int, int]) -> np.ndarray:
-    forward = np.subtract(target_m, eye_m) / np.linalg.norm(np.subtract(target_m, eye_m))
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    camera = (np.asarray(points_m) - eye_m) @ np.vstack([right, down, forward]).T
+    camera = transform_points(np.linalg.inv(world_from_camera_looking_at(eye_m, target_m)), points_m)
     return camera[:, :2] / camera[:, 2:] * FOCAL_PX + (np.asarray(size_px) - 1) / 2
 
 

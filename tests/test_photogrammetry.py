@@ -10,6 +10,7 @@ import pytest
 import trimesh
 
 from homemodel.errors import InputError
+from homemodel.transforms import world_from_camera_looking_at
 from photogrammetry.cleaning import CleaningOptions, mesh_object, segment_object
 from photogrammetry.markers import aruco_dictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import metric_frame
@@ -19,21 +20,9 @@ from photogrammetry.support_plane import find_support_plane, focus_point
 K = np.array([[800.0, 0.0, 399.5], [0.0, 800.0, 299.5], [0.0, 0.0, 1.0]])
 
 
-def _look_at(centre, target) -> np.ndarray:
-    """camera_from_world, OpenCV convention, z up in the world."""
-    forward = (np.asarray(target, float) - centre) / np.linalg.norm(np.asarray(target, float) - centre)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    world_from_camera = np.eye(4)
-    world_from_camera[:3, :3] = np.column_stack([right, down, forward])
-    world_from_camera[:3, 3] = centre
-    return np.linalg.inv(world_from_camera)
-
-
 def _ring_cameras(n: int, radius: float, height: float, target=(0.0, 0.0, 0.0)) -> list[np.ndarray]:
     angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    return [_look_at(np.array([radius * np.cos(a), radius * np.sin(a), height]), target) for a in angles]
+    return [np.linalg.inv(world_from_camera_looking_at((radius * np.cos(a), radius * np.sin(a), height), target)) for a in angles]
 
 
 # ---------------------------------------------------------------- photos

@@ -32,6 +32,7 @@ import trimesh
 from homemodel.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
 from homemodel.errors import InputError
 from homemodel.input_files import read_bounded
+from homemodel.transforms import world_from_camera_looking_at
 from turntable.board import Board, grid_board, load_board, save_board
 from turntable.camera import Camera, load_camera, save_camera
 from turntable.depth_io import write_depth
@@ -91,18 +92,6 @@ class SimulationResult:
     frames: int
     render_s: float
     depth_s: float
-
-
-def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = np.array([0.0, 0.0, 1.0])) -> np.ndarray:
-    """`world_from_camera` of an OpenCV camera at `eye` looking at `target`, image up along `up`."""
-    z = target - eye
-    z = z / np.linalg.norm(z)
-    x = np.cross(z, up)
-    x = x / np.linalg.norm(x)
-    m = np.eye(4)
-    m[:3, :3] = np.column_stack([x, np.cross(z, x), z])
-    m[:3, 3] = eye
-    return m
 
 
 def camera_for(options: SimulationOptions) -> Camera:
@@ -168,7 +157,7 @@ def turntable_motion(options: SimulationOptions, object_height_m: float) -> tupl
     axis_table = np.array([*options.axis_offset_m, 0.0])
     eye = np.array([0.0, -options.camera_distance_m, options.camera_height_m])
     target = np.array([0.0, 0.0, min(object_height_m * 0.35, options.camera_height_m * 0.5)])
-    camera_from_world = np.linalg.inv(look_at(eye, target))
+    camera_from_world = np.linalg.inv(world_from_camera_looking_at(eye, target))
     world_from_tables = []
     for k in range(options.frames):
         world_from_table = trimesh.transformations.rotation_matrix(2 * math.pi * k / options.frames, [0, 0, 1])
@@ -185,7 +174,7 @@ def _lights(
         return [[] for _ in world_from_tables], [], 0.85
     # A key light above and to the left of the camera, standing still like the tripod.
     d, h = options.camera_distance_m, options.camera_height_m
-    world_from_light = look_at(np.array([-0.5 * d, -0.8 * d, h + 0.5]), np.zeros(3))
+    world_from_light = world_from_camera_looking_at(np.array([-0.5 * d, -0.8 * d, h + 0.5]), np.zeros(3))
     return [[np.linalg.inv(w) @ world_from_light] for w in world_from_tables], [12.0], 0.35
 
 

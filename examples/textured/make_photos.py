@@ -15,6 +15,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from homemodel.transforms import transform_points, world_from_camera_looking_at
+
 HERE = Path(__file__).resolve().parent / "photos"
 RNG = np.random.default_rng(7)
 
@@ -106,11 +108,7 @@ FOCAL_PX = 700.0
 
 def project(points_m: np.ndarray, eye_m: tuple, target_m: tuple, size_px: tuple[int, int]) -> np.ndarray:
     """Pixels of model-frame points (z up) seen by a level pinhole camera at `eye_m` looking at `target_m`."""
-    forward = np.subtract(target_m, eye_m) / np.linalg.norm(np.subtract(target_m, eye_m))
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    camera = (np.asarray(points_m) - eye_m) @ np.vstack([right, down, forward]).T
+    camera = transform_points(np.linalg.inv(world_from_camera_looking_at(eye_m, target_m)), points_m)
     return np.round(camera[:, :2] / camera[:, 2:] * FOCAL_PX + (np.asarray(size_px) - 1) / 2, 1)
 
 
