@@ -22,12 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
+from scipy import ndimage
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.ensemble import HistGradientBoostingClassifier
 
 from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
-from shape_completion.render import Pinhole
+from shape_completion.render import Pinhole, depth_to_points
 from shape_completion.symmetry import Plane
 
 FEATURE_NAMES = (
@@ -37,7 +37,22 @@ FEATURE_NAMES = (
     "deformed_occupancy",
     "match_distance",
     "fit_distance",
+    # Added to Rock et al.'s six: how far inside or outside the deformed surface a voxel is
+    # (a wall's thickness is in it, where occupancy says only in or out), and the distance
+    # behind the depth map in metres (walls of cups and bowls are millimetres thick whatever
+    # the object's size).
+    "deformed_signed_distance",
+    "depth_behind_m",
+    # and the retrieved mesh's class (categorical): a bottle's filling is not a cup's.
+    "retrieved_class",
 )
+CLASS_FEATURE = FEATURE_NAMES.index("retrieved_class")
+# The booster decides only the hidden voxels within this distance (in object sizes) of the
+# deformed surface or of the mirrored query; farther from all evidence the deformed model
+# decides. Tried on the generated classes: the booster agreed with the deformed model on
+# 99.3-100% of those far voxels, and they were half of a query's time.
+EVIDENCE_BAND = 0.05
+MARGIN = 0.1  # free space around the query and the deformed mesh, in object extents
 FAR = 10.0  # the symmetric distance when there is no symmetry plane, in object sizes
 
 
@@ -53,33 +68,64 @@ class CarvedGrid:
 
 
 def query_grid(query: np.ndarray, deformed: trimesh.Trimesh, resolution: int) -> VoxelGrid:
-    """A cube-voxel grid covering the query cloud and the deformed mesh, `resolution` voxels
-    along its longest side, with two free voxels around."""
+    """A cube-voxel grid over the query cloud and the deformed mesh, `resolution` voxels along
+    their longest extent, with a margin for what the deformed mesh falls short of."""
     low = np.minimum(query.min(axis=0), deformed.bounds[0])
     high = np.maximum(query.max(axis=0), deformed.bounds[1])
-    voxel = float(np.max(high - low)) / resolution
-    shape = tuple(int(n) for n in np.ceil((high - low) / voxel).astype(int) + 4)
-    return VoxelGrid(origin_m=low - 2 * voxel, voxel_size_m=voxel, shape=shape)
+    extent = float(np.max(high - low))
+    low, high = low - MARGIN * extent, high + MARGIN * extent
+    voxel = extent / resolution
+    shape = tuple(int(n) for n in np.ceil((high - low) / voxel).astype(int))
+    return VoxelGrid(origin_m=low, voxel_size_m=voxel, shape=shape)
+
+
+def points_mask(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
+    """(X, Y, Z) bool: the voxels holding at least one of `points`."""
+    index = np.floor((points - grid.origin_m) / grid.voxel_size_m).astype(np.int64)
+    index = index[np.all((index >= 0) & (index < np.asarray(grid.shape)), axis=1)]
+    mask = np.zeros(grid.shape, dtype=bool)
+    mask[tuple(index.T)] = True
+    return mask
+
+
+def distance_to_points(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
+    """(X, Y, Z) distance in metres from each voxel to the nearest voxel holding a point
+    (one Euclidean distance transform of the grid: cheaper than a nearest-neighbour query per voxel)."""
+    mask = points_mask(grid, points)
+    if not mask.any():
+        return np.full(grid.shape, np.inf)
+    return ndimage.distance_transform_edt(~mask) * grid.voxel_size_m
+
+
+def signed_distance(occupancy: np.ndarray, voxel_size_m: float) -> np.ndarray:
+    """Distance to the occupancy's boundary voxels, positive inside, negative outside."""
+    boundary = occupancy & ~ndimage.binary_erosion(occupancy)
+    if not boundary.any():
+        return np.full(occupancy.shape, -np.inf)
+    distance = ndimage.distance_transform_edt(~boundary) * voxel_size_m
+    return np.where(occupancy, distance, -distance)
 
 
 def carve(
     *,
     depth_m: np.ndarray,
     camera: Pinhole,
-    query: np.ndarray,
     deformed: trimesh.Trimesh,
     planes_camera: list[Plane],
     match_distance_m: float,
     fit_distance_m: float,
+    class_index: int,
     resolution: int,
 ) -> CarvedGrid:
     """Label the grid's voxels known-occupied, known-empty or ambiguous, with the ambiguous ones' features.
 
-    `depth_m` holds the object only (NaN elsewhere); `query` is its cloud in the camera frame.
+    `depth_m` holds the object only (NaN elsewhere). Known occupied: a voxel holding an
+    observed point, or whose centre lies within half a voxel of the depth map along its ray.
     """
+    query = depth_to_points(depth_m, camera)
     grid = query_grid(query, deformed, resolution)
+    voxel = grid.voxel_size_m
     centres = grid.centres_m().reshape(-1, 3)
-    size = float(np.linalg.norm(deformed.extents))
     x, y, z = centres.T
     u = np.round(camera.fx * x / z + camera.cx).astype(int)
     v = np.round(camera.fy * y / z + camera.cy).astype(int)
@@ -87,31 +133,39 @@ def carve(
     observed = np.full(len(centres), np.nan)
     observed[in_image] = depth_m[v[in_image], u[in_image]]
     in_silhouette = np.isfinite(observed)
-
-    near_point = cKDTree(query).query(centres, distance_upper_bound=0.87 * grid.voxel_size_m)[0] < np.inf
     behind = np.where(in_silhouette, z - observed, -np.inf)
-    known_occupied = near_point
-    known_empty = ~known_occupied & (~in_silhouette | (behind < -grid.voxel_size_m))
-    ambiguous = ~known_occupied & ~known_empty
+    known_occupied = points_mask(grid, query).reshape(-1) | (np.abs(behind) <= 0.5 * voxel)
+    known_empty = ~known_occupied & (~in_silhouette | (behind < -voxel))
+    hidden = ~known_occupied & ~known_empty
+    size = float(np.linalg.norm(deformed.extents))
+    if planes_camera:
+        mirrored = np.concatenate([plane.reflect(query) for plane in planes_camera])
+        symmetric = np.minimum(distance_to_points(grid, mirrored).reshape(-1) / size, FAR)
+    else:
+        symmetric = np.full(len(centres), FAR)
+    occupancy = solid_occupancy(deformed, grid).reshape(-1)
+    inside = np.maximum(signed_distance(occupancy.reshape(grid.shape), voxel).reshape(-1) / size, -FAR)
+    near_evidence = (np.abs(inside) < EVIDENCE_BAND) | (symmetric < EVIDENCE_BAND)
+    known_occupied |= hidden & ~near_evidence & occupancy
+    known_empty |= hidden & ~near_evidence & ~occupancy
+    ambiguous = hidden & near_evidence
 
     picked = centres[ambiguous]
     centre = deformed.bounds.mean(axis=0)
     to_camera = -centre / np.linalg.norm(centre)
     to_voxel = picked - centre
     cos_angle = to_voxel @ to_camera / np.maximum(np.linalg.norm(to_voxel, axis=1), 1e-12)
-    symmetric = np.full(len(picked), FAR)
-    for plane in planes_camera:
-        distances = cKDTree(plane.reflect(query)).query(picked)[0] / size
-        symmetric = np.minimum(symmetric, distances)
-    occupancy = solid_occupancy(deformed, grid).reshape(-1)[ambiguous]
     features = np.column_stack(
         [
             behind[ambiguous] / size,
             np.arccos(np.clip(cos_angle, -1.0, 1.0)),
-            symmetric,
-            occupancy.astype(np.float64),
+            symmetric[ambiguous],
+            occupancy[ambiguous].astype(np.float64),
             np.full(len(picked), match_distance_m / size),
             np.full(len(picked), fit_distance_m / size),
+            inside[ambiguous],
+            behind[ambiguous],
+            np.full(len(picked), float(class_index)),
         ]
     )
     shape = grid.shape
@@ -132,6 +186,38 @@ def single_threaded():
     return threadpool_limits(limits=1, user_api="openmp")
 
 
+@dataclass(kw_only=True)
+class TrainingGrid:
+    """What the filler learns from one carved training query: a random sample of its ambiguous
+    voxels, and the counts that give the grid's IoU for any decision on them."""
+
+    features: np.ndarray
+    occupied: np.ndarray  # the truth of the sampled ambiguous voxels
+    ambiguous_per_sample: float  # ambiguous voxels per sampled one
+    known_and_true: int  # known-occupied voxels inside the truth
+    known: int  # known-occupied voxels
+    true: int  # voxels inside the truth
+
+    @classmethod
+    def sampled(cls, carved: CarvedGrid, truth: np.ndarray, count: int, rng: np.random.Generator) -> TrainingGrid:
+        occupied = truth[carved.ambiguous]
+        keep = rng.permutation(len(occupied))[:count]
+        return cls(
+            features=carved.features[keep],
+            occupied=occupied[keep],
+            ambiguous_per_sample=len(occupied) / max(len(keep), 1),
+            known_and_true=int(np.count_nonzero(carved.known_occupied & truth)),
+            known=int(np.count_nonzero(carved.known_occupied)),
+            true=int(np.count_nonzero(truth)),
+        )
+
+    def iou(self, decided: np.ndarray) -> float:
+        """The (estimated) IoU of the grid when the sampled ambiguous voxels are `decided` occupied."""
+        hits = self.known_and_true + self.ambiguous_per_sample * np.count_nonzero(decided & self.occupied)
+        claimed = self.known + self.ambiguous_per_sample * np.count_nonzero(decided)
+        return float(hits / max(claimed + self.true - hits, 1.0))
+
+
 class VoxelFiller(ClassifierMixin, BaseEstimator):
     """The boosted decision tree that decides an ambiguous voxel's occupancy from its six features."""
 
@@ -148,11 +234,24 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
             max_iter=self.max_iter,
             learning_rate=self.learning_rate,
             max_leaf_nodes=self.max_leaf_nodes,
+            categorical_features=[CLASS_FEATURE],
             random_state=self.random_state,
         )
         with single_threaded():
             self.booster_ = booster.fit(features, occupied.astype(bool))
         self.classes_ = self.booster_.classes_
+        self.level_ = 0.5
+        return self
+
+    def fit_grids(self, grids: list[TrainingGrid]) -> VoxelFiller:
+        """Fit on the grids' samples, then pick the probability level a voxel must pass to be
+        occupied: the one with the best mean IoU over the grids. Thin walls make the truth
+        uncertain, and IoU rewards claiming an uncertain voxel more than log-loss's 0.5 does."""
+        self.fit(np.concatenate([g.features for g in grids]), np.concatenate([g.occupied for g in grids]))
+        probabilities = [self.occupancy_probability(g.features) for g in grids]
+        levels = np.linspace(0.2, 0.7, 11)
+        scores = [np.mean([g.iou(p > level) for g, p in zip(grids, probabilities)]) for level in levels]
+        self.level_ = float(levels[int(np.argmax(scores))])
         return self
 
     def predict_proba(self, features: np.ndarray) -> np.ndarray:

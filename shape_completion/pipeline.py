@@ -28,7 +28,7 @@ from homemodel.evaluation.surface import distances_to_surface
 from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
 from shape_completion.deformation import symmetric_controls, tps_deform
 from shape_completion.features import PixelTests, clean_object_depth, view_features
-from shape_completion.filling import CarvedGrid, VoxelFiller, carve
+from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, carve
 from shape_completion.library import Library
 from shape_completion.matching import ViewForest
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
@@ -41,7 +41,12 @@ from shape_completion.render import (
 )
 from shape_completion.shape_codes import ObjectOccupancy, ShapeBasis
 from shape_completion.spin_images import spin_image_alignment
-from shape_completion.symmetry import Plane, symmetry_planes
+from shape_completion.symmetry import (
+    Plane,
+    RevolutionAxis,
+    revolution_axis,
+    symmetry_planes,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -62,6 +67,7 @@ FILLER_CAMERA = Pinhole(width=320, height=240, fx=285.0, fy=285.0, cx=159.5, cy=
 MIN_QUERY_PIXELS = 30
 CLOUD_POINTS = 400
 MODEL_SAMPLES = 2500
+FILLER_SAMPLES_PER_QUERY = 6000
 
 
 @dataclass(kw_only=True)
@@ -74,6 +80,7 @@ class LibraryShape:
     samples: np.ndarray  # surface samples (object frame), for registration
     normals: np.ndarray
     planes: list[Plane]
+    axis: RevolutionAxis | None
 
 
 @dataclass(kw_only=True)
@@ -90,6 +97,11 @@ class Fit:
     deformed: trimesh.Trimesh  # after the symmetric TPS
     fit_distance_m: float
     planes_camera: list[Plane]
+    # For a revolved retrieved mesh: the plane through its axis facing the camera, which
+    # mirrors the seen side onto the back (an addition to Rock et al., whose planes are the
+    # model's own and need not pair the seen side with the hidden one). Filling only: moving
+    # the deformation's controls through it as well made the fits worse in our tests.
+    facing_plane: Plane | None
     seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -161,8 +173,8 @@ class ShapeCompleter(BaseEstimator):
         n_trees: int = 40,
         n_candidates: int = 8,
         tps_smoothing: float = 0.05,
-        fill_resolution: int = 64,
-        filler_queries_per_class: int = 10,
+        fill_resolution: int = 96,
+        filler_queries_per_class: int = 20,
         random_state: int = 0,
     ) -> None:
         self.n_views = n_views
@@ -205,6 +217,7 @@ class ShapeCompleter(BaseEstimator):
                     samples=np.asarray(samples),
                     normals=np.asarray(mesh.face_normals[faces]),
                     planes=symmetry_planes(mesh, seed=self.random_state),
+                    axis=revolution_axis(mesh, seed=self.random_state),
                 )
             )
             occupancy = ObjectOccupancy(mesh)
@@ -236,6 +249,7 @@ class ShapeCompleter(BaseEstimator):
         )
         self.fingerprint_ = training_fingerprint(library.fingerprint, self.get_params())
         self.library_fingerprint_ = library.fingerprint
+        self.class_names_ = library.class_names
         self.filler_ = self._fit_filler(library, report)
         self.training_seconds_ = time.perf_counter() - started
         return self
@@ -248,7 +262,7 @@ class ShapeCompleter(BaseEstimator):
             members = [i for i, s in enumerate(self.shapes_) if s.class_name == class_name]
             for q in range(self.filler_queries_per_class):
                 jobs.append(members[q % len(members)])
-        all_features, all_labels = [], []
+        grids = []
         for done, shape_index in enumerate(jobs):
             report("filler training", done, len(jobs))
             shape = self.shapes_[shape_index]
@@ -258,15 +272,12 @@ class ShapeCompleter(BaseEstimator):
                 continue
             fit = self._match_and_fit(depth, FILLER_CAMERA, exclude=self.view_shape_ == shape_index, rng=rng)
             carved = self._carve(depth, FILLER_CAMERA, fit)
-            truth_mesh = shape.mesh.copy().apply_transform(camera_from_object)
-            truth = solid_occupancy(truth_mesh, carved.grid)[carved.ambiguous]
-            keep = rng.permutation(len(truth))[:4000]
-            all_features.append(carved.features[keep])
-            all_labels.append(truth[keep])
+            truth = solid_occupancy(shape.mesh.copy().apply_transform(camera_from_object), carved.grid)
+            grids.append(TrainingGrid.sampled(carved, truth, FILLER_SAMPLES_PER_QUERY, rng))
         report("filler training", len(jobs), len(jobs))
-        if not all_features:
+        if not grids:
             raise ModelError("no filler training query could be rendered from the library")
-        return VoxelFiller(random_state=self.random_state).fit(np.concatenate(all_features), np.concatenate(all_labels))
+        return VoxelFiller(random_state=self.random_state).fit_grids(grids)
 
     # ---- completion -----------------------------------------------------------------------
 
@@ -280,7 +291,7 @@ class ShapeCompleter(BaseEstimator):
         probability = self.filler_.occupancy_probability(carved.features)
         field = carved.known_occupied.astype(np.float64)
         field[carved.ambiguous] = probability
-        mesh = mesh_from_field(field, carved.grid)
+        mesh = mesh_from_field(field, carved.grid, level=self.filler_.level_)
         seconds = dict(fit.seconds, filling=time.perf_counter() - t0, total=time.perf_counter() - started)
         shape = self.shapes_[fit.shape_index]
         return Completion(fit=fit, mesh=mesh, class_name=shape.class_name, retrieved_name=shape.name, seconds=seconds)
@@ -289,11 +300,11 @@ class ShapeCompleter(BaseEstimator):
         return carve(
             depth_m=depth,
             camera=camera,
-            query=fit.query,
             deformed=fit.deformed,
-            planes_camera=fit.planes_camera,
+            planes_camera=fit.planes_camera if fit.facing_plane is None else [fit.facing_plane, *fit.planes_camera],
             match_distance_m=fit.match_distance_m,
             fit_distance_m=fit.fit_distance_m,
+            class_index=self.class_names_.index(self.shapes_[fit.shape_index].class_name),
             resolution=self.fill_resolution,
         )
 
@@ -318,9 +329,10 @@ class ShapeCompleter(BaseEstimator):
         t0 = time.perf_counter()
         size = float(np.linalg.norm(shape.mesh.extents))
         camera_from_object = self._rigid_fit(query, shape, initial, size, rng)
+        planes = [plane.transformed(camera_from_object) for plane in shape.planes]
+        facing = None if shape.axis is None else shape.axis.transformed(camera_from_object).plane_facing(np.zeros(3))
         seconds["rigid_fit"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        planes = [plane.transformed(camera_from_object) for plane in shape.planes]
         deformed = self._deform(query, shape, camera_from_object, planes, size, rng)
         fit_distance = float(distances_to_surface(query, deformed).mean())
         seconds["deformation"] = time.perf_counter() - t0
@@ -335,6 +347,7 @@ class ShapeCompleter(BaseEstimator):
             deformed=deformed,
             fit_distance_m=fit_distance,
             planes_camera=planes,
+            facing_plane=facing,
             seconds=seconds,
         )
 
@@ -404,14 +417,14 @@ def render_query(mesh: trimesh.Trimesh, camera: Pinhole, camera_from_object: np.
     return DepthRenderer(mesh).render(camera, camera_from_object)
 
 
-def mesh_from_field(field: np.ndarray, grid: VoxelGrid) -> trimesh.Trimesh:
-    """The 0.5 level set of a lightly smoothed occupancy field (marching cubes), in the grid's frame."""
+def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -> trimesh.Trimesh:
+    """The `level` set of a lightly smoothed occupancy field (marching cubes), in the grid's frame."""
     from skimage.measure import marching_cubes
 
     padded = np.pad(ndimage.gaussian_filter(field, sigma=0.6), 1)
-    if padded.max() < 0.5:
+    if padded.max() < level:
         raise ModelError("the completed shape is empty: no voxel is occupied")
-    vertices, faces, _, _ = marching_cubes(padded, level=0.5, spacing=(grid.voxel_size_m,) * 3)
+    vertices, faces, _, _ = marching_cubes(padded, level=level, spacing=(grid.voxel_size_m,) * 3)
     vertices += grid.origin_m - 0.5 * grid.voxel_size_m  # padded index i is voxel i - 1, centred at +0.5
     mesh = trimesh.Trimesh(vertices, faces[:, ::-1], process=True)
     if mesh.volume < 0:

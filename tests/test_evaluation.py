@@ -17,6 +17,7 @@ from homemodel.evaluation import (
     voxel_iou,
 )
 from homemodel.evaluation.mesh_files import load_mesh
+from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
 
 
 def sphere(radius: float, centre=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
@@ -124,6 +125,16 @@ def test_a_small_hole_in_the_surface_still_voxelises_solid():
     holed = trimesh.Trimesh(closed.vertices, closed.faces[1:], process=False)
     assert not holed.is_watertight
     assert voxel_iou(holed, closed, voxel_size_m=0.001) > 0.99
+
+
+def test_a_solid_cut_by_the_grid_border_stays_solid_inside_the_grid():
+    ball = sphere(0.04)
+    whole = VoxelGrid(origin_m=np.full(3, -0.05), voxel_size_m=0.002, shape=(50, 50, 50))
+    # This grid holds the ball's left half only: its shell is open at the grid's border.
+    half = VoxelGrid(origin_m=np.full(3, -0.05), voxel_size_m=0.002, shape=(25, 50, 50))
+    cut = solid_occupancy(ball, half)
+    assert np.array_equal(cut, solid_occupancy(ball, whole)[:25])
+    assert cut[20, 25, 25]  # the centre's neighbourhood, not flooded from the open side
 
 
 def test_an_open_cup_stays_hollow():

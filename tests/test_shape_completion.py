@@ -15,9 +15,11 @@ from homemodel.cli import app
 from homemodel.errors import InputError
 from homemodel.evaluation import rock_surface_distance, rock_voxel_iou
 from homemodel.evaluation.mesh_files import load_mesh
+from homemodel.evaluation.surface import distances_to_surface
 from shape_completion.model_io import load_model, save_model
 from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
 from shape_completion.procedural import generate_instances
+from shape_completion.render import depth_to_points
 from turntable.camera import Camera, save_camera
 from turntable.depth_io import write_depth
 
@@ -110,8 +112,13 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["class"] == "bottle" and summary["seconds"]["total"] > 0
     truth = mesh.copy().apply_transform(camera_from_object)
-    # One query of a 6-mesh class: well above what a wrong frame would give (about 0).
-    assert rock_voxel_iou(load_mesh(tmp_path / "out"), truth) > 0.45
+    completed = load_mesh(tmp_path / "out")
+    # In the camera's frame: the surface the camera saw lies on the completed mesh (a wrong
+    # frame is off by the camera distance, 0.35-0.7 m), and the whole overlaps the truth (a
+    # wrong frame scores about 0; one query of a 6-mesh class scores 0.4-0.8 as instances vary).
+    seen = depth_to_points(render_query(mesh, FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
+    assert np.median(distances_to_surface(seen, completed)) < 0.003
+    assert rock_voxel_iou(completed, truth) > 0.3
 
 
 def test_bad_inputs_are_one_line_errors_and_write_nothing(trained, tmp_path):

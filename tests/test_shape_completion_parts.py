@@ -9,7 +9,9 @@ import trimesh
 
 from homemodel.errors import InputError
 from homemodel.evaluation import mean_surface_distance_m
+from homemodel.evaluation.voxels import VoxelGrid
 from shape_completion.deformation import symmetric_controls, tps_deform
+from shape_completion.filling import TrainingGrid, distance_to_points, signed_distance
 from shape_completion.pipeline import FILLER_CAMERA, check_query
 from shape_completion.procedural import GENERATORS, generate_instances
 from shape_completion.registration import apply, trimmed_icp
@@ -20,7 +22,7 @@ from shape_completion.render import (
     depth_to_points,
 )
 from shape_completion.spin_images import spin_images
-from shape_completion.symmetry import Plane, symmetry_planes
+from shape_completion.symmetry import Plane, revolution_axis, symmetry_planes
 
 CAMERA = Pinhole(width=160, height=120, fx=150.0, fy=150.0, cx=79.5, cy=59.5)
 
@@ -68,6 +70,45 @@ def test_symmetry_planes_of_known_shapes():
         [[0, 0, 0], [0.1, 0, 0], [0, 0.04, 0], [0.02, 0.01, 0.07]], [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
     )
     assert symmetry_planes(wedge) == []
+
+
+def test_revolution_axis_and_the_plane_that_mirrors_a_view_onto_the_back():
+    glass = generate_instances("glass", 1, seed=0)[0]
+    axis = revolution_axis(glass)
+    assert axis is not None and abs(axis.direction[2]) > 0.999
+    assert np.linalg.norm(axis.point[:2]) < 1e-3  # the generator revolves about the z axis
+    assert revolution_axis(trimesh.creation.box(extents=[0.1, 0.06, 0.03])) is None
+    camera = np.array([0.3, 0.4, 0.05])
+    plane = axis.plane_facing(camera)
+    assert np.allclose(plane.normal, [0.6, 0.8, 0.0], atol=0.01)
+    seen = np.array([[0.024, 0.032, 0.05]])  # on the side facing the camera, 4 cm from the axis
+    assert np.allclose(plane.reflect(seen), [[-0.024, -0.032, 0.05]], atol=2e-3)
+    assert axis.plane_facing(np.array([0.0, 0.0, 0.5])) is None  # looking down the axis
+
+
+def test_filling_distance_fields():
+    grid = VoxelGrid(origin_m=np.zeros(3), voxel_size_m=0.01, shape=(20, 20, 20))
+    distance = distance_to_points(grid, np.array([[0.055, 0.055, 0.055]]))
+    assert distance[5, 5, 5] == 0.0 and distance[5, 5, 9] == pytest.approx(0.04)
+    cube = np.zeros(grid.shape, dtype=bool)
+    cube[5:15, 5:15, 5:15] = True
+    signed = signed_distance(cube, 0.01)
+    assert signed[10, 10, 10] == pytest.approx(0.04)  # 5 voxels deep, 4 past the boundary layer
+    assert signed[10, 10, 17] == pytest.approx(-0.03) and signed[10, 10, 14] == 0.0
+
+
+def test_training_grid_iou_counts_known_and_sampled_voxels():
+    grid = TrainingGrid(
+        features=np.zeros((4, 1)),
+        occupied=np.array([True, True, False, False]),
+        ambiguous_per_sample=10.0,
+        known_and_true=50,
+        known=60,
+        true=100,
+    )
+    # Claiming the two true samples: hits 50 + 20, claimed 60 + 20, union 80 + 100 - 70.
+    assert grid.iou(np.array([True, True, False, False])) == pytest.approx(70 / 110)
+    assert grid.iou(np.zeros(4, dtype=bool)) == pytest.approx(50 / 110)
 
 
 def test_icp_recovers_a_perturbed_pose():

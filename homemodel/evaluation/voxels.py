@@ -79,13 +79,29 @@ def solid_occupancy(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
 
     Surface voxels are found from points no farther apart than half a voxel, which makes
     the shell separate inside from outside for face-adjacent paths; the interior is every
-    free voxel the outside cannot reach. Parts of the mesh outside the grid are ignored.
+    free voxel the outside cannot reach. A mesh reaching past the grid is voxelised on the
+    same lattice extended to cover it and then cropped: a shell cut open by the grid's
+    border would let the outside flood its interior.
     """
     mesh = checked_mesh(mesh, "mesh")
+    low = np.floor(np.minimum(mesh.bounds[0] - grid.origin_m, 0.0) / grid.voxel_size_m).astype(np.int64)
+    high = np.ceil(np.maximum(mesh.bounds[1] - grid.origin_m, 0.0) / grid.voxel_size_m).astype(np.int64)
+    high = np.maximum(high, np.asarray(grid.shape))
+    covering = VoxelGrid(
+        origin_m=grid.origin_m + low * grid.voxel_size_m,
+        voxel_size_m=grid.voxel_size_m,
+        shape=tuple(int(n) for n in high - low),
+    )
+    occupancy = _solid_occupancy_covering(mesh, covering)
+    start = -low
+    return occupancy[tuple(slice(s, s + n) for s, n in zip(start, grid.shape))]
+
+
+def _solid_occupancy_covering(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
+    """`solid_occupancy` on a grid that holds the whole mesh."""
     points = dense_surface_points(mesh, 0.5 * grid.voxel_size_m)
     index = np.floor((points - grid.origin_m) / grid.voxel_size_m).astype(np.int64)
-    inside = np.all((index >= 0) & (index < np.asarray(grid.shape)), axis=1)
-    index = index[inside]
+    index = np.clip(index, 0, np.asarray(grid.shape) - 1)  # a point on the far border face
     # One free voxel of padding on every side so that "outside" is a single component.
     shell = np.zeros(tuple(n + 2 for n in grid.shape), dtype=bool)
     shell[index[:, 0] + 1, index[:, 1] + 1, index[:, 2] + 1] = True
