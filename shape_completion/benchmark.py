@@ -38,7 +38,7 @@ class BenchmarkOptions:
     test_per_class: int = 5
     n_views: int = 40
     queries_per_instance: int = 4
-    filler_queries_per_class: int = 10
+    filler_queries_per_class: int = 20
     seed: int = 0
 
 

@@ -1,9 +1,9 @@
 """Filling: carve a voxel grid in the query camera's frame and decide the ambiguous voxels.
 
-Known occupied: voxels near an observed point. Known empty: voxels in front of the
-observed surface, or that project outside the object's silhouette (or the image). The rest,
-hidden behind the observed surface, are decided by a boosted decision tree from the six
-features of Rock et al.:
+Known occupied: voxels holding an observed point, or on the depth map. Known empty: voxels in
+front of the observed surface, or that project outside the object's silhouette (or the
+image). The rest, hidden behind the observed surface, are decided by a boosted decision
+tree from the six features of Rock et al. (and three of ours, see FEATURE_NAMES):
 
 1. distance behind the depth map,
 2. the camera angle needed to see the voxel (the angle at the object's centre between the
@@ -14,6 +14,7 @@ features of Rock et al.:
 6. mean distance between the query cloud and the deformed mesh (the fit's quality).
 
 Distances are divided by the object's size so that one classifier serves spoons and bottles.
+Hidden voxels far from all evidence are settled by the deformed model (see EVIDENCE_BAND).
 """
 
 from __future__ import annotations

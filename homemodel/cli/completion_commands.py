@@ -40,7 +40,7 @@ def train_command(
     out: Path = typer.Option(..., "--out", help="model file to write (joblib)"),
     views: int = typer.Option(40, "--views", min=4, max=500, help="depth views per mesh on a sphere"),
     filler_queries: int = typer.Option(
-        10, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
+        20, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
     ),
     seed: int = typer.Option(0, "--seed", help="random_state of every learner"),
     force: bool = typer.Option(False, "--force", help="replace an existing model file"),
@@ -141,7 +141,7 @@ def benchmark_command(
     views: int = typer.Option(40, "--views", min=4, max=500, help="depth views per training mesh"),
     queries: int = typer.Option(4, "--queries", min=1, help="random query views per test instance"),
     filler_queries: int = typer.Option(
-        10, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
+        20, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
     ),
     seed: int = typer.Option(0, "--seed", help="seed of the learners and the query views"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
