@@ -82,7 +82,7 @@ def query_grid(query: np.ndarray, deformed: trimesh.Trimesh, resolution: int) ->
 
 def points_mask(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
     """(X, Y, Z) bool: the voxels holding at least one of `points`."""
-    index = np.floor((points - grid.origin_m) / grid.voxel_size_m).astype(np.int64)
+    index = grid.index_of(points)
     index = index[np.all((index >= 0) & (index < np.asarray(grid.shape)), axis=1)]
     mask = np.zeros(grid.shape, dtype=bool)
     mask[tuple(index.T)] = True
@@ -220,7 +220,8 @@ class TrainingGrid:
 
 
 class VoxelFiller(ClassifierMixin, BaseEstimator):
-    """The boosted decision tree that decides an ambiguous voxel's occupancy from its six features."""
+    """The boosted decision tree that decides an ambiguous voxel's occupancy from its features
+    (FEATURE_NAMES), and the probability level it must pass (`level_`)."""
 
     def __init__(
         self, *, max_iter: int = 150, learning_rate: float = 0.1, max_leaf_nodes: int = 31, random_state: int = 0

@@ -39,7 +39,7 @@ class ObjectOccupancy:
         cube = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), -1).reshape(-1, 3) * self.radius_m
         # Cube axes are the camera's: rotate them into the object frame about the object's centre.
         points = cube @ camera_from_object[:3, :3] + self.centre_m
-        index = np.floor((points - self.grid.origin_m) / self.grid.voxel_size_m).astype(int)
+        index = self.grid.index_of(points)
         inside = np.all((index >= 0) & (index < FINE_GRID), axis=1)
         values = np.zeros(len(points), dtype=bool)
         values[inside] = self.occupancy[tuple(index[inside].T)]

@@ -48,6 +48,10 @@ class VoxelGrid:
         shape = tuple(int(n) for n in np.maximum(np.round((high - low) / voxel_size_m), 1))
         return cls(origin_m=low, voxel_size_m=float(voxel_size_m), shape=shape)
 
+    def index_of(self, points_m: np.ndarray) -> np.ndarray:
+        """(N, 3) integer index of the voxel each point falls in (outside the grid for points outside it)."""
+        return np.floor((points_m - self.origin_m) / self.voxel_size_m).astype(np.int64)
+
     def centres_m(self) -> np.ndarray:
         """(X, Y, Z, 3) coordinates of the voxel centres."""
         axes = [self.origin_m[d] + (np.arange(self.shape[d]) + 0.5) * self.voxel_size_m for d in range(3)]
@@ -100,8 +104,7 @@ def solid_occupancy(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
 def _solid_occupancy_covering(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
     """`solid_occupancy` on a grid that holds the whole mesh."""
     points = dense_surface_points(mesh, 0.5 * grid.voxel_size_m)
-    index = np.floor((points - grid.origin_m) / grid.voxel_size_m).astype(np.int64)
-    index = np.clip(index, 0, np.asarray(grid.shape) - 1)  # a point on the far border face
+    index = np.clip(grid.index_of(points), 0, np.asarray(grid.shape) - 1)  # a point on the far border face
     # One free voxel of padding on every side so that "outside" is a single component.
     shell = np.zeros(tuple(n + 2 for n in grid.shape), dtype=bool)
     shell[index[:, 0] + 1, index[:, 1] + 1, index[:, 2] + 1] = True
