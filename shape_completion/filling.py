@@ -19,6 +19,7 @@ Hidden voxels far from all evidence are settled by the deformed model (see EVIDE
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ from sklearn.ensemble import HistGradientBoostingClassifier
 
 from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
 from shape_completion.render import Pinhole, depth_to_points
-from shape_completion.symmetry import Plane
+from shape_completion.symmetry import Plane, RevolutionAxis
 
 FEATURE_NAMES = (
     "depth_behind",
@@ -46,6 +47,15 @@ FEATURE_NAMES = (
     "depth_behind_m",
     # and the retrieved mesh's class (categorical): a bottle's filling is not a cup's.
     "retrieved_class",
+    # and the voxel's image on the side the camera sees: mirrored through the first symmetry
+    # plane (for a revolved object, the plane through its axis facing the camera), and turned
+    # about a revolved object's axis into that plane. Of each image, how far behind the depth
+    # map it lies and how far inside the deformed surface. The deformed mesh's front is pulled
+    # onto the query, so these place the back where the deformed back may be off.
+    "mirrored_depth_behind_m",
+    "mirrored_deformed_signed_distance",
+    "turned_depth_behind_m",
+    "turned_deformed_signed_distance",
 )
 CLASS_FEATURE = FEATURE_NAMES.index("retrieved_class")
 # The booster decides only the hidden voxels within this distance (in object sizes) of the
@@ -54,6 +64,7 @@ CLASS_FEATURE = FEATURE_NAMES.index("retrieved_class")
 # 99.3-100% of those far voxels, and they were half of a query's time.
 EVIDENCE_BAND = 0.05
 MARGIN = 0.1  # free space around the query and the deformed mesh, in object extents
+PARALLEL_PREDICTION_ROWS = 50_000
 FAR = 10.0  # the symmetric distance when there is no symmetry plane, in object sizes
 
 
@@ -63,9 +74,22 @@ class CarvedGrid:
 
     grid: VoxelGrid
     known_occupied: np.ndarray  # (X, Y, Z) bool
-    known_empty: np.ndarray
     ambiguous: np.ndarray
     features: np.ndarray  # (number of ambiguous voxels, len(FEATURE_NAMES))
+    depth_behind_m: np.ndarray  # (X, Y, Z): voxel depth less the depth map's on its ray, -inf off the silhouette
+
+    def occupancy_field(self, probability: np.ndarray, level: float) -> np.ndarray:
+        """(X, Y, Z) field whose `level` set is the completed surface: 1 on known-occupied voxels,
+        the filler's `probability` on ambiguous ones, and across the seen surface a ramp of one
+        per voxel along the rays that crosses `level` on the depth map, so the surface the camera
+        saw is placed to a fraction of a voxel, not to the nearest voxel (measured: +0.03 mean IoU)."""
+        field = self.known_occupied.astype(np.float64)
+        field[self.ambiguous] = probability
+        behind = self.depth_behind_m / self.grid.voxel_size_m
+        near = (behind > -1.5) & (behind < 1.0)
+        ramp = np.clip(level + behind[near], 0.0, 1.0)
+        field[near] = np.where(behind[near] < 0, ramp, np.maximum(field[near], ramp))
+        return field
 
 
 def query_grid(query: np.ndarray, deformed: trimesh.Trimesh, resolution: int) -> VoxelGrid:
@@ -113,6 +137,7 @@ def carve(
     camera: Pinhole,
     deformed: trimesh.Trimesh,
     planes_camera: list[Plane],
+    axis_camera: RevolutionAxis | None,
     match_distance_m: float,
     fit_distance_m: float,
     class_index: int,
@@ -124,6 +149,9 @@ def carve(
     observed point, or whose centre lies within half a voxel of the depth map along its ray.
     """
     query = depth_to_points(depth_m, camera)
+    facing = None if axis_camera is None else axis_camera.plane_facing(np.zeros(3))
+    if facing is not None:
+        planes_camera = [facing, *planes_camera]
     grid = query_grid(query, deformed, resolution)
     voxel = grid.voxel_size_m
     centres = grid.centres_m().reshape(-1, 3)
@@ -152,6 +180,15 @@ def carve(
     ambiguous = hidden & near_evidence
 
     picked = centres[ambiguous]
+    unseen = np.full((len(picked), 2), np.nan)
+    mirrored = _seen_image(planes_camera[0].reflect(picked), depth_m, camera, grid, inside) if planes_camera else unseen
+    if facing is not None:
+        turned = axis_camera.point + np.outer(
+            (picked - axis_camera.point) @ axis_camera.direction, axis_camera.direction
+        ) + np.outer(np.linalg.norm(axis_camera.offset_to(picked), axis=1), facing.normal)
+        turned = _seen_image(turned, depth_m, camera, grid, inside)
+    else:
+        turned = unseen
     centre = deformed.bounds.mean(axis=0)
     to_camera = -centre / np.linalg.norm(centre)
     to_voxel = picked - centre
@@ -167,16 +204,39 @@ def carve(
             inside[ambiguous],
             behind[ambiguous],
             np.full(len(picked), float(class_index)),
+            mirrored,
+            turned,
         ]
     )
     shape = grid.shape
     return CarvedGrid(
         grid=grid,
         known_occupied=known_occupied.reshape(shape),
-        known_empty=known_empty.reshape(shape),
         ambiguous=ambiguous.reshape(shape),
         features=features,
+        depth_behind_m=behind.reshape(shape),
     )
+
+
+def _seen_image(
+    points: np.ndarray, depth_m: np.ndarray, camera: Pinhole, grid: VoxelGrid, inside: np.ndarray
+) -> np.ndarray:
+    """(N, 2) for images of voxels on the seen side: their distance behind the depth map in
+    metres (-1 outside the silhouette: in front of all that is seen) and the grid's `inside`
+    values at them (NaN off the grid)."""
+    x, y, z = points.T
+    safe_z = np.where(z > 0, z, np.inf)
+    u = np.round(camera.fx * x / safe_z + camera.cx).astype(int)
+    v = np.round(camera.fy * y / safe_z + camera.cy).astype(int)
+    in_image = (z > 0) & (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    observed = np.full(len(points), np.nan)
+    observed[in_image] = depth_m[v[in_image], u[in_image]]
+    behind = np.where(np.isfinite(observed), z - observed, -1.0)
+    index = grid.index_of(points)
+    on_grid = np.all((index >= 0) & (index < np.asarray(grid.shape)), axis=1)
+    values = np.full(len(points), np.nan)
+    values[on_grid] = inside[np.ravel_multi_index(tuple(index[on_grid].T), grid.shape)]
+    return np.column_stack([behind, values])
 
 
 def single_threaded():
@@ -264,7 +324,9 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
         """P(occupied) per row (0 when training saw no occupied voxel at all)."""
         if len(features) == 0:
             return np.zeros(0)
-        with single_threaded():
+        # A query's grid (10^5 voxels) is predicted on every core: measured 0.88 s on one
+        # thread, 0.47 s on two. Small batches stay on one (see `single_threaded`).
+        with single_threaded() if len(features) < PARALLEL_PREDICTION_ROWS else nullcontext():
             proba = self.booster_.predict_proba(features)
         column = np.nonzero(self.classes_)[0]
         return proba[:, column[0]] if len(column) else np.zeros(len(features))

@@ -68,6 +68,8 @@ MIN_QUERY_PIXELS = 30
 CLOUD_POINTS = 400
 MODEL_SAMPLES = 2500
 FILLER_SAMPLES_PER_QUERY = 6000
+AXIS_FIT_POINTS = 4000
+AXIS_FIT_TOLERANCE_M = 0.003
 
 
 @dataclass(kw_only=True)
@@ -97,11 +99,10 @@ class Fit:
     deformed: trimesh.Trimesh  # after the symmetric TPS
     fit_distance_m: float
     planes_camera: list[Plane]
-    # For a revolved retrieved mesh: the plane through its axis facing the camera, which
-    # mirrors the seen side onto the back (an addition to Rock et al., whose planes are the
-    # model's own and need not pair the seen side with the hidden one). Filling only: moving
-    # the deformation's controls through it as well made the fits worse in our tests.
-    facing_plane: Plane | None
+    # For a revolved retrieved mesh: its axis, moved onto the query (an addition to Rock et
+    # al.). Filling only: moving the deformation's controls through the plane it gives made
+    # the fits worse in our tests.
+    axis: RevolutionAxis | None
     seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -288,10 +289,9 @@ class ShapeCompleter(BaseEstimator):
         fit = self._match_and_fit(depth, camera, exclude=None, rng=np.random.default_rng(self.random_state))
         t0 = time.perf_counter()
         carved = self._carve(depth, camera, fit)
-        probability = self.filler_.occupancy_probability(carved.features)
-        field = carved.known_occupied.astype(np.float64)
-        field[carved.ambiguous] = probability
-        mesh = mesh_from_field(field, carved.grid, level=self.filler_.level_)
+        level = self.filler_.level_
+        field = carved.occupancy_field(self.filler_.occupancy_probability(carved.features), level)
+        mesh = mesh_from_field(field, carved.grid, level=level)
         seconds = dict(fit.seconds, filling=time.perf_counter() - t0, total=time.perf_counter() - started)
         shape = self.shapes_[fit.shape_index]
         return Completion(fit=fit, mesh=mesh, class_name=shape.class_name, retrieved_name=shape.name, seconds=seconds)
@@ -301,7 +301,8 @@ class ShapeCompleter(BaseEstimator):
             depth_m=depth,
             camera=camera,
             deformed=fit.deformed,
-            planes_camera=fit.planes_camera if fit.facing_plane is None else [fit.facing_plane, *fit.planes_camera],
+            planes_camera=fit.planes_camera,
+            axis_camera=fit.axis,
             match_distance_m=fit.match_distance_m,
             fit_distance_m=fit.fit_distance_m,
             class_index=self.class_names_.index(self.shapes_[fit.shape_index].class_name),
@@ -330,7 +331,7 @@ class ShapeCompleter(BaseEstimator):
         size = float(np.linalg.norm(shape.mesh.extents))
         camera_from_object = self._rigid_fit(query, shape, initial, size, rng)
         planes = [plane.transformed(camera_from_object) for plane in shape.planes]
-        facing = None if shape.axis is None else shape.axis.transformed(camera_from_object).plane_facing(np.zeros(3))
+        axis = None if shape.axis is None else self._fitted_axis(depth, camera, shape.axis, camera_from_object, rng)
         seconds["rigid_fit"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         deformed = self._deform(query, shape, camera_from_object, planes, size, rng)
@@ -347,8 +348,18 @@ class ShapeCompleter(BaseEstimator):
             deformed=deformed,
             fit_distance_m=fit_distance,
             planes_camera=planes,
-            facing_plane=facing,
+            axis=axis,
             seconds=seconds,
+        )
+
+    @staticmethod
+    def _fitted_axis(
+        depth: np.ndarray, camera: Pinhole, axis: RevolutionAxis, camera_from_object: np.ndarray, rng: np.random.Generator
+    ) -> RevolutionAxis:
+        """The revolved retrieved mesh's axis at its fitted pose, moved onto the query."""
+        points = _subsample(depth_to_points(depth, camera), AXIS_FIT_POINTS, rng)
+        return axis.transformed(camera_from_object).fitted_to(
+            points, camera_facing_normals(points, neighbours=24), tolerance_m=AXIS_FIT_TOLERANCE_M
         )
 
     def _rigid_fit(

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from scipy.optimize import least_squares
+
 from homemodel.evaluation.surface import distances_to_surface
 from shape_completion.render import sphere_directions
 
@@ -85,6 +87,31 @@ class RevolutionAxis:
         """The component of each point's offset from the axis perpendicular to it."""
         relative = points - self.point
         return relative - np.outer(relative @ self.direction, self.direction)
+
+    def fitted_to(self, points: np.ndarray, normals: np.ndarray, *, tolerance_m: float) -> RevolutionAxis:
+        """This axis moved onto a cloud seen of a surface of revolution: every surface normal line
+        of such a surface meets the axis, so the axis (direction and point, four degrees of
+        freedom) is the line the cloud's normal lines come closest to meeting (robust least
+        squares, `tolerance_m` the scale of the residuals that still count fully; a handle's
+        normals are outliers). The axis of a fitted library mesh is a few millimetres off the
+        object's, and the back wall mirrored through it twice that."""
+        across = np.linalg.svd(self.direction[None])[2][1:]  # two unit vectors perpendicular to the axis
+        point = self.point + ((points.mean(axis=0) - self.point) @ self.direction) * self.direction
+
+        def line(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            direction = self.direction + x[:2] @ across
+            return direction / np.linalg.norm(direction), point + x[2:] @ across
+
+        def residuals(x: np.ndarray) -> np.ndarray:
+            # (p - c) . (n x d): zero when the normal line through p meets the axis.
+            direction, on_axis = line(x)
+            return np.einsum("ni,ni->n", points - on_axis, np.cross(normals, direction))
+
+        solution = least_squares(
+            residuals, np.zeros(4), loss="soft_l1", f_scale=tolerance_m, x_scale=[0.05, 0.05, tolerance_m, tolerance_m]
+        )
+        direction, on_axis = line(solution.x)
+        return RevolutionAxis(point=on_axis, direction=direction)
 
     def plane_facing(self, viewpoint: np.ndarray) -> Plane | None:
         """The plane through the axis whose normal points at `viewpoint` (None when it looks along the axis).
