@@ -68,6 +68,7 @@ MIN_QUERY_PIXELS = 30
 CLOUD_POINTS = 400
 MODEL_SAMPLES = 2500
 FILLER_SAMPLES_PER_QUERY = 6000
+MAX_DEFORMATION_STRETCH = 1.5
 AXIS_FIT_POINTS = 4000
 AXIS_FIT_TOLERANCE_M = 0.003
 
@@ -403,6 +404,13 @@ class ShapeCompleter(BaseEstimator):
         control_points, displacements = symmetric_controls(model_points, controls[keep] - model_points, planes)
         vertices = apply(camera_from_object, np.asarray(shape.mesh.vertices))
         moved = tps_deform(vertices, control_points, displacements, scale_m=size, smoothing=self.tps_smoothing)
+        # Few or one-sided controls can make the spline run away (seen: a spoon blown up to 40
+        # times its volume); a deformation that stretches the mesh's box by more than half on
+        # any of its axes is not trusted, and the rigid fit stands.
+        rotation = camera_from_object[:3, :3]
+        stretch = np.ptp(moved @ rotation, axis=0) / np.maximum(np.ptp(vertices @ rotation, axis=0), 1e-9)
+        if np.any(stretch > MAX_DEFORMATION_STRETCH) or np.any(stretch < 1 / MAX_DEFORMATION_STRETCH):
+            moved = vertices
         return trimesh.Trimesh(moved, shape.mesh.faces, process=False)
 
 
