@@ -56,6 +56,10 @@ FEATURE_NAMES = (
     "mirrored_deformed_signed_distance",
     "turned_depth_behind_m",
     "turned_deformed_signed_distance",
+    # and turned to the far side of the axis, which a camera looking into a cup or bowl sees
+    # from the inside: that gives the inner wall.
+    "turned_back_depth_behind_m",
+    "turned_back_deformed_signed_distance",
 )
 CLASS_FEATURE = FEATURE_NAMES.index("retrieved_class")
 # The booster decides only the hidden voxels within this distance (in object sizes) of the
@@ -183,12 +187,13 @@ def carve(
     unseen = np.full((len(picked), 2), np.nan)
     mirrored = _seen_image(planes_camera[0].reflect(picked), depth_m, camera, grid, inside) if planes_camera else unseen
     if facing is not None:
-        turned = axis_camera.point + np.outer(
-            (picked - axis_camera.point) @ axis_camera.direction, axis_camera.direction
-        ) + np.outer(np.linalg.norm(axis_camera.offset_to(picked), axis=1), facing.normal)
-        turned = _seen_image(turned, depth_m, camera, grid, inside)
+        on_axis = axis_camera.point + np.outer((picked - axis_camera.point) @ axis_camera.direction, axis_camera.direction)
+        radial = np.outer(np.linalg.norm(axis_camera.offset_to(picked), axis=1), facing.normal)
+        turned = np.column_stack(
+            [_seen_image(on_axis + sign * radial, depth_m, camera, grid, inside) for sign in (1.0, -1.0)]
+        )
     else:
-        turned = unseen
+        turned = np.column_stack([unseen, unseen])
     centre = deformed.bounds.mean(axis=0)
     to_camera = -centre / np.linalg.norm(centre)
     to_voxel = picked - centre

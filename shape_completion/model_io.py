@@ -16,7 +16,7 @@ from homemodel.input_files import read_bounded
 from shape_completion.pipeline import ShapeCompleter, training_fingerprint
 
 FORMAT = "homemodel-shape-completion"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 MAX_MODEL_BYTES = 4 * 1024**3
 
 

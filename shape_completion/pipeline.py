@@ -25,7 +25,7 @@ from sklearn.base import BaseEstimator
 
 from homemodel.errors import InputError, ModelError
 from homemodel.evaluation.surface import distances_to_surface
-from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
+from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
 from shape_completion.deformation import symmetric_controls, tps_deform
 from shape_completion.features import PixelTests, clean_object_depth, view_features
 from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, carve
@@ -69,6 +69,8 @@ CLOUD_POINTS = 400
 MODEL_SAMPLES = 2500
 FILLER_SAMPLES_PER_QUERY = 6000
 MAX_DEFORMATION_STRETCH = 1.5
+LEVEL_CHECK_QUERIES = 10  # training completions the final level is chosen on
+LEVEL_STEPS = (0.0, 0.05, 0.1, 0.15)
 AXIS_FIT_POINTS = 4000
 AXIS_FIT_TOLERANCE_M = 0.003
 
@@ -264,7 +266,8 @@ class ShapeCompleter(BaseEstimator):
             members = [i for i, s in enumerate(self.shapes_) if s.class_name == class_name]
             for q in range(self.filler_queries_per_class):
                 jobs.append(members[q % len(members)])
-        grids = []
+        grids, held = [], []
+        hold_every = max(1, len(jobs) // LEVEL_CHECK_QUERIES)
         for done, shape_index in enumerate(jobs):
             report("filler training", done, len(jobs))
             shape = self.shapes_[shape_index]
@@ -274,12 +277,17 @@ class ShapeCompleter(BaseEstimator):
                 continue
             fit = self._match_and_fit(depth, FILLER_CAMERA, exclude=self.view_shape_ == shape_index, rng=rng)
             carved = self._carve(depth, FILLER_CAMERA, fit)
-            truth = solid_occupancy(shape.mesh.copy().apply_transform(camera_from_object), carved.grid)
-            grids.append(TrainingGrid.sampled(carved, truth, FILLER_SAMPLES_PER_QUERY, rng))
+            truth_mesh = shape.mesh.copy().apply_transform(camera_from_object)
+            grids.append(TrainingGrid.sampled(carved, solid_occupancy(truth_mesh, carved.grid), FILLER_SAMPLES_PER_QUERY, rng))
+            if done % hold_every == 0:
+                held.append((carved, truth_mesh))
         report("filler training", len(jobs), len(jobs))
         if not grids:
             raise ModelError("no filler training query could be rendered from the library")
-        return VoxelFiller(random_state=self.random_state).fit_grids(grids)
+        filler = VoxelFiller(random_state=self.random_state).fit_grids(grids)
+        report("filler level", 0, 1)
+        filler.level_ = _best_mesh_level(filler, held)
+        return filler
 
     # ---- completion -----------------------------------------------------------------------
 
@@ -449,6 +457,25 @@ def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -
     if mesh.volume < 0:
         mesh.invert()
     return mesh
+
+
+def _best_mesh_level(filler: VoxelFiller, held: list[tuple[CarvedGrid, trimesh.Trimesh]]) -> float:
+    """The filler's level raised by the step that gives the best mean IoU of the finished meshes
+    of `held` training completions, voxelised at twice the carving's resolution (about Rock et
+    al.'s 200^3 over the object). The filler's own level is the best for voxel decisions;
+    smoothing and marching cubes then shift the surface, and on the generated classes the
+    finished meshes were best 0.05-0.15 higher."""
+    scores = np.zeros(len(LEVEL_STEPS))
+    for carved, truth_mesh in held:
+        grid = carved.grid
+        fine = VoxelGrid(origin_m=grid.origin_m, voxel_size_m=grid.voxel_size_m / 2, shape=tuple(2 * n for n in grid.shape))
+        truth = solid_occupancy(truth_mesh, fine)
+        probability = filler.occupancy_probability(carved.features)
+        for i, step in enumerate(LEVEL_STEPS):
+            level = filler.level_ + step
+            mesh = mesh_from_field(carved.occupancy_field(probability, level), grid, level=level)
+            scores[i] += iou_of_occupancies(solid_occupancy(mesh, fine), truth)
+    return filler.level_ + LEVEL_STEPS[int(np.argmax(scores))]
 
 
 def _subsample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
