@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
-
 from scipy.optimize import least_squares
 
 from homemodel.evaluation.surface import distances_to_surface
@@ -128,20 +127,22 @@ class RevolutionAxis:
 
 
 def revolution_axis(
-    mesh: trimesh.Trimesh, *, tolerance: float = 0.01, n_samples: int = 1500, seed: int = 0
+    mesh: trimesh.Trimesh, *, tolerance: float = 0.12, n_samples: int = 1500, seed: int = 0
 ) -> RevolutionAxis | None:
     """The principal axis through the centroid about which the surface turns into itself, if any.
 
     A candidate axis is accepted when samples turned by 40, 95 and 160 degrees about it lie,
-    at the median, within `tolerance` times the bounding diagonal of the surface. The median
-    lets a mug count as revolved: its body is, its handle (a minority of the samples) is not.
+    at the median, within `tolerance` times the samples' median distance from the axis. The
+    median lets a mug count as revolved: its body is, its handle (a minority of the samples)
+    is not. Measured on the generated classes (error over radius): bottles, bowls and glasses
+    0.006-0.026, mugs 0.028-0.083, spoons about their handle 0.27-0.31. Against the bounding
+    diagonal instead, a spoon turned about its handle passed as revolved.
     """
     points, _ = trimesh.sample.sample_surface(mesh, n_samples, seed=seed)
     # The exact surface centroid, not the samples' mean: the axis places the mirror plane of
     # `plane_facing`, and a millimetre off there is two on the mirrored back wall.
     areas = mesh.area_faces
     centroid = (mesh.triangles_center * areas[:, None]).sum(axis=0) / areas.sum()
-    diagonal = float(np.linalg.norm(mesh.extents))
     _, axes = np.linalg.eigh(np.cov((points - centroid).T))
     best: tuple[float, RevolutionAxis] | None = None
     for direction in axes.T:
@@ -150,8 +151,10 @@ def revolution_axis(
             + centroid
             for angle in (40.0, 95.0, 160.0)
         ]
-        error = float(np.median(distances_to_surface(np.concatenate(turned), mesh))) / diagonal
+        candidate = RevolutionAxis(point=centroid, direction=direction)
+        radius = float(np.median(np.linalg.norm(candidate.offset_to(points), axis=1)))
+        error = float(np.median(distances_to_surface(np.concatenate(turned), mesh))) / max(radius, 1e-12)
         if error < tolerance and (best is None or error < best[0]):
-            best = (error, RevolutionAxis(point=centroid, direction=direction))
+            best = (error, candidate)
     return None if best is None else best[1]
 
