@@ -11,10 +11,15 @@ from homemodel.errors import InputError
 from homemodel.evaluation import mean_surface_distance_m
 from homemodel.evaluation.voxels import VoxelGrid
 from shape_completion.deformation import symmetric_controls, tps_deform
-from shape_completion.filling import TrainingGrid, distance_to_points, signed_distance
-from shape_completion.pipeline import FILLER_CAMERA, check_query
+from shape_completion.filling import (
+    CarvedGrid,
+    TrainingGrid,
+    distance_to_points,
+    signed_distance,
+)
+from shape_completion.pipeline import FILLER_CAMERA, check_query, mesh_from_field
 from shape_completion.procedural import GENERATORS, generate_instances
-from shape_completion.registration import apply, trimmed_icp
+from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
 from shape_completion.render import (
     DepthRenderer,
     Pinhole,
@@ -78,12 +83,51 @@ def test_revolution_axis_and_the_plane_that_mirrors_a_view_onto_the_back():
     assert axis is not None and abs(axis.direction[2]) > 0.999
     assert np.linalg.norm(axis.point[:2]) < 1e-3  # the generator revolves about the z axis
     assert revolution_axis(trimesh.creation.box(extents=[0.1, 0.06, 0.03])) is None
+    assert all(revolution_axis(spoon) is None for spoon in generate_instances("spoon", 4, seed=0))
     camera = np.array([0.3, 0.4, 0.05])
     plane = axis.plane_facing(camera)
     assert np.allclose(plane.normal, [0.6, 0.8, 0.0], atol=0.01)
     seen = np.array([[0.024, 0.032, 0.05]])  # on the side facing the camera, 4 cm from the axis
     assert np.allclose(plane.reflect(seen), [[-0.024, -0.032, 0.05]], atol=2e-3)
     assert axis.plane_facing(np.array([0.0, 0.0, 0.5])) is None  # looking down the axis
+
+
+def test_revolution_axis_fitted_to_one_view_of_the_object():
+    glass = generate_instances("glass", 1, seed=2)[0]
+    camera_from_object = camera_from_object_looking_at(glass.bounds.mean(axis=0), [0.8, -0.3, 0.5], 0.45)
+    points = depth_to_points(DepthRenderer(glass).render(FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
+    truth = revolution_axis(glass).transformed(camera_from_object)
+    # A library mesh's axis after its fit: 4 mm off and tilted by 3 degrees.
+    tilt = trimesh.transformations.rotation_matrix(np.radians(3), [1.0, 0.2, 0.0], point=truth.point)[:3, :3]
+    start = type(truth)(point=truth.point + [0.004, 0.0, -0.002], direction=tilt @ truth.direction)
+    fitted = start.fitted_to(points, camera_facing_normals(points, neighbours=24), tolerance_m=0.003)
+
+    def off_by(axis):
+        centre = points.mean(axis=0)
+        on_axis = axis.point + ((centre - axis.point) @ axis.direction) * axis.direction
+        angle = np.degrees(np.arccos(min(1.0, abs(axis.direction @ truth.direction))))
+        return float(np.linalg.norm(truth.offset_to(on_axis[None]))), angle
+
+    assert off_by(start)[0] > 0.003
+    offset, angle = off_by(fitted)
+    assert offset < 0.001 and angle < 1.5
+
+
+def test_occupancy_field_puts_the_seen_surface_between_voxels():
+    # A wall seen head-on at 0.50355 m, just past a voxel centre (0.5035 m): voxel by voxel it
+    # would be placed half a voxel off, at the next voxel boundary.
+    grid = VoxelGrid(origin_m=np.array([-0.01, -0.01, 0.49]), voxel_size_m=0.001, shape=(20, 20, 30))
+    z = grid.centres_m()[..., 2]
+    carved = CarvedGrid(
+        grid=grid,
+        known_occupied=z > 0.50355,
+        ambiguous=np.zeros(grid.shape, dtype=bool),
+        features=np.zeros((0, 1)),
+        depth_behind_m=z - 0.50355,
+    )
+    mesh = mesh_from_field(carved.occupancy_field(np.zeros(0), 0.5), grid, level=0.5)
+    middle = (np.abs(mesh.vertices[:, 0]) < 0.005) & (np.abs(mesh.vertices[:, 1]) < 0.005)
+    assert abs(mesh.vertices[middle, 2].min() - 0.50355) < 0.00015  # within 0.15 voxel
 
 
 def test_filling_distance_fields():
