@@ -111,6 +111,13 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     assert validate_path(tmp_path / "out").ok
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["class"] == "bottle" and summary["seconds"]["total"] > 0
+    # The generator revolves a bottle about its z axis: the axis fitted to the query is that one.
+    axis = summary["revolution_axis"]
+    direction, point = np.array(axis["direction"]), np.array(axis["point_m"])
+    true_direction, on_true_axis = camera_from_object[:3, 2], camera_from_object[:3, 3]
+    assert abs(direction @ true_direction) > np.cos(np.radians(3))
+    offset = point - on_true_axis
+    assert np.linalg.norm(offset - (offset @ true_direction) * true_direction) < 0.003
     truth = mesh.copy().apply_transform(camera_from_object)
     completed = load_mesh(tmp_path / "out")
     # In the camera's frame: the surface the camera saw lies on the completed mesh (a wrong

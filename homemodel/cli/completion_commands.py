@@ -110,6 +110,10 @@ def run_command(
             "match_distance_m": fit.match_distance_m,
             "fit_distance_m": fit.fit_distance_m,
             "symmetry_planes": len(fit.planes_camera),
+            # a revolved match's axis fitted to the query (e.g. a cup's, to grasp it around)
+            "revolution_axis": None
+            if fit.axis is None
+            else {"point_m": fit.axis.point.tolist(), "direction": fit.axis.direction.tolist()},
             "triangles": int(len(completion.mesh.faces)),
             "extents_m": [float(v) for v in completion.mesh.extents],
             "watertight": bool(completion.mesh.is_watertight),
