@@ -182,7 +182,8 @@ def carve(
     unseen = np.full((len(picked), 2), np.nan)
     mirrored = _seen_image(planes_camera[0].reflect(picked), depth_m, camera, grid, inside) if planes_camera else unseen
     if facing is not None:
-        on_axis = axis_camera.point + np.outer((picked - axis_camera.point) @ axis_camera.direction, axis_camera.direction)
+        along = (picked - axis_camera.point) @ axis_camera.direction
+        on_axis = axis_camera.point + np.outer(along, axis_camera.direction)
         radial = np.outer(np.linalg.norm(axis_camera.offset_to(picked), axis=1), facing.normal)
         turned = np.column_stack(
             [_seen_image(on_axis + sign * radial, depth_m, camera, grid, inside) for sign in (1.0, -1.0)]

@@ -278,7 +278,8 @@ class ShapeCompleter(BaseEstimator):
             fit = self._match_and_fit(depth, FILLER_CAMERA, exclude=self.view_shape_ == shape_index, rng=rng)
             carved = self._carve(depth, FILLER_CAMERA, fit)
             truth_mesh = shape.mesh.copy().apply_transform(camera_from_object)
-            grids.append(TrainingGrid.sampled(carved, solid_occupancy(truth_mesh, carved.grid), FILLER_SAMPLES_PER_QUERY, rng))
+            truth = solid_occupancy(truth_mesh, carved.grid)
+            grids.append(TrainingGrid.sampled(carved, truth, FILLER_SAMPLES_PER_QUERY, rng))
             if done % hold_every == 0:
                 held.append((carved, truth_mesh))
         report("filler training", len(jobs), len(jobs))
@@ -363,7 +364,11 @@ class ShapeCompleter(BaseEstimator):
 
     @staticmethod
     def _fitted_axis(
-        depth: np.ndarray, camera: Pinhole, axis: RevolutionAxis, camera_from_object: np.ndarray, rng: np.random.Generator
+        depth: np.ndarray,
+        camera: Pinhole,
+        axis: RevolutionAxis,
+        camera_from_object: np.ndarray,
+        rng: np.random.Generator,
     ) -> RevolutionAxis:
         """The revolved retrieved mesh's axis at its fitted pose, moved onto the query."""
         points = _subsample(depth_to_points(depth, camera), AXIS_FIT_POINTS, rng)
@@ -468,7 +473,9 @@ def _best_mesh_level(filler: VoxelFiller, held: list[tuple[CarvedGrid, trimesh.T
     scores = np.zeros(len(LEVEL_STEPS))
     for carved, truth_mesh in held:
         grid = carved.grid
-        fine = VoxelGrid(origin_m=grid.origin_m, voxel_size_m=grid.voxel_size_m / 2, shape=tuple(2 * n for n in grid.shape))
+        fine = VoxelGrid(
+            origin_m=grid.origin_m, voxel_size_m=grid.voxel_size_m / 2, shape=tuple(2 * n for n in grid.shape)
+        )
         truth = solid_occupancy(truth_mesh, fine)
         probability = filler.occupancy_probability(carved.features)
         for i, step in enumerate(LEVEL_STEPS):

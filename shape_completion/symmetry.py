@@ -136,8 +136,8 @@ def revolution_axis(
     within 1% of the bounding diagonal. The median lets a mug count as revolved: its body is,
     its handle (a minority of the samples) is not. Measured on the generated classes (error
     over radius): bottles, bowls and glasses 0.006-0.026, mugs 0.028-0.083, spoons about their
-    handle 0.27-0.31, which the diagonal alone let pass. The diagonal alone turns away a flat
-    box turned about its long side, whose large faces map onto themselves.
+    handle 0.27-0.31, which the diagonal alone let pass. The radius alone lets a flat box pass,
+    turned about its thinnest axis (its large faces map onto themselves); the diagonal does not.
     """
     points, _ = trimesh.sample.sample_surface(mesh, n_samples, seed=seed)
     # The exact surface centroid, not the samples' mean: the axis places the mirror plane of
