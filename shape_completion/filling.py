@@ -111,7 +111,7 @@ def query_grid(query: np.ndarray, deformed: trimesh.Trimesh, resolution: int) ->
 def points_mask(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
     """(X, Y, Z) bool: the voxels holding at least one of `points`."""
     index = grid.index_of(points)
-    index = index[np.all((index >= 0) & (index < np.asarray(grid.shape)), axis=1)]
+    index = index[grid.holds(index)]
     mask = np.zeros(grid.shape, dtype=bool)
     mask[tuple(index.T)] = True
     return mask
@@ -175,18 +175,17 @@ def carve(
     inside = np.maximum(signed_distance(occupancy.reshape(grid.shape), voxel).reshape(-1) / size, -FAR)
     near_evidence = (np.abs(inside) < EVIDENCE_BAND) | (symmetric < EVIDENCE_BAND)
     known_occupied |= hidden & ~near_evidence & occupancy
-    known_empty |= hidden & ~near_evidence & ~occupancy
     ambiguous = hidden & near_evidence
 
     picked = centres[ambiguous]
     unseen = np.full((len(picked), 2), np.nan)
     mirrored = _seen_image(planes_camera[0].reflect(picked), depth_m, camera, grid, inside) if planes_camera else unseen
     if facing is not None:
-        along = (picked - axis_camera.point) @ axis_camera.direction
-        on_axis = axis_camera.point + np.outer(along, axis_camera.direction)
-        radial = np.outer(np.linalg.norm(axis_camera.offset_to(picked), axis=1), facing.normal)
         turned = np.column_stack(
-            [_seen_image(on_axis + sign * radial, depth_m, camera, grid, inside) for sign in (1.0, -1.0)]
+            [
+                _seen_image(axis_camera.turned_toward(picked, side * facing.normal), depth_m, camera, grid, inside)
+                for side in (1.0, -1.0)
+            ]
         )
     else:
         turned = np.column_stack([unseen, unseen])
@@ -240,7 +239,7 @@ def _seen_image(
     values at them (NaN off the grid)."""
     behind = np.nan_to_num(depth_behind(points, depth_m, camera), nan=-1.0)
     index = grid.index_of(points)
-    on_grid = np.all((index >= 0) & (index < np.asarray(grid.shape)), axis=1)
+    on_grid = grid.holds(index)
     values = np.full(len(points), np.nan)
     values[on_grid] = inside[np.ravel_multi_index(tuple(index[on_grid].T), grid.shape)]
     return np.column_stack([behind, values])

@@ -417,14 +417,20 @@ class ShapeCompleter(BaseEstimator):
         control_points, displacements = symmetric_controls(model_points, controls[keep] - model_points, planes)
         vertices = apply(camera_from_object, np.asarray(shape.mesh.vertices))
         moved = tps_deform(vertices, control_points, displacements, scale_m=size, smoothing=self.tps_smoothing)
-        # Few or one-sided controls can make the spline run away (seen: a spoon blown up to 40
-        # times its volume); a deformation that stretches the mesh's box by more than half on
-        # any of its axes is not trusted, and the rigid fit stands.
-        rotation = camera_from_object[:3, :3]
-        stretch = np.ptp(moved @ rotation, axis=0) / np.maximum(np.ptp(vertices @ rotation, axis=0), 1e-9)
-        if np.any(stretch > MAX_DEFORMATION_STRETCH) or np.any(stretch < 1 / MAX_DEFORMATION_STRETCH):
+        if not deformation_is_trusted(vertices, moved, camera_from_object[:3, :3]):
             moved = vertices
         return trimesh.Trimesh(moved, shape.mesh.faces, process=False)
+
+
+def deformation_is_trusted(placed: np.ndarray, moved: np.ndarray, camera_from_object_rotation: np.ndarray) -> bool:
+    """Whether a deformation of the `placed` vertices to `moved` keeps the mesh's box, along the
+    object's own axes, within MAX_DEFORMATION_STRETCH of its size. Few or one-sided controls can
+    make the spline run away (seen: a spoon blown up to 40 times its volume); the rigid fit
+    then stands."""
+    stretch = np.ptp(moved @ camera_from_object_rotation, axis=0) / np.maximum(
+        np.ptp(placed @ camera_from_object_rotation, axis=0), 1e-9
+    )
+    return bool(np.all(stretch <= MAX_DEFORMATION_STRETCH) and np.all(stretch >= 1 / MAX_DEFORMATION_STRETCH))
 
 
 def training_fingerprint(library_fingerprint: str, params: dict) -> str:

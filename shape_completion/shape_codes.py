@@ -40,7 +40,7 @@ class ObjectOccupancy:
         # Cube axes are the camera's: rotate them into the object frame about the object's centre.
         points = cube @ camera_from_object[:3, :3] + self.centre_m
         index = self.grid.index_of(points)
-        inside = np.all((index >= 0) & (index < FINE_GRID), axis=1)
+        inside = self.grid.holds(index)
         values = np.zeros(len(points), dtype=bool)
         values[inside] = self.occupancy[tuple(index[inside].T)]
         return values

@@ -87,6 +87,12 @@ class RevolutionAxis:
         relative = points - self.point
         return relative - np.outer(relative @ self.direction, self.direction)
 
+    def turned_toward(self, points: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """`points` turned about the axis into the half-plane leaving it along `direction` (a unit
+        vector perpendicular to the axis)."""
+        offset = self.offset_to(points)
+        return points - offset + np.outer(np.linalg.norm(offset, axis=1), direction)
+
     def fitted_to(self, points: np.ndarray, normals: np.ndarray, *, tolerance_m: float) -> RevolutionAxis:
         """This axis moved onto a cloud seen of a surface of revolution: every surface normal line
         of such a surface meets the axis, so the axis (direction and point, four degrees of

@@ -17,7 +17,7 @@ from shape_completion.filling import (
     distance_to_points,
     signed_distance,
 )
-from shape_completion.pipeline import FILLER_CAMERA, check_query, mesh_from_field
+from shape_completion.pipeline import FILLER_CAMERA, check_query, deformation_is_trusted, mesh_from_field
 from shape_completion.procedural import GENERATORS, generate_instances
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
 from shape_completion.render import (
@@ -111,6 +111,20 @@ def test_revolution_axis_fitted_to_one_view_of_the_object():
     assert off_by(start)[0] > 0.003
     offset, angle = off_by(fitted)
     assert offset < 0.001 and angle < 1.5
+
+
+def test_a_runaway_deformation_is_not_trusted():
+    spoon = generate_instances("spoon", 1, seed=0)[0]
+    camera_from_object = camera_from_object_looking_at(spoon.bounds.mean(axis=0), [0.3, -0.5, 0.8], 0.5)
+    rotation = camera_from_object[:3, :3]
+    placed = apply(camera_from_object, np.asarray(spoon.vertices))
+    nudged = placed + np.random.default_rng(0).normal(scale=0.001, size=placed.shape)
+    assert deformation_is_trusted(placed, nudged, rotation)
+    # Twice as thick along the spoon's own thinnest axis, whichever way the camera looks.
+    thin = np.argmin(spoon.extents)
+    doubled = np.asarray(spoon.vertices).copy()
+    doubled[:, thin] *= 2
+    assert not deformation_is_trusted(placed, apply(camera_from_object, doubled), rotation)
 
 
 def test_occupancy_field_puts_the_seen_surface_between_voxels():

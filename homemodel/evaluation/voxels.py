@@ -52,6 +52,10 @@ class VoxelGrid:
         """(N, 3) integer index of the voxel each point falls in (outside the grid for points outside it)."""
         return np.floor((points_m - self.origin_m) / self.voxel_size_m).astype(np.int64)
 
+    def holds(self, index: np.ndarray) -> np.ndarray:
+        """(N,) bool: which of the (N, 3) voxel indices lie on the grid."""
+        return np.all((index >= 0) & (index < np.asarray(self.shape)), axis=1)
+
     def centres_m(self) -> np.ndarray:
         """(X, Y, Z, 3) coordinates of the voxel centres."""
         axes = [self.origin_m[d] + (np.arange(self.shape[d]) + 0.5) * self.voxel_size_m for d in range(3)]
