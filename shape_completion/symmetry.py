@@ -132,7 +132,8 @@ class RevolutionAxis:
         return Plane(normal=normal, offset=float(normal @ self.point))
 
 
-AXIS_FIT_TOLERANCE = 0.005  # of the bounding diagonal: a library mesh's exact normals
+# Of the bounding diagonal, for a mesh's exact normals (a query's noisier ones: pipeline.AXIS_FIT_TOLERANCE_M).
+MESH_AXIS_FIT_TOLERANCE = 0.005
 
 
 def revolution_axis(
@@ -160,7 +161,7 @@ def revolution_axis(
     best: tuple[float, RevolutionAxis] | None = None
     for direction in axes.T:
         candidate = RevolutionAxis(point=centroid, direction=direction).fitted_to(
-            points, normals, tolerance_m=AXIS_FIT_TOLERANCE * diagonal
+            points, normals, tolerance_m=MESH_AXIS_FIT_TOLERANCE * diagonal
         )
         turned = [
             (points - candidate.point)
