@@ -73,6 +73,7 @@ LEVEL_CHECK_QUERIES = 10  # training completions the final level is chosen on
 LEVEL_STEPS = (0.0, 0.05, 0.1, 0.15)
 AXIS_FIT_POINTS = 4000
 AXIS_FIT_TOLERANCE_M = 0.003
+QUERY_QUARTER_TURNS = (0, 1, 2, 3)
 
 
 @dataclass(kw_only=True)
@@ -325,11 +326,14 @@ class ShapeCompleter(BaseEstimator):
         seconds = {}
         t0 = time.perf_counter()
         query = _subsample(depth_to_points(depth, camera), 1500, rng)
-        features = view_features(depth, camera, self.tests_)
-        candidates = self.forest_.candidates(features, self.n_candidates, exclude=exclude)
+        candidates = self._candidate_views(depth, camera, exclude)
         if len(candidates) == 0:
             raise ModelError("the retrieval forest found no candidate view")
-        scored = [(_aligned_chamfer(self.view_clouds_[c], query), c) for c in candidates]
+        query_tree = cKDTree(query)
+        scored = [
+            (aligned_chamfer(self.view_clouds_[view], query, query_tree, quarter_turns=turns), view)
+            for view, turns in candidates
+        ]
         (match_distance, alignment), view_index = min(scored, key=lambda item: item[0][0])
         shape_index = int(self.view_shape_[view_index])
         shape = self.shapes_[shape_index]
@@ -351,7 +355,7 @@ class ShapeCompleter(BaseEstimator):
             query=query,
             shape_index=shape_index,
             view_index=int(view_index),
-            candidates=candidates,
+            candidates=np.array([view for view, _ in candidates]),
             match_distance_m=match_distance,
             retrieved=retrieved,
             camera_from_object=camera_from_object,
@@ -361,6 +365,19 @@ class ShapeCompleter(BaseEstimator):
             axis=axis,
             seconds=seconds,
         )
+
+    def _candidate_views(
+        self, depth: np.ndarray, camera: Pinhole, exclude: np.ndarray | None
+    ) -> list[tuple[int, int]]:
+        """(view, quarter turns) pairs: the forest's candidates for the query image turned by each
+        of QUERY_QUARTER_TURNS. Training views all have the object's +z up in the image; an
+        object lying down (a spoon on a table) seen from above can point any way in the query,
+        so the turned images find views the upright one misses (an addition to Rock et al.)."""
+        pairs = []
+        for turns in QUERY_QUARTER_TURNS:
+            features = view_features(np.rot90(depth, turns), _quarter_turned(camera, turns), self.tests_)
+            pairs += [(int(view), turns) for view in self.forest_.candidates(features, self.n_candidates, exclude)]
+        return pairs
 
     @staticmethod
     def _fitted_axis(
@@ -497,19 +514,33 @@ def _subsample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.n
     return points[rng.choice(len(points), size=count, replace=False)]
 
 
-def _aligned_chamfer(view_cloud: np.ndarray, query: np.ndarray) -> tuple[float, np.ndarray]:
-    """Mean two-way nearest-point distance after moving the view's cloud onto the query: turned
-    so its centroid lies on the query centroid's ray, then shifted to the query's centroid.
-    Returns the distance and that motion (4x4, query camera from view camera)."""
-    view_centre, query_centre = view_cloud.mean(axis=0), query.mean(axis=0)
+def _quarter_turned(camera: Pinhole, turns: int) -> Pinhole:
+    """The intrinsics of an image turned by np.rot90(image, turns)."""
+    if turns % 2 == 0:
+        return camera
+    return Pinhole(width=camera.height, height=camera.width, fx=camera.fy, fy=camera.fx, cx=camera.cy, cy=camera.cx)
+
+
+def aligned_chamfer(
+    view_cloud: np.ndarray, query: np.ndarray, query_tree: cKDTree, *, quarter_turns: int = 0
+) -> tuple[float, np.ndarray]:
+    """Mean two-way nearest-point distance after moving the view's cloud onto the query: rolled
+    about the view camera's optical axis to undo a `quarter_turns` np.rot90 of the query image,
+    turned so its centroid lies on the query centroid's ray, then shifted to the query's
+    centroid. Returns the distance and that motion (4x4, query camera from view camera)."""
+    roll = np.eye(4)
+    # np.rot90 maps a point's image coordinates (x, y) to (y, -x): undo it with +90 degrees about z.
+    roll[:3, :3] = np.linalg.matrix_power(np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), quarter_turns)
+    rolled = apply(roll, view_cloud)
+    view_centre, query_centre = rolled.mean(axis=0), query.mean(axis=0)
     a, b = view_centre / np.linalg.norm(view_centre), query_centre / np.linalg.norm(query_centre)
     rotation = _rotation_between(a, b)
     motion = np.eye(4)
     motion[:3, :3] = rotation
     motion[:3, 3] = query_centre - rotation @ view_centre
-    moved = apply(motion, view_cloud)
-    distance = 0.5 * (cKDTree(query).query(moved)[0].mean() + cKDTree(moved).query(query)[0].mean())
-    return float(distance), motion
+    moved = apply(motion, rolled)
+    distance = 0.5 * (query_tree.query(moved)[0].mean() + cKDTree(moved).query(query)[0].mean())
+    return float(distance), motion @ roll
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from scipy.spatial import cKDTree
 
 from homemodel.errors import InputError
 from homemodel.evaluation import mean_surface_distance_m
@@ -17,7 +18,14 @@ from shape_completion.filling import (
     distance_to_points,
     signed_distance,
 )
-from shape_completion.pipeline import FILLER_CAMERA, check_query, deformation_is_trusted, mesh_from_field
+from shape_completion.pipeline import (
+    FILLER_CAMERA,
+    VIEW_CAMERA,
+    aligned_chamfer,
+    check_query,
+    deformation_is_trusted,
+    mesh_from_field,
+)
 from shape_completion.procedural import GENERATORS, generate_instances
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
 from shape_completion.render import (
@@ -189,6 +197,25 @@ def test_icp_recovers_a_perturbed_pose():
     after = np.linalg.norm(apply(pose, samples) - apply(truth, samples), axis=1).mean()
     # The cup turns freely about its axis but for its handle: a few millimetres remain.
     assert before > 0.008 and after < 0.003
+
+
+def test_a_quarter_turn_of_the_query_image_matches_a_rolled_camera():
+    # A spoon lying on a table, seen from above by a camera rolled 90 degrees from the view's.
+    mesh = generate_instances("spoon", 1, seed=0)[0]
+    view_pose = camera_from_object_looking_at(mesh.bounds.mean(axis=0), [0.2, 0.3, 1.0], 0.4)
+    roll = trimesh.transformations.rotation_matrix(np.pi / 2, [0.0, 0.0, 1.0])
+    renderer = DepthRenderer(mesh)
+    view_depth = renderer.render(VIEW_CAMERA, view_pose)
+    query_depth = renderer.render(VIEW_CAMERA, roll @ view_pose)
+    view, query = depth_to_points(view_depth, VIEW_CAMERA), depth_to_points(query_depth, VIEW_CAMERA)
+    # np.rot90 of the query image is the view's image again.
+    assert np.mean(np.isfinite(np.rot90(query_depth)) != np.isfinite(view_depth)) < 0.002
+    tree = cKDTree(query)
+    distances = [aligned_chamfer(view, query, tree, quarter_turns=turns)[0] for turns in range(4)]
+    assert int(np.argmin(distances)) == 1
+    assert distances[1] < 0.002 < min(distances[0], distances[2], distances[3])
+    _, motion = aligned_chamfer(view, query, tree, quarter_turns=1)
+    assert np.abs(motion[:3, :3] - roll[:3, :3]).max() < 0.02
 
 
 def test_spin_images_do_not_change_with_a_rigid_motion():
