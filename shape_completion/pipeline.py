@@ -29,7 +29,7 @@ from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occ
 from shape_completion.deformation import symmetric_controls, tps_deform
 from shape_completion.features import PixelTests, clean_object_depth, view_features
 from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, carve
-from shape_completion.library import Library
+from shape_completion.library import Library, working_mesh
 from shape_completion.matching import ViewForest
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
 from shape_completion.render import (
@@ -212,7 +212,7 @@ class ShapeCompleter(BaseEstimator):
         rng = np.random.default_rng(self.random_state)
         for index, entry in enumerate(library.meshes):
             report("rendering views", index, len(library.meshes))
-            mesh = entry.mesh
+            mesh = working_mesh(entry.mesh)
             samples, faces = trimesh.sample.sample_surface(mesh, MODEL_SAMPLES, seed=self.random_state + index)
             self.shapes_.append(
                 LibraryShape(

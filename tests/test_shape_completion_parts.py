@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 
 from homemodel.errors import InputError
 from homemodel.evaluation import mean_surface_distance_m
-from homemodel.evaluation.voxels import VoxelGrid
+from homemodel.evaluation.voxels import VoxelGrid, voxel_iou
 from shape_completion.deformation import symmetric_controls, tps_deform
 from shape_completion.filling import (
     CarvedGrid,
@@ -18,6 +18,7 @@ from shape_completion.filling import (
     distance_to_points,
     signed_distance,
 )
+from shape_completion.library import MAX_WORKING_TRIANGLES, working_mesh
 from shape_completion.pipeline import (
     FILLER_CAMERA,
     VIEW_CAMERA,
@@ -58,6 +59,16 @@ def test_cups_are_hollow_and_bottles_are_closed():
     centre_inside = [[0.0, 0.0, 0.5 * cup.extents[2]]]
     assert not cup.contains(centre_inside)[0]  # the cavity is empty
     assert bottle.contains([[0.0, 0.0, 0.3 * bottle.extents[2]]])[0]
+
+
+def test_dense_library_meshes_are_simplified_for_the_pipeline():
+    mesh = generate_instances("bottle", 1, seed=0)[0]
+    dense = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=0.006))
+    assert len(dense.faces) > 4 * MAX_WORKING_TRIANGLES
+    simple = working_mesh(dense)
+    assert len(simple.faces) <= MAX_WORKING_TRIANGLES
+    assert voxel_iou(simple, dense, voxel_size_m=0.002) > 0.98
+    assert working_mesh(mesh) is mesh  # small enough already
 
 
 def test_rendered_depth_is_the_true_distance():
