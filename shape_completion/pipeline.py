@@ -515,10 +515,18 @@ def _subsample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.n
 
 
 def _quarter_turned(camera: Pinhole, turns: int) -> Pinhole:
-    """The intrinsics of an image turned by np.rot90(image, turns)."""
-    if turns % 2 == 0:
-        return camera
-    return Pinhole(width=camera.height, height=camera.width, fx=camera.fy, fy=camera.fx, cx=camera.cy, cy=camera.cx)
+    """The intrinsics of np.rot90(image, turns): each turn puts old row r, column c at row
+    width - 1 - c, column r."""
+    for _ in range(turns % 4):
+        camera = Pinhole(
+            width=camera.height,
+            height=camera.width,
+            fx=camera.fy,
+            fy=camera.fx,
+            cx=camera.cy,
+            cy=camera.width - 1 - camera.cx,
+        )
+    return camera
 
 
 def aligned_chamfer(
