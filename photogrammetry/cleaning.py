@@ -15,6 +15,7 @@ import trimesh
 
 from homemodel.errors import ModelError
 
+MERGE_FRACTION = 1e-4  # of the mesh's diagonal: vertices nearer than this are one (20 um on a 0.2 m vase)
 
 @dataclass(kw_only=True)
 class CleaningOptions:
@@ -178,13 +179,17 @@ def largest_piece(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
 
 
 def finish_mesh(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
-    """Near-duplicate vertices merged (the cap's seam), small holes closed, decimated to
-    `max_faces` with its topology kept, so a closed surface stays closed (pymeshlab)."""
+    """Near-duplicate vertices merged, small holes closed, decimated to `max_faces` with its
+    topology kept, so a closed surface stays closed (pymeshlab)."""
     import pymeshlab
 
     meshes = pymeshlab.MeshSet()
     meshes.add_mesh(pymeshlab.Mesh(mesh.vertices, mesh.faces))
-    meshes.meshing_merge_close_vertices(threshold=pymeshlab.PercentageValue(0.01))
+    # Marching cubes leaves edges of a micrometre or less; a file's 6 decimals would fuse their
+    # ends, and a reader merging vertices by position would find holes and folds there.
+    merge_distance = MERGE_FRACTION * float(np.linalg.norm(mesh.extents))
+    meshes.meshing_merge_close_vertices(threshold=pymeshlab.PureValue(merge_distance))
+    meshes.meshing_remove_null_faces()
     meshes.meshing_repair_non_manifold_edges()
     meshes.meshing_close_holes(maxholesize=100)
     if meshes.current_mesh().face_number() > max_faces:
