@@ -17,6 +17,7 @@ from homemodel.errors import ModelError
 
 MERGE_FRACTION = 1e-4  # of the mesh's diagonal: vertices nearer than this are one (20 um on a 0.2 m vase)
 
+
 @dataclass(kw_only=True)
 class CleaningOptions:
     """Lengths are fractions of the scene scale (the median camera distance to the focus point)."""
