@@ -92,14 +92,22 @@ def load_library(folder: Path, *, min_per_class: int = 2) -> Library:
 
 
 def working_mesh(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """`mesh` simplified by quadric decimation (open3d) to at most MAX_WORKING_TRIANGLES."""
-    if len(mesh.faces) <= MAX_WORKING_TRIANGLES:
-        return mesh
-    import open3d as o3d
+    """A copy of `mesh` simplified by quadric decimation (open3d) to at most
+    MAX_WORKING_TRIANGLES, its faces wound consistently (outward where it is closed): the
+    fitting keeps the library surface that faces the camera by its normals, and meshes from
+    elsewhere are not always wound one way."""
+    if len(mesh.faces) > MAX_WORKING_TRIANGLES:
+        import open3d as o3d
 
-    dense = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces))
-    simple = dense.simplify_quadric_decimation(target_number_of_triangles=MAX_WORKING_TRIANGLES)
-    return trimesh.Trimesh(np.asarray(simple.vertices), np.asarray(simple.triangles), process=True)
+        dense = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces)
+        )
+        simple = dense.simplify_quadric_decimation(target_number_of_triangles=MAX_WORKING_TRIANGLES)
+        mesh = trimesh.Trimesh(np.asarray(simple.vertices), np.asarray(simple.triangles), process=True)
+    else:
+        mesh = mesh.copy()
+    trimesh.repair.fix_normals(mesh)
+    return mesh
 
 
 def write_procedural_library(

@@ -68,7 +68,18 @@ def test_dense_library_meshes_are_simplified_for_the_pipeline():
     simple = working_mesh(dense)
     assert len(simple.faces) <= MAX_WORKING_TRIANGLES
     assert voxel_iou(simple, dense, voxel_size_m=0.002) > 0.98
-    assert working_mesh(mesh) is mesh  # small enough already
+    assert len(working_mesh(mesh).faces) == len(mesh.faces)  # small enough already
+
+
+def test_library_meshes_are_wound_outward_for_the_pipeline():
+    mesh = generate_instances("cup", 1, seed=0)[0]
+    faces = mesh.faces.copy()
+    faces[::3] = faces[::3, ::-1]  # a third of the faces wound the other way
+    torn = trimesh.Trimesh(mesh.vertices, faces, process=False)
+    assert not torn.is_winding_consistent
+    working = working_mesh(torn)
+    assert working.is_winding_consistent and working.volume > 0
+    assert np.allclose(working.face_normals, mesh.face_normals)
 
 
 def test_rendered_depth_is_the_true_distance():
