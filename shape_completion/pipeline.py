@@ -96,7 +96,6 @@ class Fit:
     query: np.ndarray
     shape_index: int
     view_index: int
-    candidates: np.ndarray
     match_distance_m: float
     retrieved: trimesh.Trimesh  # the library mesh placed at its view's pose: retrieval only
     camera_from_object: np.ndarray  # after spin images and ICP
@@ -355,7 +354,6 @@ class ShapeCompleter(BaseEstimator):
             query=query,
             shape_index=shape_index,
             view_index=int(view_index),
-            candidates=np.array([view for view, _ in candidates]),
             match_distance_m=match_distance,
             retrieved=retrieved,
             camera_from_object=camera_from_object,
