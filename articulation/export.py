@@ -7,7 +7,7 @@ from pathlib import Path
 from articulation.gltf_export import write_glb
 from articulation.model import Model
 from articulation.urdf_export import write_urdf
-from homemodel.atomic import atomic_dir
+from homemodel.core.atomic import atomic_dir
 
 
 def write_model_files(model: Model, folder: Path) -> list[Path]:

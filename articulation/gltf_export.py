@@ -23,8 +23,8 @@ from articulation.numbers import (
     rounded,
     significant,
 )
-from homemodel.atomic import write_bytes_atomic
-from homemodel.transforms import rotation_from_rpy
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.transforms import rotation_from_rpy
 
 _FLOAT, _UINT32 = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963

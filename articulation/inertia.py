@@ -8,7 +8,7 @@ import numpy as np
 import trimesh
 
 from articulation.model import Inertial
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 
 # Thin or open meshes (a sheet, an unclosed scan) have no trustworthy volume; their
 # convex hull is used instead so every link still gets a physically plausible inertia.

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 
 
 def resolve_mesh(filename: str, urdf_dir: Path) -> Path:

@@ -15,8 +15,8 @@ from typing import Literal
 import numpy as np
 import trimesh
 
-from homemodel.errors import ModelError
-from homemodel.transforms import (
+from homemodel.core.errors import ModelError
+from homemodel.core.transforms import (
     as_transform,
     axis_angle_transform,
     translation_transform,

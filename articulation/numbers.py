@@ -6,7 +6,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from homemodel.transforms import transform_from_xyz_rpy, xyz_rpy_from_transform
+from homemodel.core.transforms import transform_from_xyz_rpy, xyz_rpy_from_transform
 
 
 def fixed(value: float, decimals: int = 6) -> str:

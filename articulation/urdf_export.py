@@ -28,7 +28,7 @@ from articulation.model import (
 from articulation.naming import file_stem, unique
 from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
 from articulation.obj_io import mtl_text, obj_text
-from homemodel.atomic import write_text_atomic
+from homemodel.core.atomic import write_text_atomic
 
 MESH_DIR = "meshes"
 

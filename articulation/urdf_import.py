@@ -31,9 +31,9 @@ from articulation.model import (
     Sphere,
     Visual,
 )
-from homemodel.errors import InputError, ModelError
-from homemodel.safe_xml import parse_xml_file
-from homemodel.transforms import transform_from_xyz_rpy
+from homemodel.core.errors import InputError, ModelError
+from homemodel.core.safe_xml import parse_xml_file
+from homemodel.core.transforms import transform_from_xyz_rpy
 
 _NUMBER_LIST = re.compile(r"\s+")
 

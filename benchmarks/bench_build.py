@@ -23,7 +23,7 @@ from rich.table import Table
 
 from articulation.gltf_export import glb_bytes
 from articulation.urdf_export import write_urdf
-from articulation.validate import validate_path
+from articulation.gate.validate import validate_path
 from modeller import build_model
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

@@ -22,7 +22,7 @@ from rich.console import Console
 from rich.table import Table
 
 from articulation.export import write_model_files
-from articulation.validate import validate_path
+from articulation.gate.validate import validate_path
 from modeller.build import build_textured
 from modeller.comparison_picture import PictureOptions, comparison_picture
 from modeller.spec_loading import load_spec

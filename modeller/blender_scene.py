@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from homemodel.c_output import captured_c_output
+from homemodel.core.c_stdio_capture import captured_c_output
 
 if TYPE_CHECKING:
     import bpy

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from homemodel.yaml_specs import FieldError
+from homemodel.core.yaml_specs import FieldError
 from modeller.blender_scene import LINK_PROPERTY, texture_material
 from modeller.photo_texture import (
     TextureOptions,

@@ -25,7 +25,7 @@ from articulation.model import (
     Model,
     Visual,
 )
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 from modeller.blender_scene import LINK_PROPERTY, material_texture_path
 
 if TYPE_CHECKING:

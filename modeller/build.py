@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from articulation.model import Model
-from homemodel.errors import SpecError
-from homemodel.yaml_specs import FieldError
+from homemodel.core.errors import SpecError
+from homemodel.core.yaml_specs import FieldError
 from modeller.blender_scene import reset_scene, save_blend
 from modeller.blender_textures import PhotoPlacement, apply_photos
 from modeller.blender_to_model import Assembly, model_from_scene

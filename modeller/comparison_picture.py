@@ -20,10 +20,10 @@ import cv2
 import numpy as np
 
 from articulation.model import Model
-from homemodel.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
-from homemodel.c_output import captured_c_output
-from homemodel.errors import InputError, SpecError
-from homemodel.transforms import world_from_camera_looking_at
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.transforms import world_from_camera_looking_at
 from modeller.blender_textures import PhotoPlacement
 from modeller.photo_texture import read_photo
 
@@ -249,7 +249,7 @@ def render_spec(
     The folder appears whole or not at all. Raises `SpecError` for a bad spec or photo.
     """
     from articulation.export import write_model_files
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
     from modeller.build import build_textured
     from modeller.spec_loading import load_spec
 

@@ -21,10 +21,10 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from homemodel.atomic import write_bytes_atomic
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
-from homemodel.yaml_specs import FieldError
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
+from homemodel.core.yaml_specs import FieldError
 from modeller.specs.photos import FacePhoto, quad_problem
 
 MAX_PHOTO_BYTES = 64 * 1024 * 1024

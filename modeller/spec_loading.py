@@ -9,9 +9,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from homemodel.atomic import write_text_atomic
-from homemodel.errors import SpecError
-from homemodel.yaml_specs import FieldError, read_yaml_mapping, validate_mapping
+from homemodel.core.atomic import write_text_atomic
+from homemodel.core.errors import SpecError
+from homemodel.core.yaml_specs import FieldError, read_yaml_mapping, validate_mapping
 from modeller.specs import SPEC_TYPES, Spec
 
 

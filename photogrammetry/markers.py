@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 
 # The user-facing names of OpenCV's predefined dictionaries.
 DICTIONARIES: dict[str, str] = {

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 
 PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp")
 MIN_SIDE_PX = 64

@@ -21,7 +21,7 @@ def draw_cameras(mesh: trimesh.Trimesh, views: list[View], path: Path, *, title:
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-    from homemodel.atomic import write_bytes_atomic
+    from homemodel.core.atomic import write_bytes_atomic
 
     if len(mesh.faces) > MAX_DRAWN_FACES:
         simplified = to_open3d(mesh).simplify_quadric_decimation(MAX_DRAWN_FACES)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.errors import InputError, ModelError
+from homemodel.core.errors import InputError, ModelError
 from photogrammetry.cleaning import (
     CleaningOptions,
     downsample,
@@ -242,7 +242,7 @@ def to_model(result: Reconstruction, *, name: str, density_kg_m3: float):
         Model,
         Visual,
     )
-    from homemodel.atomic import write_bytes_atomic
+    from homemodel.core.atomic import write_bytes_atomic
 
     texture_path = result.work_dir / "texture.png"
     ok, png = cv2.imencode(".png", cv2.cvtColor(result.textured.texture, cv2.COLOR_RGB2BGR))
@@ -264,7 +264,7 @@ def to_model(result: Reconstruction, *, name: str, density_kg_m3: float):
 def write_reconstruction(result: Reconstruction, folder: Path, *, name: str, density_kg_m3: float) -> dict:
     """Write the model files, cameras.json and summary.json into an existing (temporary) folder."""
     from articulation.export import write_model_files
-    from homemodel.atomic import write_text_atomic
+    from homemodel.core.atomic import write_text_atomic
 
     model = to_model(result, name=name, density_kg_m3=density_kg_m3)
     write_model_files(model, folder)

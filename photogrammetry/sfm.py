@@ -14,7 +14,7 @@ from typing import Literal
 
 import numpy as np
 
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 from photogrammetry.photos import read_size
 
 log = logging.getLogger(__name__)

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.errors import InputError
-from homemodel.transforms import world_from_camera_looking_at
+from homemodel.core.errors import InputError
+from homemodel.core.transforms import world_from_camera_looking_at
 
 SCENE_FILE = "scene.json"
 TRUTH_MESH_FILE = "object_truth.ply"

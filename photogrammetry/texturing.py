@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 from photogrammetry.cleaning import to_open3d
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import View

@@ -14,7 +14,7 @@ from typing import TypeVar
 import numpy as np
 
 from articulation.model import Model
-from homemodel.errors import MapError
+from homemodel.core.errors import MapError
 from semantic_map.nodes import (
     RELATIONS,
     SWITCH_TYPES,

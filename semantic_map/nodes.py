@@ -25,8 +25,8 @@ from typing import Literal
 
 import numpy as np
 
-from homemodel.errors import MapError
-from homemodel.transforms import (
+from homemodel.core.errors import MapError
+from homemodel.core.transforms import (
     as_transform,
     axis_angle_transform,
     transform_from_xyz_rpy,

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from articulation.model import Joint, Model
-from homemodel.errors import MapError
+from homemodel.core.errors import MapError
 from semantic_map.nodes import (
     DefaultPosition,
     LargeArticulatedObject,

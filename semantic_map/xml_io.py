@@ -8,9 +8,9 @@ from pathlib import Path
 
 from lxml import etree
 
-from homemodel.atomic import write_bytes_atomic
-from homemodel.errors import MapError
-from homemodel.safe_xml import parse_xml_bytes, parse_xml_file
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.errors import MapError
+from homemodel.core.safe_xml import parse_xml_bytes, parse_xml_file
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.xml_read import apartment_from_tree
 from semantic_map.xml_write import NAMESPACE, apartment_to_bytes

@@ -13,7 +13,7 @@ from typing import TypeVar
 
 from lxml import etree
 
-from homemodel.errors import MapError
+from homemodel.core.errors import MapError
 from semantic_map.nodes import (
     Apartment,
     DefaultPosition,

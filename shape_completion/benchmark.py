@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 from homemodel.evaluation import rock_surface_distance, rock_voxel_iou, voxel_iou
 from shape_completion.library import Library
 from shape_completion.pipeline import (

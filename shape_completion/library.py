@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.atomic import write_bytes_atomic
-from homemodel.errors import InputError
-from homemodel.evaluation.mesh_files import MAX_MESH_BYTES, MESH_SUFFIXES, load_mesh
-from homemodel.input_files import read_bounded
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.errors import InputError
+from homemodel.geometry.mesh_io import MAX_MESH_BYTES, MESH_SUFFIXES, load_mesh
+from homemodel.core.input_files import read_bounded
 from shape_completion.procedural import GENERATORS, generate_instances
 
 # Outside this range a mesh is most likely in millimetres (or kilometres), not metres.

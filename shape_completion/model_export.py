@@ -10,7 +10,7 @@ import trimesh
 from articulation.export import write_model_files
 from articulation.inertia import inertial_from_meshes
 from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
-from homemodel.atomic import atomic_dir, write_text_atomic
+from homemodel.core.atomic import atomic_dir, write_text_atomic
 
 
 def completion_model(mesh: trimesh.Trimesh, *, name: str, category: str, density_kg_m3: float) -> Model:

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import joblib
 
-from homemodel.atomic import write_bytes_atomic
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
 from shape_completion.pipeline import ShapeCompleter, training_fingerprint
 
 FORMAT = "homemodel-shape-completion"

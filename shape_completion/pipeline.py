@@ -23,7 +23,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 from sklearn.base import BaseEstimator
 
-from homemodel.errors import InputError, ModelError
+from homemodel.core.errors import InputError, ModelError
 from homemodel.evaluation.surface import distances_to_surface
 from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
 from shape_completion.deformation import symmetric_controls, tps_deform

@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
 from shape_completion.pipeline import check_query
 from shape_completion.render import Pinhole
 from turntable.camera import Camera, load_camera
-from turntable.depth_io import MAX_IMAGE_BYTES, read_depth_m
+from homemodel.geometry.depth_io import MAX_IMAGE_BYTES, read_depth_m
 
 
 def pinhole_of(camera: Camera) -> Pinhole:

@@ -26,8 +26,8 @@ from articulation import (
 from articulation.export import export_model
 from articulation.inertia import inertial_from_meshes
 from articulation.urdf_import import load_urdf
-from homemodel.errors import InputError, ModelError, UnsafeXMLError
-from homemodel.transforms import transform_from_xyz_rpy
+from homemodel.core.errors import InputError, ModelError, UnsafeXMLError
+from homemodel.core.transforms import transform_from_xyz_rpy
 
 
 def _panel(size, centre) -> trimesh.Trimesh:

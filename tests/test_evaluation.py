@@ -8,7 +8,7 @@ import trimesh
 
 from articulation.export import export_model
 from articulation.model import Link, Material, Model, Visual
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 from homemodel.evaluation import (
     f_score,
     mean_surface_distance_m,
@@ -16,7 +16,7 @@ from homemodel.evaluation import (
     rock_voxel_iou,
     voxel_iou,
 )
-from homemodel.evaluation.mesh_files import load_mesh
+from homemodel.geometry.mesh_io import load_mesh
 from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
 
 
@@ -202,7 +202,7 @@ def test_eval_commands_print_the_figures_and_refuse_bad_files(tmp_path):
 
 def test_camera_pose_errors_are_the_centre_distance_and_the_rotation_angle():
     from homemodel.evaluation import camera_pose_errors
-    from homemodel.transforms import transform_from_xyz_rpy
+    from homemodel.core.transforms import transform_from_xyz_rpy
 
     true = transform_from_xyz_rpy((0.1, -0.2, 0.7), (0.3, 0.1, -0.4))
     # The camera moved 2 mm along its own x and turned 0.5 degrees about its own z.

@@ -10,8 +10,8 @@ import pytest
 import trimesh
 
 from articulation.export import write_model_files
-from articulation.gate_collisions import PENETRATION_TOLERANCE_M, collisions_check
-from articulation.validate import validate_path
+from articulation.gate.collisions import PENETRATION_TOLERANCE_M, collisions_check
+from articulation.gate.validate import validate_path
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 INERTIAL = '<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'

@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from homemodel.atomic import write_text_atomic
+from homemodel.core.atomic import write_text_atomic
 from homemodel.cli import app
-from homemodel.errors import InputError, SpecError
-from homemodel.input_files import read_bounded
-from homemodel.yaml_specs import read_yaml_mapping
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.input_files import read_bounded
+from homemodel.core.yaml_specs import read_yaml_mapping
 
 runner = CliRunner()
 

@@ -12,8 +12,8 @@ import pytest
 import yaml
 from spec_edits import with_field, write_spec
 
-from homemodel.errors import SpecError
-from homemodel.transforms import transform_points
+from homemodel.core.errors import SpecError
+from homemodel.core.transforms import transform_points
 from modeller import build_model, load_spec, write_spec_schemas
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "kitchen"

@@ -14,9 +14,9 @@ import yaml
 from spec_edits import with_field, write_spec
 
 from articulation.export import write_model_files
-from articulation.validate import validate_path
-from homemodel.errors import SpecError
-from homemodel.transforms import transform_points
+from articulation.gate.validate import validate_path
+from homemodel.core.errors import SpecError
+from homemodel.core.transforms import transform_points
 from modeller import build_model, load_spec, write_spec_schemas
 
 CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "catalogue"

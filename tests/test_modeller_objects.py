@@ -21,8 +21,8 @@ import yaml
 from spec_edits import with_field, write_spec
 
 from articulation.model import Box, Cylinder, MeshGeometry, Model
-from homemodel.errors import SpecError
-from homemodel.transforms import transform_points
+from homemodel.core.errors import SpecError
+from homemodel.core.transforms import transform_points
 from modeller import build_from_spec, build_model, load_spec, write_spec_schemas
 from modeller.specs import SPEC_TYPES
 
@@ -253,7 +253,7 @@ def catalogue() -> dict[str, tuple[object, Model]]:
 @pytest.fixture(scope="module")
 def gate_reports(catalogue, tmp_path_factory: pytest.TempPathFactory) -> dict:
     from articulation.export import export_model
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
 
     out = tmp_path_factory.mktemp("catalogue")
     reports = {}

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from homemodel.errors import SpecError
-from homemodel.transforms import transform_points, world_from_camera_looking_at
+from homemodel.core.errors import SpecError
+from homemodel.core.transforms import transform_points, world_from_camera_looking_at
 from modeller import load_spec
 from modeller.photo_texture import detect_quad, rectify_planar, rectify_wrap
 from modeller.specs.photos import FacePhoto
@@ -305,7 +305,7 @@ def _extent_m(link) -> np.ndarray:
 
 @pytest.mark.bpy
 def test_textured_models_pass_the_gate_and_keep_their_shape_and_mass(textured_cupboard) -> None:
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
     from modeller import build_model
 
     built, folder = textured_cupboard
@@ -324,7 +324,7 @@ def test_textured_models_pass_the_gate_and_keep_their_shape_and_mass(textured_cu
 def test_blender_reads_the_textured_glb_back_with_its_texture(textured_cupboard) -> None:
     import bpy
 
-    from homemodel.c_output import captured_c_output
+    from homemodel.core.c_stdio_capture import captured_c_output
     from modeller.blender_scene import material_texture_path, reset_scene
 
     _, folder = textured_cupboard
@@ -347,7 +347,7 @@ def test_blender_reads_the_textured_glb_back_with_its_texture(textured_cupboard)
 def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path) -> None:
     """The example mug: its label's red circle faces -x (wrap_centre_deg 180), the handle side stays white."""
     from articulation.export import export_model
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
     from modeller import build_model
 
     model = build_model(EXAMPLES / "textured" / "cup.yaml")
@@ -372,7 +372,7 @@ def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path) 
 @pytest.mark.bpy
 def test_packet_example_has_three_textured_faces_of_its_size(tmp_path: Path) -> None:
     from articulation.export import export_model
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
     from modeller import build_model
 
     model = build_model(EXAMPLES / "textured" / "packet.yaml")

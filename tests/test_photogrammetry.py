@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from homemodel.errors import InputError
-from homemodel.transforms import world_from_camera_looking_at
+from homemodel.core.errors import InputError
+from homemodel.core.transforms import world_from_camera_looking_at
 from photogrammetry.cleaning import CleaningOptions, finish_mesh, mesh_object, segment_object
 from photogrammetry.markers import aruco_dictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import metric_frame

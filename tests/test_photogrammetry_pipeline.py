@@ -52,7 +52,7 @@ def test_kermit_registers_every_photo_and_gives_a_dense_textured_mesh(kermit_mod
 
 
 def test_kermit_model_passes_the_validation_gate(kermit_model: Path) -> None:
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
 
     report = validate_path(kermit_model)
     assert report.ok, report.format()
@@ -220,7 +220,7 @@ def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
 
 @pytest.mark.bpy
 def test_rendered_model_passes_the_validation_gate(rendered_model: Path) -> None:
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
 
     report = validate_path(rendered_model)
     assert report.ok, report.format()

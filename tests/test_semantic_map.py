@@ -20,8 +20,8 @@ from articulation.model import (
     Model,
     Visual,
 )
-from homemodel.errors import MapError, UnsafeXMLError
-from homemodel.transforms import transform_from_xyz_rpy
+from homemodel.core.errors import MapError, UnsafeXMLError
+from homemodel.core.transforms import transform_from_xyz_rpy
 from semantic_map import (
     LargeArticulatedObject,
     LargeObject,

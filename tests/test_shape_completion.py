@@ -10,18 +10,18 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from articulation.validate import validate_path
+from articulation.gate.validate import validate_path
 from homemodel.cli import app
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 from homemodel.evaluation import rock_surface_distance, rock_voxel_iou
-from homemodel.evaluation.mesh_files import load_mesh
+from homemodel.geometry.mesh_io import load_mesh
 from homemodel.evaluation.surface import distances_to_surface
 from shape_completion.model_io import load_model, save_model
 from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
 from shape_completion.procedural import generate_instances
 from shape_completion.render import depth_to_points
 from turntable.camera import Camera, save_camera
-from turntable.depth_io import write_depth
+from homemodel.geometry.depth_io import write_depth
 
 CLASSES = ("bottle", "cup", "spoon")
 TRAIN, TEST = 6, 2

@@ -8,7 +8,7 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 from homemodel.evaluation import mean_surface_distance_m
 from homemodel.evaluation.voxels import VoxelGrid, voxel_iou
 from shape_completion.deformation import symmetric_controls, tps_deform

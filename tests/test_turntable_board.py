@@ -16,7 +16,7 @@ import yaml
 from typer.testing import CliRunner
 
 from homemodel.cli import app
-from homemodel.errors import SpecError
+from homemodel.core.errors import SpecError
 from turntable.board import grid_board, load_board, save_board
 from turntable.board_pdf import MARGIN_MM, PAPER_MM, POINTS_PER_MM, write_board_pdf
 from turntable.tags import detect_tags

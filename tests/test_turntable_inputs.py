@@ -13,10 +13,10 @@ import yaml
 from typer.testing import CliRunner
 
 from homemodel.cli import app
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 from turntable.board import grid_board, save_board
 from turntable.camera import Camera, save_camera
-from turntable.depth_io import read_depth_m, write_depth
+from homemodel.geometry.depth_io import read_depth_m, write_depth
 from turntable.fusion import VoxelAccumulator
 from turntable.orbit import fit_circle_3d
 from turntable.tags import DetectionOptions, detect_tags

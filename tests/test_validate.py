@@ -18,10 +18,10 @@ import trimesh
 import typer
 from typer.testing import CliRunner
 
-from articulation import gate_clients, gate_gltf, gate_process
-from articulation import validate as validate_module
-from articulation.gate_clients import find_check_urdf
-from articulation.validate import validate_path
+from articulation.gate import clients as gate_clients, gltf as gate_gltf, process as gate_process
+from articulation.gate import validate as validate_module
+from articulation.gate.clients import find_check_urdf
+from articulation.gate.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
 RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes"]
@@ -268,7 +268,7 @@ def test_pybullet_pose_mismatch_is_caught(tmp_path: Path, monkeypatch: pytest.Mo
 def test_the_gate_prints_nothing(tmp_path: Path) -> None:
     """In a fresh process, where pybullet prints its build time on import and warnings on load."""
     write_cupboard(tmp_path, door_inertial="<inertial><mass value='1'/></inertial>")  # warns: no inertia
-    code = "import sys; from articulation.validate import validate_path; validate_path(sys.argv[1])"
+    code = "import sys; from articulation.gate.validate import validate_path; validate_path(sys.argv[1])"
     result = subprocess.run(
         [sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, cwd=REPO, timeout=60
     )

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.c_output import captured_c_output
+from homemodel.core.c_stdio_capture import captured_c_output
 from turntable.board import TAG_CELLS, Board, tag_bits
 from turntable.camera import Camera
 

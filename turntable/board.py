@@ -18,8 +18,8 @@ import numpy as np
 import pydantic
 import yaml
 
-from homemodel.atomic import write_text_atomic
-from homemodel.yaml_specs import FieldError, load_yaml_spec
+from homemodel.core.atomic import write_text_atomic
+from homemodel.core.yaml_specs import FieldError, load_yaml_spec
 
 TAG_FAMILY = "tag36h11"
 TAG_CELLS = 8  # black square of tag36h11, in cells

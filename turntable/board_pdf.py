@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Literal
 
-from homemodel.atomic import write_bytes_atomic
+from homemodel.core.atomic import write_bytes_atomic
 from turntable.board import TAG_CELLS, Board, tag_bits
 
 Paper = Literal["a4", "a3", "letter"]

@@ -9,8 +9,8 @@ import numpy as np
 import pydantic
 import yaml
 
-from homemodel.atomic import write_text_atomic
-from homemodel.yaml_specs import load_yaml_spec
+from homemodel.core.atomic import write_text_atomic
+from homemodel.core.yaml_specs import load_yaml_spec
 
 _Positive = pydantic.PositiveFloat
 _Finite = pydantic.FiniteFloat

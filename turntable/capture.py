@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
 from turntable.board import Board, load_board
 from turntable.camera import Camera, load_camera
-from turntable.depth_io import MAX_IMAGE_BYTES, decode_image, read_depth_m
+from homemodel.geometry.depth_io import MAX_IMAGE_BYTES, decode_image, read_depth_m
 
 COLOR_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIXES = (".png", ".exr")

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 from turntable.camera import Camera
 
 

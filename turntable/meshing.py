@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 from turntable.fusion import Cylinder, MergedCloud
 
 # Poisson's cube around the points, relative to their extent: room for the surface to close

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 
 
 @dataclass(kw_only=True)

@@ -13,8 +13,8 @@ import trimesh
 from articulation.export import write_model_files
 from articulation.inertia import inertial_from_meshes
 from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
-from homemodel.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
-from homemodel.errors import ModelError
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.core.errors import ModelError
 from turntable.poses_io import write_poses
 from turntable.reconstruct import Reconstruction
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.atomic import write_bytes_atomic
+from homemodel.core.atomic import write_bytes_atomic
 from turntable.reconstruct import Reconstruction
 
 _MAX_FACES = 6000  # enough to read the shape; matplotlib sorts every face

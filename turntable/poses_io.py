@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from homemodel.atomic import write_text_atomic
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
+from homemodel.core.atomic import write_text_atomic
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
 
 CONVENTION = (
     "camera_from_table maps table-frame points (board frame, z up out of the table top, metres) "

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import trimesh
 
-from homemodel.errors import ModelError
+from homemodel.core.errors import ModelError
 from turntable.capture import Capture, FrameError, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_points, pixel_rays
 from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh

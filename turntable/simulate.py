@@ -29,13 +29,13 @@ from typing import Literal
 import numpy as np
 import trimesh
 
-from homemodel.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
-from homemodel.transforms import world_from_camera_looking_at
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
+from homemodel.core.transforms import world_from_camera_looking_at
 from turntable.board import Board, grid_board, load_board, save_board
 from turntable.camera import Camera, load_camera, save_camera
-from turntable.depth_io import write_depth
+from homemodel.geometry.depth_io import write_depth
 from turntable.poses_io import read_poses, write_poses
 
 Progress = Callable[[str, int, int], None]

@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from homemodel.transforms import transform_points, world_from_camera_looking_at
+from homemodel.core.transforms import transform_points, world_from_camera_looking_at
 
 HERE = Path(__file__).resolve().parent / "photos"
 RNG = np.random.default_rng(7)

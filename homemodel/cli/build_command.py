@@ -18,7 +18,7 @@ def build(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Build every object of a home from its measurements, validate each model, write the map."""
-    from homemodel.build import build_home
+    from homemodel.app.home_build import build_home
 
     console = make_console()
     with exit_on_error():

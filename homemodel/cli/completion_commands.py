@@ -24,7 +24,7 @@ def library_command(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Write the procedural class library (cups and mugs, bottles, glasses, bowls, spoons) to start from."""
-    from homemodel.atomic import atomic_dir
+    from homemodel.core.atomic import atomic_dir
     from shape_completion.library import write_procedural_library
 
     with exit_on_error():
@@ -46,7 +46,7 @@ def train_command(
     force: bool = typer.Option(False, "--force", help="replace an existing model file"),
 ) -> None:
     """Render the library, learn the retrieval forest and the boosted filler, save the model."""
-    from homemodel.errors import OutputExistsError
+    from homemodel.core.errors import OutputExistsError
     from shape_completion.library import load_library
     from shape_completion.model_io import save_model
     from shape_completion.pipeline import ShapeCompleter
@@ -95,7 +95,7 @@ def run_command(
 
     console = make_console()
     with exit_on_error():
-        from homemodel.atomic import prepare_out_dir
+        from homemodel.core.atomic import prepare_out_dir
 
         prepare_out_dir(out, force=force, inputs=[model_file, depth_png, camera])
         expected = fingerprint_files(library_files(library)) if library is not None else None
@@ -151,7 +151,7 @@ def benchmark_command(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """D3.1 Table 1's protocol: per class, VoxelIOU and surface distance of each stage and of the oracle."""
-    from homemodel.atomic import (
+    from homemodel.core.atomic import (
         atomic_dir,
         prepare_out_dir,
         write_bytes_atomic,

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 import typer
 
-from homemodel.errors import HomemodelError
+from homemodel.core.errors import HomemodelError
 
 EXIT_ERROR = 2
 

@@ -40,7 +40,7 @@ def voxel_iou_command(
 ) -> None:
     """VoxelIOU of two solids: Rock et al.'s (200^3 over [-2,2]^3 after joint normalisation), optionally metric."""
     from homemodel.evaluation import rock_voxel_iou, voxel_iou
-    from homemodel.evaluation.mesh_files import load_mesh
+    from homemodel.geometry.mesh_io import load_mesh
 
     with exit_on_error():
         pred_mesh, gt_mesh = load_mesh(pred), load_mesh(gt)
@@ -67,7 +67,7 @@ def surface_distance_command(
         mean_surface_distance_m,
         rock_surface_distance,
     )
-    from homemodel.evaluation.mesh_files import load_mesh
+    from homemodel.geometry.mesh_io import load_mesh
 
     with exit_on_error():
         pred_mesh, gt_mesh = load_mesh(pred), load_mesh(gt)

@@ -41,7 +41,7 @@ def _key_values(items: list[str], option: str) -> dict[str, str]:
 
 def _parking_list(items: list[str]) -> list[ParkingPosition]:
     """`--parking "x y yaw"` (or "NAME=x y yaw"), robot base poses on the floor; the first is the default."""
-    from homemodel.transforms import transform_from_xyz_rpy
+    from homemodel.core.transforms import transform_from_xyz_rpy
     from semantic_map import ParkingPosition
 
     positions = []
@@ -166,8 +166,8 @@ def add(
 ) -> None:
     """Register the model MODEL under PARENT_ID and save the map atomically."""
     from articulation.urdf_import import find_urdf, load_urdf
-    from homemodel.errors import OutputExistsError
-    from homemodel.transforms import transform_from_xyz_rpy
+    from homemodel.core.errors import OutputExistsError
+    from homemodel.core.transforms import transform_from_xyz_rpy
     from semantic_map import load_map, save_map
 
     out_path = out or map_path

@@ -90,8 +90,8 @@ def reconstruct(
 ) -> None:
     """Reconstruct a textured, cleaned mesh from photos; metric and levelled when markers are seen."""
     from articulation.naming import file_stem
-    from homemodel.atomic import atomic_dir
-    from homemodel.errors import InputError
+    from homemodel.core.atomic import atomic_dir
+    from homemodel.core.errors import InputError
     from photogrammetry.cleaning import CleaningOptions
     from photogrammetry.pipeline import (
         ReconstructOptions,

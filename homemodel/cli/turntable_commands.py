@@ -60,8 +60,8 @@ def board(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Write a printable, true-to-scale tag36h11 grid for a round table, and its board.yaml."""
-    from homemodel.atomic import atomic_dir
-    from homemodel.errors import InputError
+    from homemodel.core.atomic import atomic_dir
+    from homemodel.core.errors import InputError
     from turntable.board import grid_board, save_board
     from turntable.board_pdf import write_board_pdf
 
@@ -174,7 +174,7 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
-    from homemodel.errors import InputError
+    from homemodel.core.errors import InputError
     from turntable.capture import load_capture
     from turntable.outputs import write_reconstruction
     from turntable.pose import PoseOptions

@@ -22,7 +22,7 @@ def validate(
 ) -> None:
     """Check a model with our rules, check_urdf, yourdfpy, pybullet and the Khronos glTF validator."""
     # Imported here so `homemodel --help` does not pay for trimesh and lxml.
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
 
     with exit_on_error():
         report = validate_path(path)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 
 
 def checked_mesh(mesh: trimesh.Trimesh, role: str) -> trimesh.Trimesh:

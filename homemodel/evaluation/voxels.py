@@ -14,7 +14,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 from homemodel.evaluation.meshes import checked_mesh
 
 MAX_VOXELS = 256**3  # ~17M voxels: the labelling pass needs 4 bytes each

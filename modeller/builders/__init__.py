@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from articulation.model import Box, Collision
-from homemodel.transforms import translation_transform
+from homemodel.core.transforms import translation_transform
 
 # The faces of an axis-aligned box by their outward normal, with names as seen from in
 # front (the installer's left is -y).

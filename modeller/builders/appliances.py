@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from articulation.model import Box, Collision
-from homemodel.transforms import axis_angle_transform, translation_transform
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import (
     add_solidify,
     box_mesh,

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from articulation.model import Collision, GraspPoint, Joint, JointLimits
-from homemodel.transforms import translation_transform
+from homemodel.core.transforms import translation_transform
 from modeller.blender_scene import add_solidify, remove_faces
 from modeller.blender_to_model import Assembly
 from modeller.builders import FACE_NORMALS, grasp_frame, wall_collisions

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from articulation.model import Joint, JointLimits
-from homemodel.transforms import translation_transform
+from homemodel.core.transforms import translation_transform
 from modeller.blender_scene import (
     add_object,
     add_solidify,

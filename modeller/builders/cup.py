@@ -11,7 +11,7 @@ Grasp points: `handle` on the handle's centreline at its outermost point (approa
 from __future__ import annotations
 
 from articulation.model import GraspPoint
-from homemodel.transforms import translation_transform
+from homemodel.core.transforms import translation_transform
 from modeller.blender_scene import add_object, hollow_cylinder_mesh, torus_segment_mesh
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame

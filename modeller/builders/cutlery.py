@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from articulation.model import Box, Collision, GraspPoint
-from homemodel.transforms import axis_angle_transform, translation_transform
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import _revolve, add_object
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame

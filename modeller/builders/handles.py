@@ -20,7 +20,7 @@ from articulation.model import (
     JointLimits,
     JointState,
 )
-from homemodel.transforms import axis_angle_transform, translation_transform
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import add_object, box_mesh, colour_material, cylinder_mesh
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from articulation.model import Box, Collision, GraspPoint
-from homemodel.transforms import axis_angle_transform, translation_transform
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import add_object, box_mesh
 from modeller.blender_to_model import Assembly
 from modeller.builders import grasp_frame

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from articulation.model import Box, Collision, Cylinder
-from homemodel.transforms import axis_angle_transform, translation_transform
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import _revolve, add_object, box_mesh, cylinder_mesh
 from modeller.blender_to_model import Assembly
 from modeller.builders.rigid import (

@@ -14,7 +14,7 @@ import numpy as np
 import trimesh
 
 from articulation.model import Box, Collision, Cylinder, GraspPoint, Joint, MeshGeometry
-from homemodel.transforms import axis_angle_transform, translation_transform
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import (
     _revolve,
     add_object,

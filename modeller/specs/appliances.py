@@ -10,7 +10,7 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field
 
-from homemodel.yaml_specs import FieldError
+from homemodel.core.yaml_specs import FieldError
 from modeller.specs.cabinets import (
     GLASS_COLOUR,
     CabinetSpec,

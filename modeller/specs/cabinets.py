@@ -15,7 +15,7 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
 
-from homemodel.yaml_specs import FieldError
+from homemodel.core.yaml_specs import FieldError
 from modeller.specs.common import _EPS_M, Colour, Length, ObjectSpec, Offset, _Spec
 from modeller.specs.handles import (
     ControlKnob,

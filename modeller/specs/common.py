@@ -11,7 +11,7 @@ hinge side, `left_m` offsets) are always as that installer sees them.
 
 Checks that need more than one field (a door wider than the cupboard, overlapping fronts,
 ...) raise `FieldError`, which carries the path of the field to blame below the model it
-is checked in; `homemodel.yaml_specs` joins it to pydantic's location.
+is checked in; `homemodel.core.yaml_specs` joins it to pydantic's location.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Annotated, ClassVar
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
-from homemodel.yaml_specs import FieldError
+from homemodel.core.yaml_specs import FieldError
 from modeller.specs.photos import FacePhoto
 
 # Below this, two lengths count as equal (floating point noise in YAML values).

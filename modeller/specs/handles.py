@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from homemodel.yaml_specs import FieldError
+from homemodel.core.yaml_specs import FieldError
 from modeller.specs.common import Colour, Length, Offset, _Spec
 
 Orientation = Literal["vertical", "horizontal"]

@@ -46,7 +46,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from homemodel.yaml_specs import FieldError
+from homemodel.core.yaml_specs import FieldError
 
 FaceName = Literal["front", "back", "left", "right", "top", "bottom", "+x", "-x", "+y", "-y", "+z", "-z", "wrap"]
 

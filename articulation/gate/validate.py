@@ -11,11 +11,11 @@ from pathlib import Path
 
 from lxml import etree
 
-from articulation.gate_clients import check_urdf_check, pybullet_check, yourdfpy_check
-from articulation.gate_collisions import collisions_check
-from articulation.gate_gltf import gltf_checks
-from articulation.gate_report import Check, ValidationReport
-from articulation.gate_urdf_rules import (
+from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
+from articulation.gate.collisions import collisions_check
+from articulation.gate.gltf import gltf_checks
+from articulation.gate.report import Check, ValidationReport
+from articulation.gate.urdf_rules import (
     axes_check,
     inertials_check,
     limits_check,
@@ -24,8 +24,8 @@ from articulation.gate_urdf_rules import (
     unsafe_mesh_references,
 )
 from articulation.urdf_import import find_urdf
-from homemodel.errors import HomemodelError, InputError
-from homemodel.safe_xml import parse_xml_file
+from homemodel.core.errors import HomemodelError, InputError
+from homemodel.core.safe_xml import parse_xml_file
 
 __all__ = ["Check", "ValidationReport", "validate_path"]
 

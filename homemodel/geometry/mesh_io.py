@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
 
 MAX_MESH_BYTES = 1024 * 1024 * 1024
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")

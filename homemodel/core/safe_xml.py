@@ -10,8 +10,8 @@ from pathlib import Path
 
 from lxml import etree
 
-from homemodel.errors import InputError, UnsafeXMLError
-from homemodel.input_files import read_bounded
+from homemodel.core.errors import InputError, UnsafeXMLError
+from homemodel.core.input_files import read_bounded
 
 MAX_XML_BYTES = 64 * 1024 * 1024
 

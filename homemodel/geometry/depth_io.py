@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.atomic import write_bytes_atomic
-from homemodel.errors import InputError
-from homemodel.input_files import read_bounded
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.errors import InputError
+from homemodel.core.input_files import read_bounded
 
 MAX_IMAGE_BYTES = 256 * 1024 * 1024
 _UINT16_MAX = 65535

@@ -16,9 +16,9 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from articulation.gate_report import Check, check_from_problems, count
+from articulation.gate.report import Check, check_from_problems, count
 from articulation.mesh_paths import resolve_mesh
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 
 URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 LIMITED_JOINT_TYPES = ("revolute", "prismatic")

@@ -8,8 +8,8 @@ from typing import TypeVar
 import pydantic
 import yaml
 
-from homemodel.errors import InputError, SpecError
-from homemodel.input_files import read_bounded
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.input_files import read_bounded
 
 MAX_SPEC_BYTES = 4 * 1024 * 1024
 SpecT = TypeVar("SpecT", bound=pydantic.BaseModel)

@@ -18,10 +18,10 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from homemodel.atomic import atomic_dir, write_text_atomic
-from homemodel.errors import SpecError
-from homemodel.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
-from homemodel.yaml_specs import load_yaml_spec
+from homemodel.core.atomic import atomic_dir, write_text_atomic
+from homemodel.core.errors import SpecError
+from homemodel.app.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
+from homemodel.core.yaml_specs import load_yaml_spec
 
 log = logging.getLogger(__name__)
 
@@ -101,7 +101,7 @@ def _parking_positions(large: LargeObjectSpec, parking_type: type) -> list:
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
     from articulation.export import write_model_files
-    from articulation.validate import validate_path
+    from articulation.gate.validate import validate_path
     from modeller import build_model, load_spec
     from semantic_map import ParkingPosition, SemanticMap, save_map
 

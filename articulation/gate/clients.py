@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from articulation.gate_process import last_lines, run_bounded
-from articulation.gate_report import Check, check_from_problems, count
+from articulation.gate.process import last_lines, run_bounded
+from articulation.gate.report import Check, check_from_problems, count
 from articulation.model import MOVABLE_JOINT_TYPES
-from homemodel.c_output import captured_c_output
+from homemodel.core.c_stdio_capture import captured_c_output
 
 CHECK_URDF_TIMEOUT_S = 30.0
 POSITION_TOLERANCE_M = 1e-4

@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from homemodel.transforms import transform_from_xyz_rpy
+from homemodel.core.transforms import transform_from_xyz_rpy
 from semantic_map.nodes import ID_PATTERN
 
 # Every id in the home becomes an id in the semantic map, so it follows the map's rule.

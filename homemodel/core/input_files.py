@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from homemodel.errors import InputError
+from homemodel.core.errors import InputError
 
 
 def read_bounded(path: Path, max_bytes: int) -> bytes:

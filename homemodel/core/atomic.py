@@ -9,7 +9,7 @@ import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from homemodel.errors import InputError, OutputExistsError
+from homemodel.core.errors import InputError, OutputExistsError
 
 
 def _umask() -> int:

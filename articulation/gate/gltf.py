@@ -10,10 +10,10 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
-from articulation.gate_process import last_lines, run_bounded
-from articulation.gate_report import Check, check_from_problems, count
-from articulation.gate_urdf_rules import AXIS_UNIT_TOLERANCE
-from homemodel.errors import InputError
+from articulation.gate.process import last_lines, run_bounded
+from articulation.gate.report import Check, check_from_problems, count
+from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
+from homemodel.core.errors import InputError
 
 VALIDATOR_TIMEOUT_S = 60.0
 TOOLS_DIR = Path(__file__).resolve().parents[1] / "tools"

@@ -29,9 +29,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from articulation.gate_clients import pybullet_errors
-from articulation.gate_report import Check, check_from_problems, count
-from homemodel.c_output import captured_c_output
+from articulation.gate.clients import pybullet_errors
+from articulation.gate.report import Check, check_from_problems, count
+from homemodel.core.c_stdio_capture import captured_c_output
 
 CHECK_NAME = "collisions"
 PENETRATION_TOLERANCE_M = 1e-3

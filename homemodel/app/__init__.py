@@ -1,0 +1,1 @@
+"""What the command line and the Blender add-on drive: home builds from a home's specs."""
