@@ -7,7 +7,8 @@ accuracy against the rendered truth (scale error, mean surface distance) is prin
 
     .venv/bin/python benchmarks/bench_photogrammetry.py [--views 50] [--width-px 1600]
 
-The photos are rendered once with Blender into build/bench-cache/ and reused.
+The photos are rendered once with Blender into build/bench-cache/ and reused until the
+rendering code changes.
 """
 
 from __future__ import annotations

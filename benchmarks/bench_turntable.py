@@ -5,7 +5,7 @@ integration (UniformTSDFVolume) of the segmented depth, marching cubes.
     .venv/bin/python benchmarks/bench_turntable.py [--object mug] [--frames 200] [--noise-m 0.0015]
 
 The capture is rendered once (Blender, Cycles; minutes) into build/bench_turntable/ and
-reused; rendering is not part of the timed reconstruction.
+reused until the rendering code changes; rendering is not part of the timed reconstruction.
 """
 
 from __future__ import annotations
@@ -25,10 +25,13 @@ sys.path.insert(0, str(ROOT / "tests"))
 def capture_for(name: str, frames: int, noise_m: float) -> Path:
     from test_turntable_accuracy import make_mesh
 
+    from homemodel.geometry.cycles_scene import rendering_code_digest
+    from turntable import blender_render, simulate
     from turntable.simulate import SimulationOptions, resimulate_depth, simulate_capture
 
     cache = ROOT / "build" / "bench_turntable"
-    clean = cache / f"{name}_{frames}"
+    # Rendered again when the code that renders changes.
+    clean = cache / f"{name}_{frames}_{rendering_code_digest(blender_render.__file__, simulate.__file__)}"
     if not (clean / "simulation.json").is_file():
         cache.mkdir(parents=True, exist_ok=True)
         mesh_path = cache / f"{name}.ply"
@@ -40,7 +43,7 @@ def capture_for(name: str, frames: int, noise_m: float) -> Path:
         simulate_capture(mesh_path, clean, options, force=True)
     if noise_m <= 0:
         return clean
-    noisy = cache / f"{name}_{frames}_noise{noise_m:g}"
+    noisy = cache / f"{clean.name}_noise{noise_m:g}"
     if not (noisy / "simulation.json").is_file():
         resimulate_depth(clean, noisy, depth_noise_m=noise_m, seed=1, force=True)
     return noisy

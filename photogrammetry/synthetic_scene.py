@@ -6,9 +6,10 @@ with every camera, the true mesh and the scale known. The world frame is marker 
 (x along its top edge, y up its left edge, z up out of the table), the frame a reconstruction
 with markers is expressed in, so a result can be compared with the truth without alignment.
 
-bpy is imported only inside `_render_in_blender`, which runs in a child process
+The scene is rendered by `homemodel.geometry.cycles_scene` (Blender) in a child process
 (`python -m photogrammetry.synthetic_scene SPEC.json`) so Blender's libraries never share a
-process with open3d or pycolmap.
+process with open3d or pycolmap. A rendered set is reused while its options and the rendering
+code (this module and cycles_scene) are unchanged.
 """
 
 from __future__ import annotations
@@ -18,12 +19,14 @@ import subprocess
 import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import trimesh
 
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
+from homemodel.geometry import cycles_scene
 
 SCENE_FILE = "scene.json"
 TRUTH_MESH_FILE = "object_truth.ply"
@@ -65,6 +68,9 @@ _OBJECT_CENTRE_XY_M = (0.17, 0.0)
 _PROFILE_Z_M = np.linspace(0.0, 0.14, 15)
 _PROFILE_R_M = 0.045 + 0.012 * np.sin(_PROFILE_Z_M / 0.14 * np.pi * 1.3) - 0.01 * (_PROFILE_Z_M / 0.14) ** 2
 _SEGMENTS = 64
+# The sun shines down the -z of Blender's XYZ Euler angles (35, 10, 40) degrees.
+_SUN_EULER_XYZ = np.deg2rad([35.0, 10.0, 40.0])
+_WORLD_FROM_SUN = trimesh.transformations.euler_matrix(*_SUN_EULER_XYZ, axes="sxyz") @ cycles_scene.OPENCV_FROM_BLENDER
 
 
 def truth_object_mesh() -> tuple[trimesh.Trimesh, np.ndarray]:
@@ -171,9 +177,14 @@ def render_scene(folder: Path, options: SceneOptions | None = None) -> Synthetic
     folder = Path(folder)
     spec_path = folder / SCENE_FILE
     wanted = asdict(options)
+    renderer = cycles_scene.rendering_code_digest(__file__)
     if spec_path.is_file():
         spec = json.loads(spec_path.read_text())
-        if spec.get("options") == wanted and all((folder / "images" / v["name"]).is_file() for v in spec["views"]):
+        if (
+            spec.get("options") == wanted
+            and spec.get("renderer") == renderer
+            and all((folder / "images" / v["name"]).is_file() for v in spec["views"])
+        ):
             return load_scene(folder)
     rng = np.random.default_rng(options.seed)
     (folder / "images").mkdir(parents=True, exist_ok=True)
@@ -197,6 +208,7 @@ def render_scene(folder: Path, options: SceneOptions | None = None) -> Synthetic
         views.append({"name": f"view_{i:03d}.png", "world_from_camera": world_from_camera.tolist()})
     spec = {
         "options": wanted,
+        "renderer": renderer,
         "fx_px": fx,
         "object": {"vertices": mesh.vertices.tolist(), "faces": mesh.faces.tolist(), "uv": uv.tolist()},
         "markers": markers,
@@ -233,101 +245,62 @@ def load_scene(folder: Path) -> SyntheticScene:
 
 def _render_in_blender(spec_path: Path) -> None:
     """Build the scene in Blender and render every view (runs in the child process)."""
-    import bpy
-
     spec = json.loads(spec_path.read_text())
     options = SceneOptions(**spec["options"])
     folder = spec_path.parent
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
+    square = np.array([[0, 1, 2, 3]])
+    square_uv = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
-    def textured(name: str, image_name: str, vertices, faces, uv, *, interpolation: str = "Linear"):
-        mesh = bpy.data.meshes.new(name)
-        mesh.from_pydata([tuple(v) for v in vertices], [], [tuple(f) for f in faces])
-        layer = mesh.uv_layers.new(name="UVMap")
-        for loop in mesh.loops:
-            layer.data[loop.index].uv = tuple(uv[loop.vertex_index])
-        material = bpy.data.materials.new(name)
-        material.use_nodes = True
-        nodes = material.node_tree.nodes
-        nodes.remove(nodes["Principled BSDF"])
-        bsdf = nodes.new("ShaderNodeBsdfDiffuse")  # matte: cheaper to render than Principled
-        material.node_tree.links.new(bsdf.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
-        tex = nodes.new("ShaderNodeTexImage")
-        tex.image = bpy.data.images.load(str(folder / "textures" / image_name))
-        tex.interpolation = interpolation
-        material.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["Color"])
-        mesh.materials.append(material)
-        obj = bpy.data.objects.new(name, mesh)
-        scene.collection.objects.link(obj)
-        return obj
+    def textured(
+        name: str,
+        image_name: str,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        uv: np.ndarray,
+        *,
+        interpolation: Literal["Linear", "Closest"] = "Linear",
+    ) -> None:
+        image = cycles_scene.image_from_file(folder / "textures" / image_name)
+        # Matte: Lambert is cheaper to render than Principled.
+        material = cycles_scene.matte_material(name, image, shader="diffuse", interpolation=interpolation)
+        cycles_scene.add_mesh(name, vertices, faces, material, uv=uv)
 
-    obj = spec["object"]
-    textured("object", "object.png", obj["vertices"], obj["faces"], obj["uv"])
-    half = 0.6
-    table_xy = np.array([[-half, -half], [half, -half], [half, half], [-half, half]]) + _OBJECT_CENTRE_XY_M
-    table_v = [[x, y, 0.0] for x, y in table_xy]
-    textured("table", "table.png", table_v, [[0, 1, 2, 3]], [[0, 0], [1, 0], [1, 1], [0, 1]])
-    for m in spec["markers"]:
-        # The printed sheet: the marker plus its one-cell margin, 0.2 mm above the table.
-        cells = _cells(options.dictionary)
-        h = options.marker_size_m / 2 * (cells + 2) / cells
-        c, s = np.cos(m["yaw"]), np.sin(m["yaw"])
-        corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]]) @ np.array([[c, s], [-s, c]])
-        verts = [[m["x"] + x, m["y"] + y, 0.0002] for x, y in corners]
-        textured(
-            f"marker_{m['id']}",
-            m["texture"],
-            verts,
-            [[0, 1, 2, 3]],
-            [[0, 0], [1, 0], [1, 1], [0, 1]],
-            interpolation="Closest",
+    with cycles_scene.empty_scene():
+        # Direct light and one diffuse bounce are enough for matte objects, and far faster.
+        cycles_scene.set_up_cycles(
+            cycles_scene.CyclesSettings(
+                width_px=options.width_px,
+                height_px=options.height_px,
+                samples=options.samples,
+                seed=options.seed,
+                max_bounces=1,
+                diffuse_bounces=1,
+                glossy_bounces=0,
+                view_transform="Standard",
+            )
         )
-
-    world = bpy.data.worlds.new("world")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.6, 0.6, 0.6, 1.0)
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.6
-    scene.world = world
-    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", type="SUN"))
-    sun.data.energy = 2.5
-    sun.data.angle = np.deg2rad(20)
-    sun.rotation_euler = (np.deg2rad(35), np.deg2rad(10), np.deg2rad(40))
-    scene.collection.objects.link(sun)
-
-    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-    camera.data.lens = options.lens_mm
-    camera.data.sensor_fit = "HORIZONTAL"
-    camera.data.sensor_width = options.sensor_width_mm
-    camera.data.clip_start = 0.01
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = options.samples
-    # Direct light and one diffuse bounce are enough for matte objects, and far faster.
-    scene.cycles.use_denoising = False
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.max_bounces = 1
-    scene.cycles.diffuse_bounces = 1
-    scene.cycles.glossy_bounces = 0
-    scene.cycles.transmission_bounces = 0
-    scene.cycles.transparent_max_bounces = 0
-    scene.cycles.seed = options.seed
-    scene.render.resolution_x = options.width_px
-    scene.render.resolution_y = options.height_px
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.image_settings.color_mode = "RGB"
-    # Linear-to-display without a filmic curve: marker corners are not biased (DESIGN.md).
-    scene.view_settings.view_transform = "Standard"
-    from mathutils import Matrix
-
-    opencv_from_blender = np.diag([1.0, -1.0, -1.0, 1.0])
-    for view in spec["views"]:
-        camera.matrix_world = Matrix((np.array(view["world_from_camera"]) @ opencv_from_blender).tolist())
-        scene.render.filepath = str(folder / "images" / view["name"])
-        bpy.ops.render.render(write_still=True)
+        obj = spec["object"]
+        textured("object", "object.png", np.array(obj["vertices"]), np.array(obj["faces"]), np.array(obj["uv"]))
+        half = 0.6
+        table_xy = np.array([[-half, -half], [half, -half], [half, half], [-half, half]]) + _OBJECT_CENTRE_XY_M
+        textured("table", "table.png", np.column_stack([table_xy, np.zeros(4)]), square, square_uv)
+        for m in spec["markers"]:
+            # The printed sheet: the marker plus its one-cell margin, 0.2 mm above the table.
+            cells = _cells(options.dictionary)
+            h = options.marker_size_m / 2 * (cells + 2) / cells
+            c, s = np.cos(m["yaw"]), np.sin(m["yaw"])
+            corners = np.array([[-h, -h], [h, -h], [h, h], [-h, h]]) @ np.array([[c, s], [-s, c]])
+            verts = np.column_stack([m["x"] + corners[:, 0], m["y"] + corners[:, 1], np.full(4, 0.0002)])
+            textured(f"marker_{m['id']}", m["texture"], verts, square, square_uv, interpolation="Closest")
+        cycles_scene.set_world((0.6, 0.6, 0.6), 0.6)
+        sun = cycles_scene.add_sun("sun", 2.5, 20.0)
+        cycles_scene.set_pose(sun, _WORLD_FROM_SUN)
+        fx, cx, cy = spec["fx_px"], (options.width_px - 1) / 2, (options.height_px - 1) / 2  # centred
+        k = np.array([[fx, 0.0, cx], [0.0, fx, cy], [0.0, 0.0, 1.0]])
+        camera = cycles_scene.add_camera(k, options.width_px, options.height_px)
+        for frame, view in enumerate(spec["views"]):
+            cycles_scene.set_pose(camera, np.array(view["world_from_camera"]), frame)
+        cycles_scene.render_frames([folder / "images" / view["name"] for view in spec["views"]])
 
 
 def _cells(dictionary: str) -> int:

@@ -18,7 +18,8 @@ from homemodel.cli import app
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 KERMIT = DATA / "photogrammetry" / "kermit"
 SWATBOTICS = DATA / "apriltag" / "swatbotics"
-# The rendered set is cached here between runs (rendering is most of this file's time).
+# The rendered set is cached here between runs (rendering is most of this file's time); render_scene
+# renders it again when its options or the rendering code change.
 SCENE_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "photogrammetry_scene"
 
 runner = CliRunner()
@@ -141,6 +142,7 @@ def rendered_model(rendered_run) -> Path:
 
 
 @pytest.mark.bpy
+@pytest.mark.slow
 def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Path) -> None:
     """Scale error at most 1%: from the cameras (a similarity fit of the estimated to the true
     camera centres, both in marker 0's frame) and from the mesh's height."""
@@ -158,6 +160,7 @@ def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Pat
 
 
 @pytest.mark.bpy
+@pytest.mark.slow
 def test_rendered_set_mesh_matches_the_truth_without_the_table(rendered_scene, rendered_model: Path) -> None:
     from homemodel.evaluation import mean_surface_distance_m
 
@@ -177,6 +180,7 @@ def test_rendered_set_mesh_matches_the_truth_without_the_table(rendered_scene, r
 
 
 @pytest.mark.bpy
+@pytest.mark.slow
 def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered_model: Path) -> None:
     """The baked texture, looked up at points of the reconstructed surface, correlates with the
     true texture at the nearest points of the true surface (shading differs, the pattern not)."""
@@ -207,6 +211,7 @@ def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered
 
 
 @pytest.mark.bpy
+@pytest.mark.slow
 def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
     from semantic_map import SmallObject, load_map
 
@@ -219,8 +224,36 @@ def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
 
 
 @pytest.mark.bpy
+@pytest.mark.slow
 def test_rendered_model_passes_the_validation_gate(rendered_model: Path) -> None:
     from articulation.gate.validate import validate_path
 
     report = validate_path(rendered_model)
     assert report.ok, report.format()
+
+
+def test_rendered_set_is_rendered_again_when_the_rendering_code_changes(tmp_path: Path, monkeypatch) -> None:
+    """The cached set is keyed on its options and on a digest of the code that renders it."""
+    from types import SimpleNamespace
+
+    from photogrammetry import synthetic_scene
+
+    renders = []
+
+    def blender(args: list[str], **_kwargs) -> SimpleNamespace:  # writes empty images
+        spec_path = Path(args[-1])
+        for view in json.loads(spec_path.read_text())["views"]:
+            (spec_path.parent / "images" / view["name"]).write_bytes(b"")
+        renders.append(spec_path)
+        return SimpleNamespace(returncode=0, stderr="")
+
+    monkeypatch.setattr(synthetic_scene.subprocess, "run", blender)
+    options = synthetic_scene.SceneOptions(n_views=2)
+    synthetic_scene.render_scene(tmp_path, options)
+    synthetic_scene.render_scene(tmp_path, options)
+    assert len(renders) == 1
+    synthetic_scene.render_scene(tmp_path, synthetic_scene.SceneOptions(n_views=2, samples=2))
+    assert len(renders) == 2
+    monkeypatch.setattr(synthetic_scene.cycles_scene, "rendering_code_digest", lambda *_files: "changed")
+    synthetic_scene.render_scene(tmp_path, synthetic_scene.SceneOptions(n_views=2, samples=2))
+    assert len(renders) == 3

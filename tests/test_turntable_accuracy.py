@@ -22,7 +22,7 @@ from turntable.poses_io import read_poses
 from turntable.reconstruct import Reconstruction, reconstruct_capture
 from turntable.simulate import SimulationOptions, resimulate_depth, simulate_capture
 
-pytestmark = pytest.mark.bpy
+pytestmark = [pytest.mark.bpy, pytest.mark.slow]
 
 OBJECTS = ("box", "cylinder", "mug")
 CAPTURE = dict(

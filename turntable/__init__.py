@@ -7,6 +7,7 @@
 - `fusion`, `meshing`, `texture`: merging, Poisson, the baked texture;
 - `reconstruct`, `outputs`, `picture`: the pipeline and its model folder.
 
-Only `blender_render` imports bpy (inside `simulate_capture`); reconstruction runs without it.
+No module here imports bpy: `blender_render` builds its Cycles scene with
+`homemodel.geometry.cycles_scene` (called by `simulate_capture`); reconstruction runs without Blender.
 See docs/turntable.md.
 """
