@@ -155,10 +155,10 @@ def test_circle_fit_recovers_centre_radius_and_plane() -> None:
 def test_voxel_merge_averages_coordinates_and_colours() -> None:
     merge = VoxelAccumulator(voxel_size_m=0.01)
     points = np.array([[0.001, 0.001, 0.001], [0.009, 0.009, 0.009], [0.015, 0.001, 0.001]])
-    colors = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 1.0, 0]])
+    colours = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 1.0, 0]])
     views = np.array([[0, 0, 1.0], [0, 1.0, 0], [1.0, 0, 0]])
-    merge.add(points[:2], colors[:2], views[:2])
-    merge.add(points[2:], colors[2:], views[2:])
+    merge.add(points[:2], colours[:2], views[:2])
+    merge.add(points[2:], colours[2:], views[2:])
     cloud = merge.cloud()
     order = np.argsort(cloud.points[:, 0])
     assert np.allclose(cloud.points[order], [[0.005, 0.005, 0.005], [0.015, 0.001, 0.001]])
