@@ -232,19 +232,25 @@ def test_benchmark_writes_the_table_and_the_figure(tmp_path):
         "--test",
         1,
         "--views",
-        8,
+        4,
         "--queries",
         1,
         "--filler-queries",
-        3,
+        1,
     )
     assert result.exit_code == 0, result.output
     results = json.loads((tmp_path / "bench" / "results.json").read_text())
     assert set(results["classes"]) == {"bottle"}
-    for row in results["classes"].values():
-        for stage in ("retrieval", "fitting", "filling", "oracle"):
-            assert 0.0 <= row[f"iou_{stage}"] <= 1.0 and row[f"distance_{stage}"] >= 0.0
-        assert row["iou_oracle"] > 0.4  # bottles of one generator resemble each other
+    row, (query,) = results["classes"]["bottle"], results["queries"]
+    # The table's row is its one query's scores; even trained this little (the least training
+    # the options allow, so the test stays quick), filling completes the unseen bottle better
+    # than the retrieved one does (0.76 against 0.43 IoU here).
+    for stage in ("retrieval", "fitting", "filling", "oracle"):
+        assert row[f"iou_{stage}"] == pytest.approx(query["voxel_iou"][stage])
+        assert row[f"distance_{stage}"] == pytest.approx(query["surface_distance"][stage])
+    assert row["iou_filling"] > row["iou_retrieval"] + 0.05
+    assert row["distance_filling"] < row["distance_retrieval"]
+    assert row["iou_oracle"] > 0.4  # bottles of one generator resemble each other
     assert "| bottle |" in (tmp_path / "bench" / "table.md").read_text()
     assert (tmp_path / "bench" / "examples.png").read_bytes().startswith(b"\x89PNG")
     result = invoke("completion", "benchmark", library, "--out", tmp_path / "b2", "--train", 4, "--test", 1)
