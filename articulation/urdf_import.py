@@ -130,9 +130,9 @@ def _material_of(ctx: _Context, visual_el: etree._Element, mesh: trimesh.Trimesh
             rgba = tuple(float(c) / 255.0 for c in np.asarray(diffuse, dtype=float)[:4])
     if el is not None:
         name = el.get("name") or name
-        color = el.find("color")
-        if color is not None:
-            rgba = tuple(ctx.floats(color, "rgba", 4))
+        colour = el.find("color")
+        if colour is not None:
+            rgba = tuple(ctx.floats(colour, "rgba", 4))
         elif name in ctx.global_materials:
             rgba = ctx.global_materials[name]
     return Material(name=name, rgba=rgba, texture=texture)
@@ -292,9 +292,9 @@ def load_urdf(path: Path) -> Model:
     if robot.tag != "robot":
         raise InputError(f"{path}: root element is <{robot.tag}>, expected <robot>")
     for el in robot.findall("material"):
-        color = el.find("color")
-        if el.get("name") and color is not None:
-            ctx.global_materials[el.get("name")] = tuple(ctx.floats(color, "rgba", 4))
+        colour = el.find("color")
+        if el.get("name") and colour is not None:
+            ctx.global_materials[el.get("name")] = tuple(ctx.floats(colour, "rgba", 4))
     ext = robot.find("homemodel")
     states: dict[str, list[JointState]] = {}
     grasp_points: list[GraspPoint] = []

@@ -1,12 +1,13 @@
 """Parametric modelling of furniture and small objects in Blender, from measurement specs.
 
-Following the seed (RAMCIP D3.1, section 3.3.2), an installer measures an object and writes
+Following RAMCIP D3.1 (section 3.3.2), an installer measures an object and writes
 a YAML spec; `build_model` builds it from primitives in Blender at the real dimensions (a
 box with its front face removed and walls of the measured thickness, doors and handles at
 their measured places, joints with limits; a cup as a hollow cylinder and a bent handle)
 and returns the `articulation.Model`. Frames and units: see `modeller.specs`.
 
-Only this package (and the add-on) imports bpy, and only inside the functions that need it.
+bpy is imported inside the functions that need it, and only here, in the add-on and in
+`homemodel.geometry.cycles_scene` (the simulators' Cycles scenes).
 """
 
 from modeller.build import build_from_spec, build_model

@@ -1,6 +1,6 @@
 """Markers of known size in the photos: detection and the names of their dictionaries.
 
-The seed's "hand crafted featured areas" (D3.1 Figure 16) become printed ArUco or AprilTag
+D3.1's "hand crafted featured areas" (Figure 16) become printed ArUco or AprilTag
 markers; their corners, seen in several registered photos, give the model its metric scale.
 """
 

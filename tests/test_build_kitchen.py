@@ -13,14 +13,13 @@ from homemodel.cli import app
 
 pytestmark = pytest.mark.bpy
 
-EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "kitchen"
 runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def built(tmp_path_factory: pytest.TempPathFactory, kitchen_dir: Path) -> Path:
     out = tmp_path_factory.mktemp("kitchen") / "out"
-    result = runner.invoke(app, ["build", str(EXAMPLE), "--out", str(out)])
+    result = runner.invoke(app, ["build", str(kitchen_dir), "--out", str(out)])
     assert result.exit_code == 0, result.output
     return out
 
@@ -133,9 +132,9 @@ def test_blender_imports_the_glb_back_at_the_right_size(built: Path) -> None:
     assert np.array([corners.min(axis=0), corners.max(axis=0)]) == pytest.approx(expected, abs=1e-4)
 
 
-def test_a_missing_spec_is_one_line_and_writes_nothing(tmp_path: Path) -> None:
+def test_a_missing_spec_is_one_line_and_writes_nothing(tmp_path: Path, kitchen_dir: Path) -> None:
     example = tmp_path / "kitchen"
-    shutil.copytree(EXAMPLE, example)
+    shutil.copytree(kitchen_dir, example)
     (example / "blue_cup.yaml").unlink()
     out = tmp_path / "out"
     result = runner.invoke(app, ["build", str(example), "--out", str(out)])
@@ -144,9 +143,9 @@ def test_a_missing_spec_is_one_line_and_writes_nothing(tmp_path: Path) -> None:
     assert not out.exists()
 
 
-def test_a_cup_floating_above_the_table_is_refused(tmp_path: Path) -> None:
+def test_a_cup_floating_above_the_table_is_refused(tmp_path: Path, kitchen_dir: Path) -> None:
     example = tmp_path / "kitchen"
-    shutil.copytree(EXAMPLE, example)
+    shutil.copytree(kitchen_dir, example)
     home = example / "home.yaml"
     home.write_text(home.read_text().replace("pose: {xyz: [0.25, -0.15, 0.75]}", "pose: {xyz: [0.25, -0.15, 0.9]}"))
     out = tmp_path / "out"
@@ -156,9 +155,9 @@ def test_a_cup_floating_above_the_table_is_refused(tmp_path: Path) -> None:
     assert not out.exists() and not list(tmp_path.glob(".out*"))
 
 
-def test_build_refuses_to_write_over_or_inside_its_input(tmp_path: Path) -> None:
+def test_build_refuses_to_write_over_or_inside_its_input(tmp_path: Path, kitchen_dir: Path) -> None:
     example = tmp_path / "kitchen"
-    shutil.copytree(EXAMPLE, example)
+    shutil.copytree(kitchen_dir, example)
     for out in (example, tmp_path, example / "out"):
         result = runner.invoke(app, ["build", str(example), "--out", str(out), "--force"])
         assert result.exit_code == 2 and "outside the input" in result.output, result.output
@@ -172,9 +171,9 @@ def test_build_refuses_to_write_over_or_inside_its_input(tmp_path: Path) -> None
         ("relation: \"on\"", "relation: beside", "rooms.0.objects.0.objects.0.relation"),
     ],
 )
-def test_bad_home_values_name_the_field(tmp_path: Path, old: str, new: str, field: str) -> None:
+def test_bad_home_values_name_the_field(tmp_path: Path, kitchen_dir: Path, old: str, new: str, field: str) -> None:
     example = tmp_path / "kitchen"
-    shutil.copytree(EXAMPLE, example)
+    shutil.copytree(kitchen_dir, example)
     home = example / "home.yaml"
     assert old in home.read_text()
     home.write_text(home.read_text().replace(old, new, 1))
@@ -182,10 +181,10 @@ def test_bad_home_values_name_the_field(tmp_path: Path, old: str, new: str, fiel
     assert result.exit_code == 2 and field in result.output, result.output
 
 
-def test_build_refuses_a_non_empty_out_dir_without_force(tmp_path: Path) -> None:
+def test_build_refuses_a_non_empty_out_dir_without_force(tmp_path: Path, kitchen_dir: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
     (out / "keep.txt").write_text("mine")
-    result = runner.invoke(app, ["build", str(EXAMPLE), "--out", str(out)])
+    result = runner.invoke(app, ["build", str(kitchen_dir), "--out", str(out)])
     assert result.exit_code == 2 and "--force" in result.output
     assert (out / "keep.txt").read_text() == "mine"

@@ -13,7 +13,6 @@ from articulation.export import write_model_files
 from articulation.gate.collisions import PENETRATION_TOLERANCE_M, collisions_check
 from articulation.gate.validate import validate_path
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 INERTIAL = '<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
 
 # A cupboard body seen from above: a side wall at y = -0.30..-0.28 and a back wall at
@@ -158,10 +157,12 @@ def test_the_gate_runs_the_check_and_skips_it_on_a_broken_tree(tmp_path: Path) -
 
 
 @pytest.mark.bpy
-def test_a_modelled_cupboard_passes_and_its_door_mirrored_into_the_body_fails(tmp_path: Path) -> None:
+def test_a_modelled_cupboard_passes_and_its_door_mirrored_into_the_body_fails(
+    tmp_path: Path, kitchen_dir: Path
+) -> None:
     from modeller import build_model
 
-    model = build_model(EXAMPLES / "kitchen" / "cupboard.yaml")
+    model = build_model(kitchen_dir / "cupboard.yaml")
     write_model_files(model, tmp_path / "good")
     report = validate_path(tmp_path / "good")
     assert report.ok, report.format()

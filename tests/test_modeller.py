@@ -9,19 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
-from spec_edits import with_field, write_spec
+from spec_edits import read_spec, with_field, write_spec
 
 from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points
 from modeller import build_model, load_spec, write_spec_schemas
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "kitchen"
 TOL_M = 1e-3
-
-
-def _example(name: str) -> dict:
-    return yaml.safe_load((EXAMPLES / f"{name}.yaml").read_text())
 
 
 def _world_vertices(model, link: str, positions: dict[str, float] | None = None) -> np.ndarray:
@@ -35,8 +29,9 @@ def _world_vertices(model, link: str, positions: dict[str, float] | None = None)
 
 
 @pytest.mark.parametrize("name", ["cupboard", "table", "red_cup", "blue_cup"])
-def test_examples_are_valid_specs(name: str) -> None:
-    assert load_spec(EXAMPLES / f"{name}.yaml").kind == _example(name)["kind"]
+def test_examples_are_valid_specs(kitchen_dir: Path, name: str) -> None:
+    path = kitchen_dir / f"{name}.yaml"
+    assert load_spec(path).kind == read_spec(path)["kind"]
 
 
 # One case per rule: (example, dotted field, value, dotted field the error must name, words in the message).
@@ -78,9 +73,9 @@ REFUSALS = [
 
 @pytest.mark.parametrize(("example", "field", "value", "blamed", "words"), REFUSALS)
 def test_impossible_spec_is_refused_naming_file_and_field(
-    tmp_path: Path, example: str, field: str, value: object, blamed: str, words: str
+    tmp_path: Path, kitchen_dir: Path, example: str, field: str, value: object, blamed: str, words: str
 ) -> None:
-    path = write_spec(tmp_path, with_field(_example(example), field, value))
+    path = write_spec(tmp_path, with_field(read_spec(kitchen_dir / f"{example}.yaml"), field, value))
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)
@@ -124,9 +119,8 @@ def test_spec_schemas_are_written(tmp_path: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def cupboard():
-    spec = load_spec(EXAMPLES / "cupboard.yaml")
-    return spec, build_model(EXAMPLES / "cupboard.yaml")
+def cupboard(kitchen_dir: Path):
+    return load_spec(kitchen_dir / "cupboard.yaml"), build_model(kitchen_dir / "cupboard.yaml")
 
 
 @pytest.mark.bpy
@@ -261,8 +255,8 @@ def test_cupboard_links_have_materials_collisions_and_mass(cupboard) -> None:
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("legs", [{"size_m": 0.05, "inset_m": 0.04}, {"diameter_m": 0.06, "inset_m": 0.02}])
-def test_table_has_the_measured_size(tmp_path: Path, legs: dict) -> None:
-    data = with_field(_example("table"), "legs", legs)
+def test_table_has_the_measured_size(tmp_path: Path, kitchen_dir: Path, legs: dict) -> None:
+    data = with_field(read_spec(kitchen_dir / "table.yaml"), "legs", legs)
     model = build_model(write_spec(tmp_path, data, "table.yaml"))
     top = data["top"]
     assert [link.name for link in model.links] == ["body"] and model.joints == []
@@ -286,9 +280,9 @@ def test_table_has_the_measured_size(tmp_path: Path, legs: dict) -> None:
 
 
 @pytest.mark.bpy
-def test_cup_has_the_measured_size_and_a_handle(tmp_path: Path) -> None:
-    spec = load_spec(EXAMPLES / "red_cup.yaml")
-    model = build_model(EXAMPLES / "red_cup.yaml")
+def test_cup_has_the_measured_size_and_a_handle(kitchen_dir: Path) -> None:
+    spec = load_spec(kitchen_dir / "red_cup.yaml")
+    model = build_model(kitchen_dir / "red_cup.yaml")
     assert model.name == "red_cup" and model.category == "cup"
     assert model.affordances == ["container"] and model.properties == {"colour": "red"}
     body = next(v.mesh for v in model.link("body").visuals if v.name == "body")
@@ -317,8 +311,8 @@ def test_cup_has_the_measured_size_and_a_handle(tmp_path: Path) -> None:
 
 
 @pytest.mark.bpy
-def test_cup_with_numeric_colour_and_no_handle(tmp_path: Path) -> None:
-    data = _example("blue_cup")
+def test_cup_with_numeric_colour_and_no_handle(tmp_path: Path, kitchen_dir: Path) -> None:
+    data = read_spec(kitchen_dir / "blue_cup.yaml")
     del data["handle"]
     data["colour"] = [0.2, 0.4, 0.6]
     model = build_model(write_spec(tmp_path, data, "plain.yaml"))
@@ -331,9 +325,9 @@ def test_cup_with_numeric_colour_and_no_handle(tmp_path: Path) -> None:
 
 
 @pytest.mark.bpy
-def test_blend_file_is_written_and_reopens(tmp_path: Path) -> None:
+def test_blend_file_is_written_and_reopens(tmp_path: Path, kitchen_dir: Path) -> None:
     blend = tmp_path / "out" / "cupboard.blend"
-    model = build_model(EXAMPLES / "cupboard.yaml", blend_path=blend)
+    model = build_model(kitchen_dir / "cupboard.yaml", blend_path=blend)
     assert blend.is_file() and [p.name for p in blend.parent.iterdir()] == ["cupboard.blend"]
 
     import bpy
@@ -352,10 +346,10 @@ def test_blend_file_is_written_and_reopens(tmp_path: Path) -> None:
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("name", ["cupboard", "table", "red_cup", "blue_cup"])
-def test_examples_build_quickly(name: str) -> None:
-    build_model(EXAMPLES / "table.yaml")  # bpy imported and warm
+def test_examples_build_quickly(kitchen_dir: Path, name: str) -> None:
+    build_model(kitchen_dir / "table.yaml")  # bpy imported and warm
     start = time.perf_counter()
-    model = build_model(EXAMPLES / f"{name}.yaml")
+    model = build_model(kitchen_dir / f"{name}.yaml")
     assert time.perf_counter() - start < 2.0
     assert model.name == name
     for link in model.links:

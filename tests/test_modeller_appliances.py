@@ -10,8 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
-from spec_edits import with_field, write_spec
+from spec_edits import read_spec, with_field, write_spec
 
 from articulation.export import write_model_files
 from articulation.gate.validate import validate_path
@@ -19,7 +18,6 @@ from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points
 from modeller import build_model, load_spec, write_spec_schemas
 
-CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "catalogue"
 NAMES = [
     "cupboard",
     "wall_cabinet",
@@ -33,10 +31,6 @@ NAMES = [
 ]
 KINDS = ["cupboard", "wall_cabinet", "wardrobe", "fridge", "oven", "dishwasher", "washing_machine", "microwave"]
 TOL_M = 1e-3
-
-
-def _example(name: str) -> dict:
-    return yaml.safe_load((CATALOGUE / f"{name}.yaml").read_text())
 
 
 def _vertices(model, link: str, positions: dict | None = None, *, skip: tuple[str, ...] = ()) -> np.ndarray:
@@ -54,26 +48,13 @@ def _visual(model, link: str, name: str):
     return next(v.mesh for v in model.link(link).visuals if v.name == name)
 
 
-@pytest.fixture(scope="module")
-def built(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """Every catalogue example of these kinds: (spec, model, gate report)."""
-    out = tmp_path_factory.mktemp("catalogue")
-    result = {}
-    for name in NAMES:
-        spec = load_spec(CATALOGUE / f"{name}.yaml")
-        model = build_model(CATALOGUE / f"{name}.yaml")
-        write_model_files(model, out / name)
-        result[name] = (spec, model, validate_path(out / name))
-    return result
-
-
 # ---------------------------------------------------------------------------- every kind
 
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("name", NAMES)
-def test_catalogue_model_passes_every_gate_check(built, name: str) -> None:
-    _, model, report = built[name]
+def test_catalogue_model_passes_every_gate_check(catalogue, name: str) -> None:
+    _, model, report = catalogue[name]
     assert report.ok, report.format()
     names = [c.name for c in report.checks]
     assert "collisions" in names and "pybullet" in names and "glTF validator" in names
@@ -82,8 +63,8 @@ def test_catalogue_model_passes_every_gate_check(built, name: str) -> None:
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("name", NAMES)
-def test_body_has_the_measured_outer_size(built, name: str) -> None:
-    spec, model, _ = built[name]
+def test_body_has_the_measured_outer_size(catalogue, name: str) -> None:
+    spec, model, _ = catalogue[name]
     # Burners and knobs stand on the hob and the panel; the body's box is what was measured.
     vertices = _vertices(model, "body", skip=("body.burner_",))
     np.testing.assert_allclose(vertices.min(0), [-spec.depth_m / 2, -spec.width_m / 2, spec.base_m], atol=TOL_M)
@@ -94,8 +75,8 @@ def test_body_has_the_measured_outer_size(built, name: str) -> None:
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("name", NAMES)
-def test_doors_turn_about_their_measured_hinge_lines_and_open_outward(built, name: str) -> None:
-    spec, model, _ = built[name]
+def test_doors_turn_about_their_measured_hinge_lines_and_open_outward(catalogue, name: str) -> None:
+    spec, model, _ = catalogue[name]
     front_x = spec.depth_m / 2 + spec.door_gap_m + spec.door_thickness_m
     for i, door in enumerate(spec.doors):
         link = f"door_{i}"
@@ -130,8 +111,8 @@ def test_doors_turn_about_their_measured_hinge_lines_and_open_outward(built, nam
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("name", NAMES)
-def test_every_handle_and_knob_has_a_grasp_point_where_measured(built, name: str) -> None:
-    spec, model, _ = built[name]
+def test_every_handle_and_knob_has_a_grasp_point_where_measured(catalogue, name: str) -> None:
+    spec, model, _ = catalogue[name]
     grasps = {g.name: g for g in model.grasp_points}
     fronts = [f"door_{i}" for i in range(len(spec.doors))] + [f"drawer_{i}" for i in range(len(spec.drawers))]
     expected = {f"{f}_handle" for f in fronts} | {f"knob_{i}" for i in range(len(spec.knobs))}
@@ -164,8 +145,8 @@ def test_every_handle_and_knob_has_a_grasp_point_where_measured(built, name: str
 
 @pytest.mark.bpy
 @pytest.mark.parametrize("name", NAMES)
-def test_drawers_slide_out_by_their_travel_from_inside_the_body(built, name: str) -> None:
-    spec, model, _ = built[name]
+def test_drawers_slide_out_by_their_travel_from_inside_the_body(catalogue, name: str) -> None:
+    spec, model, _ = catalogue[name]
     for i, drawer in enumerate(spec.drawers):
         slide = model.joint(f"drawer_{i}_slide")
         assert slide.type == "prismatic" and slide.limits.upper == pytest.approx(drawer.travel_m)
@@ -192,8 +173,8 @@ def test_a_kind_alone_builds_its_standard_layout_and_validates(tmp_path: Path, k
 
 
 @pytest.mark.bpy
-def test_cupboard_knob_handles_recessed_pockets_divider_and_shelf(built) -> None:
-    spec, model, _ = built["cupboard"]
+def test_cupboard_knob_handles_recessed_pockets_divider_and_shelf(catalogue) -> None:
+    spec, model, _ = catalogue["cupboard"]
     assert model.category == "cupboard" and set(model.affordances) == {"container", "openable", "supporting_surface"}
     knob = np.vstack(
         [transform_points(v.link_from_visual, v.mesh.vertices) for v in model.link("door_0_handle").visuals]
@@ -218,8 +199,8 @@ def test_cupboard_knob_handles_recessed_pockets_divider_and_shelf(built) -> None
 
 
 @pytest.mark.bpy
-def test_oven_knobs_have_named_states_and_a_marker_that_turns_clockwise(built) -> None:
-    spec, model, _ = built["oven"]
+def test_oven_knobs_have_named_states_and_a_marker_that_turns_clockwise(catalogue) -> None:
+    spec, model, _ = catalogue["oven"]
     for i, knob in enumerate(spec.knobs):
         joint = model.joint(f"knob_{i}_turn")
         step = math.radians(knob.step_deg)
@@ -247,8 +228,8 @@ def test_oven_knobs_have_named_states_and_a_marker_that_turns_clockwise(built) -
 
 
 @pytest.mark.bpy
-def test_oven_hob_door_opening_down_and_affordances(built) -> None:
-    spec, model, _ = built["oven"]
+def test_oven_hob_door_opening_down_and_affordances(catalogue) -> None:
+    spec, model, _ = catalogue["oven"]
     hob = _visual(model, "body", "body.hob")
     assert hob.bounds[1, 2] == pytest.approx(spec.height_m, abs=TOL_M)
     burners = [v.mesh for v in model.link("body").visuals if v.name.startswith("body.burner_")]
@@ -267,8 +248,8 @@ def test_oven_hob_door_opening_down_and_affordances(built) -> None:
 
 
 @pytest.mark.bpy
-def test_fridge_door_shelves_inside_when_closed_and_freezer_drawer(built) -> None:
-    spec, model, _ = built["fridge"]
+def test_fridge_door_shelves_inside_when_closed_and_freezer_drawer(catalogue) -> None:
+    spec, model, _ = catalogue["fridge"]
     door = spec.doors[0]
     assert door.hinge == "right" and len(door.shelves) == 3 and len(spec.drawers) == 1
     t = spec.wall_thickness_m
@@ -291,8 +272,8 @@ def test_fridge_door_shelves_inside_when_closed_and_freezer_drawer(built) -> Non
 
 
 @pytest.mark.bpy
-def test_two_door_fridge_doors_meet_in_the_middle(built) -> None:
-    spec, model, _ = built["fridge_two_doors"]
+def test_two_door_fridge_doors_meet_in_the_middle(catalogue) -> None:
+    spec, model, _ = catalogue["fridge_two_doors"]
     left, right = spec.doors
     assert (left.hinge, right.hinge) == ("left", "right")
     assert right.left_m - left.right_m == pytest.approx(2 * spec.door_gap_m, abs=1e-6)
@@ -301,8 +282,8 @@ def test_two_door_fridge_doors_meet_in_the_middle(built) -> None:
 
 
 @pytest.mark.bpy
-def test_washing_machine_round_door_porthole_and_drum(built) -> None:
-    spec, model, _ = built["washing_machine"]
+def test_washing_machine_round_door_porthole_and_drum(catalogue) -> None:
+    spec, model, _ = catalogue["washing_machine"]
     door = spec.doors[0]
     assert door.shape == "round" and door.hinge == "left"
     disc = _visual(model, "door_0", "door_0")
@@ -327,8 +308,8 @@ def test_washing_machine_round_door_porthole_and_drum(built) -> None:
 
 
 @pytest.mark.bpy
-def test_wall_cabinet_hangs_and_its_flap_opens_up(built) -> None:
-    spec, model, _ = built["wall_cabinet"]
+def test_wall_cabinet_hangs_and_its_flap_opens_up(catalogue) -> None:
+    spec, model, _ = catalogue["wall_cabinet"]
     assert _vertices(model, "body")[:, 2].min() == pytest.approx(spec.mount_height_m, abs=TOL_M)
     flap = spec.doors[1]
     assert flap.hinge == "top"
@@ -339,20 +320,20 @@ def test_wall_cabinet_hangs_and_its_flap_opens_up(built) -> None:
 
 
 @pytest.mark.bpy
-def test_wardrobe_rail_dishwasher_racks_microwave_plate(built) -> None:
-    spec, model, _ = built["wardrobe"]
+def test_wardrobe_rail_dishwasher_racks_microwave_plate(catalogue) -> None:
+    spec, model, _ = catalogue["wardrobe"]
     rail = _visual(model, "body", "body.rail_0")
     left, right, x = spec.rail_span_m(spec.rails[0])
     np.testing.assert_allclose(rail.bounds[:, 1], [-spec.width_m / 2 + left, -spec.width_m / 2 + right], atol=TOL_M)
     assert rail.bounds.mean(0)[[0, 2]] == pytest.approx([x, spec.rails[0].height_m], abs=TOL_M)
 
-    spec, model, _ = built["dishwasher"]
+    spec, model, _ = catalogue["dishwasher"]
     for i, rack in enumerate(spec.racks):
         mesh = _visual(model, "body", f"body.rack_{i}")
         np.testing.assert_allclose(mesh.bounds.T.reshape(-1), spec.rack_bounds_m(rack), atol=TOL_M)
     assert spec.doors[0].hinge == "bottom"
 
-    spec, model, _ = built["microwave"]
+    spec, model, _ = catalogue["microwave"]
     plate = _visual(model, "body", "body.turntable")
     left, right = spec.cavity_span_m()
     assert plate.extents[0] == pytest.approx(spec.turntable_diameter_m, abs=TOL_M)
@@ -399,9 +380,10 @@ REFUSALS = [
 
 @pytest.mark.parametrize(("example", "field", "value", "blamed", "words"), REFUSALS)
 def test_impossible_spec_is_refused_naming_file_and_field(
-    tmp_path: Path, example: str, field: str, value: object, blamed: str, words: str
+    tmp_path: Path, catalogue_dir: Path, example: str, field: str, value: object, blamed: str, words: str
 ) -> None:
-    path = write_spec(tmp_path, with_field(_example(example), field, value), f"{example}.yaml")
+    data = read_spec(catalogue_dir / f"{example}.yaml")
+    path = write_spec(tmp_path, with_field(data, field, value), f"{example}.yaml")
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)

@@ -17,8 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-import yaml
-from spec_edits import with_field, write_spec
+from spec_edits import read_spec, with_field, write_spec
 
 from articulation.model import Box, Cylinder, MeshGeometry, Model
 from homemodel.core.errors import SpecError
@@ -26,7 +25,6 @@ from homemodel.core.transforms import transform_points
 from modeller import build_from_spec, build_model, load_spec, write_spec_schemas
 from modeller.specs import SPEC_TYPES
 
-CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "catalogue"
 TOL_M = 1e-3
 KINDS = [
     "table",
@@ -48,10 +46,6 @@ KINDS = [
     "knife",
     "remote_control",
 ]
-
-
-def _example(kind: str) -> dict:
-    return yaml.safe_load((CATALOGUE / f"{kind}.yaml").read_text())
 
 
 def _default_spec(kind: str):
@@ -142,9 +136,9 @@ def _extent(spec) -> tuple[list[float], list[float]]:  # noqa: C901 - one branch
 # ---------------------------------------------------------------------------- specs
 
 
-def test_catalogue_holds_a_spec_of_every_kind() -> None:
+def test_catalogue_holds_a_spec_of_every_kind(catalogue_dir: Path) -> None:
     for kind in KINDS:
-        assert load_spec(CATALOGUE / f"{kind}.yaml").kind == kind
+        assert load_spec(catalogue_dir / f"{kind}.yaml").kind == kind
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -225,9 +219,9 @@ REFUSALS = [
 
 @pytest.mark.parametrize(("kind", "field", "value", "blamed", "words"), REFUSALS)
 def test_impossible_spec_is_refused_naming_file_and_field(
-    tmp_path: Path, kind: str, field: str, value: object, blamed: str, words: str
+    tmp_path: Path, catalogue_dir: Path, kind: str, field: str, value: object, blamed: str, words: str
 ) -> None:
-    path = write_spec(tmp_path, with_field(_example(kind), field, value))
+    path = write_spec(tmp_path, with_field(read_spec(catalogue_dir / f"{kind}.yaml"), field, value))
     with pytest.raises(SpecError) as caught:
         load_spec(path)
     message = str(caught.value)
@@ -245,28 +239,10 @@ def test_rectangular_table_refuses_a_diameter(tmp_path: Path) -> None:
 # ---------------------------------------------------------------------------- built models
 
 
-@pytest.fixture(scope="module")
-def catalogue() -> dict[str, tuple[object, Model]]:
-    return {kind: (load_spec(CATALOGUE / f"{kind}.yaml"), build_model(CATALOGUE / f"{kind}.yaml")) for kind in KINDS}
-
-
-@pytest.fixture(scope="module")
-def gate_reports(catalogue, tmp_path_factory: pytest.TempPathFactory) -> dict:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
-
-    out = tmp_path_factory.mktemp("catalogue")
-    reports = {}
-    for kind, (_, model) in catalogue.items():
-        export_model(model, out / kind)
-        reports[kind] = validate_path(out / kind)
-    return reports
-
-
 @pytest.mark.bpy
 @pytest.mark.parametrize("kind", KINDS)
-def test_catalogue_model_passes_the_validation_gate(gate_reports, kind: str) -> None:
-    report = gate_reports[kind]
+def test_catalogue_model_passes_the_validation_gate(catalogue, kind: str) -> None:
+    report = catalogue[kind].report
     assert report.ok, report.format()
     assert any(check.name == "pybullet" for check in report.checks)
 
@@ -274,7 +250,7 @@ def test_catalogue_model_passes_the_validation_gate(gate_reports, kind: str) -> 
 @pytest.mark.bpy
 @pytest.mark.parametrize("kind", KINDS)
 def test_built_size_matches_the_measurements(catalogue, kind: str) -> None:
-    spec, model = catalogue[kind]
+    spec, model, _ = catalogue[kind]
     lo, hi = model.world_mesh().bounds
     expected_lo, expected_hi = _extent(spec)
     np.testing.assert_allclose(lo, expected_lo, atol=TOL_M)
@@ -304,7 +280,7 @@ def test_defaults_alone_build_to_their_measurements(kind: str) -> None:
 
 @pytest.mark.bpy
 def test_pedestal_table_has_its_foot_and_column(catalogue) -> None:
-    spec, model = catalogue["table"]
+    spec, model, _ = catalogue["table"]
     pedestal = spec.pedestal
     foot, column = _visual(model, "body.foot"), _visual(model, "body.column")
     np.testing.assert_allclose(
@@ -338,7 +314,7 @@ def test_round_table_legs_stand_on_the_diagonals_inset_from_the_rim(tmp_path: Pa
 
 @pytest.mark.bpy
 def test_chair_seat_legs_and_backrest_where_measured(catalogue) -> None:
-    spec, model = catalogue["chair"]
+    spec, model, _ = catalogue["chair"]
     seat = _visual(model, "body")
     assert seat.bounds[1, 2] == pytest.approx(spec.seat_height_m, abs=TOL_M)
     assert len([v for v in model.link("body").visuals if v.name.startswith("body.leg_")]) == 4
@@ -355,7 +331,7 @@ def test_chair_seat_legs_and_backrest_where_measured(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_sofa_cushions_arms_and_back(catalogue) -> None:
-    spec, model = catalogue["sofa"]
+    spec, model, _ = catalogue["sofa"]
     cushions = [v.mesh for v in model.link("body").visuals if v.name.startswith("body.cushion_")]
     assert len(cushions) == spec.cushions
     inner = spec.width_m - 2 * spec.arms.width_m
@@ -375,7 +351,7 @@ def test_sofa_cushions_arms_and_back(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_bed_mattress_on_its_frame_between_the_boards(catalogue) -> None:
-    spec, model = catalogue["bed"]
+    spec, model, _ = catalogue["bed"]
     mattress = _visual(model, "body.mattress")
     assert mattress.bounds[0, 2] == pytest.approx(spec.frame_height_m, abs=TOL_M)
     assert mattress.bounds[1, 2] == pytest.approx(spec.frame_height_m + spec.mattress_thickness_m, abs=TOL_M)
@@ -395,8 +371,9 @@ def test_bed_mattress_on_its_frame_between_the_boards(catalogue) -> None:
 
 
 @pytest.mark.bpy
-def test_bed_without_legs_or_footboard(tmp_path: Path) -> None:
-    data = with_field(with_field(_example("bed"), "frame_thickness_m", 0.3), "footboard_height_m", 0)
+def test_bed_without_legs_or_footboard(tmp_path: Path, catalogue_dir: Path) -> None:
+    bed = read_spec(catalogue_dir / "bed.yaml")
+    data = with_field(with_field(bed, "frame_thickness_m", 0.3), "footboard_height_m", 0)
     model = build_model(write_spec(tmp_path, data, "divan.yaml"))
     names = [v.name for v in model.link("body").visuals]
     assert not any(n.startswith("body.leg_") for n in names) and "body.footboard" not in names
@@ -405,7 +382,7 @@ def test_bed_without_legs_or_footboard(tmp_path: Path) -> None:
 
 @pytest.mark.bpy
 def test_shelving_shelves_at_their_heights(catalogue) -> None:
-    spec, model = catalogue["shelving"]
+    spec, model, _ = catalogue["shelving"]
     for i, height in enumerate(spec.shelf_heights_m):
         shelf = _visual(model, f"body.shelf_{i}")
         assert shelf.bounds[1, 2] == pytest.approx(height, abs=TOL_M)
@@ -428,7 +405,7 @@ def test_furniture_registers_in_the_map_with_its_surfaces(catalogue) -> None:
     from semantic_map.nodes import ParkingPosition, Pose
     from semantic_map.registration import large_object_from_model
 
-    _, model = catalogue["shelving"]
+    model = catalogue["shelving"].model
     node = large_object_from_model(
         model,
         object_id="shelf_1",
@@ -480,7 +457,7 @@ def _inside_radius_and_span(spec) -> tuple[Callable[[float], float], float, floa
 @pytest.mark.bpy
 @pytest.mark.parametrize("kind", HOLLOW)
 def test_hollow_vessels_stay_hollow_for_a_simulator(catalogue, kind: str) -> None:
-    spec, model = catalogue[kind]
+    spec, model, _ = catalogue[kind]
     radius_at, floor, top = _inside_radius_and_span(spec)
     for fraction in (0.1, 0.5, 0.9):
         z = floor + fraction * (top - floor)
@@ -493,7 +470,7 @@ def test_hollow_vessels_stay_hollow_for_a_simulator(catalogue, kind: str) -> Non
 @pytest.mark.bpy
 @pytest.mark.parametrize("kind", ["cup", "mug", "glass", "jar", "bowl"])
 def test_vessel_walls_have_collisions_all_round(catalogue, kind: str) -> None:
-    spec, model = catalogue[kind]
+    spec, model, _ = catalogue[kind]
     radius_at, floor, top = _inside_radius_and_span(spec)
     wall = spec.wall_thickness_m
     for z in (floor + 0.25 * (top - floor), (floor + top) / 2, top - 0.002):
@@ -503,7 +480,7 @@ def test_vessel_walls_have_collisions_all_round(catalogue, kind: str) -> None:
 
 @pytest.mark.bpy
 def test_glass_tapers_between_its_measured_diameters(catalogue) -> None:
-    spec, model = catalogue["glass"]
+    spec, model, _ = catalogue["glass"]
     body = _visual(model, "body")
     assert body.is_volume
     radii = np.linalg.norm(body.vertices[:, :2], axis=1)
@@ -537,7 +514,7 @@ def test_plate_well_rim_and_style(tmp_path: Path, style: str) -> None:
 
 @pytest.mark.bpy
 def test_bowl_foot_floor_and_rim(catalogue) -> None:
-    spec, model = catalogue["bowl"]
+    spec, model, _ = catalogue["bowl"]
     body = _visual(model, "body")
     assert body.is_volume
     radii = np.linalg.norm(body.vertices[:, :2], axis=1)
@@ -550,7 +527,7 @@ def test_bowl_foot_floor_and_rim(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_bottle_shoulder_neck_and_cap(catalogue) -> None:
-    spec, model = catalogue["bottle"]
+    spec, model, _ = catalogue["bottle"]
     body = _visual(model, "body")
     assert body.is_volume
     radii = np.linalg.norm(body.vertices[:, :2], axis=1)
@@ -567,7 +544,7 @@ def test_bottle_shoulder_neck_and_cap(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_jar_lid_is_a_fixed_link_with_its_knob(catalogue) -> None:
-    spec, model = catalogue["jar"]
+    spec, model, _ = catalogue["jar"]
     mount = model.joint("lid_mount")
     assert mount.type == "fixed" and mount.parent == "body" and mount.child == "lid"
     assert mount.parent_from_joint[2, 3] == pytest.approx(spec.body_height_m, abs=TOL_M)
@@ -586,7 +563,7 @@ def test_jar_registers_as_a_small_object(catalogue) -> None:
     from semantic_map.nodes import Pose
     from semantic_map.registration import small_object_from_model
 
-    _, model = catalogue["jar"]
+    model = catalogue["jar"].model
     node = small_object_from_model(
         model,
         object_id="sugar",
@@ -607,7 +584,7 @@ def test_jar_registers_as_a_small_object(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_pill_box_hinge_on_the_back_top_edge_and_lid_opening_upward(catalogue) -> None:
-    spec, model = catalogue["pill_box"]
+    spec, model, _ = catalogue["pill_box"]
     hinge = model.joint("lid_hinge")
     body_h = spec.height_m - spec.lid_thickness_m
     assert hinge.type == "revolute" and hinge.parent == "body" and hinge.child == "lid"
@@ -634,7 +611,7 @@ def test_pill_box_hinge_on_the_back_top_edge_and_lid_opening_upward(catalogue) -
 
 @pytest.mark.bpy
 def test_pill_box_compartments_are_equal_and_empty(catalogue) -> None:
-    spec, model = catalogue["pill_box"]
+    spec, model, _ = catalogue["pill_box"]
     dividers = sorted(
         (v.mesh for v in model.link("body").visuals if v.name.startswith("body.divider_")), key=lambda m: m.bounds[0, 1]
     )
@@ -653,7 +630,7 @@ def test_pill_box_compartments_are_equal_and_empty(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_food_box_is_a_closed_cuboid_with_planar_faces(catalogue) -> None:
-    spec, model = catalogue["box"]
+    spec, model, _ = catalogue["box"]
     body = _visual(model, "body")
     assert body.is_volume
     assert body.volume == pytest.approx(spec.width_m * spec.depth_m * spec.height_m, rel=1e-6)
@@ -663,7 +640,7 @@ def test_food_box_is_a_closed_cuboid_with_planar_faces(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_spoon_rests_on_its_bowl_and_handle_end(catalogue) -> None:
-    spec, model = catalogue["spoon"]
+    spec, model, _ = catalogue["spoon"]
     bowl, handle = _visual(model, "body.bowl"), _visual(model, "body")
     assert bowl.bounds[0, 2] == pytest.approx(0.0, abs=1e-6) and bowl.bounds[1, 2] == pytest.approx(
         spec.bowl_depth_m, abs=TOL_M
@@ -685,7 +662,7 @@ def test_spoon_rests_on_its_bowl_and_handle_end(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_fork_tines_and_knife_blade(catalogue) -> None:
-    spec, model = catalogue["fork"]
+    spec, model, _ = catalogue["fork"]
     tines = sorted(
         (v.mesh for v in model.link("body").visuals if v.name.startswith("body.tine_")), key=lambda m: m.bounds[0, 1]
     )
@@ -695,7 +672,7 @@ def test_fork_tines_and_knife_blade(catalogue) -> None:
         assert mesh.bounds[1, 0] - mesh.bounds[0, 0] == pytest.approx(spec.tine_length_m, abs=TOL_M)
     gaps = [b.bounds[0, 1] - a.bounds[1, 1] for a, b in zip(tines, tines[1:])]
     np.testing.assert_allclose(gaps, spec.head_width_m / (2 * spec.tines - 1), atol=TOL_M)
-    spec, model = catalogue["knife"]
+    spec, model, _ = catalogue["knife"]
     blade = _visual(model, "body.blade")
     np.testing.assert_allclose(
         blade.bounds[:, 0], [spec.length_m / 2 - spec.blade_length_m, spec.length_m / 2], atol=TOL_M
@@ -707,7 +684,7 @@ def test_fork_tines_and_knife_blade(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_remote_control_buttons_in_their_grid(catalogue) -> None:
-    spec, model = catalogue["remote_control"]
+    spec, model, _ = catalogue["remote_control"]
     buttons = _visual(model, "body.buttons")
     parts = buttons.split(only_watertight=False)
     grid = spec.buttons
@@ -728,7 +705,7 @@ def test_remote_control_buttons_in_their_grid(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_mug_is_a_cup_with_a_handle_by_default(catalogue) -> None:
-    spec, model = catalogue["mug"]
+    spec, model, _ = catalogue["mug"]
     assert model.category == "mug" and spec.handle.height_m is None
     grasps = model.world_from_grasp_points()
     np.testing.assert_allclose(

@@ -6,12 +6,13 @@ from __future__ import annotations
 import copy
 import json
 import struct
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
-import yaml
+from spec_edits import read_spec, write_spec
 
 from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points, world_from_camera_looking_at
@@ -19,7 +20,6 @@ from modeller import load_spec
 from modeller.photo_texture import detect_quad, rectify_planar, rectify_wrap
 from modeller.specs.photos import FacePhoto
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 FOCAL_PX = 700.0
 # The kitchen cupboard's left door: its front face in the model frame, corners TL, TR, BR, BL.
 DOOR_FACE_M = np.array([[0.245, -0.398, 0.738], [0.245, -0.002, 0.738], [0.245, -0.002, 0.102], [0.245, -0.398, 0.102]])
@@ -74,12 +74,11 @@ def door_photo(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarr
     return path, corners
 
 
-def _cupboard_spec(folder: Path, photos: list[dict]) -> Path:
-    data = yaml.safe_load((EXAMPLES / "kitchen" / "cupboard.yaml").read_text())
-    data["photos"] = photos
-    path = folder / "cupboard.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
+@pytest.fixture(scope="module")
+def cupboard_spec(kitchen_dir: Path) -> Callable[[Path, list[dict]], Path]:
+    """Writes the kitchen cupboard's spec with these photos as `cupboard.yaml` into a folder."""
+    data = read_spec(kitchen_dir / "cupboard.yaml")
+    return lambda folder, photos: write_spec(folder, {**data, "photos": photos}, "cupboard.yaml")
 
 
 # ---------------------------------------------------------------------------- rectification (no bpy)
@@ -153,11 +152,11 @@ def test_the_camera_is_recovered_from_the_face_corners(door_photo: tuple[Path, n
 # ---------------------------------------------------------------------------- refusals (no bpy)
 
 
-def _refusal(tmp_path: Path, photo: dict) -> str:
+def _refusal(cupboard_spec: Callable[[Path, list[dict]], Path], folder: Path, photo: dict) -> str:
     entry = {"part": "door_0", "face": "front", "photo": "door.png", **photo}
     entry = {k: v for k, v in entry.items() if v is not None}
     with pytest.raises(SpecError) as caught:
-        load_spec(_cupboard_spec(tmp_path, [entry]))
+        load_spec(cupboard_spec(folder, [entry]))
     message = str(caught.value)
     assert "\n" not in message
     return message
@@ -189,21 +188,23 @@ GOOD_CORNERS = [[90, 30], [394, 66], [381, 529], [110, 599]]
     ],
 )
 def test_bad_photo_is_refused_naming_file_and_field(
-    tmp_path: Path, door_photo: tuple[Path, np.ndarray], photo: dict, field: str, words: str
+    tmp_path: Path, door_photo: tuple[Path, np.ndarray], cupboard_spec, photo: dict, field: str, words: str
 ) -> None:
     (tmp_path / "door.png").write_bytes(door_photo[0].read_bytes())
     (tmp_path / "garbage.png").write_bytes(b"this is not an image" * 10)
     (tmp_path / "truncated.png").write_bytes(door_photo[0].read_bytes()[:300])
-    message = _refusal(tmp_path, {"corners_px": GOOD_CORNERS, **photo})
+    message = _refusal(cupboard_spec, tmp_path, {"corners_px": GOOD_CORNERS, **photo})
     assert message.startswith(f"{tmp_path / 'cupboard.yaml'}: photos.0.{field}: "), message
     assert words in message, message
 
 
-def test_photo_paths_are_taken_from_the_spec_folder(tmp_path: Path, door_photo: tuple[Path, np.ndarray]) -> None:
+def test_photo_paths_are_taken_from_the_spec_folder(
+    tmp_path: Path, door_photo: tuple[Path, np.ndarray], cupboard_spec
+) -> None:
     (tmp_path / "pics").mkdir()
     (tmp_path / "pics" / "door.png").write_bytes(door_photo[0].read_bytes())
     spec = load_spec(
-        _cupboard_spec(
+        cupboard_spec(
             tmp_path, [{"part": "door_0", "face": "front", "photo": "pics/door.png", "corners_px": GOOD_CORNERS}]
         )
     )
@@ -214,14 +215,14 @@ def test_photo_paths_are_taken_from_the_spec_folder(tmp_path: Path, door_photo: 
 
 
 @pytest.fixture(scope="module")
-def textured_cupboard(tmp_path_factory: pytest.TempPathFactory, door_photo: tuple[Path, np.ndarray]):
+def textured_cupboard(tmp_path_factory: pytest.TempPathFactory, door_photo: tuple[Path, np.ndarray], cupboard_spec):
     """The kitchen cupboard with the checkerboard photo on door 0, built and exported."""
     from articulation.export import export_model
     from modeller.build import build_textured
 
     folder = tmp_path_factory.mktemp("cupboard")
     path, corners = door_photo
-    spec_path = _cupboard_spec(
+    spec_path = cupboard_spec(
         folder, [{"part": "door_0", "face": "front", "photo": str(path), "corners_px": corners.round(3).tolist()}]
     )
     built = build_textured(load_spec(spec_path), "cupboard", spec_path=spec_path)
@@ -304,7 +305,7 @@ def _extent_m(link) -> np.ndarray:
 
 
 @pytest.mark.bpy
-def test_textured_models_pass_the_gate_and_keep_their_shape_and_mass(textured_cupboard) -> None:
+def test_textured_models_pass_the_gate_and_keep_their_shape_and_mass(textured_cupboard, kitchen_dir: Path) -> None:
     from articulation.gate.validate import validate_path
     from modeller import build_model
 
@@ -312,7 +313,7 @@ def test_textured_models_pass_the_gate_and_keep_their_shape_and_mass(textured_cu
     report = validate_path(folder)
     assert report.ok, report.format()
     assert any(c.name == "glTF validator" and c.passed for c in report.checks)
-    plain = build_model(EXAMPLES / "kitchen" / "cupboard.yaml")
+    plain = build_model(kitchen_dir / "cupboard.yaml")
     for link in plain.links:
         textured = built.model.link(link.name)
         assert np.allclose(textured.inertial.com_m, link.inertial.com_m, atol=1e-9)
@@ -344,13 +345,13 @@ def test_blender_reads_the_textured_glb_back_with_its_texture(textured_cupboard)
 
 
 @pytest.mark.bpy
-def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path) -> None:
+def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path, textured_dir: Path) -> None:
     """The example mug: its label's red circle faces -x (wrap_centre_deg 180), the handle side stays white."""
     from articulation.export import export_model
     from articulation.gate.validate import validate_path
     from modeller import build_model
 
-    model = build_model(EXAMPLES / "textured" / "cup.yaml")
+    model = build_model(textured_dir / "cup.yaml")
     export_model(model, tmp_path / "cup")
     assert validate_path(tmp_path / "cup").ok
     import trimesh
@@ -370,12 +371,12 @@ def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path) 
 
 
 @pytest.mark.bpy
-def test_packet_example_has_three_textured_faces_of_its_size(tmp_path: Path) -> None:
+def test_packet_example_has_three_textured_faces_of_its_size(tmp_path: Path, textured_dir: Path) -> None:
     from articulation.export import export_model
     from articulation.gate.validate import validate_path
     from modeller import build_model
 
-    model = build_model(EXAMPLES / "textured" / "packet.yaml")
+    model = build_model(textured_dir / "packet.yaml")
     textured = {v.material.name: v for v in model.link("body").visuals if v.material.texture is not None}
     assert sorted(textured) == ["photo_body_front", "photo_body_right", "photo_body_top"]
     # Each textured face spans the packet's measured face (0.07 x 0.19 x 0.28 m) within 1 mm.
@@ -388,7 +389,7 @@ def test_packet_example_has_three_textured_faces_of_its_size(tmp_path: Path) -> 
 
 
 @pytest.mark.bpy
-def test_unknown_part_and_missing_face_are_refused_after_building(tmp_path: Path, door_photo) -> None:
+def test_unknown_part_and_missing_face_are_refused_after_building(tmp_path: Path, door_photo, cupboard_spec) -> None:
     from modeller import build_model
 
     path, corners = door_photo
@@ -397,18 +398,18 @@ def test_unknown_part_and_missing_face_are_refused_after_building(tmp_path: Path
         ("door_0_handle", {"face": "wrap", "wrap_range_m": [5, 6]}, "face", "part 'door_0_handle' has no round side"),
     ]:
         entry = {"part": part, **extra, "photo": str(path), "corners_px": corners.round(3).tolist()}
-        spec_path = _cupboard_spec(tmp_path, [entry])
+        spec_path = cupboard_spec(tmp_path, [entry])
         with pytest.raises(SpecError) as caught:
             build_model(spec_path)
         assert str(caught.value).startswith(f"{spec_path}: photos.0.{field}: {words}"), str(caught.value)
 
 
 @pytest.mark.bpy
-def test_render_writes_a_validated_model_and_pictures_that_match_the_photo(tmp_path: Path) -> None:
+def test_render_writes_a_validated_model_and_pictures_that_match_the_photo(tmp_path: Path, textured_dir: Path) -> None:
     from modeller.comparison_picture import PictureOptions, render_spec
 
     out = tmp_path / "render"
-    result = render_spec(EXAMPLES / "textured" / "cupboard.yaml", out, options=PictureOptions(panel_height_px=640))
+    result = render_spec(textured_dir / "cupboard.yaml", out, options=PictureOptions(panel_height_px=640))
     assert result.valid, result.failed_checks
     assert {"model.urdf", "model.glb", "model.blend", "summary.json", "comparison_0.png", "comparison_1.png"} <= {
         p.name for p in out.iterdir()
@@ -417,19 +418,19 @@ def test_render_writes_a_validated_model_and_pictures_that_match_the_photo(tmp_p
     for row in result.rows:
         assert abs(row.focal_px - FOCAL_PX) < 0.01 * FOCAL_PX and row.reprojection_px < 0.5
     # The middle panel (the model through the recovered camera) shows the door where the photo does.
-    photo = cv2.imread(str(EXAMPLES / "textured" / "photos" / "cupboard_door.jpg"))
+    photo = cv2.imread(str(textured_dir / "photos" / "cupboard_door.jpg"))
     picture = cv2.imread(str(out / "comparison_0.png"))
     render = picture[:, photo.shape[1] + 6 : 2 * photo.shape[1] + 6]
     mask = np.zeros(photo.shape[:2], np.uint8)
-    corners = np.array(yaml.safe_load((EXAMPLES / "textured" / "cupboard.yaml").read_text())["photos"][0]["corners_px"])
+    corners = np.array(read_spec(textured_dir / "cupboard.yaml")["photos"][0]["corners_px"])
     cv2.fillConvexPoly(mask, cv2.convexHull(corners.round().astype(np.int32)), 1)
     mask = cv2.erode(mask, np.ones((9, 9), np.uint8)).astype(bool)
     error = np.abs(render.astype(np.float64) - photo)[mask].mean()
     assert error < 20, f"mean abs error {error:.1f} of 255 inside the door"
 
 
-def test_example_specs_with_photos_are_valid() -> None:
-    for path in sorted((EXAMPLES / "textured").glob("*.yaml")):
+def test_example_specs_with_photos_are_valid(textured_dir: Path) -> None:
+    for path in sorted(textured_dir.glob("*.yaml")):
         spec = load_spec(path)
         assert spec.photos and all(p.photo.is_file() for p in spec.photos)
         assert all(p.photo.stat().st_size < 200_000 for p in spec.photos)

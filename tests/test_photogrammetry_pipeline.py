@@ -114,7 +114,7 @@ def rendered_scene():
 @pytest.fixture(scope="module")
 def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
     """The rendered set reconstructed with its markers and registered into a map, on the table."""
-    from test_semantic_map import build_house
+    from sample_house import build_house
 
     from semantic_map import save_map
 

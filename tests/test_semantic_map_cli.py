@@ -7,24 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 import typer
-from test_semantic_map import HOSTILE, box_model, build_house, cup_model
+from sample_house import HOSTILE, box_model, cup_model
 from typer.testing import CliRunner
 
 import articulation.urdf_import
 from articulation.model import Model
 from homemodel.cli.map_commands import map_app
-from semantic_map import LargeObject, SmallObject, load_map, save_map
+from semantic_map import LargeObject, SmallObject, load_map
 
 app = typer.Typer()
 app.add_typer(map_app, name="map")
 runner = CliRunner()
-
-
-@pytest.fixture
-def map_file(tmp_path: Path) -> Path:
-    path = tmp_path / "map.xml"
-    save_map(build_house(), path)
-    return path
 
 
 def run(*args: str | Path) -> typer.testing.Result:
@@ -32,8 +25,8 @@ def run(*args: str | Path) -> typer.testing.Result:
     return runner.invoke(app, ["map", *(str(a) for a in args)], env={"COLUMNS": "200"})
 
 
-def test_show_prints_the_hierarchy(map_file: Path) -> None:
-    result = run("show", map_file)
+def test_show_prints_the_hierarchy(house_file: Path) -> None:
+    result = run("show", house_file)
     assert result.exit_code == 0, result.output
     out = result.stdout
     for label in ("house (House)", "kitchen (Kitchen)", "bathroom (Bathroom)", "kitchen_light: rotational switch",
@@ -43,8 +36,8 @@ def test_show_prints_the_hierarchy(map_file: Path) -> None:
     assert out.index("house") < out.index("kitchen") < out.index("table") < out.index("blue_cup") < out.index("bathroom")
 
 
-def test_find_replays_the_blue_cup_walk(map_file: Path) -> None:
-    result = run("find", map_file, "--type", "cup", "--property", "colour=blue")
+def test_find_replays_the_blue_cup_walk(house_file: Path) -> None:
+    result = run("find", house_file, "--type", "cup", "--property", "colour=blue")
     assert result.exit_code == 0, result.output
     assert result.stdout.splitlines() == [
         "path: house > kitchen > table > blue_cup",
@@ -56,25 +49,25 @@ def test_find_replays_the_blue_cup_walk(map_file: Path) -> None:
     ]
 
 
-def test_find_a_large_object_lists_its_own_parking(map_file: Path) -> None:
-    result = run("find", map_file, "--type", "fridge")
+def test_find_a_large_object_lists_its_own_parking(house_file: Path) -> None:
+    result = run("find", house_file, "--type", "fridge")
     assert result.exit_code == 0, result.output
     assert "path: house > kitchen > fridge" in result.stdout and "parking positions of fridge:" in result.stdout
 
 
-def test_find_without_a_match_exits_1(map_file: Path) -> None:
-    result = run("find", map_file, "--type", "cup", "--property", "colour=green")
+def test_find_without_a_match_exits_1(house_file: Path) -> None:
+    result = run("find", house_file, "--type", "cup", "--property", "colour=green")
     assert result.exit_code == 1
-    assert result.stderr.strip() == f"no object in {map_file} matches type=cup colour=green"
+    assert result.stderr.strip() == f"no object in {house_file} matches type=cup colour=green"
 
 
-def test_validate(map_file: Path) -> None:
-    result = run("validate", map_file)
-    assert (result.exit_code, result.stdout.strip()) == (0, f"{map_file}: valid (2 rooms, 7 objects)")
-    map_file.write_text(map_file.read_text().replace('type="revolute"', 'type="screw"'))
-    result = run("validate", map_file)
+def test_validate(house_file: Path) -> None:
+    result = run("validate", house_file)
+    assert (result.exit_code, result.stdout.strip()) == (0, f"{house_file}: valid (2 rooms, 7 objects)")
+    house_file.write_text(house_file.read_text().replace('type="revolute"', 'type="screw"'))
+    result = run("validate", house_file)
     assert result.exit_code == 2
-    assert len(result.stderr.splitlines()) == 1 and result.stderr.startswith(f"error: {map_file}: line ")
+    assert len(result.stderr.splitlines()) == 1 and result.stderr.startswith(f"error: {house_file}: line ")
 
 
 @pytest.mark.parametrize("name", sorted(HOSTILE))
@@ -108,14 +101,16 @@ def model_dir(tmp_path: Path, urdf_reads: list[Path]) -> Path:
     return folder
 
 
-def test_add_small_object_to_a_new_file(map_file: Path, model_dir: Path, tmp_path: Path, urdf_reads: list[Path]) -> None:
-    before = map_file.read_bytes()
+def test_add_small_object_to_a_new_file(
+    house_file: Path, model_dir: Path, tmp_path: Path, urdf_reads: list[Path]
+) -> None:
+    before = house_file.read_bytes()
     out = tmp_path / "map2.xml"
-    result = run("add", map_file, model_dir, "--id", "green_cup", "--parent", "table", "--relation", "on",
+    result = run("add", house_file, model_dir, "--id", "green_cup", "--parent", "table", "--relation", "on",
                  "--xyz", "0.1", "0.3", "0.75", "--rpy", "0", "0", "1.0", "--property", "owner=anna", "--out", out)
     assert result.exit_code == 0, result.output
     assert result.stdout.strip() == f"added green_cup (cup) at house > kitchen > table > green_cup to {out}"
-    assert map_file.read_bytes() == before
+    assert house_file.read_bytes() == before
     assert urdf_reads == [model_dir / "model.urdf"]
     smap = load_map(out)
     cup = smap.node("green_cup")
@@ -126,12 +121,12 @@ def test_add_small_object_to_a_new_file(map_file: Path, model_dir: Path, tmp_pat
     assert [c.id for c in smap.find(type="cup", properties={"colour": "green"})] == ["green_cup"]
 
 
-def test_add_large_object_in_place(map_file: Path, model_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_add_large_object_in_place(house_file: Path, model_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(articulation.urdf_import, "load_urdf", lambda path: box_model("chair", (0.4, 0.4, 0.9)))
-    result = run("add", map_file, model_dir, "--id", "chair", "--parent", "kitchen", "--xyz", "1", "2", "0",
+    result = run("add", house_file, model_dir, "--id", "chair", "--parent", "kitchen", "--xyz", "1", "2", "0",
                  "--parking", "front=1 1 1.5", "--parking", "0 2 0")
     assert result.exit_code == 0, result.output
-    chair = load_map(map_file).node("chair")
+    chair = load_map(house_file).node("chair")
     assert isinstance(chair, LargeObject)
     assert [(p.name, p.default) for p in chair.parking_positions] == [("front", True), ("parking_2", False)]
     assert chair.parking_positions[0].world_from_base.rpy == (0.0, 0.0, 1.5)
@@ -145,22 +140,22 @@ def test_add_large_object_in_place(map_file: Path, model_dir: Path, monkeypatch:
         (["--id", "cup_2", "--parent", "nowhere"], "no node with id 'nowhere'"),
     ],
 )
-def test_add_refuses_with_one_line(map_file: Path, model_dir: Path, args: list[str], message: str) -> None:
-    before = map_file.read_bytes()
-    result = run("add", map_file, model_dir, *args)
+def test_add_refuses_with_one_line(house_file: Path, model_dir: Path, args: list[str], message: str) -> None:
+    before = house_file.read_bytes()
+    result = run("add", house_file, model_dir, *args)
     assert result.exit_code == 2
     assert len(result.stderr.splitlines()) == 1 and result.stderr.startswith("error: ") and message in result.stderr
-    assert map_file.read_bytes() == before
+    assert house_file.read_bytes() == before
 
 
-def test_add_needs_a_model_urdf(map_file: Path, tmp_path: Path) -> None:
-    result = run("add", map_file, tmp_path, "--id", "cup_2", "--parent", "table")
+def test_add_needs_a_model_urdf(house_file: Path, tmp_path: Path) -> None:
+    result = run("add", house_file, tmp_path, "--id", "cup_2", "--parent", "table")
     expected = f"error: {tmp_path}: a model folder must contain model.urdf or mobility.urdf\n"
     assert result.exit_code == 2 and result.stderr == expected
 
 
-def test_bad_option_values_are_usage_errors(map_file: Path, model_dir: Path) -> None:
-    result = run("add", map_file, model_dir, "--id", "c", "--parent", "table", "--parking", "1 2")
+def test_bad_option_values_are_usage_errors(house_file: Path, model_dir: Path) -> None:
+    result = run("add", house_file, model_dir, "--id", "c", "--parent", "table", "--parking", "1 2")
     assert result.exit_code == 2 and "'1 2' is not 'x y yaw'" in result.output
-    result = run("find", map_file, "--property", "colour")
+    result = run("find", house_file, "--property", "colour")
     assert result.exit_code == 2 and "'colour' is not key=value" in result.output

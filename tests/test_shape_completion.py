@@ -70,6 +70,7 @@ def scores(completer) -> dict[str, list[list[float]]]:
     return per_class
 
 
+@pytest.mark.slow
 def test_completion_beats_retrieval_on_unseen_instances(scores):
     all_rows = np.array([row for rows in scores.values() for row in rows])
     iou_retrieval, iou_fitting, iou_filling, distance_retrieval, distance_filling = all_rows.mean(axis=0)
@@ -81,6 +82,7 @@ def test_completion_beats_retrieval_on_unseen_instances(scores):
         assert np.mean(rows, axis=0)[2] > 0.3, class_name
 
 
+@pytest.mark.slow
 def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     mesh = generate_instances("bottle", TRAIN + 1, seed=0)[TRAIN]
     camera_from_object = random_query_pose(mesh, np.random.default_rng(4))
@@ -128,6 +130,7 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     assert rock_voxel_iou(completed, truth) > 0.3
 
 
+@pytest.mark.slow
 def test_bad_inputs_are_one_line_errors_and_write_nothing(trained, tmp_path):
     camera = Camera(width=64, height=48, fx=60.0, fy=60.0, cx=31.5, cy=23.5, depth_scale_m=0.001)
     save_camera(camera, tmp_path / "camera.yaml")
@@ -164,6 +167,7 @@ def test_bad_inputs_are_one_line_errors_and_write_nothing(trained, tmp_path):
         assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_models_are_refused_for_another_library_or_format(trained, completer, tmp_path):
     other = tmp_path / "other_library"
     result = invoke("completion", "library", "--out", other, "--classes", "cup", "--per-class", 2, "--seed", 5)
@@ -213,6 +217,7 @@ def test_library_errors_name_the_folder(tmp_path):
     assert result.exit_code == 2 and "a.ply" in result.output and "in metres" in result.output
 
 
+@pytest.mark.slow
 def test_benchmark_writes_the_table_and_the_figure(tmp_path):
     library = tmp_path / "library"
     assert invoke("completion", "library", "--out", library, "--classes", "bottle", "--per-class", 4).exit_code == 0
@@ -227,19 +232,25 @@ def test_benchmark_writes_the_table_and_the_figure(tmp_path):
         "--test",
         1,
         "--views",
-        8,
+        4,
         "--queries",
         1,
         "--filler-queries",
-        3,
+        1,
     )
     assert result.exit_code == 0, result.output
     results = json.loads((tmp_path / "bench" / "results.json").read_text())
     assert set(results["classes"]) == {"bottle"}
-    for row in results["classes"].values():
-        for stage in ("retrieval", "fitting", "filling", "oracle"):
-            assert 0.0 <= row[f"iou_{stage}"] <= 1.0 and row[f"distance_{stage}"] >= 0.0
-        assert row["iou_oracle"] > 0.4  # bottles of one generator resemble each other
+    row, (query,) = results["classes"]["bottle"], results["queries"]
+    # The table's row is its one query's scores; even trained this little (the least training
+    # the options allow, so the test stays quick), filling completes the unseen bottle better
+    # than the retrieved one does (0.76 against 0.43 IoU here).
+    for stage in ("retrieval", "fitting", "filling", "oracle"):
+        assert row[f"iou_{stage}"] == pytest.approx(query["voxel_iou"][stage])
+        assert row[f"distance_{stage}"] == pytest.approx(query["surface_distance"][stage])
+    assert row["iou_filling"] > row["iou_retrieval"] + 0.05
+    assert row["distance_filling"] < row["distance_retrieval"]
+    assert row["iou_oracle"] > 0.4  # bottles of one generator resemble each other
     assert "| bottle |" in (tmp_path / "bench" / "table.md").read_text()
     assert (tmp_path / "bench" / "examples.png").read_bytes().startswith(b"\x89PNG")
     result = invoke("completion", "benchmark", library, "--out", tmp_path / "b2", "--train", 4, "--test", 1)

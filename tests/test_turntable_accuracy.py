@@ -176,7 +176,7 @@ def test_bad_frames_are_skipped_and_counted(captures: dict[str, Path], tmp_path:
 
 
 def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_path: Path) -> None:
-    from test_semantic_map import build_house
+    from sample_house import build_house
 
     from articulation.gate.validate import validate_path
     from homemodel.cli import app

@@ -21,7 +21,6 @@ from turntable.fusion import VoxelAccumulator
 from turntable.orbit import fit_circle_3d
 from turntable.tags import DetectionOptions, detect_tags
 
-SWATBOTICS = Path(__file__).resolve().parents[2] / "shared" / "data" / "apriltag" / "swatbotics"
 runner = CliRunner()
 
 
@@ -124,12 +123,13 @@ def test_depth_files_round_trip(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("detector", ["apriltag", "opencv"])
-def test_detector_finds_the_ids_in_real_photos(detector: str) -> None:
-    lines = (SWATBOTICS / "groundtruth.txt").read_text().split("\n")
+def test_detector_finds_the_ids_in_real_photos(shared_data: Path, detector: str) -> None:
+    photos = shared_data / "apriltag" / "swatbotics"
+    lines = (photos / "groundtruth.txt").read_text().split("\n")
     rows = [line.split() for line in lines if line.strip()]
     hits = 0
     for name, *ids in rows:
-        gray = cv2.imread(str(SWATBOTICS / name), cv2.IMREAD_GRAYSCALE)
+        gray = cv2.imread(str(photos / name), cv2.IMREAD_GRAYSCALE)
         found = detect_tags(gray, DetectionOptions(detector=detector, intensity="srgb"))
         hits += {int(i) for i in ids} <= set(found)
         assert set(found) <= {int(i) for i in ids}, f"{name}: ids {set(found)} not all in the ground truth {ids}"
@@ -155,10 +155,10 @@ def test_circle_fit_recovers_centre_radius_and_plane() -> None:
 def test_voxel_merge_averages_coordinates_and_colours() -> None:
     merge = VoxelAccumulator(voxel_size_m=0.01)
     points = np.array([[0.001, 0.001, 0.001], [0.009, 0.009, 0.009], [0.015, 0.001, 0.001]])
-    colors = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 1.0, 0]])
+    colours = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 1.0, 0]])
     views = np.array([[0, 0, 1.0], [0, 1.0, 0], [1.0, 0, 0]])
-    merge.add(points[:2], colors[:2], views[:2])
-    merge.add(points[2:], colors[2:], views[2:])
+    merge.add(points[:2], colours[:2], views[:2])
+    merge.add(points[2:], colours[2:], views[2:])
     cloud = merge.cloud()
     order = np.argsort(cloud.points[:, 0])
     assert np.allclose(cloud.points[order], [[0.005, 0.005, 0.005], [0.015, 0.001, 0.001]])

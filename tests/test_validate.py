@@ -237,13 +237,15 @@ def test_the_clients_themselves_accept_what_our_rules_reject(tmp_path: Path, cha
     assert subprocess.run([find_check_urdf(), str(urdf)], capture_output=True).returncode == 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the zero axis divides by zero
-        yourdfpy.URDF.load(str(urdf), build_scene_graph=True, load_meshes=False)
+        loaded = yourdfpy.URDF.load(str(urdf), build_scene_graph=True, load_meshes=False)
+    # Each loads the whole tree: the cupboard's 5 links and 4 joints.
+    assert (len(loaded.robot.links), len(loaded.robot.joints)) == (5, 4)
     client = pybullet.connect(pybullet.DIRECT)
     try:
         body = pybullet.loadURDF(
             str(urdf), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client
         )
-        assert body >= 0
+        assert pybullet.getNumJoints(body, physicsClientId=client) == 4
     finally:
         pybullet.disconnect(physicsClientId=client)
 

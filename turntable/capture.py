@@ -1,4 +1,4 @@
-"""A turntable capture folder (format fixed in DESIGN.md): camera.yaml, board.yaml, and colour
+"""A turntable capture folder (its format: docs/turntable.md): camera.yaml, board.yaml, and colour
 and depth frames paired by file stem."""
 
 from __future__ import annotations

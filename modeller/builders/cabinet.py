@@ -47,6 +47,7 @@ from modeller.builders.handles import (
     cylinder_collision,
 )
 from modeller.specs import colour_name, colour_rgb
+from modeller.specs.cabinet_geometry import door_shelf_box_m, drawer_box_bounds_m, front_x_m, shelf_span_m
 from modeller.specs.cabinets import CabinetSpec, DoorSpec, Panel
 
 if TYPE_CHECKING:
@@ -103,7 +104,7 @@ def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: l
     )
     cabinet = Cabinet(spec=spec, body=_add_carcass(spec, assembly), assembly=assembly)
     for i, shelf in enumerate(spec.shelves):
-        left, right, depth = spec.shelf_span_m(shelf)
+        left, right, depth = shelf_span_m(spec, shelf)
         t = spec.wall_thickness_m
         size = (depth, right - left, t)
         centre = (-spec.depth_m / 2 + t + depth / 2, -spec.width_m / 2 + (left + right) / 2, shelf.height_m - t / 2)
@@ -218,7 +219,7 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
     link = f"door_{i}"
     thick = spec.door_thickness_m
     hinge_y, hinge_z = _door_hinge_point(spec, door)
-    body_from_door = translation_transform((spec.front_x_m(), hinge_y, hinge_z))
+    body_from_door = translation_transform((front_x_m(spec), hinge_y, hinge_z))
     # The door's middle in its own frame.
     y0 = -spec.width_m / 2 + door.left_m
     middle = np.array([-thick / 2, y0 + door.width_m / 2 - hinge_y, door.bottom_m + door.height_m / 2 - hinge_z])
@@ -253,9 +254,9 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
             parent_from_object=translation_transform(centre),
         )
     for k, shelf in enumerate(door.shelves):
-        low, high = spec.door_shelf_box_m(door, shelf)
+        low, high = door_shelf_box_m(spec, door, shelf)
         size = high - low
-        centre = (low + high) / 2 - np.array([spec.front_x_m(), hinge_y, hinge_z])
+        centre = (low + high) / 2 - np.array([front_x_m(spec), hinge_y, hinge_z])
         bin_mesh = box_mesh(f"{link}.shelf_{k}", size)
         remove_faces(bin_mesh, [FACE_NORMALS["+z"]])
         bin_obj = add_object(
@@ -311,7 +312,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
     )
     collisions = [box_collision(f"{link}_front", front_size, front_centre)]
     # The box behind the front, inside the body: a box without its top, walls inward.
-    y_min, y_max, z_min, z_max = spec.drawer_box_bounds_m(drawer)
+    y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     box_size = (drawer.depth_m, y_max - y_min, z_max - z_min)
     box_centre = (gap - drawer.depth_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + z_max) / 2 - drawer.bottom_m)
     open_box = box_mesh(f"{link}.box", box_size)

@@ -1,4 +1,4 @@
-"""A cup (or a mug) as the seed's Figure 11 shows it: two cylinders, a hollow body (open top,
+"""A cup (or a mug) as D3.1's Figure 11 shows it: two cylinders, a hollow body (open top,
 closed bottom) and a handle bent round into a torus segment.
 
 One link `body`; origin at the centre of the bottom, z up, the handle on the +x side. Its

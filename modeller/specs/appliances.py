@@ -11,6 +11,7 @@ from typing import Annotated, ClassVar, Literal
 from pydantic import Field
 
 from homemodel.core.yaml_specs import FieldError
+from modeller.specs.cabinet_geometry import drawer_box_bounds_m
 from modeller.specs.cabinets import (
     GLASS_COLOUR,
     CabinetSpec,
@@ -428,7 +429,7 @@ class WashingMachineSpec(_ApplianceSpec):
         if z - r < self.inner_floor_m - _EPS_M or z + r > self.inner_top_m + _EPS_M:
             raise FieldError(("drum", "diameter_m"), "drum goes through the floor or the top")
         for i, drawer in enumerate(self.drawers):
-            y0, y1, z0, z1 = self.drawer_box_bounds_m(drawer)
+            y0, y1, z0, z1 = drawer_box_bounds_m(self, drawer)
             if y0 < y + r and y1 > y - r and z0 < z + r and z1 > z - r:
                 raise FieldError(("drawers", i, "bottom_m"), f"drawer {i}'s box runs into the drum")
 

@@ -25,7 +25,7 @@ class CupHandle(_Spec):
 
 
 class CupSpec(ObjectSpec):
-    """A hollow cylinder, open at the top, with an optional handle (the seed's Figure 11)."""
+    """A hollow cylinder, open at the top, with an optional handle (D3.1's Figure 11)."""
 
     default_density_kg_m3: ClassVar[float] = 2400.0  # stoneware
 

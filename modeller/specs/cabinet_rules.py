@@ -1,0 +1,377 @@
+"""The feasibility rules of cabinet specs (`modeller.specs.cabinets`): what a tape measure can
+say but no cabinet can be. Each rule raises `FieldError` naming the field to blame, with a
+message saying what does not fit; the spec classes' validators run them.
+
+A kind's own rules (a wardrobe's rails, an appliance's drum) stay with the kind, in its
+`_check_kind`, which runs after these.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from homemodel.core.yaml_specs import FieldError
+from modeller.specs.cabinet_geometry import (
+    door_shelf_box_m,
+    drawer_box_bounds_m,
+    drawer_reach_m,
+    front_x_m,
+    shelf_box_m,
+    shelf_span_m,
+)
+from modeller.specs.common import _EPS_M
+
+if TYPE_CHECKING:
+    from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Front, Panel
+    from modeller.specs.handles import Handle, Orientation
+
+# Angles at which a door's sweep is checked against the body (door shelves).
+_SWEEP_SAMPLES = 91
+
+
+# ---------------------------------------------------------------------------- a front alone
+
+
+def check_door_front(door: DoorSpec) -> None:
+    """A door on its own: its shape, its handle on it, its window and bins inside it."""
+    if door.shape == "round" and abs(door.width_m - door.height_m) > _EPS_M:
+        raise FieldError(
+            ("height_m",),
+            f"a round door is {door.width_m} m wide, so it is {door.width_m} m high, not {door.height_m}",
+        )
+    if door.side_hinged and door.handle.from_left_m is not None:
+        raise FieldError(("handle", "from_left_m"), f"a {door.hinge}-hinged door's handle is placed by height_m")
+    if not door.side_hinged and door.handle.height_m is not None:
+        raise FieldError(("handle", "height_m"), f"a {door.hinge}-hinged door's handle is placed by from_left_m")
+    centre = door.handle_offset_m()
+    fields = ("from_free_edge_m", "height_m") if door.side_hinged else ("from_left_m", "from_free_edge_m")
+    _check_handle_on_front(door, door.handle, centre, door.handle_orientation(), fields)
+    if door.shape == "round":
+        half_across, half_up = door.handle.half_extent_m(door.handle_orientation())
+        reach = math.hypot(
+            abs(centre[0] - door.width_m / 2) + half_across, abs(centre[1] - door.height_m / 2) + half_up
+        )
+        if reach > door.width_m / 2 + _EPS_M:
+            raise FieldError(
+                ("handle", "from_free_edge_m"),
+                f"{door.handle.type} handle reaches {reach:.3f} m from the centre of a round door "
+                f"{door.width_m / 2:.3f} m in radius",
+            )
+    if door.window is not None and 2 * door.window.margin_m >= min(door.width_m, door.height_m):
+        raise FieldError(
+            ("window", "margin_m"),
+            f"a window {door.window.margin_m} m in from the edges leaves no glass in a "
+            f"{door.width_m} x {door.height_m} m door",
+        )
+    for k, shelf in enumerate(door.shelves):
+        if not door.side_hinged:
+            raise FieldError(("shelves", k), f"door shelves need a side-hinged door, not a {door.hinge}-hinged one")
+        if 2 * shelf.margin_m >= door.width_m:
+            raise FieldError(("shelves", k, "margin_m"), f"leaves no bin on a {door.width_m} m wide door")
+        if shelf.height_m + shelf.lip_height_m > door.height_m + _EPS_M:
+            raise FieldError(
+                ("shelves", k, "height_m"),
+                f"bin reaches {shelf.height_m + shelf.lip_height_m:.3f} m up a {door.height_m} m high door",
+            )
+
+
+def check_drawer_front(drawer: DrawerSpec) -> None:
+    """A drawer on its own: its handle on its front, its travel within its box."""
+    _check_handle_on_front(
+        drawer, drawer.handle, drawer.handle_offset_m(), drawer.handle_orientation(), ("from_left_m", "height_m")
+    )
+    if drawer.travel_m > drawer.depth_m + _EPS_M:
+        raise FieldError(
+            ("travel_m",), f"drawer travels {drawer.travel_m} m but its box is only {drawer.depth_m} m deep"
+        )
+
+
+def _check_handle_on_front(
+    front: Front,
+    handle: Handle,
+    centre_m: tuple[float, float],
+    orientation: Orientation,
+    fields: tuple[str, str],
+) -> None:
+    """The handle's footprint (centre from the left and bottom edges) must lie on the front;
+    `fields` are the handle's fields placing it across and up, to blame."""
+    (across, up), (half_across, half_up) = centre_m, handle.half_extent_m(orientation)
+    across_field, up_field = fields
+    if across - half_across < -_EPS_M or across + half_across > front.width_m + _EPS_M:
+        raise FieldError(
+            ("handle", across_field),
+            f"{handle.type} handle spans {across - half_across:.3f}..{across + half_across:.3f} m across a "
+            f"{front.width_m} m wide front",
+        )
+    if up - half_up < -_EPS_M or up + half_up > front.height_m + _EPS_M:
+        raise FieldError(
+            ("handle", up_field),
+            f"{handle.type} handle spans {up - half_up:.3f}..{up + half_up:.3f} m above the bottom edge of a "
+            f"{front.height_m} m high front",
+        )
+
+
+# ---------------------------------------------------------------------------- the whole cabinet
+
+
+def check_cabinet(spec: CabinetSpec) -> None:
+    """The rules every cabinet-like kind shares, on a spec whose layout is filled in."""
+    _check_walls(spec)
+    _check_shelves_and_dividers(spec)
+    fronts = [("doors", i, f) for i, f in enumerate(spec.doors)] + [
+        ("drawers", i, f) for i, f in enumerate(spec.drawers)
+    ]
+    placed = fronts + [("panels", i, p) for i, p in enumerate(spec.panels)]
+    for group, i, front in placed:
+        _check_on_body(spec, group, i, front)
+    _check_no_overlap(placed)
+    for i, drawer in enumerate(spec.drawers):
+        _check_drawer(spec, i, drawer)
+    for i, door in enumerate(spec.doors):
+        _check_door(spec, i, door)
+    for i, panel in enumerate(spec.panels):
+        _check_panel(spec, i, panel)
+    _check_knobs(spec)
+
+
+def _check_walls(spec: CabinetSpec) -> None:
+    t = spec.wall_thickness_m
+    carcass_height = spec.carcass_top_m - spec.carcass_bottom_m
+    if 2 * t >= spec.width_m:
+        raise FieldError(
+            ("wall_thickness_m",), f"walls {t} m thick leave no room inside a {spec.width_m} m wide {spec.kind_label}"
+        )
+    if t >= spec.depth_m:
+        raise FieldError(
+            ("wall_thickness_m",),
+            f"a back wall {t} m thick leaves no room in a {spec.depth_m} m deep {spec.kind_label}",
+        )
+    if 2 * t >= carcass_height:
+        raise FieldError(
+            ("plinth_height_m",) if spec.plinth_height_m > 0 else ("wall_thickness_m",),
+            f"walls {t} m thick leave no room in a body {carcass_height:.3f} m high above the plinth",
+        )
+    if spec.plinth_height_m > 0 and spec.plinth_recess_m + 2 * t >= spec.depth_m:
+        raise FieldError(
+            ("plinth_recess_m",), f"a plinth set back {spec.plinth_recess_m} m leaves no plinth under the body"
+        )
+
+
+def _check_shelves_and_dividers(spec: CabinetSpec) -> None:
+    t = spec.wall_thickness_m
+    for i, divider in enumerate(spec.dividers):
+        if divider.left_m < t - _EPS_M or divider.left_m + t > spec.width_m - t + _EPS_M:
+            raise FieldError(
+                ("dividers", i, "left_m"),
+                f"divider at {divider.left_m} m is not between the side walls of a {spec.width_m} m wide body",
+            )
+        for j, other in enumerate(spec.dividers[:i]):
+            if abs(other.left_m - divider.left_m) < t - _EPS_M:
+                raise FieldError(("dividers", i, "left_m"), f"divider {i} overlaps divider {j}")
+    for i, shelf in enumerate(spec.shelves):
+        if shelf.height_m > spec.inner_top_m + _EPS_M:
+            raise FieldError(
+                ("shelves", i, "height_m"),
+                f"shelf at {shelf.height_m} m is above the body's inside top at {spec.inner_top_m:.3f} m",
+            )
+        if shelf.height_m - t < spec.inner_floor_m - _EPS_M:
+            raise FieldError(
+                ("shelves", i, "height_m"),
+                f"shelf at {shelf.height_m} m ({t} m thick) is below the body's inside floor at "
+                f"{spec.inner_floor_m:.3f} m",
+            )
+        left, right, depth = shelf_span_m(spec, shelf)
+        if left < t - _EPS_M or right > spec.width_m - t + _EPS_M or right - left <= 0:
+            raise FieldError(
+                ("shelves", i, "width_m" if shelf.width_m is not None else "left_m"),
+                f"shelf spans {left:.3f}..{right:.3f} m, not between the side walls of a {spec.width_m} m wide body",
+            )
+        if depth > spec.inner_depth_m + _EPS_M:
+            raise FieldError(
+                ("shelves", i, "depth_m"), f"shelf {depth} m deep in a body {spec.inner_depth_m:.3f} m deep inside"
+            )
+        for j, divider in enumerate(spec.dividers):
+            if left < divider.left_m + t - _EPS_M and right > divider.left_m + _EPS_M:
+                raise FieldError(
+                    ("shelves", i, "width_m" if shelf.width_m is not None else "left_m"),
+                    f"shelf spanning {left:.3f}..{right:.3f} m cuts through divider {j} at {divider.left_m} m",
+                )
+
+
+def _check_on_body(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
+    what = group[:-1]
+    if front.width_m > spec.width_m + _EPS_M:
+        raise FieldError(
+            (group, i, "width_m"), f"{what} is {front.width_m} m wide but the {spec.kind_label} is {spec.width_m} m"
+        )
+    if front.right_m > spec.width_m + _EPS_M:
+        raise FieldError(
+            (group, i, "left_m"),
+            f"{what} spans {front.left_m}..{front.right_m:.3f} m from the left edge "
+            f"but the {spec.kind_label} is {spec.width_m} m wide",
+        )
+    body_height = spec.top_m - spec.base_m
+    if front.height_m > body_height + _EPS_M:
+        raise FieldError(
+            (group, i, "height_m"),
+            f"{what} is {front.height_m} m high but the {spec.kind_label} is {body_height:.3g} m",
+        )
+    if front.top_m > spec.top_m + _EPS_M:
+        raise FieldError(
+            (group, i, "bottom_m"),
+            f"{what} reaches {front.top_m:.3f} m above the floor "
+            f"but the {spec.kind_label}'s top is at {spec.top_m:.3g} m",
+        )
+    if front.bottom_m < spec.base_m - _EPS_M:
+        raise FieldError(
+            (group, i, "bottom_m"),
+            f"{what} starts {front.bottom_m} m above the floor, below the {spec.kind_label} at {spec.base_m} m",
+        )
+
+
+def _check_no_overlap(fronts: list[tuple[str, int, Front]]) -> None:
+    for k, (group, i, a) in enumerate(fronts):
+        for other_group, j, b in fronts[:k]:
+            if {group, other_group} == {"doors", "panels"}:
+                continue  # a door closes in front of a panel (a washing machine's over its porthole)
+            across = min(a.right_m, b.right_m) - max(a.left_m, b.left_m)
+            up = min(a.top_m, b.top_m) - max(a.bottom_m, b.bottom_m)
+            if across > _EPS_M and up > _EPS_M:
+                raise FieldError(
+                    (group, i),
+                    f"{group[:-1]} {i} overlaps {other_group[:-1]} {j} by {across:.3f} x {up:.3f} m",
+                )
+
+
+def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
+    if drawer.depth_m > spec.inner_depth_m + _EPS_M:
+        raise FieldError(
+            ("drawers", i, "depth_m"),
+            f"drawer box is {drawer.depth_m} m deep but the body is {spec.inner_depth_m:.3f} m deep inside",
+        )
+    y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
+    t = spec.wall_thickness_m
+    if y_max - y_min <= 2 * t:
+        raise FieldError(
+            ("drawers", i, "width_m"), f"drawer front leaves a box {y_max - y_min:.3f} m wide inside the body"
+        )
+    if z_max - z_min <= t:
+        raise FieldError(
+            ("drawers", i, "height_m"), f"drawer front leaves a box {z_max - z_min:.3f} m high inside the body"
+        )
+    if drawer.handle.type == "recessed" and drawer.handle.recess_depth_m >= spec.door_thickness_m:
+        raise FieldError(
+            ("drawers", i, "handle", "recess_depth_m"),
+            f"a pocket {drawer.handle.recess_depth_m} m deep goes through a {spec.door_thickness_m} m thick front",
+        )
+    for k, shelf in enumerate(spec.shelves):
+        left, right, _ = shelf_span_m(spec, shelf)
+        beside = right - spec.width_m / 2 <= y_min or left - spec.width_m / 2 >= y_max
+        if not beside and shelf.height_m > z_min and shelf.height_m - t < z_max:
+            raise FieldError(
+                ("shelves", k, "height_m"),
+                f"shelf at {shelf.height_m} m cuts through drawer {i}'s box ({z_min:.3f}..{z_max:.3f} m)",
+            )
+    for k, divider in enumerate(spec.dividers):
+        y0 = -spec.width_m / 2 + divider.left_m
+        if y0 < y_max and y0 + t > y_min:
+            raise FieldError(
+                ("drawers", i, "width_m"), f"drawer {i}'s box runs through divider {k} at {divider.left_m} m"
+            )
+
+
+def _check_door(spec: CabinetSpec, i: int, door: DoorSpec) -> None:
+    if door.handle.type == "recessed" and door.handle.recess_depth_m >= spec.door_thickness_m:
+        raise FieldError(
+            ("doors", i, "handle", "recess_depth_m"),
+            f"a pocket {door.handle.recess_depth_m} m deep goes through a {spec.door_thickness_m} m thick door",
+        )
+    for k, shelf in enumerate(door.shelves):
+        _check_door_shelf(spec, i, door, k, shelf)
+
+
+def _check_door_shelf(spec: CabinetSpec, i: int, door: DoorSpec, k: int, shelf: DoorShelf) -> None:
+    """A closed door's bin must sit inside the body, clear of shelves and drawers, and swing out clear."""
+    t, where = spec.wall_thickness_m, ("doors", i, "shelves", k)
+    low, high = door_shelf_box_m(spec, door, shelf)
+    if shelf.depth_m > spec.inner_depth_m + _EPS_M:
+        raise FieldError(
+            (*where, "depth_m"), f"bin {shelf.depth_m} m deep in a body {spec.inner_depth_m:.3f} m deep"
+        )
+    if low[1] < -spec.width_m / 2 + t - _EPS_M or high[1] > spec.width_m / 2 - t + _EPS_M:
+        raise FieldError((*where, "margin_m"), "bin reaches into the body's side walls; give a larger margin_m")
+    if low[2] < spec.inner_floor_m - _EPS_M or high[2] > spec.inner_top_m + _EPS_M:
+        raise FieldError((*where, "height_m"), "bin is not between the body's inside floor and top")
+    obstacles = [(f"shelf {j}", *shelf_box_m(spec, s)) for j, s in enumerate(spec.shelves)]
+    obstacles += [(f"drawer {j}", *drawer_reach_m(spec, d)) for j, d in enumerate(spec.drawers)]
+    for name, o_low, o_high in obstacles:
+        if np.all(np.minimum(high, o_high) - np.maximum(low, o_low) > _EPS_M):
+            raise FieldError(
+                (*where, "depth_m"),
+                f"bin runs into {name} when the door is closed; set that back or the bin shallower",
+            )
+    # Swinging open, the bin's far corners must clear the side wall on the door's free side.
+    hinge_y = -spec.width_m / 2 + (door.left_m if door.hinge == "left" else door.right_m)
+    inner_wall = (spec.width_m / 2 - t) if door.hinge == "left" else (-spec.width_m / 2 + t)
+    hinge_x = front_x_m(spec)
+    angles = np.radians(np.linspace(0, door.opening_limit_deg, _SWEEP_SAMPLES))
+    for corner_y in (low[1], high[1]):
+        dx, dy = low[0] - hinge_x, corner_y - hinge_y
+        sign = 1.0 if door.hinge == "left" else -1.0  # the left door turns about -z
+        x = hinge_x + dx * np.cos(angles) + sign * dy * np.sin(angles)
+        y = hinge_y - sign * dx * np.sin(angles) + dy * np.cos(angles)
+        inside = x < spec.depth_m / 2
+        beyond = (y > inner_wall) if door.hinge == "left" else (y < inner_wall)
+        if np.any(inside & beyond):
+            raise FieldError(
+                (*where, "margin_m"), "bin hits the body's side wall as the door opens; give a larger margin_m"
+            )
+
+
+def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
+    hole = panel.hole
+    if hole is None:
+        return
+    r = hole.diameter_m / 2
+    inside = (
+        hole.centre_left_m - r >= panel.left_m - _EPS_M
+        and hole.centre_left_m + r <= panel.right_m + _EPS_M
+        and hole.centre_height_m - r >= panel.bottom_m - _EPS_M
+        and hole.centre_height_m + r <= panel.top_m + _EPS_M
+    )
+    if not inside:
+        raise FieldError(("panels", i, "hole"), f"hole {hole.diameter_m} m across is not inside its panel")
+
+
+def _check_knobs(spec: CabinetSpec) -> None:
+    for i, knob in enumerate(spec.knobs):
+        r = knob.diameter_m / 2
+        on = [
+            p
+            for p in spec.panels
+            if knob.left_m - r >= p.left_m - _EPS_M
+            and knob.left_m + r <= p.right_m + _EPS_M
+            and knob.height_m - r >= p.bottom_m - _EPS_M
+            and knob.height_m + r <= p.top_m + _EPS_M
+        ]
+        if not on:
+            raise FieldError(
+                ("knobs", i, "left_m"),
+                f"knob {knob.diameter_m} m across at {knob.left_m} m from the left, {knob.height_m} m up "
+                f"is off every panel ({len(spec.panels)} panels)",
+            )
+        for j, door in enumerate(spec.doors):
+            if (
+                knob.left_m + r > door.left_m + _EPS_M
+                and knob.left_m - r < door.right_m - _EPS_M
+                and knob.height_m + r > door.bottom_m + _EPS_M
+                and knob.height_m - r < door.top_m - _EPS_M
+            ):
+                raise FieldError(("knobs", i, "left_m"), f"knob {i} is behind door {j}, which would close on it")
+        for j, other in enumerate(spec.knobs[:i]):
+            gap = math.hypot(knob.left_m - other.left_m, knob.height_m - other.height_m) - r - other.diameter_m / 2
+            if gap < -_EPS_M:
+                raise FieldError(("knobs", i, "left_m"), f"knob {i} overlaps knob {j} by {-gap:.3f} m")

@@ -1,0 +1,91 @@
+"""Fixtures shared by the test modules: the example specs, the shared data folder beside the
+repository, the semantic map of Figure 47's house, and the catalogue built once and put
+through the validation gate."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+from sample_house import build_house
+
+from articulation.gate.report import ValidationReport
+from articulation.model import Model
+from semantic_map import SemanticMap, save_map
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+class BuiltExample(NamedTuple):
+    """A catalogue example: its spec, the model built from it, and the gate's report on the exported files."""
+
+    spec: object
+    model: Model
+    report: ValidationReport
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """`../shared/data` beside the repository: real photos and tag images (see its README)."""
+    folder = REPO.parent / "shared" / "data"
+    if not folder.is_dir():
+        pytest.fail(f"the shared data folder {folder} is missing; these tests read real photos from it", pytrace=False)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def catalogue_dir() -> Path:
+    """`examples/catalogue`: one spec of every kind the modeller builds."""
+    return REPO / "examples" / "catalogue"
+
+
+@pytest.fixture(scope="session")
+def kitchen_dir() -> Path:
+    """`examples/kitchen`: the Figure 47 kitchen's specs and its `home.yaml`."""
+    return REPO / "examples" / "kitchen"
+
+
+@pytest.fixture(scope="session")
+def textured_dir() -> Path:
+    """`examples/textured`: specs with photos on their faces."""
+    return REPO / "examples" / "textured"
+
+
+class Catalogue:
+    """The catalogue examples by name, each built in Blender, exported and validated by the
+    gate the first time a test asks for it, then kept for the session."""
+
+    def __init__(self, specs_dir: Path, out_dir: Path) -> None:
+        self._specs_dir, self._out_dir = specs_dir, out_dir
+        self._built: dict[str, BuiltExample] = {}
+
+    def __getitem__(self, name: str) -> BuiltExample:
+        if name not in self._built:
+            from articulation.export import export_model
+            from articulation.gate.validate import validate_path
+            from modeller import build_model, load_spec
+
+            path = self._specs_dir / f"{name}.yaml"
+            model = build_model(path)
+            export_model(model, self._out_dir / name)
+            self._built[name] = BuiltExample(load_spec(path), model, validate_path(self._out_dir / name))
+        return self._built[name]
+
+
+@pytest.fixture(scope="session")
+def catalogue(catalogue_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Catalogue:
+    return Catalogue(catalogue_dir, tmp_path_factory.mktemp("catalogue"))
+
+
+@pytest.fixture
+def house() -> SemanticMap:
+    """Figure 47's house, fresh for each test (tests change it)."""
+    return build_house()
+
+
+@pytest.fixture
+def house_file(house: SemanticMap, tmp_path: Path) -> Path:
+    path = tmp_path / "map.xml"
+    save_map(house, path)
+    return path
