@@ -19,7 +19,7 @@ import trimesh
 
 from homemodel.core.c_stdio_capture import captured_c_output
 from turntable.board import TAG_CELLS, Board, tag_bits
-from turntable.camera import Camera
+from homemodel.geometry.camera import Camera
 
 # A Blender camera looks down its -z with y up; an OpenCV camera looks down +z with y down.
 _OPENCV_FROM_BLENDER_CAMERA = np.diag([1.0, -1.0, -1.0, 1.0])
