@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from homemodel.core.transforms import world_from_camera_looking_at
+from homemodel.core.transforms import world_from_camera_looking_along
 
 
 def sphere_directions(count: int) -> np.ndarray:
@@ -24,6 +24,6 @@ def sphere_directions(count: int) -> np.ndarray:
 def camera_from_object_on_sphere(target_m: np.ndarray, direction: np.ndarray, distance_m: float) -> np.ndarray:
     """The camera at `target + distance * direction` (direction made unit) looking at `target`,
     image up along the object's +z where possible."""
-    direction = np.asarray(direction, dtype=np.float64) / np.linalg.norm(direction)
-    target = np.asarray(target_m, dtype=np.float64)
-    return np.linalg.inv(world_from_camera_looking_at(target + distance_m * direction, target))
+    direction = np.asarray(direction, dtype=np.float64)
+    eye = np.asarray(target_m, dtype=np.float64) + distance_m * (direction / np.linalg.norm(direction))
+    return np.linalg.inv(world_from_camera_looking_along(eye, -direction))
