@@ -24,12 +24,10 @@ from articulation.numbers import (
     significant,
 )
 from homemodel.core.atomic import write_bytes_atomic
-from homemodel.core.transforms import rotation_from_rpy
+from homemodel.core.transforms import Y_UP_FROM_Z_UP, rotation_from_rpy
 
 _FLOAT, _UINT32 = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
-# Rotation of -90 deg about x as a quaternion (x, y, z, w): z-up becomes y-up.
-_Z_UP_TO_Y_UP = [-float(np.sqrt(0.5)), 0.0, 0.0, float(np.sqrt(0.5))]
 
 
 def _num(value: float) -> float:
@@ -200,7 +198,8 @@ def _model_extras(model: Model) -> dict:
 def glb_bytes(model: Model) -> bytes:
     builder = _Builder()
     nodes = builder.doc["nodes"]
-    nodes.append({"name": model.name, "rotation": _Z_UP_TO_Y_UP, "extras": _model_extras(model)})
+    root = {"name": model.name, "rotation": quaternion_xyzw(Y_UP_FROM_Z_UP[:3, :3]), "extras": _model_extras(model)}
+    nodes.append(root)
     joint_of_child = {j.child: j for j in model.joints}
     node_of_link: dict[str, int] = {}
     # Links in tree order so parents get their node first.

@@ -54,7 +54,6 @@ def tsdf_baseline(capture_dir: Path, result) -> tuple[trimesh.Trimesh, float]:  
     import open3d as o3d
 
     from turntable.capture import load_capture, read_color, read_depth
-    from turntable.fusion import pixel_rays
 
     capture = load_capture(capture_dir)
     camera = capture.camera
@@ -74,7 +73,7 @@ def tsdf_baseline(capture_dir: Path, result) -> tuple[trimesh.Trimesh, float]:  
     intrinsic = o3d.camera.PinholeCameraIntrinsic(
         camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
     )
-    rays = pixel_rays(camera)
+    rays = camera.pixel_rays()
     for frame in capture.frames:
         if frame.stem not in result.poses:
             continue

@@ -12,23 +12,19 @@ to blame; the caller adds the spec file and `photos.<i>`.
 
 from __future__ import annotations
 
-import io
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
-from PIL import Image
 
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import InputError
-from homemodel.core.input_files import read_bounded
+from homemodel.core.images import read_image
 from homemodel.core.yaml_specs import FieldError
 from modeller.specs.photos import FacePhoto, quad_problem
 
-MAX_PHOTO_BYTES = 64 * 1024 * 1024
-MAX_PHOTO_PIXELS = 80_000_000
 # A detected outline must cover this much of its region, so specks are not taken for a face.
 _MIN_DETECTED_FRACTION = 0.05
 
@@ -68,22 +64,9 @@ def check_photo(photo: FacePhoto) -> np.ndarray:
 def read_photo(path: Path) -> np.ndarray:
     """The photo at `path` as an 8-bit BGR image (H, W, 3)."""
     try:
-        data = read_bounded(path, MAX_PHOTO_BYTES)
+        return read_image(path)
     except InputError as exc:
         raise FieldError(("photo",), str(exc)) from None
-    # The header gives the size before anything is decoded, so a small file that would
-    # decode into gigabytes is refused first.
-    try:
-        with Image.open(io.BytesIO(data)) as header:
-            width, height = header.size
-    except (OSError, Image.DecompressionBombError, ValueError):
-        raise FieldError(("photo",), f"{path}: not an image file (PNG or JPEG expected)") from None
-    if width * height > MAX_PHOTO_PIXELS:
-        raise FieldError(("photo",), f"{path}: {width}x{height} pixels is over the {MAX_PHOTO_PIXELS} pixel bound")
-    image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
-    if image is None or image.size == 0:
-        raise FieldError(("photo",), f"{path}: cannot decode the image (truncated or corrupt)")
-    return image
 
 
 def face_corners_px(photo: FacePhoto, image: np.ndarray) -> np.ndarray:

@@ -9,6 +9,7 @@ origin is the object's footprint centre on the support plane.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,14 +38,7 @@ class ModelFrame:
         sfm_from_model = np.linalg.inv(self.model_from_sfm)
         camera_from_model = view.camera_from_world @ sfm_from_model
         camera_from_model[:3, :] *= self.scale  # undo the 1/scale that sfm_from_model put in the rotation
-        return View(
-            name=view.name,
-            image_path=view.image_path,
-            intrinsics=view.intrinsics,
-            camera_from_world=camera_from_model,
-            width_px=view.width_px,
-            height_px=view.height_px,
-        )
+        return dataclasses.replace(view, camera_from_world=camera_from_model)
 
 
 def _rotation_rows(z_axis: np.ndarray, x_hint: np.ndarray) -> np.ndarray:

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from homemodel.core.errors import InputError
+from homemodel.core.images import read_image, read_image_size
 
 PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp")
 MIN_SIDE_PX = 64
@@ -25,35 +26,18 @@ def list_photos(folder: Path) -> list[Path]:
         raise InputError(f"{folder}: holds no photos ({', '.join(PHOTO_SUFFIXES)})")
     for path in photos:
         # IMREAD_REDUCED_GRAYSCALE_8 decodes at 1/8 size: fast, and still fails on a corrupt file.
-        image = cv2.imread(str(path), cv2.IMREAD_REDUCED_GRAYSCALE_8)
-        if image is None:
-            raise InputError(f"{path}: cannot be read as an image (corrupt or not a photo)")
-        height, width = read_size(path)
+        read_image(path, cv2.IMREAD_REDUCED_GRAYSCALE_8)
+        height, width = read_image_size(path)
         if min(height, width) < MIN_SIDE_PX:
             raise InputError(f"{path}: {width}x{height} px is too small (at least {MIN_SIDE_PX} px a side)")
     return photos
-
-
-def read_size(path: Path) -> tuple[int, int]:
-    """(height, width) of an image file without decoding all of it."""
-    from PIL import Image
-
-    try:
-        with Image.open(path) as image:
-            width, height = image.size
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: cannot be read as an image: {exc}") from None
-    return height, width
 
 
 def read_rgb(path: Path, *, max_side_px: int | None = None) -> np.ndarray:
     """An 8-bit RGB image, shrunk (area averaging) so its longer side is at most `max_side_px`."""
     import cv2
 
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if image is None:
-        raise InputError(f"{path}: cannot be read as an image")
-    image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+    image = cv2.cvtColor(read_image(path), cv2.COLOR_BGR2RGB)
     if max_side_px is not None and max(image.shape[:2]) > max_side_px:
         scale = max_side_px / max(image.shape[:2])
         size = (round(image.shape[1] * scale), round(image.shape[0] * scale))

@@ -36,9 +36,8 @@ def draw_cameras(mesh: trimesh.Trimesh, views: list[View], path: Path, *, title:
     segments = []
     for view in views:
         world_from_camera = np.linalg.inv(view.camera_from_world)
-        k_inv = np.linalg.inv(view.intrinsics)
-        corners_px = [[0, 0, 1], [view.width_px, 0, 1], [view.width_px, view.height_px, 1], [0, view.height_px, 1]]
-        corners = (np.array(corners_px) @ k_inv.T) * size
+        width, height = view.camera.width, view.camera.height
+        corners = view.camera.rays(np.array([[0, 0], [width, 0], [width, height], [0, height]])) * size
         corners = corners @ world_from_camera[:3, :3].T + world_from_camera[:3, 3]
         apex = world_from_camera[:3, 3]
         segments += [[apex, c] for c in corners] + [[corners[i], corners[(i + 1) % 4]] for i in range(4)]

@@ -19,6 +19,7 @@ import numpy as np
 import trimesh
 
 from homemodel.core.errors import InputError, ModelError
+from homemodel.core.images import read_image
 from photogrammetry.cleaning import (
     CleaningOptions,
     downsample,
@@ -115,10 +116,10 @@ def _markers(sparse: SparseModel, options: ReconstructOptions, clock: _Clock):
 
     sightings = []
     for index, view in enumerate(sparse.views):
-        gray = cv2.imread(str(view.image_path), cv2.IMREAD_GRAYSCALE)
+        gray = read_image(view.image_path, cv2.IMREAD_GRAYSCALE)
         sightings += detect_markers(gray, view.name, options.dictionary)
         clock.tick(index + 1, len(sparse.views))
-    projections = {v.name: v.intrinsics @ v.camera_from_world[:3, :] for v in sparse.views}
+    projections = {v.name: v.camera.matrix @ v.camera_from_world[:3, :] for v in sparse.views}
     return triangulate_markers(sightings, projections)
 
 
@@ -269,8 +270,8 @@ def write_reconstruction(result: Reconstruction, folder: Path, *, name: str, den
     model = to_model(result, name=name, density_kg_m3=density_kg_m3)
     write_model_files(model, folder)
     cameras = [
-        {"name": v.name, "intrinsics": v.intrinsics.tolist(), "camera_from_model": v.camera_from_world.tolist(),
-         "width_px": v.width_px, "height_px": v.height_px}
+        {"name": v.name, "intrinsics": v.camera.matrix.tolist(), "camera_from_model": v.camera_from_world.tolist(),
+         "width_px": v.camera.width, "height_px": v.camera.height}
         for v in result.views
     ]  # fmt: skip
     write_text_atomic(folder / "cameras.json", json.dumps(cameras, indent=1))

@@ -1,6 +1,6 @@
 """Structure from motion with pycolmap: features, matching, incremental mapping, undistortion.
 
-The result is a set of pinhole views (undistorted photos with their intrinsics and
+The result is a set of pinhole views (undistorted photos with their cameras and
 `camera_from_world` poses) and the sparse points, in COLMAP's arbitrary frame and scale.
 """
 
@@ -15,7 +15,8 @@ from typing import Literal
 import numpy as np
 
 from homemodel.core.errors import ModelError
-from photogrammetry.photos import read_size
+from homemodel.core.images import read_image_size
+from homemodel.geometry.camera import Camera
 
 log = logging.getLogger(__name__)
 
@@ -48,10 +49,8 @@ class View:
 
     name: str
     image_path: Path  # the undistorted image
-    intrinsics: np.ndarray  # 3x3 K in pixels of the undistorted image
+    camera: Camera  # of the undistorted image: no distortion
     camera_from_world: np.ndarray  # 4x4, OpenCV convention
-    width_px: int
-    height_px: int
 
     @property
     def centre_world(self) -> np.ndarray:
@@ -61,13 +60,6 @@ class View:
     @property
     def optical_axis_world(self) -> np.ndarray:
         return self.camera_from_world[2, :3].copy()
-
-    def scaled(self, factor: float) -> np.ndarray:
-        """K for the image resized by `factor` (pixel centres stay pixel centres)."""
-        k = self.intrinsics.copy()
-        k[:2, :2] *= factor
-        k[:2, 2] = (k[:2, 2] + 0.5) * factor - 0.5
-        return k
 
 
 @dataclass(kw_only=True)
@@ -85,7 +77,7 @@ class SparseModel:
 def _camera_mode(photos: list[Path]):
     import pycolmap
 
-    sizes = {read_size(p) for p in photos}
+    sizes = {read_image_size(p) for p in photos}
     # One size: one camera shared by all photos (a better calibration); else per photo.
     return pycolmap.CameraMode.SINGLE if len(sizes) == 1 else pycolmap.CameraMode.PER_IMAGE
 
@@ -157,7 +149,7 @@ def run_sfm(
     extraction.sift.max_num_features = options.max_num_features
     # SIFT's upsampled first octave finds the many small features small photos need; on large
     # photos it costs four times the pixels for little gain.
-    longest_px = min(max(max(read_size(p)) for p in photos), options.max_image_size_px)
+    longest_px = min(max(max(read_image_size(p)) for p in photos), options.max_image_size_px)
     extraction.sift.first_octave = -1 if longest_px < UPSAMPLE_BELOW_PX else 0
     pycolmap.extract_features(
         database, photos_dir, image_names=names, camera_mode=_camera_mode(photos), extraction_options=extraction
@@ -211,10 +203,10 @@ def _load_undistorted(undistorted: Path, photos_dir: Path, names: list[str]) -> 
             View(
                 name=image.name,
                 image_path=undistorted / "images" / image.name,
-                intrinsics=np.asarray(camera.calibration_matrix(), np.float64),
+                camera=Camera.from_matrix(
+                    camera.calibration_matrix(), width=int(camera.width), height=int(camera.height)
+                ),
                 camera_from_world=camera_from_world,
-                width_px=int(camera.width),
-                height_px=int(camera.height),
             )
         )
     points, point_views = [], []

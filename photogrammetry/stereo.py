@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from homemodel.geometry.camera import Camera
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import SparseModel, View
 
@@ -41,7 +42,7 @@ class DepthMap:
     view_index: int
     depth: np.ndarray  # (H, W) float32
     colour: np.ndarray  # (H, W, 3) uint8
-    intrinsics: np.ndarray  # 3x3 for this resolution
+    camera: Camera  # of this resolution
 
 
 def choose_neighbours(model: SparseModel, options: DenseOptions) -> list[list[int]]:
@@ -73,8 +74,8 @@ def _depth_range(model: SparseModel, view_index: int) -> tuple[float, float]:
 def _pair_depth(
     ref: np.ndarray,
     src: np.ndarray,
-    k_ref: np.ndarray,
-    k_src: np.ndarray,
+    camera_ref: Camera,
+    camera_src: Camera,
     src_from_ref: np.ndarray,
     depth_range: tuple[float, float],
     options: DenseOptions,
@@ -83,6 +84,7 @@ def _pair_depth(
     import cv2
 
     h, w = ref.shape[:2]
+    k_ref, k_src = camera_ref.matrix, camera_src.matrix
     size = (round(w * 1.2), round(h * 1.2))  # a larger canvas: converging views rotate out of frame
     r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(
         k_ref, None, k_src, None, (w, h), src_from_ref[:3, :3], src_from_ref[:3, 3],
@@ -120,7 +122,7 @@ def _pair_depth(
     disparity[disparity <= d_min] = 0  # SGBM's "no match" is d_min - 1
     # Each reference pixel's ray in the rectified frame, where the disparity is looked up.
     u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    rays = np.stack([u, v, np.ones_like(u)], axis=-1) @ np.linalg.inv(k_ref).T
+    rays = camera_ref.rays(np.column_stack([u.ravel(), v.ravel()])).reshape(h, w, 3)
     rect_rays = rays @ r1.T
     rect_px = rect_rays @ p1[:3, :3].T
     map_x = (rect_px[..., 0] / rect_px[..., 2]).astype(np.float32)
@@ -158,21 +160,21 @@ def compute_depth_maps(
     for view in model.views:
         image = read_rgb(view.image_path, max_side_px=options.max_image_size_px)
         images.append(image)
-        factors.append(image.shape[1] / view.width_px)
+        factors.append(image.shape[1] / view.camera.width)
     maps = []
     for i, view in enumerate(model.views):
-        k_ref = view.scaled(factors[i])
+        camera_ref = view.camera.scaled(factors[i])
         candidates = []
         for j in neighbours[i]:
             src_from_ref = model.views[j].camera_from_world @ np.linalg.inv(view.camera_from_world)
             candidates.append(
-                _pair_depth(images[i], images[j], k_ref, model.views[j].scaled(factors[j]), src_from_ref,
+                _pair_depth(images[i], images[j], camera_ref, model.views[j].camera.scaled(factors[j]), src_from_ref,
                             _depth_range(model, i), options)
             )  # fmt: skip
         depth = (
             _agreeing_depth(np.array(candidates), options) if candidates else np.zeros(images[i].shape[:2], np.float32)
         )
-        maps.append(DepthMap(view_index=i, depth=depth, colour=images[i], intrinsics=k_ref))
+        maps.append(DepthMap(view_index=i, depth=depth, colour=images[i], camera=camera_ref))
         if progress:
             progress(i + 1, len(model.views))
     return maps
@@ -183,14 +185,11 @@ def depth_maps_to_points(model: SparseModel, maps: list[DepthMap]) -> tuple[np.n
     all_points, all_colours, all_dirs = [], [], []
     for depth_map in maps:
         view: View = model.views[depth_map.view_index]
-        v, u = np.nonzero(depth_map.depth)
-        z = depth_map.depth[v, u].astype(np.float64)
-        rays = np.column_stack([u, v, np.ones_like(u)]) @ np.linalg.inv(depth_map.intrinsics).T
-        camera_points = rays * z[:, None]
+        camera_points = depth_map.camera.depth_to_points(depth_map.depth)
         world_from_camera = np.linalg.inv(view.camera_from_world)
         points = camera_points @ world_from_camera[:3, :3].T + world_from_camera[:3, 3]
         to_camera = view.centre_world - points
         all_points.append(points)
-        all_colours.append(depth_map.colour[v, u] / 255.0)
+        all_colours.append(depth_map.colour[depth_map.depth > 0] / 255.0)
         all_dirs.append(to_camera / np.linalg.norm(to_camera, axis=1, keepdims=True))
     return np.vstack(all_points), np.vstack(all_colours), np.vstack(all_dirs)

@@ -15,7 +15,8 @@ import numpy as np
 import trimesh
 
 from homemodel.core.errors import ModelError
-from photogrammetry.cleaning import to_open3d
+from homemodel.geometry.camera import Camera
+from homemodel.geometry.raycast import RayCaster
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import View
 
@@ -86,21 +87,12 @@ def _texel_surface(mesh: trimesh.Trimesh, uv: np.ndarray, size: int) -> tuple[np
     return np.stack([rows, cols], axis=1), points, normals
 
 
-def _depth_buffer(scene, view: View, max_side_px: int) -> tuple[np.ndarray, np.ndarray]:
-    """Ray-cast depth (along the optical axis) of the mesh in a shrunk view, and that view's K."""
-    import open3d as o3d
-
-    factor = min(1.0, max_side_px / max(view.width_px, view.height_px))
-    width, height = round(view.width_px * factor), round(view.height_px * factor)
-    k = view.scaled(factor)
-    u, v = np.meshgrid(np.arange(width), np.arange(height))
-    rays_camera = np.stack([u, v, np.ones_like(u)], axis=-1).reshape(-1, 3) @ np.linalg.inv(k).T
-    world_from_camera = np.linalg.inv(view.camera_from_world)
-    directions = rays_camera @ world_from_camera[:3, :3].T  # camera z = 1: t_hit is the depth
-    origins = np.broadcast_to(world_from_camera[:3, 3], directions.shape)
-    rays = o3d.core.Tensor(np.hstack([origins, directions]).astype(np.float32))
-    depth = scene.cast_rays(rays)["t_hit"].numpy().reshape(height, width)
-    return depth, k
+def _depth_buffer(caster: RayCaster, view: View, max_side_px: int) -> tuple[np.ndarray, Camera]:
+    """Ray-cast depth (along the optical axis) of the mesh in a shrunk view, and that view's camera."""
+    camera = view.camera.scaled(min(1.0, max_side_px / max(view.camera.width, view.camera.height)))
+    depth = caster.depth(camera, view.camera_from_world)
+    depth[np.isnan(depth)] = np.inf  # a pixel that misses the mesh hides nothing
+    return depth, camera
 
 
 def bake_texture(
@@ -110,26 +102,22 @@ def bake_texture(
     progress: Callable[[int, int], None] | None = None,
 ) -> TexturedMesh:
     """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame)."""
-    import open3d as o3d
-
     options = options or TextureOptions()
     split, uv = uv_atlas(mesh, options)
     size = options.size_px
     texels, points, normals = _texel_surface(split, uv, size)
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(to_open3d(mesh)))
+    caster = RayCaster(mesh)
     colour_sum = np.zeros((len(points), 3))
     weight_sum = np.zeros(len(points))
     for index, view in enumerate(views):
-        depth, k_depth = _depth_buffer(scene, view, options.depth_buffer_px)
+        depth, depth_camera = _depth_buffer(caster, view, options.depth_buffer_px)
         camera_points = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
         z = camera_points[:, 2]
         to_camera = view.centre_world - points
         to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
         cos = np.sum(normals * to_camera, axis=1)
         usable = (z > 0) & (cos > options.min_cos)
-        px = camera_points[usable] @ k_depth.T
-        col, row = (px[:, 0] / px[:, 2]).round().astype(int), (px[:, 1] / px[:, 2]).round().astype(int)
+        col, row = np.round(depth_camera.project(camera_points[usable])).astype(int).T
         inside = (col >= 0) & (col < depth.shape[1]) & (row >= 0) & (row < depth.shape[0])
         candidates = np.nonzero(usable)[0][inside]
         buffer_depth = depth[row[inside], col[inside]]
@@ -138,9 +126,8 @@ def bake_texture(
         visible = candidates[z[candidates] <= buffer_depth * 1.01 + 1e-9]
         if len(visible):
             image = read_rgb(view.image_path, max_side_px=options.max_image_px)
-            k_image = view.scaled(image.shape[1] / view.width_px)
-            px = camera_points[visible] @ k_image.T
-            colours = _sample_bilinear(image, px[:, :2] / px[:, 2:])
+            image_camera = view.camera.scaled(image.shape[1] / view.camera.width)
+            colours = _sample_bilinear(image, image_camera.project(camera_points[visible]))
             weight = cos[visible] ** 4
             colour_sum[visible] += weight[:, None] * colours
             weight_sum[visible] += weight

@@ -26,9 +26,7 @@ def free_space_votes(
         camera = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
         z = camera[:, 2]
         front = z > 0
-        px = camera[front] @ depth_map.intrinsics.T
-        col = np.round(px[:, 0] / px[:, 2]).astype(np.int64)
-        row = np.round(px[:, 1] / px[:, 2]).astype(np.int64)
+        col, row = np.round(depth_map.camera.project(camera[front])).astype(np.int64).T
         height, width = depth_map.depth.shape
         inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
         index = np.nonzero(front)[0][inside]

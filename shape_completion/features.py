@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from shape_completion.render import Pinhole
+from homemodel.geometry.camera import Camera
 
 PATCH = 32
 
@@ -71,7 +71,7 @@ def object_patch(depth_m: np.ndarray) -> np.ndarray:
     return patch - np.min(depth_m[valid])
 
 
-def size_features(depth_m: np.ndarray, camera: Pinhole) -> np.ndarray:
+def size_features(depth_m: np.ndarray, camera: Camera) -> np.ndarray:
     """Metric width and height of the silhouette at the object's median depth, and its depth range."""
     rows, cols = np.nonzero(np.isfinite(depth_m))
     z = depth_m[rows, cols]
@@ -81,7 +81,7 @@ def size_features(depth_m: np.ndarray, camera: Pinhole) -> np.ndarray:
     return np.array([width, height, float(np.percentile(z, 98) - np.percentile(z, 2))])
 
 
-def view_features(depth_m: np.ndarray, camera: Pinhole, tests: PixelTests) -> np.ndarray:
+def view_features(depth_m: np.ndarray, camera: Camera, tests: PixelTests) -> np.ndarray:
     """The feature vector of one object-only depth image (NaN off the object)."""
     patch = object_patch(depth_m).ravel()
     silhouette = np.isfinite(patch[tests.silhouette])

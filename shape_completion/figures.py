@@ -8,17 +8,15 @@ import io
 import numpy as np
 import trimesh
 
-from shape_completion.render import (
-    DepthRenderer,
-    Pinhole,
-    camera_from_object_looking_at,
-)
+from homemodel.geometry.camera import Camera
+from homemodel.geometry.raycast import RayCaster
+from shape_completion.render import camera_from_object_on_sphere
 
-SIDE_CAMERA = Pinhole(width=160, height=160, fx=200.0, fy=200.0, cx=79.5, cy=79.5)
+SIDE_CAMERA = Camera(width=160, height=160, fx=200.0, fy=200.0, cx=79.5, cy=79.5)
 
 
 def side_view(mesh: trimesh.Trimesh, centre: np.ndarray, direction: np.ndarray, distance_m: float) -> np.ndarray:
-    return DepthRenderer(mesh).render(SIDE_CAMERA, camera_from_object_looking_at(centre, direction, distance_m))
+    return RayCaster(mesh).depth(SIDE_CAMERA, camera_from_object_on_sphere(centre, direction, distance_m))
 
 
 def examples_png(examples: list) -> bytes:

@@ -29,7 +29,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.ensemble import HistGradientBoostingClassifier
 
 from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
-from shape_completion.render import Pinhole, depth_to_points
+from homemodel.geometry.camera import Camera
 from shape_completion.symmetry import Plane, RevolutionAxis
 
 FEATURE_NAMES = (
@@ -138,7 +138,7 @@ def signed_distance(occupancy: np.ndarray, voxel_size_m: float) -> np.ndarray:
 def carve(
     *,
     depth_m: np.ndarray,
-    camera: Pinhole,
+    camera: Camera,
     deformed: trimesh.Trimesh,
     planes_camera: list[Plane],
     axis_camera: RevolutionAxis | None,
@@ -152,7 +152,7 @@ def carve(
     `depth_m` holds the object only (NaN elsewhere). Known occupied: a voxel holding an
     observed point, or whose centre lies within half a voxel of the depth map along its ray.
     """
-    query = depth_to_points(depth_m, camera)
+    query = camera.depth_to_points(depth_m)
     facing = None if axis_camera is None else axis_camera.plane_facing(np.zeros(3))
     if facing is not None:
         planes_camera = [facing, *planes_camera]
@@ -218,13 +218,11 @@ def carve(
     )
 
 
-def depth_behind(points: np.ndarray, depth_m: np.ndarray, camera: Pinhole) -> np.ndarray:
+def depth_behind(points: np.ndarray, depth_m: np.ndarray, camera: Camera) -> np.ndarray:
     """Each point's depth less the depth map's at the pixel it projects to (NaN where that
     pixel has no depth or is off the image)."""
-    x, y, z = points.T
-    safe_z = np.where(z > 0, z, np.inf)
-    u = np.round(camera.fx * x / safe_z + camera.cx).astype(int)
-    v = np.round(camera.fy * y / safe_z + camera.cy).astype(int)
+    z = points[:, 2]
+    u, v = np.round(camera.project(np.column_stack([points[:, :2], np.where(z > 0, z, np.inf)]))).astype(int).T
     in_image = (z > 0) & (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
     observed = np.full(len(points), np.nan)
     observed[in_image] = depth_m[v[in_image], u[in_image]]
@@ -232,7 +230,7 @@ def depth_behind(points: np.ndarray, depth_m: np.ndarray, camera: Pinhole) -> np
 
 
 def _seen_image(
-    points: np.ndarray, depth_m: np.ndarray, camera: Pinhole, grid: VoxelGrid, inside: np.ndarray
+    points: np.ndarray, depth_m: np.ndarray, camera: Camera, grid: VoxelGrid, inside: np.ndarray
 ) -> np.ndarray:
     """(N, 2) for images of voxels on the seen side: their distance behind the depth map in
     metres (-1 outside the silhouette: in front of all that is seen) and the grid's `inside`

@@ -26,19 +26,15 @@ from sklearn.base import BaseEstimator
 from homemodel.core.errors import InputError, ModelError
 from homemodel.evaluation.surface import distances_to_surface
 from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
+from homemodel.geometry.camera import Camera
+from homemodel.geometry.raycast import RayCaster
 from shape_completion.deformation import symmetric_controls, tps_deform
 from shape_completion.features import PixelTests, clean_object_depth, view_features
 from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, carve
 from shape_completion.library import Library, working_mesh
 from shape_completion.matching import ViewForest
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
-from shape_completion.render import (
-    DepthRenderer,
-    Pinhole,
-    camera_from_object_looking_at,
-    depth_to_points,
-    sphere_directions,
-)
+from shape_completion.render import camera_from_object_on_sphere, sphere_directions
 from shape_completion.shape_codes import ObjectOccupancy, ShapeBasis
 from shape_completion.spin_images import spin_image_alignment
 from shape_completion.symmetry import (
@@ -54,7 +50,7 @@ Progress = Callable[[str, int, int], None]
 
 # Training views: a small square image; the object's bounding sphere fills ~80% of it.
 VIEW_IMAGE_PX = 96
-VIEW_CAMERA = Pinhole(
+VIEW_CAMERA = Camera(
     width=VIEW_IMAGE_PX,
     height=VIEW_IMAGE_PX,
     fx=100.0,
@@ -63,7 +59,7 @@ VIEW_CAMERA = Pinhole(
     cy=(VIEW_IMAGE_PX - 1) / 2,
 )
 # The queries the filler trains on: a VGA-like depth camera at half resolution.
-FILLER_CAMERA = Pinhole(width=320, height=240, fx=285.0, fy=285.0, cx=159.5, cy=119.5)
+FILLER_CAMERA = Camera(width=320, height=240, fx=285.0, fy=285.0, cx=159.5, cy=119.5)
 MIN_QUERY_PIXELS = 30
 CLOUD_POINTS = 400
 MODEL_SAMPLES = 2500
@@ -133,7 +129,7 @@ def view_distance_m(radius_m: float) -> float:
     return radius_m / np.tan(np.arctan(0.5 * VIEW_IMAGE_PX / VIEW_CAMERA.fx) * 0.8)
 
 
-def check_query(depth_m: np.ndarray, camera: Pinhole, mask: np.ndarray | None) -> np.ndarray:
+def check_query(depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None) -> np.ndarray:
     """The object-only depth (NaN elsewhere) of a query, or an InputError saying what is wrong."""
     depth = np.asarray(depth_m, dtype=np.float32)
     if depth.shape != (camera.height, camera.width):
@@ -225,14 +221,14 @@ class ShapeCompleter(BaseEstimator):
                 )
             )
             occupancy = ObjectOccupancy(mesh)
-            renderer = DepthRenderer(mesh)
+            caster = RayCaster(mesh)
             distance = view_distance_m(occupancy.radius_m)
             for direction in directions:
-                camera_from_object = camera_from_object_looking_at(occupancy.centre_m, direction, distance)
-                depth = renderer.render(VIEW_CAMERA, camera_from_object)
+                camera_from_object = camera_from_object_on_sphere(occupancy.centre_m, direction, distance)
+                depth = caster.depth(VIEW_CAMERA, camera_from_object)
                 if np.isfinite(depth).sum() < MIN_QUERY_PIXELS:
                     continue  # a spoon seen edge-on can vanish at this resolution
-                cloud = _subsample(depth_to_points(depth, VIEW_CAMERA), CLOUD_POINTS, rng)
+                cloud = _subsample(VIEW_CAMERA.depth_to_points(depth), CLOUD_POINTS, rng)
                 features.append(view_features(depth, VIEW_CAMERA, self.tests_))
                 occupancies.append(occupancy.in_view(camera_from_object))
                 view_shape.append(index)
@@ -292,7 +288,7 @@ class ShapeCompleter(BaseEstimator):
 
     # ---- completion -----------------------------------------------------------------------
 
-    def complete(self, depth_m: np.ndarray, camera: Pinhole, mask: np.ndarray | None = None) -> Completion:
+    def complete(self, depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None = None) -> Completion:
         """A mesh of the whole object seen in `depth_m` (metres, NaN or 0 = no measurement)."""
         started = time.perf_counter()
         depth = check_query(depth_m, camera, mask)
@@ -306,7 +302,7 @@ class ShapeCompleter(BaseEstimator):
         shape = self.shapes_[fit.shape_index]
         return Completion(fit=fit, mesh=mesh, class_name=shape.class_name, retrieved_name=shape.name, seconds=seconds)
 
-    def _carve(self, depth: np.ndarray, camera: Pinhole, fit: Fit) -> CarvedGrid:
+    def _carve(self, depth: np.ndarray, camera: Camera, fit: Fit) -> CarvedGrid:
         return carve(
             depth_m=depth,
             camera=camera,
@@ -320,11 +316,11 @@ class ShapeCompleter(BaseEstimator):
         )
 
     def _match_and_fit(
-        self, depth: np.ndarray, camera: Pinhole, *, exclude: np.ndarray | None, rng: np.random.Generator
+        self, depth: np.ndarray, camera: Camera, *, exclude: np.ndarray | None, rng: np.random.Generator
     ) -> Fit:
         seconds = {}
         t0 = time.perf_counter()
-        query = _subsample(depth_to_points(depth, camera), 1500, rng)
+        query = _subsample(camera.depth_to_points(depth), 1500, rng)
         candidates = self._candidate_views(depth, camera, exclude)
         if len(candidates) == 0:
             raise ModelError("the retrieval forest found no candidate view")
@@ -365,7 +361,7 @@ class ShapeCompleter(BaseEstimator):
         )
 
     def _candidate_views(
-        self, depth: np.ndarray, camera: Pinhole, exclude: np.ndarray | None
+        self, depth: np.ndarray, camera: Camera, exclude: np.ndarray | None
     ) -> list[tuple[int, int]]:
         """(view, quarter turns) pairs: the forest's candidates for the query image turned by each
         of QUERY_QUARTER_TURNS. Training views all have the object's +z up in the image; an
@@ -380,13 +376,13 @@ class ShapeCompleter(BaseEstimator):
     @staticmethod
     def _fitted_axis(
         depth: np.ndarray,
-        camera: Pinhole,
+        camera: Camera,
         axis: RevolutionAxis,
         camera_from_object: np.ndarray,
         rng: np.random.Generator,
     ) -> RevolutionAxis:
         """The revolved retrieved mesh's axis at its fitted pose, moved onto the query."""
-        points = _subsample(depth_to_points(depth, camera), AXIS_FIT_POINTS, rng)
+        points = _subsample(camera.depth_to_points(depth), AXIS_FIT_POINTS, rng)
         return axis.transformed(camera_from_object).fitted_to(
             points, camera_facing_normals(points, neighbours=24), tolerance_m=AXIS_FIT_TOLERANCE_M
         )
@@ -461,13 +457,13 @@ def random_query_pose(mesh: trimesh.Trimesh, rng: np.random.Generator) -> np.nda
     direction[2] = abs(direction[2]) if rng.uniform() < 0.75 else direction[2]
     direction /= np.linalg.norm(direction)
     centre = mesh.bounds.mean(axis=0)
-    camera_from_object = camera_from_object_looking_at(centre, direction, rng.uniform(0.35, 0.7))
+    camera_from_object = camera_from_object_on_sphere(centre, direction, rng.uniform(0.35, 0.7))
     camera_from_object[:3, 3] += np.append(rng.uniform(-0.05, 0.05, size=2), 0.0)
     return camera_from_object
 
 
-def render_query(mesh: trimesh.Trimesh, camera: Pinhole, camera_from_object: np.ndarray) -> np.ndarray:
-    return DepthRenderer(mesh).render(camera, camera_from_object)
+def render_query(mesh: trimesh.Trimesh, camera: Camera, camera_from_object: np.ndarray) -> np.ndarray:
+    return RayCaster(mesh).depth(camera, camera_from_object)
 
 
 def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -> trimesh.Trimesh:
@@ -512,11 +508,11 @@ def _subsample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.n
     return points[rng.choice(len(points), size=count, replace=False)]
 
 
-def _quarter_turned(camera: Pinhole, turns: int) -> Pinhole:
+def _quarter_turned(camera: Camera, turns: int) -> Camera:
     """The intrinsics of np.rot90(image, turns): each turn puts old row r, column c at row
     width - 1 - c, column r."""
     for _ in range(turns % 4):
-        camera = Pinhole(
+        camera = Camera(
             width=camera.height,
             height=camera.width,
             fx=camera.fy,

@@ -7,15 +7,10 @@ from pathlib import Path
 import numpy as np
 
 from homemodel.core.errors import InputError
-from homemodel.core.input_files import read_bounded
+from homemodel.core.images import read_image
+from homemodel.geometry.camera import Camera, load_camera
+from homemodel.geometry.depth_io import read_depth_m
 from shape_completion.pipeline import check_query
-from shape_completion.render import Pinhole
-from turntable.camera import Camera, load_camera
-from homemodel.geometry.depth_io import MAX_IMAGE_BYTES, read_depth_m
-
-
-def pinhole_of(camera: Camera) -> Pinhole:
-    return Pinhole(width=camera.width, height=camera.height, fx=camera.fx, fy=camera.fy, cx=camera.cx, cy=camera.cy)
 
 
 def undistorted_depth(depth_m: np.ndarray, camera: Camera) -> np.ndarray:
@@ -33,17 +28,15 @@ def read_mask(path: Path) -> np.ndarray:
     """An 8- or 16-bit single-channel image; non-zero pixels are the object."""
     import cv2
 
-    image = cv2.imdecode(np.frombuffer(read_bounded(path, MAX_IMAGE_BYTES), np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise InputError(f"{path}: not a readable image")
+    image = read_image(path, cv2.IMREAD_UNCHANGED)
     if image.ndim != 2:
         raise InputError(f"{path}: a mask must be single-channel, got shape {image.shape}")
     return image > 0
 
 
-def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = None) -> tuple[np.ndarray, Pinhole]:
-    """The object-only depth (metres, NaN elsewhere) and the pinhole camera it is seen with;
-    every problem is an InputError naming the file."""
+def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = None) -> tuple[np.ndarray, Camera]:
+    """The object-only depth (metres, NaN elsewhere) and the distortion-free camera it is seen
+    with; every problem is an InputError naming the file."""
     camera = load_camera(Path(camera_path))
     depth = read_depth_m(Path(depth_path), depth_scale_m=camera.depth_scale_m)
     if depth.shape != (camera.height, camera.width):
@@ -62,8 +55,8 @@ def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = Non
         depth[~mask] = np.nan
     if camera.has_distortion:
         depth = undistorted_depth(depth, camera)
-    pinhole = pinhole_of(camera)
+    camera = camera.without_distortion()
     try:
-        return check_query(depth, pinhole, None), pinhole
+        return check_query(depth, camera, None), camera
     except InputError as exc:
         raise InputError(f"{depth_path}: {exc}") from None

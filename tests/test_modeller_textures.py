@@ -16,6 +16,7 @@ from spec_edits import read_spec, write_spec
 
 from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points, world_from_camera_looking_at
+from homemodel.geometry.camera import Camera
 from modeller import load_spec
 from modeller.photo_texture import detect_quad, rectify_planar, rectify_wrap
 from modeller.specs.photos import FacePhoto
@@ -47,8 +48,9 @@ def _paste(photo: np.ndarray, design: np.ndarray, corners: np.ndarray) -> None:
 
 
 def _project(points_m: np.ndarray, eye_m: tuple, target_m: tuple, size_px: tuple[int, int]) -> np.ndarray:
-    camera = transform_points(np.linalg.inv(world_from_camera_looking_at(eye_m, target_m)), points_m)
-    return camera[:, :2] / camera[:, 2:] * FOCAL_PX + (np.asarray(size_px) - 1) / 2
+    width, height = size_px
+    camera = Camera(width=width, height=height, fx=FOCAL_PX, fy=FOCAL_PX, cx=(width - 1) / 2, cy=(height - 1) / 2)
+    return camera.project(transform_points(np.linalg.inv(world_from_camera_looking_at(eye_m, target_m)), points_m))
 
 
 def _marked_checkerboard(width: int, height: int) -> np.ndarray:

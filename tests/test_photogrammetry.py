@@ -11,13 +11,14 @@ import trimesh
 
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
+from homemodel.geometry.camera import Camera
 from photogrammetry.cleaning import CleaningOptions, finish_mesh, mesh_object, segment_object
 from photogrammetry.markers import aruco_dictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import metric_frame
 from photogrammetry.photos import list_photos
 from photogrammetry.support_plane import find_support_plane, focus_point
 
-K = np.array([[800.0, 0.0, 399.5], [0.0, 800.0, 299.5], [0.0, 0.0, 1.0]])
+CAMERA = Camera(width=800, height=600, fx=800.0, fy=800.0, cx=399.5, cy=299.5)
 
 
 def _ring_cameras(n: int, radius: float, height: float, target=(0.0, 0.0, 0.0)) -> list[np.ndarray]:
@@ -38,7 +39,7 @@ def test_list_photos_ignores_other_files_and_sorts(tmp_path: Path) -> None:
 def test_list_photos_names_the_corrupt_file(tmp_path: Path) -> None:
     cv2.imwrite(str(tmp_path / "good.png"), np.zeros((100, 100, 3), np.uint8))
     (tmp_path / "broken.jpg").write_bytes(b"\xff\xd8\xff\xe0 this is not really a jpeg")
-    with pytest.raises(InputError, match="broken.jpg: cannot be read"):
+    with pytest.raises(InputError, match="broken.jpg: not a readable image"):
         list_photos(tmp_path)
 
 
@@ -65,8 +66,7 @@ def _marker_photo(camera_from_world: np.ndarray, markers: dict[int, np.ndarray],
     for marker_id, corners in markers.items():
         tag = cv2.aruco.generateImageMarker(d, marker_id, side_px)
         camera = corners @ camera_from_world[:3, :3].T + camera_from_world[:3, 3]
-        px = camera @ K.T
-        px = (px[:, :2] / px[:, 2:]).astype(np.float32)
+        px = CAMERA.project(camera).astype(np.float32)
         # Tag image corners in OpenCV's order: the outer corners of its pixel grid.
         src = np.array([[0, 0], [side_px, 0], [side_px, side_px], [0, side_px]], np.float32) - 0.5
         warp = cv2.getPerspectiveTransform(src, px)
@@ -109,7 +109,7 @@ def test_markers_give_scale_origin_and_axes() -> None:
     for i, camera_from_world in enumerate(cameras):
         camera_from_sfm = camera_from_world @ world_from_sfm
         camera_from_sfm[:3, :] /= 7.3  # SfM cameras live in SfM units too
-        projections[f"v{i}"] = K @ camera_from_sfm[:3, :]
+        projections[f"v{i}"] = CAMERA.matrix @ camera_from_sfm[:3, :]
     triangulated = triangulate_markers(sightings, projections)
     assert [m.marker_id for m in triangulated] == [3, 7, 9]
     frame = metric_frame(

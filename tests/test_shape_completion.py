@@ -19,8 +19,7 @@ from homemodel.evaluation.surface import distances_to_surface
 from shape_completion.model_io import load_model, save_model
 from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
 from shape_completion.procedural import generate_instances
-from shape_completion.render import depth_to_points
-from turntable.camera import Camera, save_camera
+from homemodel.geometry.camera import Camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 
 CLASSES = ("bottle", "cup", "spoon")
@@ -86,16 +85,7 @@ def test_completion_beats_retrieval_on_unseen_instances(scores):
 def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     mesh = generate_instances("bottle", TRAIN + 1, seed=0)[TRAIN]
     camera_from_object = random_query_pose(mesh, np.random.default_rng(4))
-    camera = Camera(
-        width=FILLER_CAMERA.width,
-        height=FILLER_CAMERA.height,
-        fx=FILLER_CAMERA.fx,
-        fy=FILLER_CAMERA.fy,
-        cx=FILLER_CAMERA.cx,
-        cy=FILLER_CAMERA.cy,
-        depth_scale_m=0.0002,
-    )
-    save_camera(camera, tmp_path / "camera.yaml")
+    save_camera(FILLER_CAMERA.model_copy(update={"depth_scale_m": 0.0002}), tmp_path / "camera.yaml")
     write_depth(tmp_path / "depth.png", render_query(mesh, FILLER_CAMERA, camera_from_object), depth_scale_m=0.0002)
     result = invoke(
         "completion",
@@ -125,7 +115,7 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     # In the camera's frame: the surface the camera saw lies on the completed mesh (a wrong
     # frame is off by the camera distance, 0.35-0.7 m), and the whole overlaps the truth (a
     # wrong frame scores about 0; one query of a 6-mesh class scores 0.4-0.8 as instances vary).
-    seen = depth_to_points(render_query(mesh, FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
+    seen = FILLER_CAMERA.depth_to_points(render_query(mesh, FILLER_CAMERA, camera_from_object))
     assert np.median(distances_to_surface(seen, completed)) < 0.003
     assert rock_voxel_iou(completed, truth) > 0.3
 

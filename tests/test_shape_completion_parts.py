@@ -11,6 +11,8 @@ from scipy.spatial import cKDTree
 from homemodel.core.errors import InputError
 from homemodel.evaluation import mean_surface_distance_m
 from homemodel.evaluation.voxels import VoxelGrid, voxel_iou
+from homemodel.geometry.camera import Camera
+from homemodel.geometry.raycast import RayCaster
 from shape_completion.deformation import symmetric_controls, tps_deform
 from shape_completion.filling import (
     CarvedGrid,
@@ -29,16 +31,11 @@ from shape_completion.pipeline import (
 )
 from shape_completion.procedural import GENERATORS, generate_instances
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
-from shape_completion.render import (
-    DepthRenderer,
-    Pinhole,
-    camera_from_object_looking_at,
-    depth_to_points,
-)
+from shape_completion.render import camera_from_object_on_sphere
 from shape_completion.spin_images import spin_images
 from shape_completion.symmetry import Plane, revolution_axis, symmetry_planes
 
-CAMERA = Pinhole(width=160, height=120, fx=150.0, fy=150.0, cx=79.5, cy=59.5)
+CAMERA = Camera(width=160, height=120, fx=150.0, fy=150.0, cx=79.5, cy=59.5)
 
 
 @pytest.mark.parametrize("class_name", sorted(GENERATORS))
@@ -84,12 +81,12 @@ def test_library_meshes_are_wound_outward_for_the_pipeline():
 
 def test_rendered_depth_is_the_true_distance():
     box = trimesh.creation.box(extents=[0.1, 0.1, 0.1])
-    camera_from_object = camera_from_object_looking_at(np.zeros(3), [0.0, -1.0, 0.0], 0.5)
-    depth = DepthRenderer(box).render(CAMERA, camera_from_object)
+    camera_from_object = camera_from_object_on_sphere(np.zeros(3), [0.0, -1.0, 0.0], 0.5)
+    depth = RayCaster(box).depth(CAMERA, camera_from_object)
     assert depth[59, 79] == pytest.approx(0.45, abs=1e-5)  # the face 5 cm in front of the centre
     # The face spans 0.1 m at 0.45 m: 0.1 * 150 / 0.45 = 33.3 pixels.
     assert np.isfinite(depth[59]).sum() == pytest.approx(33.3, abs=1.5)
-    points = depth_to_points(depth, CAMERA)
+    points = CAMERA.depth_to_points(depth)
     in_object = apply(np.linalg.inv(camera_from_object), points)
     assert np.abs(np.abs(in_object).max(axis=1) - 0.05).max() < 1e-5  # every point on the box's surface
 
@@ -131,8 +128,8 @@ def test_revolution_axis_and_the_plane_that_mirrors_a_view_onto_the_back():
 
 def test_revolution_axis_fitted_to_one_view_of_the_object():
     glass = generate_instances("glass", 1, seed=2)[0]
-    camera_from_object = camera_from_object_looking_at(glass.bounds.mean(axis=0), [0.8, -0.3, 0.5], 0.45)
-    points = depth_to_points(DepthRenderer(glass).render(FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
+    camera_from_object = camera_from_object_on_sphere(glass.bounds.mean(axis=0), [0.8, -0.3, 0.5], 0.45)
+    points = FILLER_CAMERA.depth_to_points(RayCaster(glass).depth(FILLER_CAMERA, camera_from_object))
     truth = revolution_axis(glass).transformed(camera_from_object)
     # A library mesh's axis after its fit: 4 mm off and tilted by 3 degrees.
     tilt = trimesh.transformations.rotation_matrix(np.radians(3), [1.0, 0.2, 0.0], point=truth.point)[:3, :3]
@@ -152,7 +149,7 @@ def test_revolution_axis_fitted_to_one_view_of_the_object():
 
 def test_a_runaway_deformation_is_not_trusted():
     spoon = generate_instances("spoon", 1, seed=0)[0]
-    camera_from_object = camera_from_object_looking_at(spoon.bounds.mean(axis=0), [0.3, -0.5, 0.8], 0.5)
+    camera_from_object = camera_from_object_on_sphere(spoon.bounds.mean(axis=0), [0.3, -0.5, 0.8], 0.5)
     rotation = camera_from_object[:3, :3]
     placed = apply(camera_from_object, np.asarray(spoon.vertices))
     nudged = placed + np.random.default_rng(0).normal(scale=0.001, size=placed.shape)
@@ -208,8 +205,8 @@ def test_training_grid_iou_counts_known_and_sampled_voxels():
 
 def test_icp_recovers_a_perturbed_pose():
     mesh = generate_instances("cup", 3, seed=1)[2]
-    truth = camera_from_object_looking_at(mesh.bounds.mean(axis=0), [1.0, 0.3, 0.6], 0.5)
-    query = depth_to_points(DepthRenderer(mesh).render(FILLER_CAMERA, truth), FILLER_CAMERA)
+    truth = camera_from_object_on_sphere(mesh.bounds.mean(axis=0), [1.0, 0.3, 0.6], 0.5)
+    query = FILLER_CAMERA.depth_to_points(RayCaster(mesh).depth(FILLER_CAMERA, truth))
     samples, faces = trimesh.sample.sample_surface(mesh, 4000, seed=0)
     turn = trimesh.transformations.rotation_matrix(np.radians(6), [0.3, 1.0, 0.2], point=mesh.bounds.mean(axis=0))
     start = truth @ turn
@@ -224,12 +221,12 @@ def test_icp_recovers_a_perturbed_pose():
 def test_a_quarter_turn_of_the_query_image_matches_a_rolled_camera():
     # A spoon lying on a table, seen from above by a camera rolled 90 degrees from the view's.
     mesh = generate_instances("spoon", 1, seed=0)[0]
-    view_pose = camera_from_object_looking_at(mesh.bounds.mean(axis=0), [0.2, 0.3, 1.0], 0.4)
+    view_pose = camera_from_object_on_sphere(mesh.bounds.mean(axis=0), [0.2, 0.3, 1.0], 0.4)
     roll = trimesh.transformations.rotation_matrix(np.pi / 2, [0.0, 0.0, 1.0])
-    renderer = DepthRenderer(mesh)
-    view_depth = renderer.render(VIEW_CAMERA, view_pose)
-    query_depth = renderer.render(VIEW_CAMERA, roll @ view_pose)
-    view, query = depth_to_points(view_depth, VIEW_CAMERA), depth_to_points(query_depth, VIEW_CAMERA)
+    caster = RayCaster(mesh)
+    view_depth = caster.depth(VIEW_CAMERA, view_pose)
+    query_depth = caster.depth(VIEW_CAMERA, roll @ view_pose)
+    view, query = VIEW_CAMERA.depth_to_points(view_depth), VIEW_CAMERA.depth_to_points(query_depth)
     # np.rot90 of the query image is the view's image again.
     assert np.mean(np.isfinite(np.rot90(query_depth)) != np.isfinite(view_depth)) < 0.002
     tree = cKDTree(query)

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from homemodel.cli import app
 from homemodel.core.errors import InputError
 from turntable.board import grid_board, save_board
-from turntable.camera import Camera, save_camera
+from homemodel.geometry.camera import Camera, save_camera
 from homemodel.geometry.depth_io import read_depth_m, write_depth
 from turntable.fusion import VoxelAccumulator
 from turntable.orbit import fit_circle_3d

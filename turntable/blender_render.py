@@ -19,7 +19,7 @@ import trimesh
 
 from homemodel.geometry import cycles_scene
 from turntable.board import TAG_CELLS, Board, tag_bits
-from turntable.camera import Camera
+from homemodel.geometry.camera import Camera
 
 _QUIET_CELLS = 1  # white cells around each tag's black square
 # Albedos of printed paper and toner. Lights are set so white stays well below 8-bit

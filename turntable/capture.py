@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from homemodel.core.errors import InputError
-from homemodel.core.input_files import read_bounded
+from homemodel.core.images import read_image
+from homemodel.geometry.camera import Camera, load_camera
+from homemodel.geometry.depth_io import read_depth_m
 from turntable.board import Board, load_board
-from turntable.camera import Camera, load_camera
-from homemodel.geometry.depth_io import MAX_IMAGE_BYTES, decode_image, read_depth_m
 
 COLOR_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIXES = (".png", ".exr")
@@ -79,7 +79,7 @@ def read_color(path: Path, camera: Camera) -> np.ndarray:
     import cv2
 
     try:
-        image = decode_image(path, read_bounded(path, MAX_IMAGE_BYTES), cv2.IMREAD_COLOR)
+        image = read_image(path)
     except InputError as exc:
         raise FrameError(str(exc)) from None
     _check_size(path, image.shape[:2], camera)

@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from homemodel.core.errors import ModelError
-from turntable.camera import Camera
 
 
 @dataclass(kw_only=True)
@@ -28,20 +27,6 @@ class MergedCloud:
     colors: np.ndarray  # (N, 3) in [0, 1]
     view_dirs: np.ndarray  # (N, 3) unit, from the point towards the cameras that saw it
     counts: np.ndarray  # (N,) raw points per voxel
-
-
-def pixel_rays(camera: Camera) -> np.ndarray:
-    """(H*W, 3) rays with z = 1 through every pixel centre, lens distortion removed."""
-    import cv2
-
-    u, v = np.meshgrid(np.arange(camera.width, dtype=np.float64), np.arange(camera.height, dtype=np.float64))
-    pixels = np.column_stack([u.ravel(), v.ravel()])
-    if camera.has_distortion:
-        normalized = cv2.undistortPoints(pixels.reshape(-1, 1, 2), camera.matrix, camera.distortion_coefficients)
-        xy = normalized.reshape(-1, 2)
-    else:
-        xy = (pixels - [camera.cx, camera.cy]) / [camera.fx, camera.fy]
-    return np.column_stack([xy, np.ones(len(xy))])
 
 
 _FLUSH_POINTS = 2_000_000

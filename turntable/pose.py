@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from turntable.board import Board
-from turntable.camera import Camera
+from homemodel.geometry.camera import Camera
 
 
 @dataclass(kw_only=True)

@@ -18,7 +18,7 @@ import trimesh
 
 from homemodel.core.errors import ModelError
 from turntable.capture import Capture, FrameError, read_color, read_depth
-from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_points, pixel_rays
+from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_points
 from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
 from turntable.orbit import TableAxis, table_axis
 from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table
@@ -167,7 +167,7 @@ def merge_frames(
     options: ReconstructionOptions,
     report: Progress,
 ) -> MergedCloud:
-    rays = pixel_rays(capture.camera)
+    rays = capture.camera.pixel_rays()
     accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
     frames = [f for f in capture.frames if f.stem in poses]
 

@@ -34,8 +34,9 @@ from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.transforms import world_from_camera_looking_at
 from turntable.board import Board, grid_board, load_board, save_board
-from turntable.camera import Camera, load_camera, save_camera
+from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
+from homemodel.geometry.raycast import RayCaster
 from turntable.poses_io import read_poses, write_poses
 
 Progress = Callable[[str, int, int], None]
@@ -178,35 +179,13 @@ def _lights(
     return [[np.linalg.inv(w) @ world_from_light] for w in world_from_tables], [12.0], 0.35
 
 
-def depth_raycaster(scene_mesh: trimesh.Trimesh):  # noqa: ANN201 (open3d type)
-    import open3d as o3d
-
-    raycaster = o3d.t.geometry.RaycastingScene()
-    raycaster.add_triangles(
-        o3d.core.Tensor(np.asarray(scene_mesh.vertices, dtype=np.float32)),
-        o3d.core.Tensor(np.asarray(scene_mesh.faces, dtype=np.uint32)),
-    )
-    return raycaster
-
-
-def render_depth(raycaster, camera: Camera, camera_from_table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+def render_depth(caster: RayCaster, camera: Camera, camera_from_table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Depth (z along the optical axis, NaN where no hit) and the cosine between each ray and
     the surface it hits, at every pixel centre."""
-    import open3d as o3d
-
-    u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
-    directions_camera = np.stack(
-        [(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u, dtype=float)], -1
-    )
-    table_from_camera = np.linalg.inv(camera_from_table)
-    directions = directions_camera.reshape(-1, 3) @ table_from_camera[:3, :3].T
-    origins = np.broadcast_to(table_from_camera[:3, 3], directions.shape)
-    rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
-    hits = raycaster.cast_rays(o3d.core.Tensor(rays))
-    t = hits["t_hit"].numpy().astype(np.float64)  # in units of the direction, whose z is 1: depth
-    normals = hits["primitive_normals"].numpy().astype(np.float64)
+    directions, hits = caster.camera_hits(camera, camera_from_table)
+    t = hits.t.astype(np.float64)  # in units of the direction, whose z is 1: depth
     unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    cosine = np.abs(np.sum(unit * normals, axis=1))
+    cosine = np.abs(np.sum(unit * hits.normals.astype(np.float64), axis=1))
     depth = np.where(np.isfinite(t), t, np.nan)
     return depth.reshape(camera.height, camera.width), cosine.reshape(camera.height, camera.width)
 
@@ -239,10 +218,10 @@ def _write_depth_frames(
     options: SimulationOptions,
     report: Progress,
 ) -> None:
-    raycaster = depth_raycaster(scene_mesh)
+    caster = RayCaster(scene_mesh)
     rng = np.random.default_rng(options.seed)
     for k, (stem, camera_from_table) in enumerate(sorted(camera_from_tables.items())):
-        depth, cosine = render_depth(raycaster, camera, camera_from_table)
+        depth, cosine = render_depth(caster, camera, camera_from_table)
         if options.depth_noise_m > 0:
             depth = add_sensor_noise(depth, cosine, options, rng)
         write_depth(folder / f"{stem}.{options.depth_format}", depth, depth_scale_m=options.depth_scale_m)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from homemodel.geometry.raycast import RayCaster
+
 
 def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> tuple[trimesh.Trimesh, np.ndarray]:
     """The mesh simplified to at most `max_triangles` (quadric decimation) with colours carried
@@ -30,7 +32,6 @@ def bake_vertex_colors(
     every chart take the nearest chart's colour, so mip-mapping does not bleed black in.
     """
     import cv2
-    import open3d as o3d
     import xatlas
 
     colors = np.asarray(colors, dtype=np.float64)
@@ -49,18 +50,13 @@ def bake_vertex_colors(
     split_colors = colors[vmapping]
     # Texel centres hit the UV layout (laid flat at z = 0) from above: the hit triangle and
     # its barycentric coordinates give the texel's colour.
-    scene = o3d.t.geometry.RaycastingScene()
-    flat = np.column_stack([uvs * size_px, np.zeros(len(uvs))]).astype(np.float32)
-    scene.add_triangles(o3d.core.Tensor(flat), o3d.core.Tensor(faces.astype(np.uint32)))
+    flat = trimesh.Trimesh(np.column_stack([uvs * size_px, np.zeros(len(uvs))]), faces, process=False)
     col, row = np.meshgrid(np.arange(size_px) + 0.5, np.arange(size_px) + 0.5)
-    rays = np.column_stack(
-        [col.ravel(), row.ravel(), np.ones(col.size), np.zeros(col.size), np.zeros(col.size), -np.ones(col.size)]
-    ).astype(np.float32)
-    hits = scene.cast_rays(o3d.core.Tensor(rays))
-    triangle = hits["primitive_ids"].numpy().astype(np.int64)
-    inside = triangle != o3d.t.geometry.RaycastingScene.INVALID_ID
-    barycentric = hits["primitive_uvs"].numpy()[inside].astype(np.float64)
-    corners = split_colors[faces[triangle[inside]]]  # (n, 3 corners, 3 channels)
+    above = np.column_stack([col.ravel(), row.ravel(), np.ones(col.size)])
+    hits = RayCaster(flat).first_hits(above, np.array([0.0, 0.0, -1.0]))
+    inside = hits.hit
+    barycentric = hits.barycentric[inside].astype(np.float64)
+    corners = split_colors[faces[hits.triangle[inside]]]  # (n, 3 corners, 3 channels)
     weights = np.column_stack([1.0 - barycentric.sum(axis=1), barycentric])
     texels = np.zeros((size_px * size_px, 3))
     texels[inside] = np.einsum("nk,nkc->nc", weights, corners)

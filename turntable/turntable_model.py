@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from turntable.camera import Camera
+from homemodel.geometry.camera import Camera
 from turntable.orbit import Circle3D
 from turntable.pose import FramePose
 
@@ -93,18 +93,6 @@ def _initial_params(poses: list[np.ndarray], orbit: Circle3D) -> np.ndarray:
     )
 
 
-def project(camera: Camera, points_camera: np.ndarray) -> np.ndarray:
-    """OpenCV's pinhole projection with k1 k2 p1 p2 k3 distortion, vectorised over (N, 3)."""
-    x = points_camera[:, 0] / points_camera[:, 2]
-    y = points_camera[:, 1] / points_camera[:, 2]
-    if camera.has_distortion:
-        k1, k2, p1, p2, k3 = camera.distortion_coefficients
-        r2 = x * x + y * y
-        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        x, y = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-    return np.column_stack([camera.fx * x + camera.cx, camera.fy * y + camera.cy])
-
-
 def _levenberg_marquardt(
     residuals: Callable[[np.ndarray], np.ndarray],
     jacobian: Callable[[np.ndarray], np.ndarray],
@@ -151,7 +139,7 @@ def fit_turntable(frames: dict[str, FramePose], orbit: Circle3D, camera: Camera)
     def residuals(params: np.ndarray) -> np.ndarray:
         stacked = np.stack(_unpack(params, len(stems)))[frame_of_corner]  # (N, 4, 4)
         points_camera = np.einsum("nij,nj->ni", stacked[:, :3, :3], table_points) + stacked[:, :3, 3]
-        return (project(camera, points_camera) - image_points).ravel()
+        return (camera.project(points_camera) - image_points).ravel()
 
     rows_of_angle = [np.nonzero(frame_of_corner.repeat(2) == k)[0] for k in range(1, len(stems))]
 

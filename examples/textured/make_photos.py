@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 
 from homemodel.core.transforms import transform_points, world_from_camera_looking_at
+from homemodel.geometry.camera import Camera
 
 HERE = Path(__file__).resolve().parent / "photos"
 RNG = np.random.default_rng(7)
@@ -108,8 +109,10 @@ FOCAL_PX = 700.0
 
 def project(points_m: np.ndarray, eye_m: tuple, target_m: tuple, size_px: tuple[int, int]) -> np.ndarray:
     """Pixels of model-frame points (z up) seen by a level pinhole camera at `eye_m` looking at `target_m`."""
-    camera = transform_points(np.linalg.inv(world_from_camera_looking_at(eye_m, target_m)), points_m)
-    return np.round(camera[:, :2] / camera[:, 2:] * FOCAL_PX + (np.asarray(size_px) - 1) / 2, 1)
+    width, height = size_px
+    camera = Camera(width=width, height=height, fx=FOCAL_PX, fy=FOCAL_PX, cx=(width - 1) / 2, cy=(height - 1) / 2)
+    camera_from_model = np.linalg.inv(world_from_camera_looking_at(eye_m, target_m))
+    return np.round(camera.project(transform_points(camera_from_model, points_m)), 1)
 
 
 # The left door of the cupboard (front face at x = 0.245, y -0.398..-0.002, z 0.102..0.738),

@@ -6,6 +6,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+# The toolkit (like URDF and ROS) is z-up, glTF y-up: a turn of -90 deg about x takes z-up to y-up.
+Y_UP_FROM_Z_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
 
 def as_transform(matrix: np.ndarray | Sequence[Sequence[float]]) -> np.ndarray:
     """Check and convert a 4x4 rigid transform."""
@@ -80,13 +83,25 @@ def world_from_camera_looking_at(
     eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0.0, 0.0, 1.0)
 ) -> np.ndarray:
     """`world_from_camera` of an OpenCV camera (x right, y down, z forward) at `eye` looking
-    at `target`, with the image's up along `up` (which must not be along the view)."""
+    at `target`, with the image's up along `up` (see `world_from_camera_looking_along`)."""
     eye = np.asarray(eye, dtype=np.float64)
-    forward = np.asarray(target, dtype=np.float64) - eye
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, np.asarray(up, dtype=np.float64))
+    return world_from_camera_looking_along(eye, np.asarray(target, dtype=np.float64) - eye, up)
+
+
+def world_from_camera_looking_along(
+    eye: Sequence[float], forward: Sequence[float], up: Sequence[float] = (0.0, 0.0, 1.0)
+) -> np.ndarray:
+    """`world_from_camera` of an OpenCV camera at `eye` whose optical axis runs along `forward`,
+    with the image's up along `up`; a camera looking within 8 deg of `up` (or its opposite)
+    takes +y as up instead."""
+    forward = np.asarray(forward, dtype=np.float64)
+    forward = forward / np.linalg.norm(forward)
+    up = np.asarray(up, dtype=np.float64)
+    if abs(forward @ up) >= 0.99 * np.linalg.norm(up):
+        up = np.array([0.0, 1.0, 0.0])
+    right = np.cross(forward, up)
     right /= np.linalg.norm(right)
     world_from_camera = np.eye(4)
     world_from_camera[:3, :3] = np.column_stack([right, np.cross(forward, right), forward])
-    world_from_camera[:3, 3] = eye
+    world_from_camera[:3, 3] = np.asarray(eye, dtype=np.float64)
     return world_from_camera

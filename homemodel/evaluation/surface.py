@@ -6,6 +6,7 @@ import numpy as np
 import trimesh
 
 from homemodel.evaluation.meshes import checked_mesh
+from homemodel.geometry.raycast import RayCaster
 
 
 def sample_surface_points(mesh: trimesh.Trimesh, n_samples: int, seed: int) -> np.ndarray:
@@ -17,16 +18,9 @@ def sample_surface_points(mesh: trimesh.Trimesh, n_samples: int, seed: int) -> n
 
 
 def distances_to_surface(points: np.ndarray, mesh: trimesh.Trimesh) -> np.ndarray:
-    """Exact unsigned distance from each point to the nearest point of the mesh's triangles."""
-    import open3d as o3d  # heavy: imported only when a distance is measured
-
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(
-        o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
-        o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)),
-    )
-    # float32 inside open3d: centre the points on the mesh so far-away frames keep precision.
-    return scene.compute_distance(o3d.core.Tensor(np.asarray(points, dtype=np.float32))).numpy().astype(np.float64)
+    """Exact unsigned distance from each point to the nearest point of the mesh's triangles
+    (float32 inside: keep the points near the mesh's frame's origin)."""
+    return RayCaster(mesh).distances(points)
 
 
 def two_way_distances(

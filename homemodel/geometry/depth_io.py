@@ -5,43 +5,28 @@ A missing measurement is 0 in a PNG and 0 or not finite in an EXR; in memory it 
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import InputError
+from homemodel.core.images import MAX_IMAGE_BYTES, check_pixel_count, read_image
 from homemodel.core.input_files import read_bounded
 
-MAX_IMAGE_BYTES = 256 * 1024 * 1024
 _UINT16_MAX = 65535
-
-
-def decode_image(path: Path, data: bytes, flags: int) -> np.ndarray:
-    """cv2.imdecode that raises InputError for empty, truncated or foreign bytes."""
-    import cv2
-
-    image = None
-    if data:
-        try:
-            image = cv2.imdecode(np.frombuffer(data, np.uint8), flags)
-        except cv2.error:
-            image = None
-    if image is None:
-        raise InputError(f"{path}: not a readable image")
-    return image
 
 
 def read_depth_m(path: Path, *, depth_scale_m: float) -> np.ndarray:
     """Depth in metres, (H, W) float32, NaN where missing."""
     path = Path(path)
-    data = read_bounded(path, MAX_IMAGE_BYTES)
     if path.suffix.lower() == ".exr":
-        depth = _decode_exr(path, data)
+        depth = _decode_exr(path, read_bounded(path, MAX_IMAGE_BYTES))
     else:
         import cv2
 
-        raw = decode_image(path, data, cv2.IMREAD_UNCHANGED)
+        raw = read_image(path, cv2.IMREAD_UNCHANGED)
         if raw.ndim != 2 or raw.dtype != np.uint16:
             raise InputError(f"{path}: depth PNG must be single-channel 16-bit, got {raw.dtype} with shape {raw.shape}")
         depth = raw.astype(np.float32) * np.float32(depth_scale_m)
@@ -56,7 +41,10 @@ def _decode_exr(path: Path, data: bytes) -> np.ndarray:
     if not data.startswith(b"\x76\x2f\x31\x01"):
         raise InputError(f"{path}: not an OpenEXR file")
     try:
-        with OpenEXR.File(str(path)) as exr:
+        with OpenEXR.File(io.BytesIO(data), header_only=True) as exr:
+            (x_min, y_min), (x_max, y_max) = exr.header()["dataWindow"]
+        check_pixel_count(path, int(x_max - x_min + 1), int(y_max - y_min + 1))
+        with OpenEXR.File(io.BytesIO(data)) as exr:
             channels = exr.channels()
             name = next((c for c in ("Z", "Y", "R", "depth", "Depth") if c in channels), None)
             if name is None:

@@ -10,11 +10,10 @@ import trimesh
 
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
+from homemodel.core.transforms import Y_UP_FROM_Z_UP
 
 MAX_MESH_BYTES = 1024 * 1024 * 1024
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
-# A model folder's model.glb turns the z-up model into glTF's y-up at its root node; this undoes it.
-Z_UP_FROM_Y_UP = trimesh.transformations.rotation_matrix(np.pi / 2, [1.0, 0.0, 0.0])
 
 
 def load_mesh(path: Path) -> trimesh.Trimesh:
@@ -34,6 +33,6 @@ def load_mesh(path: Path) -> trimesh.Trimesh:
         raise InputError(f"{path}: cannot read the mesh: {type(exc).__name__}: {exc}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise InputError(f"{path}: the file holds no triangles")
-    if model_folder:
-        loaded.apply_transform(Z_UP_FROM_Y_UP)
+    if model_folder:  # model.glb turns the z-up model into glTF's y-up at its root node: undo it
+        loaded.apply_transform(np.linalg.inv(Y_UP_FROM_Z_UP))
     return loaded
