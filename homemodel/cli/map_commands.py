@@ -7,7 +7,6 @@ from the root to the object, its parent, and the parking positions to visit one 
 from __future__ import annotations
 
 import enum
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -165,33 +164,23 @@ def add(
     force: bool = typer.Option(False, "--force", help="replace an existing --out file"),
 ) -> None:
     """Register the model MODEL under PARENT_ID and save the map atomically."""
-    from articulation.urdf_import import find_urdf, load_urdf
-    from homemodel.core.errors import OutputExistsError
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import load_map, save_map
+    from semantic_map import MapEntry, add_model_folder
 
-    out_path = out or map_path
     with exit_on_error():
-        if out is not None and out.exists() and not force:
-            raise OutputExistsError(f"{out}: exists (use --force to replace it)")
-        urdf = find_urdf(model_dir)
-        extra = _key_values(properties, "--property")
-        parking_positions = _parking_list(parking)
-        smap = load_map(map_path)
-        node = smap.register_model(
-            load_urdf(urdf),
+        entry = MapEntry(
+            map_path=map_path,
             object_id=object_id,
             parent_id=parent_id,
             relation=relation.value if relation else None,
             parent_from_object=transform_from_xyz_rpy(xyz, rpy),
-            # Relative to the map's folder, so a map and its models move together.
-            model_ref=Path(os.path.relpath(urdf.resolve(), out_path.resolve().parent)).as_posix(),
-            parking_positions=parking_positions,
+            parking_positions=_parking_list(parking),
+            properties=_key_values(properties, "--property") or None,
             graspable=graspable,
-            properties=extra or None,
+            out_path=out,
         )
-        save_map(smap, out_path)
-    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(smap.path_to(node.id))} to {out_path}")
+        smap, node = add_model_folder(model_dir, entry, force=force)
+    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(smap.path_to(node.id))} to {out or map_path}")
 
 
 @map_app.command()
