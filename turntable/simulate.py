@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 import trimesh
 
-from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.transforms import world_from_camera_looking_at
@@ -319,7 +319,7 @@ def simulate_capture(
             placed.vertices, placed.faces, vertex_colors=np.round(rgba * 255).astype(np.uint8), process=False
         )
         write_bytes_atomic(tmp / GROUND_TRUTH, truth.export(file_type="ply"))
-        write_text_atomic(tmp / SIMULATION_JSON, json.dumps(_options_json(options), indent=1) + "\n")
+        write_json(tmp / SIMULATION_JSON, _options_json(options))
         depth_s = time.perf_counter() - start
     return SimulationResult(out_dir=Path(out_dir), frames=options.frames, render_s=render_s, depth_s=depth_s)
 
@@ -359,5 +359,5 @@ def resimulate_depth(
         _write_depth_frames(
             tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, lambda *_: None
         )
-        write_text_atomic(tmp / SIMULATION_JSON, json.dumps(_options_json(options), indent=1) + "\n")
+        write_json(tmp / SIMULATION_JSON, _options_json(options))
     return Path(out_dir)
