@@ -134,7 +134,7 @@ def main() -> None:
         f"\n{args.object}: {summary['frames_used']} of {summary['frames_total']} frames, 640x480, depth noise {args.noise_m * 1000:g} mm at 0.7 m"
     )
     print(f"{'stage':<28}{'seconds':>10}")
-    for stage, seconds in summary["stage_s"].items():
+    for stage, seconds in summary["times_s"].items():
         print(f"{'  ' + stage:<28}{seconds:>10.2f}")
     print(f"{'turntable total':<28}{total:>10.2f}")
     print(f"{'TSDF baseline (same poses)':<28}{baseline_s:>10.2f}")

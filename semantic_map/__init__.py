@@ -19,7 +19,7 @@ object's timestamped history.
 """
 
 from semantic_map.hierarchy import SemanticMap
-from semantic_map.model_folder import MapEntry, add_model_folder
+from semantic_map.model_folder import MapEntry, Registration, add_model_folder
 from semantic_map.nodes import (
     Apartment,
     DefaultPosition,
@@ -56,6 +56,7 @@ __all__ = [
     "ParkingPosition",
     "Pose",
     "PoseRecord",
+    "Registration",
     "Room",
     "SemanticMap",
     "SmallObject",

@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 
 from homemodel.core.errors import OutputExistsError
-from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import MapObject, ParkingPosition, Relation
 from semantic_map.xml_io import load_map, save_map
 
@@ -35,12 +34,21 @@ class MapEntry:
         load_map(self.map_path).node(self.parent_id)
 
 
-def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -> tuple[SemanticMap, MapObject]:
+@dataclass(kw_only=True)
+class Registration:
+    """A model added to a map file: the new object, its path from the apartment, the file."""
+
+    node: MapObject
+    path: list[str]
+    map_path: Path
+
+
+def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -> Registration:
     """Register the model in `model_dir` (a model folder or a .urdf file) as `entry` says and
     save the map atomically; `force` replaces an existing `entry.out_path`.
 
     The map refers to the model's URDF by a path relative to the map's folder, so a map and
-    its models move together. Returns the saved map and the new object.
+    its models move together.
     """
     from articulation import urdf_import
 
@@ -61,4 +69,4 @@ def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -
         properties=entry.properties,
     )
     save_map(smap, out_path)
-    return smap, node
+    return Registration(node=node, path=smap.path_to(node.id), map_path=out_path)

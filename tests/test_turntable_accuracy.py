@@ -214,7 +214,7 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
     assert report.ok, report.format()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["frames_used"] == CAPTURE["frames"] and summary["triangles"] > 1000
-    assert set(summary["stage_s"]) == {"poses", "axis", "merge", "mesh", "texture"}
+    assert set(summary["times_s"]) == {"poses", "axis", "merge", "mesh", "texture", "export"}
     poses = read_poses(out / "poses.json")
     assert len(poses) == CAPTURE["frames"]
     textures = list((out / "meshes").glob("*.png"))

@@ -15,7 +15,7 @@ import typer
 from homemodel.cli.errors import exit_on_error
 
 if TYPE_CHECKING:
-    from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
+    from semantic_map import MapObject, Node, ParkingPosition, Registration, SemanticMap
 
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
@@ -179,8 +179,14 @@ def add(
             graspable=graspable,
             out_path=out,
         )
-        smap, node = add_model_folder(model_dir, entry, force=force)
-    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(smap.path_to(node.id))} to {out or map_path}")
+        registration = add_model_folder(model_dir, entry, force=force)
+    echo_registration(registration)
+
+
+def echo_registration(registration: Registration) -> None:
+    """The line `map add`, and the pipelines given --map, print for a model added to a map."""
+    node = registration.node
+    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(registration.path)} to {registration.map_path}")
 
 
 @map_app.command()
