@@ -16,7 +16,7 @@ from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from homemodel.core.errors import InputError
 
 VALIDATOR_TIMEOUT_S = 60.0
-TOOLS_DIR = Path(__file__).resolve().parents[1] / "tools"
+TOOLS_DIR = Path(__file__).resolve().parents[2] / "tools"
 VALIDATOR_SCRIPT = TOOLS_DIR / "validate_gltf.js"
 VALIDATOR_PACKAGE = TOOLS_DIR / "node_modules" / "gltf-validator" / "package.json"
 MESSAGES_SHOWN = 5
