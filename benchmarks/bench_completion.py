@@ -26,7 +26,8 @@ from rich.table import Table
 
 from shape_completion.benchmark import STAGES, BenchmarkOptions, run_benchmark
 from shape_completion.library import load_library, write_procedural_library
-from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
+from shape_completion.queries import FILLER_CAMERA, random_query_pose
+from shape_completion.render import render_depth
 
 TRAINING_TARGET_S = 180.0
 QUERY_TARGET_S = 2.0
@@ -39,7 +40,7 @@ def render_seconds(library) -> float:
     times = []
     for _ in range(5):
         started = time.perf_counter()
-        render_query(mesh, FILLER_CAMERA, pose)
+        render_depth(mesh, FILLER_CAMERA, pose)
         times.append(time.perf_counter() - started)
     return min(times)
 
