@@ -5,11 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-from rich import box
-from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.progress import figures_table, make_console, progress_bar
+from homemodel.cli.progress import Column, figures_table, fitted_table, make_console, progress_bar
 
 completion_app = typer.Typer(no_args_is_help=True)
 
@@ -143,19 +141,16 @@ def benchmark_command(
             result = run_benchmark(library, options, progress=progress)
         write_benchmark(result, out, force=force, inputs=[library_dir])
     means = result.class_means()
-    table = Table(title=f"homemodel completion benchmark {library_dir}", box=box.SIMPLE_HEAD)
-    table.add_column("class")
-    for stage in STAGES:
-        table.add_column(f"IoU {stage}", justify="right")
-    for stage in STAGES:
-        table.add_column(f"dist {stage}", justify="right")
-    for class_name, row in means.items():
-        table.add_row(
-            class_name,
-            *(f"{row[f'iou_{st}']:.3f}" for st in STAGES),
-            *(f"{row[f'distance_{st}']:.4f}" for st in STAGES),
-        )
-    console.print(table)
+    columns = [Column("class", keep=True)]
+    columns += [Column(f"IoU {stage}", justify="right") for stage in STAGES]
+    columns += [Column(f"dist {stage}", justify="right") for stage in STAGES]
+    cells = [
+        [class_name, *(f"{row[f'iou_{st}']:.3f}" for st in STAGES), *(f"{row[f'distance_{st}']:.4f}" for st in STAGES)]
+        for class_name, row in means.items()
+    ]
+    # Narrow terminals keep the IoUs and the final distance.
+    drop = [f"dist {stage}" for stage in STAGES if stage != "filling"]
+    console.print(fitted_table(console, f"homemodel completion benchmark {library_dir}", columns, cells, drop))
     console.print(
         f"training: {result.training_seconds:.1f} s; query: mean {result.mean_query_seconds:.2f} s,"
         f" max {result.max_query_seconds:.2f} s\nresults: {out}"
