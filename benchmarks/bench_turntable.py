@@ -34,7 +34,7 @@ def capture_for(name: str, frames: int, noise_m: float) -> Path:
         mesh_path = cache / f"{name}.ply"
         make_mesh(name).export(mesh_path)
         options = SimulationOptions(
-            frames=frames, width=640, height=480, samples=8, camera_distance_m=0.4, camera_height_m=0.5
+            frames=frames, width_px=640, height_px=480, samples=8, camera_distance_m=0.4, camera_height_m=0.5
         )
         print(f"rendering {frames} frames of {name} into {clean} (once)...", flush=True)
         simulate_capture(mesh_path, clean, options, force=True)
@@ -42,7 +42,7 @@ def capture_for(name: str, frames: int, noise_m: float) -> Path:
         return clean
     noisy = cache / f"{name}_{frames}_noise{noise_m:g}"
     if not (noisy / "simulation.json").is_file():
-        resimulate_depth(clean, noisy, depth_noise_m=noise_m, seed=1, force=True)
+        resimulate_depth(clean, noisy, depth_noise_m=noise_m, random_state=1, force=True)
     return noisy
 
 

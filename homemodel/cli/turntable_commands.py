@@ -118,8 +118,8 @@ def simulate(
 
     options = SimulationOptions(
         frames=frames,
-        width=width,
-        height=height,
+        width_px=width,
+        height_px=height,
         horizontal_fov_deg=fov_deg,
         camera_distance_m=camera_distance_m,
         camera_height_m=camera_height_m,
@@ -132,7 +132,7 @@ def simulate(
         depth_scale_m=depth_scale_m,
         depth_noise_m=depth_noise_m,
         mesh_scale=mesh_scale,
-        seed=seed,
+        random_state=seed,
     )
     console = _console_beside_blender()
     with exit_on_error():
