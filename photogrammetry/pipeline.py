@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from articulation.naming import file_stem
+from articulation.naming import check_model_name
 from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice
 from homemodel.core.errors import InputError, ModelError
@@ -67,8 +67,7 @@ class ReconstructOptions:
         require_choice("dictionary", self.dictionary, DICTIONARIES)
         require_at_least("max_faces", self.max_faces, 100)
         require_between("density_kg_m3", self.density_kg_m3, 1e-3, 1e5)
-        if file_stem(self.name) != self.name:
-            raise InputError(f"name: {self.name!r}: use letters, digits and underscores")
+        check_model_name(self.name)
         if self.map_entry is not None and self.marker_size_m is None:
             raise InputError("map_entry: a map needs a metric model: give marker_size_m and photograph markers")
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from articulation.naming import file_stem
+from articulation.naming import check_model_name
 from homemodel.core.checks import check_nested, require_at_least, require_positive
-from homemodel.core.errors import InputError, ModelError
+from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress, StageClock
 from semantic_map import MapEntry, Registration, add_model_folder
 from turntable.capture import Capture, FrameError, load_capture, read_color, read_depth
@@ -69,8 +69,7 @@ class ReconstructionOptions:
         require_at_least("texture_max_triangles", self.texture_max_triangles, 100)
         require_at_least("workers", self.workers, 1)
         require_positive("density_kg_m3", self.density_kg_m3)
-        if file_stem(self.name) != self.name:
-            raise InputError(f"name: {self.name!r}: use letters, digits and underscores")
+        check_model_name(self.name)
 
 
 @dataclass(kw_only=True)
