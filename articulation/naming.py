@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+from homemodel.core.errors import InputError
+
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
 
@@ -20,3 +22,9 @@ def unique(stem: str, taken: set[str]) -> str:
         candidate, n = f"{stem}_{n}", n + 1
     taken.add(candidate.lower())
     return candidate
+
+
+def check_model_name(name: str, field: str = "name") -> None:
+    """Refuse a model name that is not already a safe file stem (the exporters name files after it)."""
+    if file_stem(name) != name:
+        raise InputError(f"{field}: {name!r}: use letters, digits and underscores")

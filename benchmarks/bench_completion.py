@@ -24,9 +24,10 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from homemodel.geometry.raycast import RayCaster
 from shape_completion.benchmark import STAGES, BenchmarkOptions, run_benchmark
 from shape_completion.library import load_library, write_procedural_library
-from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
+from shape_completion.queries import FILLER_CAMERA, random_query_pose
 
 TRAINING_TARGET_S = 180.0
 QUERY_TARGET_S = 2.0
@@ -39,7 +40,7 @@ def render_seconds(library) -> float:
     times = []
     for _ in range(5):
         started = time.perf_counter()
-        render_query(mesh, FILLER_CAMERA, pose)
+        RayCaster(mesh).depth(FILLER_CAMERA, pose)
         times.append(time.perf_counter() - started)
     return min(times)
 

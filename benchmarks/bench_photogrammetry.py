@@ -14,7 +14,6 @@ rendering code changes.
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import tempfile
 import time
@@ -55,7 +54,8 @@ def main() -> None:
     args = parser.parse_args()
 
     from homemodel.evaluation import mean_surface_distance_m
-    from photogrammetry.pipeline import ReconstructOptions, reconstruct
+    from homemodel.core.atomic import write_json
+    from photogrammetry.pipeline import ReconstructOptions, reconstruct_photos
     from photogrammetry.synthetic_scene import SceneOptions, render_scene
 
     height_px = args.width_px * 3 // 4
@@ -79,7 +79,7 @@ def main() -> None:
         ours_work.mkdir()
         start = time.perf_counter()
         options = ReconstructOptions(marker_size_m=scene.marker_size_m, dictionary=scene.dictionary)
-        result = reconstruct(images, options, work_dir=ours_work)
+        result = reconstruct_photos(images, options, work_dir=ours_work)
         total_s = time.perf_counter() - start
         shutil.rmtree(ours_work / "undistorted", ignore_errors=True)
 
@@ -123,7 +123,7 @@ def main() -> None:
         f"({distance_m / scene.object_size_m * 100:.2f}% of the object's {scene.object_size_m * 1000:.0f} mm)"
     )
     out = ROOT / "build" / "bench_photogrammetry.json"
-    out.write_text(json.dumps(figures, indent=1))
+    write_json(out, figures)
     console.print(f"figures: {out}")
 
 

@@ -37,7 +37,7 @@ def capture_for(name: str, frames: int, noise_m: float) -> Path:
         mesh_path = cache / f"{name}.ply"
         make_mesh(name).export(mesh_path)
         options = SimulationOptions(
-            frames=frames, width=640, height=480, samples=8, camera_distance_m=0.4, camera_height_m=0.5
+            frames=frames, width_px=640, height_px=480, samples=8, camera_distance_m=0.4, camera_height_m=0.5
         )
         print(f"rendering {frames} frames of {name} into {clean} (once)...", flush=True)
         simulate_capture(mesh_path, clean, options, force=True)
@@ -45,7 +45,7 @@ def capture_for(name: str, frames: int, noise_m: float) -> Path:
         return clean
     noisy = cache / f"{clean.name}_noise{noise_m:g}"
     if not (noisy / "simulation.json").is_file():
-        resimulate_depth(clean, noisy, depth_noise_m=noise_m, seed=1, force=True)
+        resimulate_depth(clean, noisy, depth_noise_m=noise_m, random_state=1, force=True)
     return noisy
 
 
@@ -136,7 +136,7 @@ def main() -> None:
         f"\n{args.object}: {summary['frames_used']} of {summary['frames_total']} frames, 640x480, depth noise {args.noise_m * 1000:g} mm at 0.7 m"
     )
     print(f"{'stage':<28}{'seconds':>10}")
-    for stage, seconds in summary["stage_s"].items():
+    for stage, seconds in summary["times_s"].items():
         print(f"{'  ' + stage:<28}{seconds:>10.2f}")
     print(f"{'turntable total':<28}{total:>10.2f}")
     print(f"{'TSDF baseline (same poses)':<28}{baseline_s:>10.2f}")

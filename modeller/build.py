@@ -1,13 +1,19 @@
-"""Build an articulated model from a measurement spec, in Blender."""
+"""Build an articulated model from a measurement spec, in Blender; `build`, the modeller's
+entry, also exports it as a model folder, validates it and, for a spec with photos, renders
+the model beside each photo."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from articulation.model import Model
-from homemodel.core.errors import SpecError
+from homemodel.core.atomic import atomic_dir, write_json
+from homemodel.core.checks import check_nested
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.progress import Progress, StageClock
 from homemodel.core.yaml_specs import FieldError
 from modeller.blender_scene import reset_scene, save_blend
 from modeller.blender_textures import PhotoPlacement, apply_photos
@@ -42,6 +48,10 @@ from modeller.builders.vessels import (
 from modeller.photo_texture import TextureOptions, texture_folder
 from modeller.spec_loading import load_spec
 from modeller.specs import Spec
+
+if TYPE_CHECKING:
+    from articulation.gate.validate import ValidationReport
+    from modeller.comparison_picture import PictureOptions, PictureRow
 
 _BUILDERS: dict[str, Callable[..., Assembly]] = {"cupboard": build_cupboard, "table": build_table, "cup": build_cup}
 _BUILDERS |= {"chair": build_chair, "sofa": build_sofa, "bed": build_bed, "shelving": build_shelving, "mug": build_cup, "glass": build_glass, "plate": build_plate, "bowl": build_bowl, "bottle": build_bottle, "box": build_box, "jar": build_jar, "pill_box": build_pill_box, "spoon": build_spoon, "fork": build_fork, "knife": build_knife, "remote_control": build_remote_control}
@@ -103,3 +113,114 @@ def build_textured(
     if blend_path is not None:
         save_blend(Path(blend_path))
     return TexturedBuild(model=model, photos=placements)
+
+
+@dataclass(kw_only=True)
+class BuildOptions:
+    name: str | None = None  # the model's name; None: the spec's `name`, else the file's name without .yaml
+    texture: TextureOptions = field(default_factory=TextureOptions)
+    # Also render comparison_<i>.png, the model beside each of the spec's photos (which it must have).
+    pictures: PictureOptions | None = None
+
+    def check(self) -> None:
+        if self.name is not None and not self.name:
+            raise InputError("name: an empty model name")
+        check_nested("texture", self.texture)
+        if self.pictures is not None:
+            check_nested("pictures", self.pictures)
+
+
+@dataclass(kw_only=True)
+class SpecBuild:
+    """A built, exported and validated spec; `summary` is what summary.json holds."""
+
+    out_dir: Path
+    model: Model
+    validation: ValidationReport
+    pictures: list[PictureRow]
+    times_s: dict[str, float]  # build, export, validate (and render)
+    summary: dict
+
+    @property
+    def valid(self) -> bool:
+        return self.validation.ok
+
+    @property
+    def failed_checks(self) -> list[str]:
+        return failed_checks(self.validation)
+
+
+def build(
+    spec_path: Path,
+    out_dir: Path,
+    options: BuildOptions | None = None,
+    *,
+    progress: Progress | None = None,
+    force: bool = False,
+) -> SpecBuild:
+    """The modeller's entry: the spec at `spec_path` to a model folder at `out_dir`
+    (model.urdf, model.glb, meshes/ with the textures, model.blend, summary.json with the
+    figures and the validation report; comparison pictures with `options.pictures`).
+
+    The model is validated by the gate (`articulation.gate`); a model that fails it is still
+    written, with `valid` false. Refuses a non-empty `out_dir` unless `force`; the folder
+    appears whole or not at all. Raises `SpecError` for a bad spec or photo. Progress
+    stages: build, export, validate, render.
+    """
+    from articulation.export import write_model_files
+    from articulation.gate.validate import validate_path
+
+    options = options or BuildOptions()
+    options.check()
+    spec_path, out_dir = Path(spec_path), Path(out_dir)
+    clock = StageClock(progress)
+    with atomic_dir(out_dir, force=force, inputs=[spec_path]) as tmp:
+        clock.start("build")
+        spec = load_spec(spec_path)
+        if options.pictures is not None and not spec.photos:
+            raise SpecError(f"{spec_path}: photos: the spec gives no photos to compare with")
+        built = build_textured(
+            spec,
+            spec.name or spec_path.stem,
+            blend_path=tmp / "model.blend",
+            spec_path=spec_path,
+            texture_options=options.texture,
+        )
+        model = built.model
+        if options.name is not None:
+            model.name = options.name
+        clock.start("export")
+        write_model_files(model, tmp)
+        clock.start("validate")
+        validation = validate_path(tmp)
+        validation.path = out_dir  # where the files will be, not the temporary folder
+        pictures = []
+        if options.pictures is not None:
+            from modeller.comparison_picture import comparison_pictures
+
+            clock.start("render")
+            pictures = comparison_pictures(model, built.photos, tmp, options.pictures)
+        clock.stop()
+        summary = {
+            "model": model.name,
+            "spec": str(spec_path),
+            "category": model.category,
+            "links": len(model.links),
+            "joints": len(model.movable_joints),
+            "grasp_points": len(model.grasp_points),
+            "triangles": sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
+            "valid": validation.ok,
+            "failed_checks": failed_checks(validation),
+            "times_s": dict(clock.times_s),
+            "pictures": [vars(row) for row in pictures],
+            "validation": validation.format(),
+        }
+        write_json(tmp / "summary.json", summary)
+    return SpecBuild(
+        out_dir=out_dir, model=model, validation=validation, pictures=pictures, times_s=clock.times_s, summary=summary
+    )
+
+
+def failed_checks(validation: ValidationReport) -> list[str]:
+    """`name: detail` of every check the model failed."""
+    return [f"{c.name}: {c.detail}" for c in validation.checks if not c.passed]

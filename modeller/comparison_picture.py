@@ -10,19 +10,17 @@ A 3/4 view from the front right completes the picture: photo | same view | 3/4 v
 
 from __future__ import annotations
 
-import json
-import time
-from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from articulation.model import Model
-from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.c_stdio_capture import captured_c_output
-from homemodel.core.errors import InputError, SpecError
+from homemodel.core.checks import require_between
+from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
 from modeller.blender_textures import PhotoPlacement
 from modeller.photo_texture import read_photo
@@ -37,6 +35,12 @@ class PictureOptions:
     fallback_fov_deg: float = 50.0  # of the photo's longer side
     background_rgb: tuple[int, int, int] = (255, 255, 255)
     three_quarter_view: bool = True
+
+    def check(self) -> None:
+        require_between("panel_height_px", self.panel_height_px, 64, 2048)
+        require_between("fallback_fov_deg", self.fallback_fov_deg, 1.0, 170.0)
+        if len(self.background_rgb) != 3 or not all(0 <= c <= 255 for c in self.background_rgb):
+            raise InputError(f"background_rgb: three values in [0, 255], got {self.background_rgb!r}")
 
 
 def focal_from_corners(
@@ -216,16 +220,6 @@ class PictureRow:
     picture: str
 
 
-@dataclass(kw_only=True)
-class RenderResult:
-    out_dir: Path
-    model: str
-    rows: list[PictureRow]
-    valid: bool
-    failed_checks: list[str]
-    times_s: dict[str, float]
-
-
 def _reprojection_px(
     placement: PhotoPlacement, camera_from_model: np.ndarray, focal: float, size: tuple[int, int]
 ) -> float:
@@ -234,77 +228,28 @@ def _reprojection_px(
     return float(np.linalg.norm(pixels - placement.corners_px, axis=1).max())
 
 
-def render_spec(
-    spec_path: Path,
-    out_dir: Path,
-    *,
-    force: bool = False,
-    options: PictureOptions | None = None,
-    progress: Callable[[str, int, int], None] | None = None,
-) -> RenderResult:
-    """Build the spec's textured model into a model folder at `out_dir` (model.urdf,
-    model.glb, meshes/ with the textures, model.blend), validate it, and write
-    `comparison_<i>.png` for each of its photos and `summary.json` with the figures.
-
-    The folder appears whole or not at all. Raises `SpecError` for a bad spec or photo.
-    """
-    from articulation.export import write_model_files
-    from articulation.gate.validate import validate_path
-    from modeller.build import build_textured
-    from modeller.spec_loading import load_spec
-
+def comparison_pictures(
+    model: Model, placements: list[PhotoPlacement], folder: Path, options: PictureOptions | None = None
+) -> list[PictureRow]:
+    """`comparison_<i>.png` in `folder` for each photo placement, and each photo's figures."""
     options = options or PictureOptions()
-    spec_path = Path(spec_path)
-    report = progress or (lambda what, done, total: None)
-    times: dict[str, float] = {}
-    with atomic_dir(Path(out_dir), force=force, inputs=[spec_path]) as tmp:
-        started = time.perf_counter()
-        report("building", 0, 4)
-        spec = load_spec(spec_path)
-        if not spec.photos:
-            raise SpecError(f"{spec_path}: photos: the spec gives no photos to compare with")
-        built = build_textured(spec, spec.name or spec_path.stem, blend_path=tmp / "model.blend", spec_path=spec_path)
-        times["build_s"] = time.perf_counter() - started
-        report("exporting", 1, 4)
-        started = time.perf_counter()
-        write_model_files(built.model, tmp)
-        times["export_s"] = time.perf_counter() - started
-        report("validating", 2, 4)
-        started = time.perf_counter()
-        validation = validate_path(tmp)
-        validation.path = Path(out_dir)  # where the files will be, not the temporary folder
-        times["validate_s"] = time.perf_counter() - started
-        report("rendering", 3, 4)
-        started = time.perf_counter()
-        rows = []
-        for placement in built.photos:
-            name = f"comparison_{placement.index}.png"
-            comparison_picture(built.model, placement, tmp / name, options)
-            height, width = read_photo(placement.photo).shape[:2]
-            camera_from_model, focal = photo_camera(placement, (width, height), options)
-            texture = read_photo(placement.texture)
-            rows.append(
-                PictureRow(
-                    photo=str(placement.photo),
-                    part=placement.part,
-                    face=placement.face,
-                    texture_px=(texture.shape[1], texture.shape[0]),
-                    texture_kb=placement.texture.stat().st_size / 1024,
-                    focal_px=focal,
-                    reprojection_px=_reprojection_px(placement, camera_from_model, focal, (width, height)),
-                    picture=name,
-                )
+    rows = []
+    for placement in placements:
+        name = f"comparison_{placement.index}.png"
+        comparison_picture(model, placement, folder / name, options)
+        height, width = read_photo(placement.photo).shape[:2]
+        camera_from_model, focal = photo_camera(placement, (width, height), options)
+        texture = read_photo(placement.texture)
+        rows.append(
+            PictureRow(
+                photo=str(placement.photo),
+                part=placement.part,
+                face=placement.face,
+                texture_px=(texture.shape[1], texture.shape[0]),
+                texture_kb=placement.texture.stat().st_size / 1024,
+                focal_px=focal,
+                reprojection_px=_reprojection_px(placement, camera_from_model, focal, (width, height)),
+                picture=name,
             )
-        times["render_s"] = time.perf_counter() - started
-        report("done", 4, 4)
-        result = RenderResult(
-            out_dir=Path(out_dir),
-            model=built.model.name,
-            rows=rows,
-            valid=validation.ok,
-            failed_checks=[f"{c.name}: {c.detail}" for c in validation.checks if not c.passed],
-            times_s=times,
         )
-        summary = {**asdict(result), "out_dir": str(out_dir), "validation": validation.format()}
-        write_text_atomic(tmp / "summary.json", json.dumps(summary, indent=2) + "\n")
-    return result
+    return rows

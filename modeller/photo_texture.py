@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
 from homemodel.core.yaml_specs import FieldError
@@ -42,6 +43,12 @@ class TextureOptions:
     max_side_px: int = 1024
     min_side_px: int = 8
     jpeg_quality: int = 90
+
+    def check(self) -> None:
+        require_positive("max_px_per_m", self.max_px_per_m)
+        require_at_least("min_side_px", self.min_side_px, 1)
+        require_at_least("max_side_px", self.max_side_px, self.min_side_px)
+        require_between("jpeg_quality", self.jpeg_quality, 1, 100)
 
 
 _TEXTURE_ROOT: tempfile.TemporaryDirectory | None = None

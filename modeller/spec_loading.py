@@ -6,10 +6,9 @@ Every failure is one `SpecError` line naming the file and the dotted field, e.g.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from homemodel.core.atomic import write_text_atomic
+from homemodel.core.atomic import write_json
 from homemodel.core.errors import SpecError
 from homemodel.core.yaml_specs import FieldError, read_yaml_mapping, validate_mapping
 from modeller.specs import SPEC_TYPES, Spec
@@ -52,6 +51,6 @@ def write_spec_schemas(out_dir: Path) -> list[Path]:
     paths = []
     for kind, spec_type in SPEC_TYPES.items():
         path = out_dir / f"{kind}.schema.json"
-        write_text_atomic(path, json.dumps(spec_type.model_json_schema(), indent=2) + "\n")
+        write_json(path, spec_type.model_json_schema())
         paths.append(path)
     return paths

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from homemodel.core.checks import require_between, require_positive
 from homemodel.core.errors import ModelError
 
 MERGE_FRACTION = 1e-4  # of the mesh's diagonal: vertices nearer than this are one (20 um on a 0.2 m vase)
@@ -28,6 +29,12 @@ class CleaningOptions:
     cluster_gap_fraction: float = 0.012  # points further apart than this are separate pieces
     min_piece_share: float = 0.02  # pieces with fewer points than this share of the object are dropped
     poisson_cell_voxels: float = 3.0  # the finest Poisson cells, in voxels: finer only adds noise and time
+
+    def check(self) -> None:
+        for name in ("roi_fraction", "voxel_fraction", "plane_clearance_fraction", "cluster_gap_fraction"):
+            require_positive(name, getattr(self, name))
+        require_between("min_piece_share", self.min_piece_share, 0.0, 1.0)
+        require_positive("poisson_cell_voxels", self.poisson_cell_voxels)
 
 
 @dataclass(kw_only=True)

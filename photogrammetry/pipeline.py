@@ -1,25 +1,27 @@
 """Photos to a textured, metric, cleaned mesh: every stage of D3.1 section 3.3.3, offline.
 
-`reconstruct` runs structure from motion (pycolmap), dense depth (CPU semi-global matching,
-or PatchMatch where pycolmap has CUDA), fusion, markers for scale and levelling, cleaning,
-Poisson meshing and texture baking; `write_reconstruction` exports the result as a model
-folder through the articulated model type.
+`reconstruct_photos` runs structure from motion (pycolmap), dense depth (CPU semi-global
+matching, or PatchMatch where pycolmap has CUDA), fusion, markers for scale and levelling,
+cleaning, Poisson meshing and texture baking, in memory; `reconstruct`, the entry, also
+exports the result as a model folder (the one-link model of `articulation.scan_model`) and
+registers it into a semantic map when asked.
 """
 
 from __future__ import annotations
 
-import json
 import tempfile
-import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from articulation.naming import check_model_name
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
+from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.images import read_image
+from homemodel.core.progress import Progress, StageClock
 from photogrammetry.cleaning import (
     CleaningOptions,
     downsample,
@@ -35,9 +37,7 @@ from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_t
 from photogrammetry.support_plane import find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
-
-# progress(stage, done, total): total is None while a stage cannot say how far it is.
-Progress = Callable[[str, int, int | None], None]
+from semantic_map import MapEntry, Registration, add_model_folder
 
 
 @dataclass(kw_only=True)
@@ -50,14 +50,27 @@ class ReconstructOptions:
     dictionary: str = "apriltag_36h11"
     max_faces: int = 40_000  # the mesh is decimated to this before texturing
     use_cuda: bool = True  # PatchMatch where pycolmap has CUDA; the CPU path otherwise
+    # The model folder (`reconstruct`):
+    name: str = "object"  # the model's name
+    density_kg_m3: float = 500.0  # for the inertial
+    picture: bool = False  # also draw cameras.png: the cameras around the mesh
+    map_entry: MapEntry | None = None  # register the model into this map; needs markers (a metric model)
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
+        check_nested("sfm", self.sfm)
+        check_nested("dense", self.dense)
+        check_nested("cleaning", self.cleaning)
+        require_at_least("texture.size_px", self.texture.size_px, 64)
         if self.marker_size_m is not None and not (np.isfinite(self.marker_size_m) and self.marker_size_m > 0):
-            raise InputError(f"marker size must be a positive length in metres, got {self.marker_size_m}")
-        if self.dictionary not in DICTIONARIES:
-            raise InputError(f"unknown marker dictionary {self.dictionary!r}; choose one of {', '.join(DICTIONARIES)}")
-        if self.max_faces < 100:
-            raise InputError(f"max faces must be at least 100, got {self.max_faces}")
+            raise InputError(
+                f"marker_size_m: the marker size must be a positive length in metres, got {self.marker_size_m}"
+            )
+        require_choice("dictionary", self.dictionary, DICTIONARIES)
+        require_at_least("max_faces", self.max_faces, 100)
+        require_between("density_kg_m3", self.density_kg_m3, 1e-3, 1e5)
+        check_model_name(self.name)
+        if self.map_entry is not None and self.marker_size_m is None:
+            raise InputError("map_entry: a map needs a metric model: give marker_size_m and photograph markers")
 
 
 @dataclass(kw_only=True)
@@ -67,50 +80,27 @@ class Reconstruction:
     textured: TexturedMesh
     views: list[View]  # poses in the model frame
     frame: ModelFrame
-    summary: dict
-    work_dir: Path  # holds the texture image until the export copies it
+    summary: dict  # what summary.json holds; `reconstruct` adds mass_kg and the export's time
+    work_dir: Path  # holds the texture image until the export copies it (gone after `reconstruct`)
+    registration: Registration | None = None  # set by `reconstruct` when given a map
 
     @property
     def mesh(self) -> trimesh.Trimesh:
         return self.textured.mesh
 
 
-class _Clock:
-    """Times per stage and the progress callback, in one place."""
-
-    def __init__(self, progress: Progress | None) -> None:
-        self.progress = progress
-        self.times_s: dict[str, float] = {}
-        self._stage = ""
-        self._start = 0.0
-
-    def start(self, stage: str) -> None:
-        self.stop()
-        self._stage, self._start = stage, time.perf_counter()
-        self.tick(0, None)
-
-    def tick(self, done: int, total: int | None) -> None:
-        if self.progress:
-            self.progress(self._stage, done, total)
-
-    def stop(self) -> None:
-        if self._stage:
-            self.times_s[self._stage] = self.times_s.get(self._stage, 0.0) + time.perf_counter() - self._start
-            self._stage = ""
-
-
-def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOptions, clock: _Clock):
+def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOptions, clock: StageClock):
     from photogrammetry.patch_match import cuda_available, patch_match_points
 
     if options.use_cuda and cuda_available():
         # COLMAP's fusion checks visibility itself: no depth maps are handed on.
         return (*patch_match_points(undistorted, options.dense.max_image_size_px), [], "patch-match (CUDA)")
-    maps = compute_depth_maps(sparse, options.dense, progress=clock.tick)
+    maps = compute_depth_maps(sparse, options.dense, progress=clock.progress)
     points, colours, to_camera = depth_maps_to_points(sparse, maps)
     return points, colours, to_camera, maps, "semi-global matching (CPU)"
 
 
-def _markers(sparse: SparseModel, options: ReconstructOptions, clock: _Clock):
+def _markers(sparse: SparseModel, options: ReconstructOptions, clock: StageClock):
     """Markers seen in the undistorted views, triangulated in the SfM frame."""
     import cv2
 
@@ -123,18 +113,13 @@ def _markers(sparse: SparseModel, options: ReconstructOptions, clock: _Clock):
     return triangulate_markers(sightings, projections)
 
 
-def reconstruct(photos_dir: Path, options: ReconstructOptions | None = None, progress: Progress | None = None,
-                *, work_dir: Path) -> Reconstruction:  # fmt: skip
+def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = None,
+                       progress: Progress | None = None, *, work_dir: Path) -> Reconstruction:  # fmt: skip
     """Run every stage on the photos in `photos_dir`, with intermediate files in `work_dir`."""
     options = options or ReconstructOptions()
-    clock = _Clock(progress)
     photos = list_photos(Path(photos_dir))
-
-    def sfm_progress(stage: str) -> None:
-        clock.start(stage)
-
-    sparse = run_sfm(photos, work_dir, options.sfm, progress=sfm_progress)
-    clock.stop()
+    sparse = run_sfm(photos, work_dir, options.sfm, progress=progress)
+    clock = StageClock(progress)
     clock.start("dense")
     points, colours, to_camera, depth_maps, dense_method = _dense_points(
         sparse, work_dir / "undistorted", options, clock
@@ -157,7 +142,7 @@ def reconstruct(photos_dir: Path, options: ReconstructOptions | None = None, pro
         points,
         centres,
         camera_up,
-        seed=options.sfm.seed,
+        seed=options.sfm.random_state,
         threshold=options.cleaning.plane_clearance_fraction * scene_scale / 2,
     )
     markers = _markers(sparse, options, clock) if options.marker_size_m is not None else []
@@ -197,7 +182,7 @@ def reconstruct(photos_dir: Path, options: ReconstructOptions | None = None, pro
 
     clock.start("texturing")
     views = [frame.view(v) for v in sparse.views]
-    textured = bake_texture(mesh, views, options.texture, progress=clock.tick)
+    textured = bake_texture(mesh, views, options.texture, progress=clock.progress)
     clock.stop()
 
     summary = {
@@ -230,54 +215,73 @@ def reconstruct(photos_dir: Path, options: ReconstructOptions | None = None, pro
     return Reconstruction(textured=textured, views=views, frame=frame, summary=summary, work_dir=work_dir)
 
 
-def to_model(result: Reconstruction, *, name: str, density_kg_m3: float):
-    """The articulated model: one link, the textured visual, a convex-hull collision, an inertial."""
+def reconstruct(
+    photos_dir: Path,
+    out_dir: Path,
+    options: ReconstructOptions | None = None,
+    *,
+    progress: Progress | None = None,
+    force: bool = False,
+) -> Reconstruction:
+    """The photogrammetry entry: the photos in `photos_dir` to a model folder at `out_dir`
+    (model.urdf, model.glb, meshes/, cameras.json, summary.json; cameras.png on request),
+    registered into `options.map_entry` when given. Refuses a non-empty `out_dir` unless
+    `force`; the folder appears whole or not at all. Progress stages: features, matching,
+    mapping, undistortion, dense, markers, cleaning, meshing, texturing, export."""
+    options = options or ReconstructOptions()
+    options.check()
+    if options.map_entry is not None:
+        options.map_entry.check()  # a bad map or parent fails now, not after the reconstruction
+    with temporary_work_dir() as work, atomic_dir(Path(out_dir), force=force, inputs=[Path(photos_dir)]) as tmp:
+        result = reconstruct_photos(photos_dir, options, progress, work_dir=Path(work))
+        write_reconstruction(result, tmp, options, progress=progress)
+    if options.map_entry is not None:
+        result.registration = add_model_folder(out_dir, options.map_entry)
+    return result
+
+
+def write_reconstruction(
+    result: Reconstruction, folder: Path, options: ReconstructOptions, *, progress: Progress | None = None
+) -> None:
+    """Write the model files, cameras.json, cameras.png (`options.picture`) and summary.json
+    into an existing (temporary) folder; `result.summary` gains mass_kg and the export's time."""
     import cv2
 
-    from articulation.inertia import inertial_from_meshes
-    from articulation.model import (
-        Collision,
-        Link,
-        Material,
-        MeshGeometry,
-        Model,
-        Visual,
-    )
-    from homemodel.core.atomic import write_bytes_atomic
+    from articulation.export import write_model_files
+    from articulation.scan_model import scan_model
 
+    clock = StageClock(progress)
+    clock.start("export", 1)
     texture_path = result.work_dir / "texture.png"
     ok, png = cv2.imencode(".png", cv2.cvtColor(result.textured.texture, cv2.COLOR_RGB2BGR))
     if not ok:
         raise ModelError("cannot encode the texture as PNG")
     write_bytes_atomic(texture_path, png.tobytes())
-    mesh = result.mesh
-    material = Material(name=f"{name}_material", rgba=(1.0, 1.0, 1.0, 1.0), texture=texture_path)
-    link = Link(
-        name="body",
-        visuals=[Visual(name="body", mesh=mesh, material=material, uv=result.textured.uv)],
-        collisions=[Collision(name="body_hull", geometry=MeshGeometry(mesh=mesh.convex_hull))],
-        inertial=inertial_from_meshes([mesh], density_kg_m3=density_kg_m3),
+    model = scan_model(
+        result.mesh,
+        name=options.name,
+        density_kg_m3=options.density_kg_m3,
+        texture=texture_path,
+        uv=result.textured.uv,
+        properties={"source": "photogrammetry", "scaled": str(result.frame.scaled).lower()},
     )
-    properties = {"source": "photogrammetry", "scaled": str(result.frame.scaled).lower()}
-    return Model(name=name, links=[link], category="object", properties=properties)
-
-
-def write_reconstruction(result: Reconstruction, folder: Path, *, name: str, density_kg_m3: float) -> dict:
-    """Write the model files, cameras.json and summary.json into an existing (temporary) folder."""
-    from articulation.export import write_model_files
-    from homemodel.core.atomic import write_text_atomic
-
-    model = to_model(result, name=name, density_kg_m3=density_kg_m3)
     write_model_files(model, folder)
     cameras = [
         {"name": v.name, "intrinsics": v.camera.matrix.tolist(), "camera_from_model": v.camera_from_world.tolist(),
          "width_px": v.camera.width, "height_px": v.camera.height}
         for v in result.views
     ]  # fmt: skip
-    write_text_atomic(folder / "cameras.json", json.dumps(cameras, indent=1))
-    summary = {**result.summary, "mass_kg": round(model.links[0].inertial.mass_kg, 6)}
-    write_text_atomic(folder / "summary.json", json.dumps(summary, indent=1))
-    return summary
+    write_json(folder / "cameras.json", cameras)
+    if options.picture:
+        from photogrammetry.picture import draw_cameras
+
+        draw_cameras(
+            result.mesh, result.views, folder / "cameras.png", title=f"{options.name}: {len(result.views)} cameras"
+        )
+    clock.stop()
+    result.summary["mass_kg"] = round(model.links[0].inertial.mass_kg, 6)
+    result.summary["times_s"].update({k: round(v, 3) for k, v in clock.times_s.items()})
+    write_json(folder / "summary.json", result.summary)
 
 
 def temporary_work_dir() -> tempfile.TemporaryDirectory:

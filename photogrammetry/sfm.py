@@ -7,15 +7,16 @@ The result is a set of pinhole views (undistorted photos with their cameras and
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
+from homemodel.core.checks import require_at_least, require_choice
 from homemodel.core.errors import ModelError
 from homemodel.core.images import read_image_size
+from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
 
 log = logging.getLogger(__name__)
@@ -40,7 +41,16 @@ class SfmOptions:
     exhaustive_max_images: int = 60
     sequential_overlap: int = 12
     num_threads: int = -1
-    seed: int = 0
+    random_state: int = 0
+
+    def check(self) -> None:
+        require_at_least("max_image_size_px", self.max_image_size_px, 200)
+        require_at_least("max_num_features", self.max_num_features, 256)
+        require_choice("matching", self.matching, ("auto", "exhaustive", "sequential"))
+        require_at_least("exhaustive_max_images", self.exhaustive_max_images, 2)
+        require_at_least("sequential_overlap", self.sequential_overlap, 1)
+        if self.num_threads != -1:
+            require_at_least("num_threads", self.num_threads, 1)
 
 
 @dataclass(kw_only=True)
@@ -125,11 +135,10 @@ def run_sfm(
     photos: list[Path],
     work_dir: Path,
     options: SfmOptions | None = None,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
 ) -> SparseModel:
-    """Register `photos` (all in one folder) and undistort them into `work_dir`."""
-    import time
-
+    """Register `photos` (all in one folder) and undistort them into `work_dir`; progress
+    stages features, matching, mapping, undistortion."""
     import pycolmap
 
     options = options or SfmOptions()
@@ -137,12 +146,10 @@ def run_sfm(
     names = [p.name for p in photos]
     work_dir.mkdir(parents=True, exist_ok=True)
     database = work_dir / "database.db"
-    times: dict[str, float] = {}
-    pycolmap.set_random_seed(options.seed)
+    clock = StageClock(progress)
+    pycolmap.set_random_seed(options.random_state)
 
-    start = time.perf_counter()
-    if progress:
-        progress("features")
+    clock.start("features")
     extraction = pycolmap.FeatureExtractionOptions(
         max_image_size=options.max_image_size_px, num_threads=options.num_threads
     )
@@ -154,35 +161,26 @@ def run_sfm(
     pycolmap.extract_features(
         database, photos_dir, image_names=names, camera_mode=_camera_mode(photos), extraction_options=extraction
     )
-    times["features"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    if progress:
-        progress("matching")
+    clock.start("matching")
     method = _match(database, len(photos), options)
-    times["matching"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    if progress:
-        progress("mapping")
+    clock.start("mapping")
     mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads)
-    mapping.random_seed = options.seed
+    mapping.random_seed = options.random_state
     sparse_raw = work_dir / "sparse_raw"
     sparse_raw.mkdir(exist_ok=True)
     reconstructions = pycolmap.incremental_mapping(database, photos_dir, sparse_raw, options=mapping)
     best = _check_registration(photos_dir, names, reconstructions)
-    times["mapping"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    if progress:
-        progress("undistortion")
+    clock.start("undistortion")
     best.write(sparse_raw)
     undistorted = work_dir / "undistorted"
     pycolmap.undistort_images(undistorted, sparse_raw, photos_dir)
     model = _load_undistorted(undistorted, photos_dir, names)
-    times["undistortion"] = time.perf_counter() - start
+    clock.stop()
     model.mean_reprojection_error_px = float(best.compute_mean_reprojection_error())
-    model.times_s = times
+    model.times_s = clock.times_s
     log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), method)
     return model
 

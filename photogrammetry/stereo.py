@@ -10,11 +10,12 @@ the consistency filter across views that removes occlusions and mismatches.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from homemodel.core.checks import require_at_least, require_between, require_positive
+from homemodel.core.progress import Progress
 from homemodel.geometry.camera import Camera
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import SparseModel, View
@@ -33,6 +34,15 @@ class DenseOptions:
     min_angle_deg: float = 4.0  # triangulation angle of a good pair (at the scene)
     max_angle_deg: float = 35.0
     block_size_px: int = 5
+
+    def check(self) -> None:
+        require_at_least("max_image_size_px", self.max_image_size_px, 100)
+        require_at_least("neighbours", self.neighbours, 1)
+        require_at_least("min_agreeing_pairs", self.min_agreeing_pairs, 1)
+        require_positive("depth_tolerance", self.depth_tolerance)
+        require_between("min_angle_deg", self.min_angle_deg, 0.0, self.max_angle_deg)
+        require_between("max_angle_deg", self.max_angle_deg, self.min_angle_deg, 90.0)
+        require_at_least("block_size_px", self.block_size_px, 1)
 
 
 @dataclass(kw_only=True)
@@ -151,9 +161,9 @@ def _agreeing_depth(candidates: np.ndarray, options: DenseOptions) -> np.ndarray
 def compute_depth_maps(
     model: SparseModel,
     options: DenseOptions | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Progress | None = None,
 ) -> list[DepthMap]:
-    """A filtered depth map for every registered view."""
+    """A filtered depth map for every registered view; progress stage "dense"."""
     options = options or DenseOptions()
     neighbours = choose_neighbours(model, options)
     images, factors = [], []
@@ -176,7 +186,7 @@ def compute_depth_maps(
         )
         maps.append(DepthMap(view_index=i, depth=depth, colour=images[i], camera=camera_ref))
         if progress:
-            progress(i + 1, len(model.views))
+            progress("dense", i + 1, len(model.views))
     return maps
 
 

@@ -24,6 +24,7 @@ from typing import Literal
 import numpy as np
 import trimesh
 
+from homemodel.core.checks import require_at_least, require_positive
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry import cycles_scene
@@ -42,7 +43,12 @@ class SceneOptions:
     samples: int = 16
     marker_size_m: float = 0.04
     dictionary: str = "apriltag_36h11"
-    seed: int = 0
+    random_state: int = 0
+
+    def check(self) -> None:
+        require_at_least("n_views", self.n_views, 2)
+        for name in ("width_px", "height_px", "lens_mm", "sensor_width_mm", "samples", "marker_size_m"):
+            require_positive(name, getattr(self, name))
 
 
 @dataclass(kw_only=True)
@@ -174,6 +180,7 @@ def _camera_centres(n_views: int, rng: np.random.Generator) -> np.ndarray:
 def render_scene(folder: Path, options: SceneOptions | None = None) -> SyntheticScene:
     """Render the photo set into `folder` (images/, scene.json, the true mesh); reuse it if present."""
     options = options or SceneOptions()
+    options.check()
     folder = Path(folder)
     spec_path = folder / SCENE_FILE
     wanted = asdict(options)
@@ -186,7 +193,7 @@ def render_scene(folder: Path, options: SceneOptions | None = None) -> Synthetic
             and all((folder / "images" / v["name"]).is_file() for v in spec["views"])
         ):
             return load_scene(folder)
-    rng = np.random.default_rng(options.seed)
+    rng = np.random.default_rng(options.random_state)
     (folder / "images").mkdir(parents=True, exist_ok=True)
     (folder / "textures").mkdir(exist_ok=True)
     import cv2
@@ -272,7 +279,7 @@ def _render_in_blender(spec_path: Path) -> None:
                 width_px=options.width_px,
                 height_px=options.height_px,
                 samples=options.samples,
-                seed=options.seed,
+                seed=options.random_state,
                 max_bounces=1,
                 diffuse_bounces=1,
                 glossy_bounces=0,

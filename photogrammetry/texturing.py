@@ -8,13 +8,13 @@ and occluded views do not smear the texture.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import trimesh
 
 from homemodel.core.errors import ModelError
+from homemodel.core.progress import Progress
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
 from photogrammetry.photos import read_rgb
@@ -99,9 +99,10 @@ def bake_texture(
     mesh: trimesh.Trimesh,
     views: list[View],
     options: TextureOptions | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Progress | None = None,
 ) -> TexturedMesh:
-    """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame)."""
+    """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame);
+    progress stage "texturing"."""
     options = options or TextureOptions()
     split, uv = uv_atlas(mesh, options)
     size = options.size_px
@@ -132,7 +133,7 @@ def bake_texture(
             colour_sum[visible] += weight[:, None] * colours
             weight_sum[visible] += weight
         if progress:
-            progress(index + 1, len(views))
+            progress("texturing", index + 1, len(views))
     seen = weight_sum > 0
     if not seen.any():
         raise ModelError("no view sees the mesh: cannot bake a texture")

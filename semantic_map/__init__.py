@@ -10,12 +10,16 @@ object's pose and default positions are in its parent object's frame; joint orig
 axes and grasp points are in the owning object's frame (its model's root link frame with
 every joint at zero). `SemanticMap.world_from_object` composes them.
 
+`add_model_folder` registers a model folder into a map file (the command `homemodel map add`
+and the pipelines' maps).
+
 Files follow `schema/semantic_map.xsd` (namespace https://homemodel.dev/semantic-map/1) and
 are validated on load and on save; updates keep the previous pose or joint state in the
 object's timestamped history.
 """
 
 from semantic_map.hierarchy import SemanticMap
+from semantic_map.model_folder import MapEntry, Registration, add_model_folder
 from semantic_map.nodes import (
     Apartment,
     DefaultPosition,
@@ -43,6 +47,7 @@ __all__ = [
     "JointStateRecord",
     "LargeArticulatedObject",
     "LargeObject",
+    "MapEntry",
     "MapObject",
     "NamedState",
     "Node",
@@ -51,10 +56,12 @@ __all__ = [
     "ParkingPosition",
     "Pose",
     "PoseRecord",
+    "Registration",
     "Room",
     "SemanticMap",
     "SmallObject",
     "Switch",
+    "add_model_folder",
     "load_map",
     "map_to_bytes",
     "save_map",

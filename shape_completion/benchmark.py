@@ -12,21 +12,20 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json, write_text_atomic
+from homemodel.core.checks import require_at_least
 from homemodel.core.errors import InputError
+from homemodel.core.progress import Progress, no_progress
 from homemodel.evaluation import rock_surface_distance, rock_voxel_iou, voxel_iou
+from homemodel.geometry.raycast import RayCaster
 from shape_completion.library import Library
-from shape_completion.pipeline import (
-    FILLER_CAMERA,
-    Completion,
-    Progress,
-    ShapeCompleter,
-    random_query_pose,
-    render_query,
-)
+from shape_completion.pipeline import Completion, ShapeCompleter
+from shape_completion.queries import FILLER_CAMERA, random_query_pose
 
 STAGES = ("retrieval", "fitting", "filling", "oracle")
 DISTANCE_SAMPLES = 20_000
@@ -39,7 +38,14 @@ class BenchmarkOptions:
     n_views: int = 40
     queries_per_instance: int = 4
     filler_queries_per_class: int = 20
-    seed: int = 0
+    random_state: int = 0  # of the learners and the query views
+
+    def check(self) -> None:
+        require_at_least("train_per_class", self.train_per_class, 2)
+        require_at_least("test_per_class", self.test_per_class, 1)
+        require_at_least("n_views", self.n_views, 4)
+        require_at_least("queries_per_instance", self.queries_per_instance, 1)
+        require_at_least("filler_queries_per_class", self.filler_queries_per_class, 1)
 
 
 @dataclass(kw_only=True)
@@ -137,14 +143,17 @@ def oracle_mesh(truth: trimesh.Trimesh, library: Library) -> trimesh.Trimesh:
 
 
 def run_benchmark(library: Library, options: BenchmarkOptions, progress: Progress | None = None) -> BenchmarkResult:
-    report = progress or (lambda stage, done, total: None)
+    options.check()
+    report = progress or no_progress
     train, test = split_library(library, options)
     started = time.perf_counter()
     completer = ShapeCompleter(
-        n_views=options.n_views, filler_queries_per_class=options.filler_queries_per_class, random_state=options.seed
+        n_views=options.n_views,
+        filler_queries_per_class=options.filler_queries_per_class,
+        random_state=options.random_state,
     ).fit(train, progress=report)
     training_seconds = time.perf_counter() - started
-    rng = np.random.default_rng(options.seed + 7)
+    rng = np.random.default_rng(options.random_state + 7)
     scores, examples = [], []
     total = len(test.meshes) * options.queries_per_instance
     for index, entry in enumerate(test.meshes):
@@ -152,7 +161,7 @@ def run_benchmark(library: Library, options: BenchmarkOptions, progress: Progres
         for q in range(options.queries_per_instance):
             report("completing test views", index * options.queries_per_instance + q, total)
             camera_from_object = random_query_pose(entry.mesh, rng)
-            depth = render_query(entry.mesh, FILLER_CAMERA, camera_from_object)
+            depth = RayCaster(entry.mesh).depth(FILLER_CAMERA, camera_from_object)
             t0 = time.perf_counter()
             completion = completer.complete(depth, FILLER_CAMERA)
             seconds = time.perf_counter() - t0
@@ -179,3 +188,22 @@ def run_benchmark(library: Library, options: BenchmarkOptions, progress: Progres
                 examples.append(Example(class_name=entry.class_name, depth_m=depth, completion=completion, truth=truth))
     report("completing test views", total, total)
     return BenchmarkResult(options=options, scores=scores, training_seconds=training_seconds, examples=examples)
+
+
+def write_benchmark(result: BenchmarkResult, out_dir: Path, *, force: bool = False, inputs: list[Path] = ()) -> None:
+    """results.json (options, per-class means, timings, every query's scores), table.md and
+    examples.png into `out_dir`, atomically."""
+    from shape_completion.figures import examples_png
+
+    results = {
+        "options": vars(result.options),
+        "classes": result.class_means(),
+        "training_seconds": result.training_seconds,
+        "mean_query_seconds": result.mean_query_seconds,
+        "max_query_seconds": result.max_query_seconds,
+        "queries": [vars(s) for s in result.scores],
+    }
+    with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:
+        write_json(tmp / "results.json", results)
+        write_text_atomic(tmp / "table.md", result.markdown())
+        write_bytes_atomic(tmp / "examples.png", examples_png(result.examples))

@@ -13,6 +13,8 @@ from scipy.interpolate import RBFInterpolator
 
 from shape_completion.symmetry import Plane
 
+MAX_DEFORMATION_STRETCH = 1.5
+
 
 def symmetric_controls(
     points: np.ndarray, displacements: np.ndarray, planes: list[Plane]
@@ -44,3 +46,14 @@ def tps_deform(
         control_points / scale_m, displacements / scale_m, kernel="thin_plate_spline", smoothing=smoothing, degree=1
     )
     return vertices + field(vertices / scale_m) * scale_m
+
+
+def deformation_is_trusted(placed: np.ndarray, moved: np.ndarray, camera_from_object_rotation: np.ndarray) -> bool:
+    """Whether a deformation of the `placed` vertices to `moved` keeps the mesh's box, along the
+    object's own axes, within MAX_DEFORMATION_STRETCH of its size. Few or one-sided controls can
+    make the spline run away (seen: a spoon blown up to 40 times its volume); the rigid fit
+    then stands."""
+    stretch = np.ptp(moved @ camera_from_object_rotation, axis=0) / np.maximum(
+        np.ptp(placed @ camera_from_object_rotation, axis=0), 1e-9
+    )
+    return bool(np.all(stretch <= MAX_DEFORMATION_STRETCH) and np.all(stretch >= 1 / MAX_DEFORMATION_STRETCH))

@@ -28,10 +28,12 @@ from scipy import ndimage
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.ensemble import HistGradientBoostingClassifier
 
-from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
+from homemodel.core.errors import ModelError
+from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
 from homemodel.geometry.camera import Camera
 from shape_completion.symmetry import Plane, RevolutionAxis
 
+LEVEL_STEPS = (0.0, 0.05, 0.1, 0.15)  # raises of the filler's level tried on the finished meshes
 FEATURE_NAMES = (
     "depth_behind",
     "view_angle",
@@ -339,3 +341,41 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
             proba = self.booster_.predict_proba(features)
         column = np.nonzero(self.classes_)[0]
         return proba[:, column[0]] if len(column) else np.zeros(len(features))
+
+
+def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -> trimesh.Trimesh:
+    """The `level` set of a lightly smoothed occupancy field (marching cubes), in the grid's frame."""
+    from skimage.measure import marching_cubes
+
+    padded = np.pad(ndimage.gaussian_filter(field, sigma=0.6), 1)
+    if padded.max() < level:
+        raise ModelError("the completed shape is empty: no voxel is occupied")
+    vertices, faces, _, _ = marching_cubes(padded, level=level, spacing=(grid.voxel_size_m,) * 3)
+    vertices += grid.origin_m - 0.5 * grid.voxel_size_m  # padded index i is voxel i - 1, centred at +0.5
+    mesh = trimesh.Trimesh(vertices, faces[:, ::-1], process=True)
+    if mesh.volume < 0:
+        mesh.invert()
+    return mesh
+
+
+
+
+def best_mesh_level(filler: VoxelFiller, held: list[tuple[CarvedGrid, trimesh.Trimesh]]) -> float:
+    """The filler's level raised by the step that gives the best mean IoU of the finished meshes
+    of `held` training completions, voxelised at twice the carving's resolution (about Rock et
+    al.'s 200^3 over the object). The filler's own level is the best for voxel decisions;
+    smoothing and marching cubes then shift the surface, and on the generated classes the
+    finished meshes were best 0.05-0.15 higher."""
+    scores = np.zeros(len(LEVEL_STEPS))
+    for carved, truth_mesh in held:
+        grid = carved.grid
+        fine = VoxelGrid(
+            origin_m=grid.origin_m, voxel_size_m=grid.voxel_size_m / 2, shape=tuple(2 * n for n in grid.shape)
+        )
+        truth = solid_occupancy(truth_mesh, fine)
+        probability = filler.occupancy_probability(carved.features)
+        for i, step in enumerate(LEVEL_STEPS):
+            level = filler.level_ + step
+            mesh = mesh_from_field(carved.occupancy_field(probability, level), grid, level=level)
+            scores[i] += iou_of_occupancies(solid_occupancy(mesh, fine), truth)
+    return filler.level_ + LEVEL_STEPS[int(np.argmax(scores))]

@@ -12,6 +12,7 @@ on one version of a library is refused for another.
 from __future__ import annotations
 
 import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -127,3 +128,9 @@ def write_procedural_library(
             write_bytes_atomic(path, mesh.export(file_type="ply"))
             written.append(path)
     return written
+
+
+def training_fingerprint(library_fingerprint: str, params: dict) -> str:
+    """A hash of the library's files and the training options."""
+    text = library_fingerprint + json.dumps(params, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()

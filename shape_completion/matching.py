@@ -1,4 +1,5 @@
-"""Matching: a random forest that groups training views of similar shape and viewpoint.
+"""Matching: a random forest that groups training views of similar shape and viewpoint, and the
+alignment of a candidate view's cloud with the query that ranks the candidates.
 
 Departure from the paper: Rock et al. split on the entropy of the views' shape codes.
 scikit-learn's regression forest splits on squared error over the codes instead; for
@@ -10,8 +11,12 @@ runs in scikit-learn's compiled tree builder.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 from sklearn.base import BaseEstimator
 from sklearn.ensemble import RandomForestRegressor
+
+from homemodel.geometry.camera import Camera
+from shape_completion.registration import apply
 
 
 class ViewForest(BaseEstimator):
@@ -51,3 +56,53 @@ class ViewForest(BaseEstimator):
         order = np.argsort(-votes, kind="stable")
         order = order[votes[order] > 0]
         return order[:count]
+
+
+def quarter_turned(camera: Camera, turns: int) -> Camera:
+    """The intrinsics of np.rot90(image, turns): each turn puts old row r, column c at row
+    width - 1 - c, column r."""
+    for _ in range(turns % 4):
+        camera = Camera(
+            width=camera.height,
+            height=camera.width,
+            fx=camera.fy,
+            fy=camera.fx,
+            cx=camera.cy,
+            cy=camera.width - 1 - camera.cx,
+        )
+    return camera
+
+
+
+
+def aligned_chamfer(
+    view_cloud: np.ndarray, query: np.ndarray, query_tree: cKDTree, *, quarter_turns: int = 0
+) -> tuple[float, np.ndarray]:
+    """Mean two-way nearest-point distance after moving the view's cloud onto the query: rolled
+    about the view camera's optical axis to undo a `quarter_turns` np.rot90 of the query image,
+    turned so its centroid lies on the query centroid's ray, then shifted to the query's
+    centroid. Returns the distance and that motion (4x4, query camera from view camera)."""
+    roll = np.eye(4)
+    # np.rot90 maps a point's image coordinates (x, y) to (y, -x): undo it with +90 degrees about z.
+    roll[:3, :3] = np.linalg.matrix_power(np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), quarter_turns)
+    rolled = apply(roll, view_cloud)
+    view_centre, query_centre = rolled.mean(axis=0), query.mean(axis=0)
+    a, b = view_centre / np.linalg.norm(view_centre), query_centre / np.linalg.norm(query_centre)
+    rotation = _rotation_between(a, b)
+    motion = np.eye(4)
+    motion[:3, :3] = rotation
+    motion[:3, 3] = query_centre - rotation @ view_centre
+    moved = apply(motion, rolled)
+    distance = 0.5 * (query_tree.query(moved)[0].mean() + cKDTree(moved).query(query)[0].mean())
+    return float(distance), motion @ roll
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking unit vector a to unit vector b (Rodrigues)."""
+    axis = np.cross(a, b)
+    sin, cos = np.linalg.norm(axis), float(a @ b)
+    if sin < 1e-12:
+        return np.eye(3)
+    k = axis / sin
+    skew = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + sin * skew + (1 - cos) * skew @ skew

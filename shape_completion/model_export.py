@@ -1,34 +1,108 @@
-"""A completed mesh as a one-link model folder (model.urdf, model.glb, meshes/) plus summary.json."""
+"""The shape-completion entry: one depth image to a model folder of the whole object.
+
+`complete(model_file_or_completer, depth_png, out_dir, CompletionOptions(camera_path=...))`
+reads the query (the depth image, its camera.yaml and an optional mask), completes it with a
+trained `ShapeCompleter` and writes model.urdf, model.glb, meshes/ and summary.json, in the
+query camera's frame (OpenCV: x right, y down, z forward), metres.
+"""
 
 from __future__ import annotations
 
-import json
+from dataclasses import dataclass
 from pathlib import Path
 
-import trimesh
-
 from articulation.export import write_model_files
-from articulation.inertia import inertial_from_meshes
-from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
-from homemodel.core.atomic import atomic_dir, write_text_atomic
+from articulation.scan_model import scan_model
+from homemodel.core.atomic import atomic_dir, prepare_out_dir, write_json
+from homemodel.core.checks import require_positive
+from homemodel.core.progress import Progress, StageClock
+from shape_completion.pipeline import Completion, ShapeCompleter
+
+GREY = (0.7, 0.7, 0.75, 1.0)  # a completed shape has no colour
 
 
-def completion_model(mesh: trimesh.Trimesh, *, name: str, category: str, density_kg_m3: float) -> Model:
-    """One link holding the mesh as visual and (convex-hull) collision, with its inertial."""
-    link = Link(
-        name="object",
-        visuals=[Visual(name="completed", mesh=mesh, material=Material(name="completed", rgba=(0.7, 0.7, 0.75, 1.0)))],
-        collisions=[Collision(name="hull", geometry=MeshGeometry(mesh=mesh))],
-        inertial=inertial_from_meshes([mesh], density_kg_m3=density_kg_m3),
-    )
-    return Model(name=name, links=[link], category=category)
+@dataclass(kw_only=True)
+class CompletionOptions:
+    camera_path: Path | None = None  # the query's camera.yaml; None: camera.yaml beside the depth image
+    mask_path: Path | None = None  # an 8-bit mask PNG, non-zero on the object
+    library_dir: Path | None = None  # refuse a model trained on another version of this library
+    name: str | None = None  # the model's name; None: the depth image's file name without suffix
+    density_kg_m3: float = 700.0  # for the inertial
+
+    def check(self) -> None:
+        require_positive("density_kg_m3", self.density_kg_m3)
 
 
-def export_completion(
-    model: Model, out_dir: Path, *, summary: dict, force: bool = False, inputs: tuple[Path, ...] = ()
-) -> Path:
-    """Write the model folder and its summary.json atomically (all or nothing)."""
+def completion_summary(completion: Completion) -> dict:
+    """The figures summary.json holds (and the command prints)."""
+    fit = completion.fit
+    return {
+        "class": completion.class_name,
+        "retrieved": completion.retrieved_name,
+        "query_points": int(len(fit.query)),
+        "match_distance_m": fit.match_distance_m,
+        "fit_distance_m": fit.fit_distance_m,
+        "symmetry_planes": len(fit.planes_camera),
+        # a revolved match's axis fitted to the query (e.g. a cup's, to grasp it around)
+        "revolution_axis": None
+        if fit.axis is None
+        else {"point_m": fit.axis.point.tolist(), "direction": fit.axis.direction.tolist()},
+        "triangles": int(len(completion.mesh.faces)),
+        "extents_m": [float(v) for v in completion.mesh.extents],
+        "watertight": bool(completion.mesh.is_watertight),
+        "times_s": dict(completion.times_s),
+        "frame": "query camera, OpenCV (x right, y down, z forward), metres",
+    }
+
+
+def complete(
+    model: Path | ShapeCompleter,
+    depth_png: Path,
+    out_dir: Path,
+    options: CompletionOptions | None = None,
+    *,
+    progress: Progress | None = None,
+    force: bool = False,
+) -> Completion:
+    """Complete the object seen in `depth_png` (a 16-bit PNG in units of the camera's
+    depth_scale_m, or a float EXR in metres) with `model` (a model file from `homemodel
+    completion train`, or a fitted completer) into a model folder at `out_dir`. Refuses a
+    non-empty `out_dir` unless `force`; the folder appears whole or not at all. Progress
+    stages: load, query, matching, rigid_fit, deformation, filling, export."""
+    from shape_completion.library import fingerprint_files, library_files
+    from shape_completion.model_io import load_model
+    from shape_completion.query_input import load_query
+
+    options = options or CompletionOptions()
+    options.check()
+    depth_png = Path(depth_png)
+    camera_path = Path(options.camera_path or depth_png.parent / "camera.yaml")
+    model_path = None if isinstance(model, ShapeCompleter) else Path(model)
+    inputs = [p for p in (model_path, depth_png, camera_path) if p is not None]
+    prepare_out_dir(Path(out_dir), force=force, inputs=inputs)  # before loading a large model
+    clock = StageClock(progress)
+    clock.start("load")
+    if model_path is not None:
+        expected = fingerprint_files(library_files(options.library_dir)) if options.library_dir is not None else None
+        model = load_model(model_path, library_fingerprint=expected)
+    depth, pinhole = load_query(depth_png, camera_path, options.mask_path)
+    clock.stop()
+    completion = model.complete(depth, pinhole, progress=progress)
+    completion.times_s = {**clock.times_s, **completion.times_s}
+    clock.start("export", 1)
     with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:
-        write_model_files(model, tmp)
-        write_text_atomic(tmp / "summary.json", json.dumps(summary, indent=2, sort_keys=True) + "\n")
-    return Path(out_dir)
+        write_model_files(
+            scan_model(
+                completion.mesh,
+                name=options.name or depth_png.stem,
+                density_kg_m3=options.density_kg_m3,
+                rgba=GREY,
+                category=completion.class_name,
+                properties={"source": "shape_completion"},
+            ),
+            tmp,
+        )
+        clock.stop()
+        completion.times_s["export"] = clock.times_s["export"]
+        write_json(tmp / "summary.json", completion_summary(completion))
+    return completion

@@ -13,7 +13,8 @@ import joblib
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
-from shape_completion.pipeline import ShapeCompleter, training_fingerprint
+from shape_completion.library import training_fingerprint
+from shape_completion.pipeline import ShapeCompleter
 
 FORMAT = "homemodel-shape-completion"
 FORMAT_VERSION = 3

@@ -6,34 +6,36 @@ the boosted filler on completions of the library's own meshes (each with its own
 left out of retrieval, so the filler sees the errors a novel object brings).
 `ShapeCompleter.complete(depth_m, camera)` turns one object-only depth image into a mesh in
 the camera's frame (OpenCV: x right, y down, z forward), keeping every stage's result.
+The stages' parts live in their modules (`matching`, `registration`, `spin_images`,
+`symmetry`, `deformation`, `filling`); `shape_completion.complete` is the entry that reads a
+query and writes the model folder.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import logging
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import trimesh
-from scipy import ndimage
 from scipy.spatial import cKDTree
 from sklearn.base import BaseEstimator
 
 from homemodel.core.errors import InputError, ModelError
+from homemodel.core.progress import Progress, StageClock, no_progress
 from homemodel.evaluation.surface import distances_to_surface
-from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
+from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
-from shape_completion.deformation import symmetric_controls, tps_deform
-from shape_completion.features import PixelTests, clean_object_depth, view_features
-from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, carve
-from shape_completion.library import Library, working_mesh
-from shape_completion.matching import ViewForest
-from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
+from shape_completion.deformation import deformation_is_trusted, symmetric_controls, tps_deform
+from shape_completion.features import PixelTests, view_features
+from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, best_mesh_level, carve, mesh_from_field
+from shape_completion.library import Library, training_fingerprint, working_mesh
+from shape_completion.matching import ViewForest, aligned_chamfer, quarter_turned
+from shape_completion.queries import FILLER_CAMERA, random_query_pose
+from shape_completion.query_input import MIN_QUERY_PIXELS, check_query
+from shape_completion.registration import apply, camera_facing_normals, subsample, trimmed_icp
 from shape_completion.render import camera_from_object_on_sphere, sphere_directions
 from shape_completion.shape_codes import ObjectOccupancy, ShapeBasis
 from shape_completion.spin_images import spin_image_alignment
@@ -46,8 +48,6 @@ from shape_completion.symmetry import (
 
 logger = logging.getLogger(__name__)
 
-Progress = Callable[[str, int, int], None]
-
 # Training views: a small square image; the object's bounding sphere fills ~80% of it.
 VIEW_IMAGE_PX = 96
 VIEW_CAMERA = Camera(
@@ -58,15 +58,10 @@ VIEW_CAMERA = Camera(
     cx=(VIEW_IMAGE_PX - 1) / 2,
     cy=(VIEW_IMAGE_PX - 1) / 2,
 )
-# The queries the filler trains on: a VGA-like depth camera at half resolution.
-FILLER_CAMERA = Camera(width=320, height=240, fx=285.0, fy=285.0, cx=159.5, cy=119.5)
-MIN_QUERY_PIXELS = 30
 CLOUD_POINTS = 400
 MODEL_SAMPLES = 2500
 FILLER_SAMPLES_PER_QUERY = 6000
-MAX_DEFORMATION_STRETCH = 1.5
 LEVEL_CHECK_QUERIES = 10  # training completions the final level is chosen on
-LEVEL_STEPS = (0.0, 0.05, 0.1, 0.15)
 AXIS_FIT_POINTS = 4000
 AXIS_FIT_TOLERANCE_M = 0.003
 QUERY_QUARTER_TURNS = (0, 1, 2, 3)
@@ -102,7 +97,6 @@ class Fit:
     # al.). Filling only: moving the deformation's controls through the plane it gives made
     # the fits worse in our tests.
     axis: RevolutionAxis | None
-    seconds: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(kw_only=True)
@@ -113,7 +107,7 @@ class Completion:
     mesh: trimesh.Trimesh
     class_name: str
     retrieved_name: str
-    seconds: dict[str, float]
+    times_s: dict[str, float]  # query, matching, rigid_fit, deformation, filling
 
     @property
     def retrieved(self) -> trimesh.Trimesh:
@@ -127,37 +121,6 @@ class Completion:
 def view_distance_m(radius_m: float) -> float:
     """Camera distance at which a bounding sphere of `radius_m` spans ~80% of a training view."""
     return radius_m / np.tan(np.arctan(0.5 * VIEW_IMAGE_PX / VIEW_CAMERA.fx) * 0.8)
-
-
-def check_query(depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None) -> np.ndarray:
-    """The object-only depth (NaN elsewhere) of a query, or an InputError saying what is wrong."""
-    depth = np.asarray(depth_m, dtype=np.float32)
-    if depth.shape != (camera.height, camera.width):
-        raise InputError(
-            f"depth image is {depth.shape[1]}x{depth.shape[0]} px but the camera is {camera.width}x{camera.height} px"
-        )
-    depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan).astype(np.float32)
-    if mask is not None:
-        if mask.shape != depth.shape:
-            raise InputError(
-                f"mask is {mask.shape[1]}x{mask.shape[0]} px but the depth image is {camera.width}x{camera.height}"
-            )
-        depth[~mask.astype(bool)] = np.nan
-    count = int(np.isfinite(depth).sum())
-    if count == 0:
-        raise InputError("depth image has no valid depth on the object (empty, all zero or all NaN)")
-    if count < MIN_QUERY_PIXELS:
-        raise InputError(f"depth image has only {count} valid pixels on the object (need {MIN_QUERY_PIXELS})")
-    depth = clean_object_depth(depth)
-    rows, cols = np.nonzero(np.isfinite(depth))
-    median = float(np.nanmedian(depth))
-    across = max(cols.ptp() / camera.fx, rows.ptp() / camera.fy) * median
-    if not (0.005 <= across <= 2.0) or median > 20.0:
-        raise InputError(
-            f"the object would be {across:.3g} m across at {median:.3g} m: the depth image does not match the camera"
-            " (check depth_scale_m and the focal lengths)"
-        )
-    return depth
 
 
 class ShapeCompleter(BaseEstimator):
@@ -192,7 +155,7 @@ class ShapeCompleter(BaseEstimator):
 
     def fit(self, library: Library, progress: Progress | None = None) -> ShapeCompleter:
         """Learn retrieval and filling from `library`; `progress(stage, done, total)` reports."""
-        report = progress or (lambda stage, done, total: None)
+        report = progress or no_progress
         if self.n_views < 4:
             raise InputError(f"n_views={self.n_views}: at least 4 views per mesh")
         if self.filler_queries_per_class < 1:
@@ -228,7 +191,7 @@ class ShapeCompleter(BaseEstimator):
                 depth = caster.depth(VIEW_CAMERA, camera_from_object)
                 if np.isfinite(depth).sum() < MIN_QUERY_PIXELS:
                     continue  # a spoon seen edge-on can vanish at this resolution
-                cloud = _subsample(VIEW_CAMERA.depth_to_points(depth), CLOUD_POINTS, rng)
+                cloud = subsample(VIEW_CAMERA.depth_to_points(depth), CLOUD_POINTS, rng)
                 features.append(view_features(depth, VIEW_CAMERA, self.tests_))
                 occupancies.append(occupancy.in_view(camera_from_object))
                 view_shape.append(index)
@@ -268,10 +231,12 @@ class ShapeCompleter(BaseEstimator):
             report("filler training", done, len(jobs))
             shape = self.shapes_[shape_index]
             camera_from_object = random_query_pose(shape.mesh, rng)
-            depth = render_query(shape.mesh, FILLER_CAMERA, camera_from_object)
+            depth = RayCaster(shape.mesh).depth(FILLER_CAMERA, camera_from_object)
             if np.isfinite(depth).sum() < MIN_QUERY_PIXELS:
                 continue
-            fit = self._match_and_fit(depth, FILLER_CAMERA, exclude=self.view_shape_ == shape_index, rng=rng)
+            fit = self._match_and_fit(
+                depth, FILLER_CAMERA, exclude=self.view_shape_ == shape_index, rng=rng, clock=StageClock()
+            )
             carved = self._carve(depth, FILLER_CAMERA, fit)
             truth_mesh = shape.mesh.copy().apply_transform(camera_from_object)
             truth = solid_occupancy(truth_mesh, carved.grid)
@@ -283,24 +248,30 @@ class ShapeCompleter(BaseEstimator):
             raise ModelError("no filler training query could be rendered from the library")
         filler = VoxelFiller(random_state=self.random_state).fit_grids(grids)
         report("filler level", 0, 1)
-        filler.level_ = _best_mesh_level(filler, held)
+        filler.level_ = best_mesh_level(filler, held)
         return filler
 
     # ---- completion -----------------------------------------------------------------------
 
-    def complete(self, depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None = None) -> Completion:
-        """A mesh of the whole object seen in `depth_m` (metres, NaN or 0 = no measurement)."""
-        started = time.perf_counter()
+    def complete(
+        self, depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None = None, progress: Progress | None = None
+    ) -> Completion:
+        """A mesh of the whole object seen in `depth_m` (metres, NaN or 0 = no measurement);
+        progress stages query, matching, rigid_fit, deformation, filling."""
+        clock = StageClock(progress)
+        clock.start("query")
         depth = check_query(depth_m, camera, mask)
-        fit = self._match_and_fit(depth, camera, exclude=None, rng=np.random.default_rng(self.random_state))
-        t0 = time.perf_counter()
+        fit = self._match_and_fit(depth, camera, exclude=None, rng=np.random.default_rng(self.random_state), clock=clock)
+        clock.start("filling")
         carved = self._carve(depth, camera, fit)
         level = self.filler_.level_
         field = carved.occupancy_field(self.filler_.occupancy_probability(carved.features), level)
         mesh = mesh_from_field(field, carved.grid, level=level)
-        seconds = dict(fit.seconds, filling=time.perf_counter() - t0, total=time.perf_counter() - started)
+        clock.stop()
         shape = self.shapes_[fit.shape_index]
-        return Completion(fit=fit, mesh=mesh, class_name=shape.class_name, retrieved_name=shape.name, seconds=seconds)
+        return Completion(
+            fit=fit, mesh=mesh, class_name=shape.class_name, retrieved_name=shape.name, times_s=clock.times_s
+        )
 
     def _carve(self, depth: np.ndarray, camera: Camera, fit: Fit) -> CarvedGrid:
         return carve(
@@ -316,11 +287,16 @@ class ShapeCompleter(BaseEstimator):
         )
 
     def _match_and_fit(
-        self, depth: np.ndarray, camera: Camera, *, exclude: np.ndarray | None, rng: np.random.Generator
+        self,
+        depth: np.ndarray,
+        camera: Camera,
+        *,
+        exclude: np.ndarray | None,
+        rng: np.random.Generator,
+        clock: StageClock,
     ) -> Fit:
-        seconds = {}
-        t0 = time.perf_counter()
-        query = _subsample(camera.depth_to_points(depth), 1500, rng)
+        clock.start("matching")
+        query = subsample(camera.depth_to_points(depth), 1500, rng)
         candidates = self._candidate_views(depth, camera, exclude)
         if len(candidates) == 0:
             raise ModelError("the retrieval forest found no candidate view")
@@ -334,18 +310,17 @@ class ShapeCompleter(BaseEstimator):
         shape = self.shapes_[shape_index]
         initial = alignment @ self.view_poses_[view_index]
         retrieved = shape.mesh.copy().apply_transform(initial)
-        seconds["matching"] = time.perf_counter() - t0
 
-        t0 = time.perf_counter()
+        clock.start("rigid_fit")
         size = float(np.linalg.norm(shape.mesh.extents))
         camera_from_object = self._rigid_fit(query, shape, initial, size, rng)
         planes = [plane.transformed(camera_from_object) for plane in shape.planes]
         axis = None if shape.axis is None else self._fitted_axis(depth, camera, shape.axis, camera_from_object, rng)
-        seconds["rigid_fit"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
+
+        clock.start("deformation")
         deformed = self._deform(query, shape, camera_from_object, planes, size, rng)
         fit_distance = float(distances_to_surface(query, deformed).mean())
-        seconds["deformation"] = time.perf_counter() - t0
+        clock.stop()
         return Fit(
             query=query,
             shape_index=shape_index,
@@ -357,7 +332,6 @@ class ShapeCompleter(BaseEstimator):
             fit_distance_m=fit_distance,
             planes_camera=planes,
             axis=axis,
-            seconds=seconds,
         )
 
     def _candidate_views(
@@ -369,7 +343,7 @@ class ShapeCompleter(BaseEstimator):
         so the turned images find views the upright one misses (an addition to Rock et al.)."""
         pairs = []
         for turns in QUERY_QUARTER_TURNS:
-            features = view_features(np.rot90(depth, turns), _quarter_turned(camera, turns), self.tests_)
+            features = view_features(np.rot90(depth, turns), quarter_turned(camera, turns), self.tests_)
             pairs += [(int(view), turns) for view in self.forest_.candidates(features, self.n_candidates, exclude)]
         return pairs
 
@@ -382,7 +356,7 @@ class ShapeCompleter(BaseEstimator):
         rng: np.random.Generator,
     ) -> RevolutionAxis:
         """The revolved retrieved mesh's axis at its fitted pose, moved onto the query."""
-        points = _subsample(camera.depth_to_points(depth), AXIS_FIT_POINTS, rng)
+        points = subsample(camera.depth_to_points(depth), AXIS_FIT_POINTS, rng)
         return axis.transformed(camera_from_object).fitted_to(
             points, camera_facing_normals(points, neighbours=24), tolerance_m=AXIS_FIT_TOLERANCE_M
         )
@@ -421,7 +395,7 @@ class ShapeCompleter(BaseEstimator):
         facing = np.einsum("ni,ni->n", normals, -points) > 0
         if facing.sum() < 10:
             facing[:] = True
-        controls = _subsample(query, 250, rng)
+        controls = subsample(query, 250, rng)
         distances, nearest = cKDTree(points[facing]).query(controls)
         keep = distances < 0.15 * size
         model_points = points[facing][nearest[keep]]
@@ -433,124 +407,3 @@ class ShapeCompleter(BaseEstimator):
         return trimesh.Trimesh(moved, shape.mesh.faces, process=False)
 
 
-def deformation_is_trusted(placed: np.ndarray, moved: np.ndarray, camera_from_object_rotation: np.ndarray) -> bool:
-    """Whether a deformation of the `placed` vertices to `moved` keeps the mesh's box, along the
-    object's own axes, within MAX_DEFORMATION_STRETCH of its size. Few or one-sided controls can
-    make the spline run away (seen: a spoon blown up to 40 times its volume); the rigid fit
-    then stands."""
-    stretch = np.ptp(moved @ camera_from_object_rotation, axis=0) / np.maximum(
-        np.ptp(placed @ camera_from_object_rotation, axis=0), 1e-9
-    )
-    return bool(np.all(stretch <= MAX_DEFORMATION_STRETCH) and np.all(stretch >= 1 / MAX_DEFORMATION_STRETCH))
-
-
-def training_fingerprint(library_fingerprint: str, params: dict) -> str:
-    """A hash of the library's files and the training options."""
-    text = library_fingerprint + json.dumps(params, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def random_query_pose(mesh: trimesh.Trimesh, rng: np.random.Generator) -> np.ndarray:
-    """A camera 0.35-0.7 m from the object on a random direction of the upper 3/4 of the sphere,
-    the object a little off the optical axis: how a robot's head camera sees a table top."""
-    direction = rng.normal(size=3)
-    direction[2] = abs(direction[2]) if rng.uniform() < 0.75 else direction[2]
-    direction /= np.linalg.norm(direction)
-    centre = mesh.bounds.mean(axis=0)
-    camera_from_object = camera_from_object_on_sphere(centre, direction, rng.uniform(0.35, 0.7))
-    camera_from_object[:3, 3] += np.append(rng.uniform(-0.05, 0.05, size=2), 0.0)
-    return camera_from_object
-
-
-def render_query(mesh: trimesh.Trimesh, camera: Camera, camera_from_object: np.ndarray) -> np.ndarray:
-    return RayCaster(mesh).depth(camera, camera_from_object)
-
-
-def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -> trimesh.Trimesh:
-    """The `level` set of a lightly smoothed occupancy field (marching cubes), in the grid's frame."""
-    from skimage.measure import marching_cubes
-
-    padded = np.pad(ndimage.gaussian_filter(field, sigma=0.6), 1)
-    if padded.max() < level:
-        raise ModelError("the completed shape is empty: no voxel is occupied")
-    vertices, faces, _, _ = marching_cubes(padded, level=level, spacing=(grid.voxel_size_m,) * 3)
-    vertices += grid.origin_m - 0.5 * grid.voxel_size_m  # padded index i is voxel i - 1, centred at +0.5
-    mesh = trimesh.Trimesh(vertices, faces[:, ::-1], process=True)
-    if mesh.volume < 0:
-        mesh.invert()
-    return mesh
-
-
-def _best_mesh_level(filler: VoxelFiller, held: list[tuple[CarvedGrid, trimesh.Trimesh]]) -> float:
-    """The filler's level raised by the step that gives the best mean IoU of the finished meshes
-    of `held` training completions, voxelised at twice the carving's resolution (about Rock et
-    al.'s 200^3 over the object). The filler's own level is the best for voxel decisions;
-    smoothing and marching cubes then shift the surface, and on the generated classes the
-    finished meshes were best 0.05-0.15 higher."""
-    scores = np.zeros(len(LEVEL_STEPS))
-    for carved, truth_mesh in held:
-        grid = carved.grid
-        fine = VoxelGrid(
-            origin_m=grid.origin_m, voxel_size_m=grid.voxel_size_m / 2, shape=tuple(2 * n for n in grid.shape)
-        )
-        truth = solid_occupancy(truth_mesh, fine)
-        probability = filler.occupancy_probability(carved.features)
-        for i, step in enumerate(LEVEL_STEPS):
-            level = filler.level_ + step
-            mesh = mesh_from_field(carved.occupancy_field(probability, level), grid, level=level)
-            scores[i] += iou_of_occupancies(solid_occupancy(mesh, fine), truth)
-    return filler.level_ + LEVEL_STEPS[int(np.argmax(scores))]
-
-
-def _subsample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
-    if len(points) <= count:
-        return points
-    return points[rng.choice(len(points), size=count, replace=False)]
-
-
-def _quarter_turned(camera: Camera, turns: int) -> Camera:
-    """The intrinsics of np.rot90(image, turns): each turn puts old row r, column c at row
-    width - 1 - c, column r."""
-    for _ in range(turns % 4):
-        camera = Camera(
-            width=camera.height,
-            height=camera.width,
-            fx=camera.fy,
-            fy=camera.fx,
-            cx=camera.cy,
-            cy=camera.width - 1 - camera.cx,
-        )
-    return camera
-
-
-def aligned_chamfer(
-    view_cloud: np.ndarray, query: np.ndarray, query_tree: cKDTree, *, quarter_turns: int = 0
-) -> tuple[float, np.ndarray]:
-    """Mean two-way nearest-point distance after moving the view's cloud onto the query: rolled
-    about the view camera's optical axis to undo a `quarter_turns` np.rot90 of the query image,
-    turned so its centroid lies on the query centroid's ray, then shifted to the query's
-    centroid. Returns the distance and that motion (4x4, query camera from view camera)."""
-    roll = np.eye(4)
-    # np.rot90 maps a point's image coordinates (x, y) to (y, -x): undo it with +90 degrees about z.
-    roll[:3, :3] = np.linalg.matrix_power(np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), quarter_turns)
-    rolled = apply(roll, view_cloud)
-    view_centre, query_centre = rolled.mean(axis=0), query.mean(axis=0)
-    a, b = view_centre / np.linalg.norm(view_centre), query_centre / np.linalg.norm(query_centre)
-    rotation = _rotation_between(a, b)
-    motion = np.eye(4)
-    motion[:3, :3] = rotation
-    motion[:3, 3] = query_centre - rotation @ view_centre
-    moved = apply(motion, rolled)
-    distance = 0.5 * (query_tree.query(moved)[0].mean() + cKDTree(moved).query(query)[0].mean())
-    return float(distance), motion @ roll
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smallest rotation taking unit vector a to unit vector b (Rodrigues)."""
-    axis = np.cross(a, b)
-    sin, cos = np.linalg.norm(axis), float(a @ b)
-    if sin < 1e-12:
-        return np.eye(3)
-    k = axis / sin
-    skew = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + sin * skew + (1 - cos) * skew @ skew

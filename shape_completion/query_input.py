@@ -1,4 +1,4 @@
-"""Read a query: a 16-bit depth PNG (or float EXR), its camera.yaml, and an optional mask."""
+"""Read and check a query: a 16-bit depth PNG (or float EXR), its camera.yaml, and an optional mask."""
 
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
 from homemodel.geometry.camera import Camera, load_camera
 from homemodel.geometry.depth_io import read_depth_m
-from shape_completion.pipeline import check_query
+from shape_completion.features import clean_object_depth
+
+MIN_QUERY_PIXELS = 30  # fewer valid pixels on the object: no query
 
 
 def undistorted_depth(depth_m: np.ndarray, camera: Camera) -> np.ndarray:
@@ -60,3 +62,34 @@ def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = Non
         return check_query(depth, camera, None), camera
     except InputError as exc:
         raise InputError(f"{depth_path}: {exc}") from None
+
+
+def check_query(depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None) -> np.ndarray:
+    """The object-only depth (NaN elsewhere) of a query, or an InputError saying what is wrong."""
+    depth = np.asarray(depth_m, dtype=np.float32)
+    if depth.shape != (camera.height, camera.width):
+        raise InputError(
+            f"depth image is {depth.shape[1]}x{depth.shape[0]} px but the camera is {camera.width}x{camera.height} px"
+        )
+    depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan).astype(np.float32)
+    if mask is not None:
+        if mask.shape != depth.shape:
+            raise InputError(
+                f"mask is {mask.shape[1]}x{mask.shape[0]} px but the depth image is {camera.width}x{camera.height}"
+            )
+        depth[~mask.astype(bool)] = np.nan
+    count = int(np.isfinite(depth).sum())
+    if count == 0:
+        raise InputError("depth image has no valid depth on the object (empty, all zero or all NaN)")
+    if count < MIN_QUERY_PIXELS:
+        raise InputError(f"depth image has only {count} valid pixels on the object (need {MIN_QUERY_PIXELS})")
+    depth = clean_object_depth(depth)
+    rows, cols = np.nonzero(np.isfinite(depth))
+    median = float(np.nanmedian(depth))
+    across = max(cols.ptp() / camera.fx, rows.ptp() / camera.fy) * median
+    if not (0.005 <= across <= 2.0) or median > 20.0:
+        raise InputError(
+            f"the object would be {across:.3g} m across at {median:.3g} m: the depth image does not match the camera"
+            " (check depth_scale_m and the focal lengths)"
+        )
+    return depth

@@ -66,3 +66,10 @@ def trimmed_icp(
         pose = update
     points = apply(pose, model_points)
     return pose, float(cKDTree(points).query(query)[0].mean())
+
+
+def subsample(points: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """At most `count` of `points`, drawn without replacement."""
+    if len(points) <= count:
+        return points
+    return points[rng.choice(len(points), size=count, replace=False)]

@@ -408,16 +408,17 @@ def test_unknown_part_and_missing_face_are_refused_after_building(tmp_path: Path
 
 @pytest.mark.bpy
 def test_render_writes_a_validated_model_and_pictures_that_match_the_photo(tmp_path: Path, textured_dir: Path) -> None:
-    from modeller.comparison_picture import PictureOptions, render_spec
+    from modeller import BuildOptions, build
+    from modeller.comparison_picture import PictureOptions
 
     out = tmp_path / "render"
-    result = render_spec(textured_dir / "cupboard.yaml", out, options=PictureOptions(panel_height_px=640))
+    result = build(textured_dir / "cupboard.yaml", out, BuildOptions(pictures=PictureOptions(panel_height_px=640)))
     assert result.valid, result.failed_checks
     assert {"model.urdf", "model.glb", "model.blend", "summary.json", "comparison_0.png", "comparison_1.png"} <= {
         p.name for p in out.iterdir()
     }
     assert json.loads((out / "summary.json").read_text())["valid"] is True
-    for row in result.rows:
+    for row in result.pictures:
         assert abs(row.focal_px - FOCAL_PX) < 0.01 * FOCAL_PX and row.reprojection_px < 0.5
     # The middle panel (the model through the recovered camera) shows the door where the photo does.
     photo = cv2.imread(str(textured_dir / "photos" / "cupboard_door.jpg"))

@@ -17,9 +17,10 @@ from homemodel.evaluation import rock_surface_distance, rock_voxel_iou
 from homemodel.geometry.mesh_io import load_mesh
 from homemodel.evaluation.surface import distances_to_surface
 from shape_completion.model_io import load_model, save_model
-from shape_completion.pipeline import FILLER_CAMERA, random_query_pose, render_query
+from shape_completion.queries import FILLER_CAMERA, random_query_pose
 from shape_completion.procedural import generate_instances
 from homemodel.geometry.camera import Camera, save_camera
+from homemodel.geometry.raycast import RayCaster
 from homemodel.geometry.depth_io import write_depth
 
 CLASSES = ("bottle", "cup", "spoon")
@@ -59,7 +60,7 @@ def scores(completer) -> dict[str, list[list[float]]]:
         # Instances the generator makes after the library's: never seen in training.
         for mesh in generate_instances(class_name, TRAIN + TEST, seed=0)[TRAIN:]:
             camera_from_object = random_query_pose(mesh, rng)
-            completion = completer.complete(render_query(mesh, FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
+            completion = completer.complete(RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object), FILLER_CAMERA)
             truth = mesh.copy().apply_transform(camera_from_object)
             stages = (completion.retrieved, completion.deformed, completion.mesh)
             per_class.setdefault(class_name, []).append(
@@ -86,7 +87,7 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     mesh = generate_instances("bottle", TRAIN + 1, seed=0)[TRAIN]
     camera_from_object = random_query_pose(mesh, np.random.default_rng(4))
     save_camera(FILLER_CAMERA.model_copy(update={"depth_scale_m": 0.0002}), tmp_path / "camera.yaml")
-    write_depth(tmp_path / "depth.png", render_query(mesh, FILLER_CAMERA, camera_from_object), depth_scale_m=0.0002)
+    write_depth(tmp_path / "depth.png", RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object), depth_scale_m=0.0002)
     result = invoke(
         "completion",
         "run",
@@ -102,7 +103,7 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     assert result.exit_code == 0, result.output
     assert validate_path(tmp_path / "out").ok
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
-    assert summary["class"] == "bottle" and summary["seconds"]["total"] > 0
+    assert summary["class"] == "bottle" and summary["times_s"]["filling"] > 0
     # The generator revolves a bottle about its z axis: the axis fitted to the query is that one.
     axis = summary["revolution_axis"]
     direction, point = np.array(axis["direction"]), np.array(axis["point_m"])
@@ -115,7 +116,7 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     # In the camera's frame: the surface the camera saw lies on the completed mesh (a wrong
     # frame is off by the camera distance, 0.35-0.7 m), and the whole overlaps the truth (a
     # wrong frame scores about 0; one query of a 6-mesh class scores 0.4-0.8 as instances vary).
-    seen = FILLER_CAMERA.depth_to_points(render_query(mesh, FILLER_CAMERA, camera_from_object))
+    seen = FILLER_CAMERA.depth_to_points(RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object))
     assert np.median(distances_to_surface(seen, completed)) < 0.003
     assert rock_voxel_iou(completed, truth) > 0.3
 

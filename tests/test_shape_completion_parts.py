@@ -13,22 +13,19 @@ from homemodel.evaluation import mean_surface_distance_m
 from homemodel.evaluation.voxels import VoxelGrid, voxel_iou
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
-from shape_completion.deformation import symmetric_controls, tps_deform
+from shape_completion.deformation import deformation_is_trusted, symmetric_controls, tps_deform
 from shape_completion.filling import (
     CarvedGrid,
     TrainingGrid,
     distance_to_points,
+    mesh_from_field,
     signed_distance,
 )
 from shape_completion.library import MAX_WORKING_TRIANGLES, working_mesh
-from shape_completion.pipeline import (
-    FILLER_CAMERA,
-    VIEW_CAMERA,
-    aligned_chamfer,
-    check_query,
-    deformation_is_trusted,
-    mesh_from_field,
-)
+from shape_completion.matching import aligned_chamfer
+from shape_completion.pipeline import VIEW_CAMERA
+from shape_completion.queries import FILLER_CAMERA
+from shape_completion.query_input import check_query
 from shape_completion.procedural import GENERATORS, generate_instances
 from shape_completion.registration import apply, camera_facing_normals, trimmed_icp
 from shape_completion.render import camera_from_object_on_sphere

@@ -26,7 +26,7 @@ pytestmark = [pytest.mark.bpy, pytest.mark.slow]
 
 OBJECTS = ("box", "cylinder", "mug")
 CAPTURE = dict(
-    frames=30, width=320, height=240, samples=4, camera_distance_m=0.3, camera_height_m=0.55, tag_size_m=0.04
+    frames=30, width_px=320, height_px=240, samples=4, camera_distance_m=0.3, camera_height_m=0.55, tag_size_m=0.04
 )
 NOISE_AT_0_7_M = 0.0015
 
@@ -85,7 +85,7 @@ def noisy_reconstructions(
     root = tmp_path_factory.mktemp("noisy")
     result = {}
     for name, folder in captures.items():
-        noisy = resimulate_depth(folder, root / name, depth_noise_m=NOISE_AT_0_7_M, seed=1)
+        noisy = resimulate_depth(folder, root / name, depth_noise_m=NOISE_AT_0_7_M, random_state=1)
         result[name] = reconstruct_capture(load_capture(noisy))
     return result
 
@@ -129,7 +129,7 @@ def test_noise_model_has_the_requested_spread(captures: dict[str, Path], tmp_pat
     """Depth differences between a noisy and the noise-free rendering: sigma (z / 0.7 m)^2."""
     from turntable.capture import read_depth
 
-    noisy = resimulate_depth(captures["box"], tmp_path / "noisy", depth_noise_m=NOISE_AT_0_7_M, seed=3)
+    noisy = resimulate_depth(captures["box"], tmp_path / "noisy", depth_noise_m=NOISE_AT_0_7_M, random_state=3)
     camera = load_capture(noisy).camera
     clean = read_depth(captures["box"] / "depth" / "000000.png", camera)
     noised = read_depth(noisy / "depth" / "000000.png", camera)
@@ -214,7 +214,7 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
     assert report.ok, report.format()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["frames_used"] == CAPTURE["frames"] and summary["triangles"] > 1000
-    assert set(summary["stage_s"]) == {"poses", "axis", "merge", "mesh", "texture"}
+    assert set(summary["times_s"]) == {"poses", "axis", "merge", "mesh", "texture", "export"}
     poses = read_poses(out / "poses.json")
     assert len(poses) == CAPTURE["frames"]
     textures = list((out / "meshes").glob("*.png"))

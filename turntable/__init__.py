@@ -1,13 +1,21 @@
 """AprilTag turntable capture to a metric, coloured mesh (D3.1 section 3.3.3).
 
+The entry: `reconstruct(capture_dir, out_dir, ReconstructionOptions(...), progress=..., force=...)`
+writes the model folder (and registers it into a map when the options name one).
+
 - `board`, `board_pdf`: the tag grid, board.yaml, the printable PDF;
 - `simulate`, `blender_render`: synthetic captures (Cycles colour, ray-cast depth, sensor noise);
-- `capture`, `camera`, `depth_io`, `poses_io`: the capture folder and its files;
+- `capture`, `camera`, `poses_io`: the capture folder and its files;
 - `tags`, `pose`, `orbit`, `turntable_model`: detection, PnP, the axis, the joint pose refinement;
 - `fusion`, `meshing`, `texture`: merging, Poisson, the baked texture;
-- `reconstruct`, `outputs`, `picture`: the pipeline and its model folder.
+- `reconstruct`, `outputs`, `picture`: the pipeline and its model folder (the one-link model
+  of `articulation.scan_model`).
 
 No module here imports bpy: `blender_render` builds its Cycles scene with
 `homemodel.geometry.cycles_scene` (called by `simulate_capture`); reconstruction runs without Blender.
 See docs/turntable.md.
 """
+
+from turntable.reconstruct import Reconstruction, ReconstructionOptions, reconstruct
+
+__all__ = ["Reconstruction", "ReconstructionOptions", "reconstruct"]

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import ModelError
 from turntable.fusion import Cylinder, MergedCloud
 
@@ -27,6 +28,16 @@ class MeshingOptions:
     max_triangles: int = 80_000  # quadric decimation above this
     close_bottom: bool = True  # add the footprint on the table top, so the mesh closes there
     min_points: int = 200
+
+    def check(self) -> None:
+        require_at_least("outlier_neighbours", self.outlier_neighbours, 1)
+        require_positive("outlier_std_ratio", self.outlier_std_ratio)
+        require_at_least("normal_neighbours", self.normal_neighbours, 3)
+        if self.poisson_depth is not None:
+            require_between("poisson_depth", self.poisson_depth, 1, 16)
+        require_between("density_quantile", self.density_quantile, 0.0, 0.5)
+        require_at_least("max_triangles", self.max_triangles, 100)
+        require_at_least("min_points", self.min_points, 4)
 
 
 @dataclass(kw_only=True)

@@ -4,56 +4,41 @@ summary.json and, on request, a picture of the mesh with the camera orbit."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
 
 from articulation.export import write_model_files
-from articulation.inertia import inertial_from_meshes
-from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
-from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from articulation.scan_model import scan_model
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
 from homemodel.core.errors import ModelError
+from homemodel.core.progress import Progress, StageClock
 from turntable.poses_io import write_poses
-from turntable.reconstruct import Reconstruction
+
+if TYPE_CHECKING:
+    from turntable.reconstruct import Reconstruction, ReconstructionOptions
 
 MESH_PLY = "mesh.ply"
 TEXTURE_PNG = "texture.png"
 
 
-def turntable_model(result: Reconstruction, *, name: str, texture_path: Path | None, density_kg_m3: float) -> Model:
-    """One link in the table frame: the textured visual, its convex hull as collision, and an
-    inertial from the closed mesh's volume (its hull's, if the mesh is not closed)."""
-    if result.textured_mesh is not None and texture_path is not None:
-        visual_mesh, uv = result.textured_mesh, result.uv
-        material = Material(name=f"{name}_surface", rgba=(1.0, 1.0, 1.0, 1.0), texture=texture_path)
-    else:
-        visual_mesh, uv = result.mesh, None
-        mean = tuple(float(v) for v in np.clip(result.vertex_colors.mean(axis=0), 0, 1))
-        material = Material(name=f"{name}_surface", rgba=(*mean, 1.0))
-    link = Link(
-        name=f"{name}_link",
-        visuals=[Visual(name="scan", mesh=visual_mesh, material=material, uv=uv)],
-        collisions=[Collision(name="hull", geometry=MeshGeometry(mesh=result.mesh))],
-        inertial=inertial_from_meshes([result.mesh], density_kg_m3=density_kg_m3),
-    )
-    return Model(name=name, links=[link], category="object", properties={"source": "turntable"})
-
-
 def write_reconstruction(
     result: Reconstruction,
     out_dir: Path,
+    options: ReconstructionOptions,
     *,
-    name: str,
     inputs: list[Path],
-    density_kg_m3: float = 500.0,
-    picture: bool = False,
     force: bool = False,
+    progress: Progress | None = None,
 ) -> Path:
-    """Everything into `out_dir` at once (atomic: a failure leaves it as it was)."""
+    """Everything into `out_dir` at once (atomic: a failure leaves it as it was); the
+    export's time joins `result.times_s` before summary.json is written."""
     import cv2
 
+    clock = StageClock(progress)
+    clock.start("export", 1)
     with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:
         texture_path = None
         if result.texture is not None:
@@ -65,7 +50,18 @@ def write_reconstruction(
             if not ok:
                 raise ModelError("could not encode the texture as PNG")
             write_bytes_atomic(texture_path, encoded.tobytes())
-        model = turntable_model(result, name=name, texture_path=texture_path, density_kg_m3=density_kg_m3)
+        # The model is in the table frame; without a texture its colour is the scan's mean.
+        mean = tuple(float(v) for v in np.clip(result.vertex_colors.mean(axis=0), 0, 1))
+        model = scan_model(
+            result.mesh,
+            name=options.name,
+            density_kg_m3=options.density_kg_m3,
+            rgba=(1.0, 1.0, 1.0, 1.0) if texture_path is not None else (*mean, 1.0),
+            texture=texture_path,
+            textured_mesh=result.textured_mesh,
+            uv=result.uv,
+            properties={"source": "turntable"},
+        )
         write_model_files(model, tmp)
         if texture_path is not None:
             texture_path.unlink()
@@ -86,11 +82,17 @@ def write_reconstruction(
             },
             skipped=result.skipped,
         )
-        summary = result.summary()
-        summary["model"] = {"name": name, "mass_kg": model.links[0].inertial.mass_kg, "density_kg_m3": density_kg_m3}
-        if picture:
+        if options.picture:
             from turntable.picture import draw_mesh_and_orbit
 
             draw_mesh_and_orbit(result, tmp / "picture.png")
-        write_text_atomic(tmp / "summary.json", json.dumps(summary, indent=1) + "\n")
+        clock.stop()
+        result.times_s.update(clock.times_s)
+        summary = result.summary()
+        summary["model"] = {
+            "name": options.name,
+            "mass_kg": model.links[0].inertial.mass_kg,
+            "density_kg_m3": options.density_kg_m3,
+        }
+        write_json(tmp / "summary.json", summary)
     return Path(out_dir)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from homemodel.core.checks import require_at_least, require_between, require_positive
 from turntable.board import Board
 from homemodel.geometry.camera import Camera
 
@@ -17,6 +18,12 @@ class PoseOptions:
     ransac_threshold_px: float = 3.0
     max_reprojection_error_px: float = 2.0  # RMS over inliers; worse frames are skipped
     min_inlier_fraction: float = 0.8
+
+    def check(self) -> None:
+        require_at_least("min_tags", self.min_tags, 1)
+        require_positive("ransac_threshold_px", self.ransac_threshold_px)
+        require_positive("max_reprojection_error_px", self.max_reprojection_error_px)
+        require_between("min_inlier_fraction", self.min_inlier_fraction, 0.0, 1.0)
 
 
 @dataclass(kw_only=True)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from homemodel.core.atomic import write_text_atomic
+from homemodel.core.atomic import write_json
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 
@@ -42,7 +42,7 @@ def write_poses(
         "frames": frames,
         "skipped": [{"frame": s, "reason": r} for s, r in sorted((skipped or {}).items())],
     }
-    write_text_atomic(Path(path), json.dumps(document, indent=1) + "\n")
+    write_json(Path(path), document)
 
 
 def read_poses(path: Path) -> dict[str, np.ndarray]:

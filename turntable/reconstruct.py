@@ -1,32 +1,38 @@
-"""`reconstruct_capture`: a turntable capture folder to a metric, coloured mesh (D3.1 section 3.3.3).
+"""`reconstruct`: a turntable capture folder to a model folder of a metric, coloured mesh
+(D3.1 section 3.3.3); `reconstruct_capture` runs the stages on a loaded capture, in memory.
 
 Stages: tag detection and PnP per frame; the turntable's axis from a circle through the
 board origin's orbit; merging of the frames in the table frame inside the cylinder over the
 axis, on a voxel grid averaging coordinates and colours; outlier removal, outward normals,
-Poisson with density trimming; colour baked into a texture on xatlas UVs.
+Poisson with density trimming; colour baked into a texture on xatlas UVs; then the export
+(`turntable.outputs`) and, on request, the registration into a semantic map.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from articulation.naming import check_model_name
+from homemodel.core.checks import check_nested, require_at_least, require_positive
 from homemodel.core.errors import ModelError
-from turntable.capture import Capture, FrameError, read_color, read_depth
+from homemodel.core.progress import Progress, StageClock
+from semantic_map import MapEntry, Registration, add_model_folder
+from turntable.capture import Capture, FrameError, load_capture, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_points
 from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
+from turntable.outputs import write_reconstruction
 from turntable.orbit import TableAxis, table_axis
 from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table
 from turntable.tags import DetectionOptions, detect_tags
 from turntable.turntable_model import TurntableFit, fit_turntable
 
-Progress = Callable[[str, int, int], None]
-STAGES = ("poses", "axis", "merge", "mesh", "texture")
+STAGES = ("poses", "axis", "merge", "mesh", "texture", "export")
 
 
 @dataclass(kw_only=True)
@@ -43,6 +49,27 @@ class ReconstructionOptions:
     texture_size_px: int = 1024  # 0: no texture (vertex colours in the PLY only)
     texture_max_triangles: int = 12_000  # the exported visual is decimated to this for xatlas
     workers: int = 2  # threads reading images and detecting tags
+    # The model folder (`reconstruct`):
+    name: str = "turntable_object"  # the model's name
+    density_kg_m3: float = 500.0  # for the inertial
+    picture: bool = False  # also draw picture.png: the mesh with the camera orbit
+    map_entry: MapEntry | None = None  # register the model into this map (its object_id: default `name`)
+
+    def check(self) -> None:
+        check_nested("detection", self.detection)
+        check_nested("pose", self.pose)
+        check_nested("meshing", self.meshing)
+        require_positive("voxel_size_m", self.voxel_size_m)
+        require_at_least("plane_margin_m", self.plane_margin_m, 0.0)
+        if self.cylinder_radius_m is not None:
+            require_positive("cylinder_radius_m", self.cylinder_radius_m)
+        require_positive("max_height_m", self.max_height_m)
+        require_at_least("min_frames", self.min_frames, 1)
+        require_at_least("texture_size_px", self.texture_size_px, 0)
+        require_at_least("texture_max_triangles", self.texture_max_triangles, 100)
+        require_at_least("workers", self.workers, 1)
+        require_positive("density_kg_m3", self.density_kg_m3)
+        check_model_name(self.name)
 
 
 @dataclass(kw_only=True)
@@ -61,8 +88,9 @@ class Reconstruction:
     cylinder: Cylinder
     cloud: MergedCloud
     meshing: MeshingFigures
-    stage_s: dict[str, float]
+    times_s: dict[str, float]  # seconds per stage; `reconstruct` adds the export's
     frames_total: int
+    registration: Registration | None = None  # set by `reconstruct` when given a map
 
     def summary(self) -> dict:
         tags = np.array([p.tags for p in self.poses.values()])
@@ -100,8 +128,7 @@ class Reconstruction:
             "density_trimmed": self.meshing.density_trimmed,
             "watertight": bool(self.mesh.is_watertight),
             "extent_m": np.ptp(self.mesh.vertices, axis=0).tolist(),
-            "stage_s": dict(self.stage_s),
-            "total_s": float(sum(self.stage_s.values())),
+            "times_s": dict(self.times_s),
         }
 
 
@@ -195,18 +222,15 @@ def merge_frames(
 def reconstruct_capture(
     capture: Capture, options: ReconstructionOptions | None = None, progress: Progress | None = None
 ) -> Reconstruction:
-    """Run the pipeline on a loaded capture (see `turntable.capture.load_capture`)."""
+    """Run the pipeline on a loaded capture (see `turntable.capture.load_capture`), in memory."""
     from turntable.texture import bake_vertex_colors, decimated
 
     options = options or ReconstructionOptions()
-    report = progress or (lambda _stage, _done, _total: None)
-    stage_s: dict[str, float] = {}
-    start = time.perf_counter()
-    poses, skipped = estimate_poses(capture, options, report)
-    stage_s["poses"] = time.perf_counter() - start
+    clock = StageClock(progress)
+    clock.start("poses")
+    poses, skipped = estimate_poses(capture, options, clock.progress)
 
-    start = time.perf_counter()
-    report("axis", 0, 1)
+    clock.start("axis", 1)
     axis = table_axis([p.camera_from_table for p in poses.values()])
     fit = None
     if options.turntable_refinement and len(poses) >= options.min_frames:
@@ -215,25 +239,20 @@ def reconstruct_capture(
             poses = {s: replace(p, camera_from_table=fit.camera_from_tables[s]) for s, p in poses.items()}
             axis = table_axis([p.camera_from_table for p in poses.values()])
     cylinder = object_cylinder(capture, axis, options)
-    stage_s["axis"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    cloud = merge_frames(capture, poses, skipped, cylinder, options, report)
-    stage_s["merge"] = time.perf_counter() - start
+    clock.start("merge")
+    cloud = merge_frames(capture, poses, skipped, cylinder, options, clock.progress)
 
-    start = time.perf_counter()
-    report("mesh", 0, 1)
+    clock.start("mesh", 1)
     mesh, colors, figures = poisson_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
-    stage_s["mesh"] = time.perf_counter() - start
 
     textured = uv = texture = None
     if options.texture_size_px > 0:
-        start = time.perf_counter()
-        report("texture", 0, 1)
+        clock.start("texture", 1)
         textured, uv, texture = bake_vertex_colors(
             *decimated(mesh, colors, options.texture_max_triangles), size_px=options.texture_size_px
         )
-        stage_s["texture"] = time.perf_counter() - start
+    clock.stop()
     return Reconstruction(
         mesh=mesh,
         vertex_colors=colors,
@@ -247,6 +266,30 @@ def reconstruct_capture(
         cylinder=cylinder,
         cloud=cloud,
         meshing=figures,
-        stage_s=stage_s,
+        times_s=clock.times_s,
         frames_total=len(capture.frames) + len(capture.unpaired),
     )
+
+
+def reconstruct(
+    capture_dir: Path,
+    out_dir: Path,
+    options: ReconstructionOptions | None = None,
+    *,
+    progress: Progress | None = None,
+    force: bool = False,
+) -> Reconstruction:
+    """The turntable's entry: the capture in `capture_dir` (camera.yaml, board.yaml, color/,
+    depth/) to a model folder at `out_dir` (model.urdf, model.glb, meshes/, mesh.ply,
+    poses.json, summary.json; picture.png on request), registered into `options.map_entry`
+    when given. Refuses a non-empty `out_dir` unless `force`; the folder appears whole or
+    not at all. Progress stages: poses, axis, merge, mesh, texture, export."""
+    options = options or ReconstructionOptions()
+    options.check()
+    if options.map_entry is not None:
+        options.map_entry.check()  # an unknown parent fails now, not after the work
+    result = reconstruct_capture(load_capture(capture_dir), options, progress)
+    write_reconstruction(result, out_dir, options, inputs=[Path(capture_dir)], force=force, progress=progress)
+    if options.map_entry is not None:
+        result.registration = add_model_folder(out_dir, options.map_entry)
+    return result

@@ -21,7 +21,6 @@ import dataclasses
 import json
 import math
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -29,9 +28,10 @@ from typing import Literal
 import numpy as np
 import trimesh
 
-from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_text_atomic
+from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
+from homemodel.core.progress import Progress, no_progress
 from homemodel.core.transforms import world_from_camera_looking_at
 from turntable.board import Board, grid_board, load_board, save_board
 from homemodel.geometry.camera import Camera, load_camera, save_camera
@@ -39,7 +39,6 @@ from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
 from turntable.poses_io import read_poses, write_poses
 
-Progress = Callable[[str, int, int], None]
 NOISE_REFERENCE_DEPTH_M = 0.7
 TRUE_POSES = "true_poses.json"
 GROUND_TRUTH = "ground_truth.ply"
@@ -52,8 +51,8 @@ _FLOOR_BELOW_TABLE_M = 0.7
 @dataclass(kw_only=True)
 class SimulationOptions:
     frames: int = 72
-    width: int = 640
-    height: int = 480
+    width_px: int = 640
+    height_px: int = 480
     horizontal_fov_deg: float = 58.0
     camera_distance_m: float = 0.6  # horizontal, from the turntable axis
     camera_height_m: float = 0.4  # above the table top
@@ -69,10 +68,10 @@ class SimulationOptions:
     grazing_angle_deg: float = 78.0  # no depth beyond this angle between ray and surface normal
     edge_jump_m: float = 0.01  # no depth next to a depth jump larger than this
     mesh_scale: float = 1.0  # multiplies the mesh's coordinates into metres
-    seed: int = 0
+    random_state: int = 0  # of the depth noise and the Cycles sampling
 
     def check(self) -> None:
-        positive = ("frames", "width", "height", "camera_distance_m", "table_diameter_m", "tag_size_m", "samples")
+        positive = ("frames", "width_px", "height_px", "camera_distance_m", "table_diameter_m", "tag_size_m", "samples")
         for name in positive:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -96,14 +95,14 @@ class SimulationResult:
 
 
 def camera_for(options: SimulationOptions) -> Camera:
-    f = options.width / 2 / math.tan(math.radians(options.horizontal_fov_deg) / 2)
+    f = options.width_px / 2 / math.tan(math.radians(options.horizontal_fov_deg) / 2)
     return Camera(
-        width=options.width,
-        height=options.height,
+        width=options.width_px,
+        height=options.height_px,
         fx=f,
         fy=f,
-        cx=(options.width - 1) / 2,
-        cy=(options.height - 1) / 2,
+        cx=(options.width_px - 1) / 2,
+        cy=(options.height_px - 1) / 2,
         depth_scale_m=options.depth_scale_m,
     )
 
@@ -219,7 +218,7 @@ def _write_depth_frames(
     report: Progress,
 ) -> None:
     caster = RayCaster(scene_mesh)
-    rng = np.random.default_rng(options.seed)
+    rng = np.random.default_rng(options.random_state)
     for k, (stem, camera_from_table) in enumerate(sorted(camera_from_tables.items())):
         depth, cosine = render_depth(caster, camera, camera_from_table)
         if options.depth_noise_m > 0:
@@ -249,7 +248,7 @@ def simulate_capture(
 
     options = options or SimulationOptions()
     options.check()
-    report = progress or (lambda _stage, _done, _total: None)
+    report = progress or no_progress
     board = (
         load_board(options.board_path)
         if options.board_path
@@ -287,7 +286,7 @@ def simulate_capture(
             light_power_w=powers,
             ambient_strength=ambient,
             samples=options.samples,
-            seed=options.seed,
+            seed=options.random_state,
         )
         render_colour_frames(scene, tmp / "color", progress=lambda done: report("render colour", done, options.frames))
         render_s = time.perf_counter() - start
@@ -298,7 +297,7 @@ def simulate_capture(
             placed.vertices, placed.faces, vertex_colors=np.round(rgba * 255).astype(np.uint8), process=False
         )
         write_bytes_atomic(tmp / GROUND_TRUTH, truth.export(file_type="ply"))
-        write_text_atomic(tmp / SIMULATION_JSON, json.dumps(_options_json(options), indent=1) + "\n")
+        write_json(tmp / SIMULATION_JSON, _options_json(options))
         depth_s = time.perf_counter() - start
     return SimulationResult(out_dir=Path(out_dir), frames=options.frames, render_s=render_s, depth_s=depth_s)
 
@@ -310,7 +309,7 @@ def _options_json(options: SimulationOptions) -> dict:
 
 
 def resimulate_depth(
-    capture_dir: Path, out_dir: Path, *, depth_noise_m: float, seed: int = 0, force: bool = False
+    capture_dir: Path, out_dir: Path, *, depth_noise_m: float, random_state: int = 0, force: bool = False
 ) -> Path:
     """A copy of a simulated capture with its depth rendered again under another noise level
     (the colour frames, poses and truth are the same): the same scene, rebuilt from
@@ -322,7 +321,7 @@ def resimulate_depth(
         saved = json.loads(read_bounded(capture_dir / SIMULATION_JSON, 1 << 20))
         saved["board_path"] = None if saved["board_path"] is None else Path(saved["board_path"])
         saved["axis_offset_m"] = tuple(saved["axis_offset_m"])
-        options = SimulationOptions(**{**saved, "depth_noise_m": depth_noise_m, "seed": seed})
+        options = SimulationOptions(**{**saved, "depth_noise_m": depth_noise_m, "random_state": random_state})
     except (ValueError, TypeError, KeyError) as exc:
         raise InputError(f"{capture_dir / SIMULATION_JSON}: not a simulation record: {exc}") from None
     options.check()
@@ -336,7 +335,7 @@ def resimulate_depth(
         shutil.copytree(capture_dir / "color", tmp / "color")
         (tmp / "depth").mkdir()
         _write_depth_frames(
-            tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, lambda *_: None
+            tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, no_progress
         )
-        write_text_atomic(tmp / SIMULATION_JSON, json.dumps(_options_json(options), indent=1) + "\n")
+        write_json(tmp / SIMULATION_JSON, _options_json(options))
     return Path(out_dir)

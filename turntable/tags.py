@@ -14,6 +14,8 @@ from typing import Literal
 
 import numpy as np
 
+from homemodel.core.checks import require_at_least, require_choice, require_positive
+
 TagDetector = Literal["apriltag", "opencv"]
 
 
@@ -29,6 +31,12 @@ class DetectionOptions:
     # cameras' 8-bit output), which is linearised before edge refinement.
     intensity: Literal["linear", "srgb"] = "linear"
     max_hamming: int = 1  # bit errors accepted when decoding a tag
+
+    def check(self) -> None:
+        require_choice("detector", self.detector, ("apriltag", "opencv"))
+        require_positive("decimate", self.decimate)
+        require_choice("intensity", self.intensity, ("linear", "srgb"))
+        require_at_least("max_hamming", self.max_hamming, 0)
 
 
 _per_thread = threading.local()

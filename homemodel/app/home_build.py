@@ -7,20 +7,20 @@ Output layout (all written atomically: the folder appears whole or not at all):
     OUT/models/<id>/model.urdf|.glb   the exports, meshes/ beside them
     OUT/models/<id>/model.blend       the Blender scene, for an installer to refine
     OUT/models/<id>/summary.json      that object's figures and validation report
+
+Each object is built by the modeller's entry, `modeller.build`.
 """
 
 from __future__ import annotations
 
-import json
 import logging
-import time
-from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from homemodel.core.atomic import atomic_dir, write_text_atomic
-from homemodel.core.errors import SpecError
 from homemodel.app.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
+from homemodel.core.atomic import atomic_dir, write_json
+from homemodel.core.errors import SpecError
+from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
 
 log = logging.getLogger(__name__)
@@ -28,8 +28,6 @@ log = logging.getLogger(__name__)
 HOME_FILE = "home.yaml"
 # A small object "on" a surface must stand on it: its base within this of the parent's top.
 ON_SURFACE_TOLERANCE_M = 0.005
-
-Progress = Callable[[str, int, int], None]
 
 
 @dataclass(kw_only=True)
@@ -43,8 +41,7 @@ class ObjectRow:
     grasp_points: int
     triangles: int
     valid: bool
-    build_s: float
-    validate_s: float
+    times_s: dict[str, float]  # build, export, validate
     failed_checks: list[str] = field(default_factory=list)
 
 
@@ -100,9 +97,7 @@ def _parking_positions(large: LargeObjectSpec, parking_type: type) -> list:
 
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
-    from articulation.export import write_model_files
-    from articulation.gate.validate import validate_path
-    from modeller import build_model, load_spec
+    from modeller import BuildOptions, build, load_spec
     from semantic_map import ParkingPosition, SemanticMap, save_map
 
     example_dir = Path(example_dir)
@@ -129,15 +124,8 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 progress(obj.id, index, len(placements))
             if small is not None:
                 _check_on_surface(home_file, field_path, small, tops[large.id])
-            folder = tmp / "models" / obj.id
-            folder.mkdir(parents=True)
-            started = time.perf_counter()
-            model = build_model(spec_paths[obj.id], blend_path=folder / "model.blend")
-            model.name = obj.id
-            write_model_files(model, folder)
-            built = time.perf_counter()
-            report = validate_path(folder)
-            validated = time.perf_counter()
+            built = build(spec_paths[obj.id], tmp / "models" / obj.id, BuildOptions(name=obj.id))
+            model = built.model
             if small is None:
                 tops[large.id] = float(model.world_mesh().bounds[1][2])
                 smap.register_model(
@@ -167,20 +155,15 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 links=len(model.links),
                 joints=len(model.movable_joints),
                 grasp_points=len(model.grasp_points),
-                triangles=sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
-                valid=report.ok,
-                build_s=round(built - started, 3),
-                validate_s=round(validated - built, 3),
-                failed_checks=[f"{c.name}: {c.detail}" for c in report.checks if not c.passed],
-            )
-            write_text_atomic(
-                folder / "summary.json",
-                json.dumps({**asdict(row), "validation": report.format()}, indent=2) + "\n",
+                triangles=built.summary["triangles"],
+                valid=built.valid,
+                times_s={stage: round(seconds, 3) for stage, seconds in built.times_s.items()},
+                failed_checks=built.failed_checks,
             )
             rows.append(row)
-            log.info("built %s in %.2f s, valid=%s", obj.id, row.build_s, row.valid)
+            log.info("built %s in %.2f s, valid=%s", obj.id, sum(row.times_s.values()), row.valid)
         save_map(smap, tmp / "map.xml")
-        write_text_atomic(tmp / "summary.json", json.dumps([asdict(r) for r in rows], indent=2) + "\n")
+        write_json(tmp / "summary.json", [asdict(r) for r in rows])
         if progress:
             progress("done", len(placements), len(placements))
     out_dir = Path(out_dir)

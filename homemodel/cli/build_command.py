@@ -4,12 +4,44 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import typer
-from rich import box
+from rich.console import Console
 from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.progress import make_console, progress_bar
+from homemodel.cli.progress import Column, fitted_table, make_console, progress_bar
+
+if TYPE_CHECKING:
+    from homemodel.app.home_build import ObjectRow
+
+COLUMNS = [Column("object", keep=True), Column("kind", keep=True), Column("parent", keep=True)] + [
+    Column(header, justify="right") for header in ("links", "joints", "grasps", "triangles", "build s", "check s")
+] + [Column("valid")]
+# Narrow terminals lose these first; ids and kinds are never cut.
+DROPPED_FIRST = ("triangles", "links", "check s", "build s")
+
+
+def build_table(console: Console, title: str, rows: list[ObjectRow]) -> Table:
+    """One row per object: its id, kind and parent, its parts, its times (building and
+    exporting; the gate's checks), and whether it is valid."""
+    cells = [
+        [
+            row.id,
+            row.category,
+            row.parent,
+            str(row.links),
+            str(row.joints),
+            str(row.grasp_points),
+            str(row.triangles),
+            f"{row.times_s['build'] + row.times_s['export']:.2f}",
+            f"{row.times_s['validate']:.2f}",
+            "[green]yes[/]" if row.valid else "[red]NO[/]",
+        ]
+        for row in rows
+    ]
+    return fitted_table(console, title, COLUMNS, cells, DROPPED_FIRST)
 
 
 def build(
@@ -29,26 +61,7 @@ def build(
                 force=force,
                 progress=progress,
             )
-    table = Table(title=f"homemodel build {example_dir}", box=box.SIMPLE_HEAD)
-    for column in ("object", "kind", "parent"):
-        table.add_column(column)
-    for column in ("links", "joints", "grasps", "triangles", "build s", "check s"):
-        table.add_column(column, justify="right")
-    table.add_column("valid")
-    for row in result.rows:
-        table.add_row(
-            row.id,
-            row.category,
-            row.parent,
-            str(row.links),
-            str(row.joints),
-            str(row.grasp_points),
-            str(row.triangles),
-            f"{row.build_s:.2f}",
-            f"{row.validate_s:.2f}",
-            "[green]yes[/]" if row.valid else "[red]NO[/]",
-        )
-    console.print(table)
+    console.print(build_table(console, f"homemodel build {example_dir}", result.rows))
     for row in result.rows:
         for failure in row.failed_checks:
             console.print(f"[red]{row.id}[/]: {failure}")

@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import typer
-from rich import box
-from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.progress import figures_table, make_console, progress_bar
+from homemodel.cli.progress import Column, figures_table, fitted_table, make_console, progress_bar
 
 completion_app = typer.Typer(no_args_is_help=True)
 
@@ -88,42 +85,14 @@ def run_command(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Complete the object seen in one depth image into a model folder, in the camera's frame (OpenCV)."""
-    from shape_completion.library import fingerprint_files, library_files
-    from shape_completion.model_export import completion_model, export_completion
-    from shape_completion.model_io import load_model
-    from shape_completion.query_input import load_query
+    from shape_completion import CompletionOptions, complete
 
     console = make_console()
+    options = CompletionOptions(camera_path=camera, mask_path=mask, library_dir=library, density_kg_m3=density_kg_m3)
     with exit_on_error():
-        from homemodel.core.atomic import prepare_out_dir
-
-        prepare_out_dir(out, force=force, inputs=[model_file, depth_png, camera])
-        expected = fingerprint_files(library_files(library)) if library is not None else None
-        completer = load_model(model_file, library_fingerprint=expected)
-        depth, pinhole = load_query(depth_png, camera, mask)
-        completion = completer.complete(depth, pinhole)
-        fit = completion.fit
-        summary = {
-            "class": completion.class_name,
-            "retrieved": completion.retrieved_name,
-            "query_points": int(len(fit.query)),
-            "match_distance_m": fit.match_distance_m,
-            "fit_distance_m": fit.fit_distance_m,
-            "symmetry_planes": len(fit.planes_camera),
-            # a revolved match's axis fitted to the query (e.g. a cup's, to grasp it around)
-            "revolution_axis": None
-            if fit.axis is None
-            else {"point_m": fit.axis.point.tolist(), "direction": fit.axis.direction.tolist()},
-            "triangles": int(len(completion.mesh.faces)),
-            "extents_m": [float(v) for v in completion.mesh.extents],
-            "watertight": bool(completion.mesh.is_watertight),
-            "seconds": completion.seconds,
-            "frame": "query camera, OpenCV (x right, y down, z forward), metres",
-        }
-        model = completion_model(
-            completion.mesh, name=depth_png.stem, category=completion.class_name, density_kg_m3=density_kg_m3
-        )
-        export_completion(model, out, summary=summary, force=force, inputs=(model_file, depth_png, camera))
+        with progress_bar(console, "completion") as progress:
+            completion = complete(model_file, depth_png, out, options, progress=progress, force=force)
+    fit = completion.fit
     rows = [
         ("class (retrieved)", f"{completion.class_name} ({completion.retrieved_name})"),
         ("match distance mm", f"{1000 * fit.match_distance_m:.2f}"),
@@ -131,7 +100,8 @@ def run_command(
         ("symmetry planes", str(len(fit.planes_camera))),
         ("triangles", str(len(completion.mesh.faces))),
         ("size mm", " x ".join(f"{1000 * v:.0f}" for v in completion.mesh.extents)),
-    ] + [(f"{stage} s", f"{seconds:.2f}") for stage, seconds in completion.seconds.items()]
+    ] + [(f"{stage} s", f"{seconds:.2f}") for stage, seconds in completion.times_s.items()]
+    rows.append(("total s", f"{sum(completion.times_s.values()):.2f}"))
     console.print(figures_table(f"homemodel completion run {depth_png}", rows))
     console.print(f"model: {out}")
 
@@ -151,14 +121,8 @@ def benchmark_command(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """D3.1 Table 1's protocol: per class, VoxelIOU and surface distance of each stage and of the oracle."""
-    from homemodel.core.atomic import (
-        atomic_dir,
-        prepare_out_dir,
-        write_bytes_atomic,
-        write_text_atomic,
-    )
-    from shape_completion.benchmark import STAGES, BenchmarkOptions, run_benchmark
-    from shape_completion.figures import examples_png
+    from homemodel.core.atomic import prepare_out_dir
+    from shape_completion.benchmark import STAGES, BenchmarkOptions, run_benchmark, write_benchmark
     from shape_completion.library import load_library
 
     console = make_console()
@@ -168,39 +132,25 @@ def benchmark_command(
         n_views=views,
         queries_per_instance=queries,
         filler_queries_per_class=filler_queries,
-        seed=seed,
+        random_state=seed,
     )
     with exit_on_error():
         prepare_out_dir(out, force=force, inputs=[library_dir])
         library = load_library(library_dir)
         with progress_bar(console, "completion") as progress:
             result = run_benchmark(library, options, progress=progress)
-        means = result.class_means()
-        results = {
-            "options": vars(options),
-            "classes": means,
-            "training_seconds": result.training_seconds,
-            "mean_query_seconds": result.mean_query_seconds,
-            "max_query_seconds": result.max_query_seconds,
-            "queries": [vars(s) for s in result.scores],
-        }
-        with atomic_dir(out, force=force, inputs=[library_dir]) as tmp:
-            write_text_atomic(tmp / "results.json", json.dumps(results, indent=2) + "\n")
-            write_text_atomic(tmp / "table.md", result.markdown())
-            write_bytes_atomic(tmp / "examples.png", examples_png(result.examples))
-    table = Table(title=f"homemodel completion benchmark {library_dir}", box=box.SIMPLE_HEAD)
-    table.add_column("class")
-    for stage in STAGES:
-        table.add_column(f"IoU {stage}", justify="right")
-    for stage in STAGES:
-        table.add_column(f"dist {stage}", justify="right")
-    for class_name, row in means.items():
-        table.add_row(
-            class_name,
-            *(f"{row[f'iou_{st}']:.3f}" for st in STAGES),
-            *(f"{row[f'distance_{st}']:.4f}" for st in STAGES),
-        )
-    console.print(table)
+        write_benchmark(result, out, force=force, inputs=[library_dir])
+    means = result.class_means()
+    columns = [Column("class", keep=True)]
+    columns += [Column(f"IoU {stage}", justify="right") for stage in STAGES]
+    columns += [Column(f"dist {stage}", justify="right") for stage in STAGES]
+    cells = [
+        [class_name, *(f"{row[f'iou_{st}']:.3f}" for st in STAGES), *(f"{row[f'distance_{st}']:.4f}" for st in STAGES)]
+        for class_name, row in means.items()
+    ]
+    # Narrow terminals keep the IoUs and the final distance.
+    drop = [f"dist {stage}" for stage in STAGES if stage != "filling"]
+    console.print(fitted_table(console, f"homemodel completion benchmark {library_dir}", columns, cells, drop))
     console.print(
         f"training: {result.training_seconds:.1f} s; query: mean {result.mean_query_seconds:.2f} s,"
         f" max {result.max_query_seconds:.2f} s\nresults: {out}"

@@ -7,7 +7,6 @@ from the root to the object, its parent, and the parking positions to visit one 
 from __future__ import annotations
 
 import enum
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,7 +15,7 @@ import typer
 from homemodel.cli.errors import exit_on_error
 
 if TYPE_CHECKING:
-    from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
+    from semantic_map import MapObject, Node, ParkingPosition, Registration, SemanticMap
 
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
@@ -165,33 +164,29 @@ def add(
     force: bool = typer.Option(False, "--force", help="replace an existing --out file"),
 ) -> None:
     """Register the model MODEL under PARENT_ID and save the map atomically."""
-    from articulation.urdf_import import find_urdf, load_urdf
-    from homemodel.core.errors import OutputExistsError
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import load_map, save_map
+    from semantic_map import MapEntry, add_model_folder
 
-    out_path = out or map_path
     with exit_on_error():
-        if out is not None and out.exists() and not force:
-            raise OutputExistsError(f"{out}: exists (use --force to replace it)")
-        urdf = find_urdf(model_dir)
-        extra = _key_values(properties, "--property")
-        parking_positions = _parking_list(parking)
-        smap = load_map(map_path)
-        node = smap.register_model(
-            load_urdf(urdf),
+        entry = MapEntry(
+            map_path=map_path,
             object_id=object_id,
             parent_id=parent_id,
             relation=relation.value if relation else None,
             parent_from_object=transform_from_xyz_rpy(xyz, rpy),
-            # Relative to the map's folder, so a map and its models move together.
-            model_ref=Path(os.path.relpath(urdf.resolve(), out_path.resolve().parent)).as_posix(),
-            parking_positions=parking_positions,
+            parking_positions=_parking_list(parking),
+            properties=_key_values(properties, "--property") or None,
             graspable=graspable,
-            properties=extra or None,
+            out_path=out,
         )
-        save_map(smap, out_path)
-    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(smap.path_to(node.id))} to {out_path}")
+        registration = add_model_folder(model_dir, entry, force=force)
+    echo_registration(registration)
+
+
+def echo_registration(registration: Registration) -> None:
+    """The line `map add`, and the pipelines given --map, print for a model added to a map."""
+    node = registration.node
+    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(registration.path)} to {registration.map_path}")
 
 
 @map_app.command()

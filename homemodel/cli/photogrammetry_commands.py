@@ -7,11 +7,9 @@ import enum
 from pathlib import Path
 
 import typer
-from rich import box
-from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.progress import make_console, stage_bars
+from homemodel.cli.progress import figures_table, make_console, stage_bars
 
 photogrammetry_app = typer.Typer(no_args_is_help=True)
 
@@ -32,10 +30,7 @@ class DictionaryChoice(str, enum.Enum):
     d6x6_250 = "6x6_250"
 
 
-def _summary_table(title: str, summary: dict) -> Table:
-    table = Table(title=title, box=box.SIMPLE_HEAD)
-    table.add_column("figure")
-    table.add_column("value", justify="right")
+def _summary_rows(summary: dict) -> list[tuple[str, str]]:
     scaled = summary["scaled"]
     unit = "mm" if scaled else "units"
     factor = 1000 if scaled else 1
@@ -55,10 +50,7 @@ def _summary_table(title: str, summary: dict) -> Table:
         ("texture", f"{summary['texture_px']} px, {summary['texture_covered_share'] * 100:.0f}% seen"),
         ("mass", f"{summary['mass_kg']:.3f} kg" if scaled else "n/a (unscaled)"),
     ]
-    rows += [(f"time {stage}", f"{seconds:.1f} s") for stage, seconds in summary["times_s"].items()]
-    for name, value in rows:
-        table.add_row(name, value)
-    return table
+    return rows + [(f"time {stage}", f"{seconds:.1f} s") for stage, seconds in summary["times_s"].items()]
 
 
 @photogrammetry_app.command()
@@ -89,67 +81,46 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a textured, cleaned mesh from photos; metric and levelled when markers are seen."""
-    from articulation.naming import file_stem
-    from homemodel.core.atomic import atomic_dir
+    from homemodel.cli.map_commands import echo_registration
     from homemodel.core.errors import InputError
-    from photogrammetry.cleaning import CleaningOptions
-    from photogrammetry.pipeline import (
-        ReconstructOptions,
-        temporary_work_dir,
-        write_reconstruction,
-    )
-    from photogrammetry.pipeline import reconstruct as run
+    from homemodel.core.transforms import transform_from_xyz_rpy
+    from photogrammetry import ReconstructOptions
+    from photogrammetry import reconstruct as run
     from photogrammetry.sfm import SfmOptions
     from photogrammetry.stereo import DenseOptions
     from photogrammetry.texturing import TextureOptions
+    from semantic_map import MapEntry
 
     console = make_console()
     with exit_on_error():
         if (map_path is None) != (parent is None):
             raise InputError("--map and --parent go together")
-        for option, value, low in (
-            ("--max-features", max_features, 256), ("--sfm-image-px", sfm_image_px, 200),
-            ("--depth-image-px", depth_image_px, 100), ("--texture-px", texture_px, 64),
-        ):  # fmt: skip
-            if value < low:
-                raise InputError(f"{option} must be at least {low}, got {value}")
-        if not (density_kg_m3 > 0 and density_kg_m3 < 1e5):
-            raise InputError(f"--density-kg-m3 must be positive and plausible, got {density_kg_m3}")
-        if file_stem(name) != name:
-            raise InputError(f"--name {name!r}: use letters, digits and underscores")
+        map_entry = None
         if map_path is not None:
-            if marker_size_m is None:
-                raise InputError("--map needs a metric model: give --marker-size-m and photograph markers")
-            from semantic_map import load_map
-
-            load_map(map_path).node(parent)  # a bad map or parent fails now, not after the reconstruction
+            map_entry = MapEntry(
+                map_path=map_path,
+                object_id=object_id or name,
+                parent_id=parent,
+                parent_from_object=transform_from_xyz_rpy(xyz, (0.0, 0.0, 0.0)),
+            )
         options = ReconstructOptions(
             sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value),
             dense=DenseOptions(max_image_size_px=depth_image_px),
-            cleaning=CleaningOptions(),
             texture=TextureOptions(size_px=texture_px),
             marker_size_m=marker_size_m,
             dictionary=dictionary.value,
             max_faces=max_faces,
+            name=name,
+            density_kg_m3=density_kg_m3,
+            picture=picture,
+            map_entry=map_entry,
         )
         with stage_bars(console) as progress:
-            with temporary_work_dir() as work, atomic_dir(out, force=force, inputs=[photos_dir]) as tmp:
-                result = run(photos_dir, options, progress, work_dir=Path(work))
-                summary = write_reconstruction(result, tmp, name=name, density_kg_m3=density_kg_m3)
-                if picture:
-                    from photogrammetry.picture import draw_cameras
-
-                    draw_cameras(
-                        result.mesh, result.views, tmp / "cameras.png", title=f"{name}: {len(result.views)} cameras"
-                    )
-    console.print(_summary_table(f"homemodel photogrammetry reconstruct {photos_dir}", summary))
+            result = run(photos_dir, out, options, progress=progress, force=force)
+    summary = result.summary
+    console.print(figures_table(f"homemodel photogrammetry reconstruct {photos_dir}", _summary_rows(summary)))
     if summary["unregistered"]:
         console.print(f"[yellow]not registered[/]: {', '.join(summary['unregistered'])}")
     console.print(f"model: {out / 'model.urdf'}, {out / 'model.glb'}  summary: {out / 'summary.json'}")
-    if map_path is not None:
-        from homemodel.cli.map_commands import add
-
-        add(
-            map_path=map_path, model_dir=out, object_id=object_id or name, parent_id=parent, relation=None,
-            xyz=xyz, rpy=(0.0, 0.0, 0.0), parking=[], properties=[], graspable=None, out=None, force=False,
-        )  # fmt: skip
+    if result.registration is not None:
+        echo_registration(result.registration)

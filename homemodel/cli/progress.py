@@ -5,21 +5,18 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Literal
 
 from rich import box
 from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TaskID,
-    TextColumn,
-    TimeElapsedColumn,
-)
+from rich.measure import Measurement
+from rich.progress import BarColumn, MofNCompleteColumn, TaskID, TextColumn, TimeElapsedColumn
+from rich.progress import Progress as Bars
 from rich.table import Table
 
-ProgressCallback = Callable[[str, int, int | None], None]
+from homemodel.core.progress import Progress
 
 
 def make_console() -> Console:
@@ -28,10 +25,10 @@ def make_console() -> Console:
 
 
 @contextlib.contextmanager
-def progress_bar(console: Console, verb: str) -> Iterator[ProgressCallback]:
+def progress_bar(console: Console, verb: str) -> Iterator[Progress]:
     """One bar, labelled `verb` and the current stage, and the `progress(stage, done, total)`
     callback the library calls to drive it (total None: not known yet)."""
-    with Progress(
+    with Bars(
         TextColumn(f"[bold]{verb}[/] " + "{task.description:<24}"),
         BarColumn(),
         MofNCompleteColumn(),
@@ -44,10 +41,10 @@ def progress_bar(console: Console, verb: str) -> Iterator[ProgressCallback]:
 
 
 @contextlib.contextmanager
-def stage_bars(console: Console) -> Iterator[ProgressCallback]:
+def stage_bars(console: Console) -> Iterator[Progress]:
     """A bar per stage of a pipeline, each finished when the next one starts, and the
     `progress(stage, done, total)` callback that drives them."""
-    with Progress(
+    with Bars(
         TextColumn("[bold]{task.description:<14}"),
         BarColumn(),
         MofNCompleteColumn(),
@@ -76,4 +73,34 @@ def figures_table(title: str, rows: list[tuple[str, str]]) -> Table:
     table.add_column("value", justify="right")
     for name, value in rows:
         table.add_row(name, value)
+    return table
+
+
+@dataclass(frozen=True)
+class Column:
+    """A column of a `fitted_table`: `keep` columns (ids, kinds) are never dropped nor cut."""
+
+    header: str
+    justify: Literal["left", "right"] = "left"
+    keep: bool = False
+
+
+def fitted_table(
+    console: Console, title: str, columns: Sequence[Column], rows: Sequence[Sequence[str]], drop: Sequence[str]
+) -> Table:
+    """A table that fits the console's width: the columns named in `drop` are left out, in
+    that order, until it fits (an 80-column terminal, or a log), rather than cutting values
+    to "tabl…"."""
+    shown = list(range(len(columns)))
+    for header in [None, *drop]:
+        if header is not None:
+            shown.remove(next(i for i in shown if columns[i].header == header))
+        table = Table(title=title, box=box.SIMPLE_HEAD)
+        for i in shown:
+            table.add_column(columns[i].header, justify=columns[i].justify, no_wrap=columns[i].keep)
+        for row in rows:
+            table.add_row(*(row[i] for i in shown))
+        # Measured without the console's limit, which would cap the width at the console's.
+        if Measurement.get(console, console.options.update_width(1_000_000), table).maximum <= console.width:
+            break
     return table

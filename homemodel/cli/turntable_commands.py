@@ -6,7 +6,6 @@ import enum
 import io
 import os
 import sys
-import time
 from pathlib import Path
 
 import typer
@@ -119,8 +118,8 @@ def simulate(
 
     options = SimulationOptions(
         frames=frames,
-        width=width,
-        height=height,
+        width_px=width,
+        height_px=height,
         horizontal_fov_deg=fov_deg,
         camera_distance_m=camera_distance_m,
         camera_height_m=camera_height_m,
@@ -133,7 +132,7 @@ def simulate(
         depth_scale_m=depth_scale_m,
         depth_noise_m=depth_noise_m,
         mesh_scale=mesh_scale,
-        seed=seed,
+        random_state=seed,
     )
     console = _console_beside_blender()
     with exit_on_error():
@@ -174,41 +173,40 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
+    from homemodel.cli.map_commands import echo_registration
     from homemodel.core.errors import InputError
-    from turntable.capture import load_capture
-    from turntable.outputs import write_reconstruction
+    from homemodel.core.transforms import transform_from_xyz_rpy
+    from semantic_map import MapEntry
+    from turntable import ReconstructionOptions
+    from turntable import reconstruct as run
     from turntable.pose import PoseOptions
-    from turntable.reconstruct import ReconstructionOptions, reconstruct_capture
     from turntable.tags import DetectionOptions
 
-    options = ReconstructionOptions(
-        detection=DetectionOptions(detector=detector.value, intensity="srgb" if srgb else "linear"),
-        pose=PoseOptions(min_tags=min_tags),
-        voxel_size_m=voxel_size_m,
-        turntable_refinement=refine,
-        texture_size_px=texture_size_px,
-    )
     console = make_console()
     with exit_on_error():
         if map_path is not None and parent_id is None:
             raise InputError("--map needs --parent (the large object, or room, the object belongs to)")
-        if not (voxel_size_m > 0 and density_kg_m3 > 0 and texture_size_px >= 0 and min_tags >= 1):
-            raise InputError(
-                "--voxel-size-m and --density-kg-m3 must be positive, --texture-size-px >= 0, --min-tags >= 1"
-            )
+        map_entry = None
         if map_path is not None:
-            from semantic_map import load_map
-
-            load_map(map_path).node(parent_id)  # an unknown parent fails now, not after the work
-        capture = load_capture(capture_dir)
-        with stage_bars(console) as report:
-            result = reconstruct_capture(capture, options, progress=report)
-            start = time.perf_counter()
-            report("export", 0, 1)
-            write_reconstruction(
-                result, out, name=name, inputs=[capture_dir], density_kg_m3=density_kg_m3, picture=picture, force=force
+            map_entry = MapEntry(
+                map_path=map_path,
+                object_id=object_id or name,
+                parent_id=parent_id,
+                parent_from_object=transform_from_xyz_rpy(xyz, (0.0, 0.0, 0.0)),
             )
-            export_s = time.perf_counter() - start
+        options = ReconstructionOptions(
+            detection=DetectionOptions(detector=detector.value, intensity="srgb" if srgb else "linear"),
+            pose=PoseOptions(min_tags=min_tags),
+            voxel_size_m=voxel_size_m,
+            turntable_refinement=refine,
+            texture_size_px=texture_size_px,
+            name=name,
+            density_kg_m3=density_kg_m3,
+            picture=picture,
+            map_entry=map_entry,
+        )
+        with stage_bars(console) as progress:
+            result = run(capture_dir, out, options, progress=progress, force=force)
     summary = result.summary()
     rows = [
         ("frames used", f"{summary['frames_used']} of {summary['frames_total']} ({summary['frames_skipped']} skipped)"),
@@ -228,26 +226,10 @@ def reconstruct(
         ("triangles", f"{summary['triangles']} (watertight: {'yes' if summary['watertight'] else 'no'})"),
         ("extent", " x ".join(f"{v * 1000:.1f}" for v in summary["extent_m"]) + " mm"),
     ]
-    rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in summary["stage_s"].items()]
-    rows.append(("time: export", f"{export_s:.2f} s"))
+    rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in summary["times_s"].items()]
     console.print(figures_table(f"homemodel turntable reconstruct {capture_dir}", rows))
     for stem, reason in list(result.skipped.items())[:5]:
         console.print(f"skipped {stem}: {reason}")
     typer.echo(f"model: {out}")
-    if map_path is not None:
-        from homemodel.cli.map_commands import RelationChoice, add
-
-        add(
-            map_path=map_path,
-            model_dir=out,
-            object_id=object_id or name,
-            parent_id=parent_id,
-            relation=RelationChoice.on,
-            xyz=xyz,
-            rpy=(0.0, 0.0, 0.0),
-            parking=[],
-            properties=[],
-            graspable=None,
-            out=None,
-            force=False,
-        )
+    if result.registration is not None:
+        echo_registration(result.registration)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import tempfile
@@ -39,6 +40,12 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
 
 def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_json(path: Path, data: object) -> None:
+    """The one way homemodel writes JSON (summaries, poses, cameras, results): atomic, keys in
+    the order given (the order a reader meets the figures in), indented by 2, a final newline."""
+    write_text_atomic(path, json.dumps(data, indent=2) + "\n")
 
 
 def prepare_out_dir(out_dir: Path, *, force: bool, inputs: Sequence[Path] = ()) -> None:
