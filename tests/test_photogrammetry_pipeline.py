@@ -66,7 +66,7 @@ def test_unreadable_photo_is_refused_by_name_and_nothing_is_written(tmp_path: Pa
     out = tmp_path / "out"
     result = _reconstruct(str(photos), "--out", str(out))
     assert result.exit_code == 2
-    assert "kermit005.jpg: cannot be read" in result.output
+    assert "kermit005.jpg: not a readable image" in result.output
     assert not out.exists()
 
 
