@@ -19,10 +19,10 @@ import numpy as np
 import trimesh
 
 from homemodel.core.errors import InputError, ModelError
+from homemodel.geometry.mesh_ops import watertight_finish
 from photogrammetry.cleaning import (
     CleaningOptions,
     downsample,
-    finish_mesh,
     mesh_object,
     segment_object,
 )
@@ -192,7 +192,7 @@ def reconstruct(photos_dir: Path, options: ReconstructOptions | None = None, pro
                          model_focus, model_scale, options.cleaning)  # fmt: skip
 
     clock.start("meshing")
-    mesh = finish_mesh(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
+    mesh = watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
 
     clock.start("texturing")
     views = [frame.view(v) for v in sparse.views]

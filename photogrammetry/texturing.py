@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 
 from homemodel.core.errors import ModelError
-from photogrammetry.cleaning import to_open3d
+from homemodel.geometry.mesh_ops import to_open3d
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import View
 

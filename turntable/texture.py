@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from homemodel.geometry.mesh_ops import decimate
+
 
 def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> tuple[trimesh.Trimesh, np.ndarray]:
-    """The mesh simplified to at most `max_triangles` (quadric decimation) with colours carried
-    over from the nearest original vertex. xatlas's time grows much faster than linearly
-    with the triangle count (about 1 s at 20k triangles, 15 s at 40k here)."""
+    """The mesh simplified to at most `max_triangles` with colours carried over from the nearest
+    original vertex. xatlas's time grows much faster than linearly with the triangle count
+    (about 1 s at 20k triangles, 15 s at 40k here)."""
     from scipy.spatial import cKDTree
 
-    from turntable.meshing import decimate_mesh
-
-    result = decimate_mesh(mesh, max_triangles)
+    result = decimate(mesh, max_triangles)
     if result is mesh:
         return mesh, colors
     _, nearest = cKDTree(mesh.vertices).query(result.vertices, workers=-1)
