@@ -1,4 +1,4 @@
-"""homemodel.geometry.mesh_ops: the mesh operations the reconstructions share."""
+"""homemodel.geometry: the mesh operations and the UV atlas the reconstructions share."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from homemodel.geometry.mesh_ops import (
     poisson_surface,
     watertight_finish,
 )
+from homemodel.geometry.uv_atlas import atlas_texels, uv_atlas
 
 
 def _sphere_without(faces: list[int], subdivisions: int = 4) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
@@ -115,3 +116,30 @@ def test_poisson_surface_of_a_sphere_with_densities() -> None:
     assert densities.shape == (len(surface.vertices),)
     radii = np.linalg.norm(surface.vertices, axis=1)
     assert np.median(np.abs(radii - 0.1)) < 0.002
+
+
+def test_texels_cover_the_atlas_charts_and_lie_on_the_surface() -> None:
+    box = trimesh.creation.box((0.2, 0.1, 0.05))
+    atlas = uv_atlas(box, size_px=64, padding_px=2)
+    assert np.allclose(atlas.mesh.vertices, box.vertices[atlas.source_vertex])
+    assert atlas.uv.shape == (len(atlas.mesh.vertices), 2) and (0 <= atlas.uv).all() and (atlas.uv <= 1).all()
+    texels = atlas_texels(atlas, 64)
+    assert np.abs(np.abs(texels.points) - [0.1, 0.05, 0.025]).min(axis=1).max() < 1e-9  # on a face of the box
+    assert np.allclose(texels.interpolate(atlas.mesh.vertices), texels.points)
+    # A texel's point maps back to the texel's centre through the uv of its triangle; texels on
+    # a triangle's edge (drawn so that the charts have no cracks) to the nearest point inside.
+    uv = texels.interpolate(atlas.uv)
+    offsets = np.hypot(uv[:, 0] * 64 - 0.5 - texels.cols, (1 - uv[:, 1]) * 64 - 0.5 - texels.rows)
+    assert np.median(offsets) < 1e-9 and offsets.max() < 2.0
+
+
+def test_painted_texture_fills_the_gutters_with_chart_colours() -> None:
+    box = trimesh.creation.box((0.2, 0.1, 0.05))
+    atlas = uv_atlas(box, size_px=64, padding_px=2)
+    texels = atlas_texels(atlas, 64)
+    colour = np.array([200, 100, 50], np.uint8)
+    full = texels.paint(np.tile(colour, (len(texels.rows), 1)))
+    assert (full == colour).all()  # every texel: the charts' own colour, no black bled in
+    gutter = texels.paint(np.tile(colour, (len(texels.rows), 1)), gutter_px=1)
+    painted = (gutter == colour).all(axis=2)
+    assert painted.sum() > len(texels.rows) and not painted.all()
