@@ -32,7 +32,7 @@ from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_to_points
 from photogrammetry.support_plane import find_support_plane, focus_point
-from photogrammetry.texturing import TexturedMesh, TextureOptions, bake_texture
+from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
 
 # progress(stage, done, total): total is None while a stage cannot say how far it is.
@@ -44,7 +44,7 @@ class ReconstructOptions:
     sfm: SfmOptions = field(default_factory=SfmOptions)
     dense: DenseOptions = field(default_factory=DenseOptions)
     cleaning: CleaningOptions = field(default_factory=CleaningOptions)
-    texture: TextureOptions = field(default_factory=TextureOptions)
+    texture: TextureBakingOptions = field(default_factory=TextureBakingOptions)
     marker_size_m: float | None = None  # the printed markers' black-square edge; None: no markers
     dictionary: str = "apriltag_36h11"
     max_faces: int = 40_000  # the mesh is decimated to this before texturing

@@ -22,7 +22,7 @@ from photogrammetry.sfm import View
 
 
 @dataclass(kw_only=True)
-class TextureOptions:
+class TextureBakingOptions:
     size_px: int = 2048
     charts: int = 300  # xatlas is fast with many small charts, slow with a few large ones
     depth_buffer_px: int = 480  # longer side of the per-view visibility depth buffers
@@ -59,13 +59,13 @@ def _depth_buffer(scene, view: View, max_side_px: int) -> tuple[np.ndarray, np.n
 def bake_texture(
     mesh: trimesh.Trimesh,
     views: list[View],
-    options: TextureOptions | None = None,
+    options: TextureBakingOptions | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> TexturedMesh:
     """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame)."""
     import open3d as o3d
 
-    options = options or TextureOptions()
+    options = options or TextureBakingOptions()
     atlas = uv_atlas(mesh, size_px=options.size_px, padding_px=options.padding_px, charts=options.charts)
     texels = atlas_texels(atlas, options.size_px)
     points = texels.points

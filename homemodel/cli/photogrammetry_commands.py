@@ -101,7 +101,7 @@ def reconstruct(
     from photogrammetry.pipeline import reconstruct as run
     from photogrammetry.sfm import SfmOptions
     from photogrammetry.stereo import DenseOptions
-    from photogrammetry.texturing import TextureOptions
+    from photogrammetry.texturing import TextureBakingOptions
 
     console = make_console()
     with exit_on_error():
@@ -127,7 +127,7 @@ def reconstruct(
             sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value),
             dense=DenseOptions(max_image_size_px=depth_image_px),
             cleaning=CleaningOptions(),
-            texture=TextureOptions(size_px=texture_px),
+            texture=TextureBakingOptions(size_px=texture_px),
             marker_size_m=marker_size_m,
             dictionary=dictionary.value,
             max_faces=max_faces,
