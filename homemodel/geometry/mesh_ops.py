@@ -11,8 +11,9 @@ meshes the tests produce:
   times alike (0.5-8.5 s, neither faster throughout);
 - photogrammetry meshes: the rendered vase (22,000) to 20,000 and 10,000, closed with both and
   still closed through an OBJ read back by position; Kermit (61,000) to 40,000, 20,000 and 10,000:
-  pymeshlab stopped at 59,658 whatever the target (its topology guard refused the collapses),
-  Open3D reached the target, closed;
+  pymeshlab's finish stopped at 59,658 whatever the target (its repair left the bottom cap wound
+  against the rest, and its collapse then did nothing), Open3D after `repair_surface` reached
+  the target, closed;
 - library meshes subdivided to 28,000-92,000 triangles (with T-junctions) to 5,000: Open3D's
   within 0.001 mm of the dense mesh, pymeshlab's 0.02-3.3 mm off.
 
@@ -149,19 +150,32 @@ def merge_close_vertices(mesh: trimesh.Trimesh, distance: float) -> trimesh.Trim
     return merged
 
 
+def drop_non_manifold_faces(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Where more than two faces share an edge, all but the two largest go, until no edge has
+    more. `mesh` itself if none has."""
+    while True:
+        keys = trimesh.grouping.hashable_rows(mesh.edges_sorted)
+        order = np.lexsort((-mesh.area_faces[mesh.edges_face], keys))  # by edge, the largest face first
+        first = np.r_[True, keys[order][1:] != keys[order][:-1]]
+        position = np.arange(len(order))
+        rank = position - np.maximum.accumulate(np.where(first, position, 0))
+        extra = mesh.edges_face[order[rank >= 2]]
+        if len(extra) == 0:
+            return mesh
+        keep = np.ones(len(mesh.faces), bool)
+        keep[extra] = False
+        mesh = trimesh.Trimesh(mesh.vertices, mesh.faces[keep], process=False)
+
+
 def repair_surface(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """Vertices nearer than MERGE_FRACTION of the diagonal merged, faces on non-manifold edges
     dropped, the faces wound one way (outward where closed), holes of up to MAX_HOLE_EDGES
     edges closed."""
     # Marching cubes leaves edges of a micrometre or less; a file's 6 decimals would fuse their
     # ends, and a reader merging vertices by position would find holes and folds there.
-    repaired = merge_close_vertices(mesh, MERGE_FRACTION * float(np.linalg.norm(mesh.extents)))
-    _, uses = np.unique(trimesh.grouping.hashable_rows(repaired.edges_sorted), return_counts=True)
-    if (uses > 2).any():
-        o3d_mesh = to_open3d(repaired)
-        o3d_mesh.remove_non_manifold_edges()  # the smallest faces on an edge go until two are left
-        o3d_mesh.remove_unreferenced_vertices()
-        repaired = from_open3d(o3d_mesh)
+    repaired = drop_non_manifold_faces(
+        merge_close_vertices(mesh, MERGE_FRACTION * float(np.linalg.norm(mesh.extents)))
+    )
     if not repaired.is_winding_consistent:
         # A cap cut along a self-touching outline can come out wound against the rest; holes
         # are found by following the wound border.
@@ -169,6 +183,7 @@ def repair_surface(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
         o3d_mesh.orient_triangles()
         repaired = from_open3d(o3d_mesh)
     repaired = close_holes(repaired)
+    repaired.remove_unreferenced_vertices()
     if len(repaired.faces) == 0:
         raise ModelError("the mesh has no faces after repair")
     if repaired.is_watertight and repaired.volume < 0:
