@@ -57,7 +57,8 @@ def test_finished_mesh_has_no_micrometre_edges_to_tear_in_a_file(tmp_path: Path)
 def test_merged_vertices_leave_no_two_nearer_than_the_distance() -> None:
     rng = np.random.default_rng(0)
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)
-    jittered = trimesh.Trimesh(sphere.vertices + rng.normal(0, 2e-3, sphere.vertices.shape), sphere.faces, process=False)
+    jittered = sphere.copy()
+    jittered.vertices += rng.normal(0, 2e-3, sphere.vertices.shape)
     distance = float(np.quantile(jittered.edges_unique_length, 0.05))  # the shortest edges go
     merged = merge_close_vertices(jittered, distance)
     assert len(merged.vertices) < len(jittered.vertices)
@@ -83,11 +84,14 @@ def test_holes_with_more_edges_than_the_limit_stay_open() -> None:
     assert close_holes(holed, max_edges=100).is_watertight
 
 
-def test_inward_wound_surface_is_finished_outward() -> None:
-    _, holed = _sphere_without([7])
-    holed.invert()
-    finished = watertight_finish(holed, max_faces=100_000)
+def test_inward_wound_surface_is_finished_outward_and_left_as_it_was() -> None:
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)
+    sphere.invert()
+    finished = watertight_finish(sphere, max_faces=100_000)
     assert finished.is_watertight and finished.volume > 0
+    assert sphere.volume < 0
+    with pytest.raises(ModelError):
+        watertight_finish(trimesh.Trimesh(), max_faces=100)
 
 
 def test_decimation_reaches_the_target_and_keeps_a_closed_mesh_closed() -> None:

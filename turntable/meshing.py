@@ -42,7 +42,8 @@ class MeshingFigures:
 def remove_outliers(cloud: MergedCloud, options: MeshingOptions) -> MergedCloud:
     """Statistical outlier removal: drop points whose mean neighbour distance is far above the
     cloud's (stray depth at silhouettes, the odd mis-posed frame)."""
-    _, kept = point_cloud(cloud.points).remove_statistical_outlier(options.outlier_neighbours, options.outlier_std_ratio)
+    cloud_o3d = point_cloud(cloud.points)
+    _, kept = cloud_o3d.remove_statistical_outlier(options.outlier_neighbours, options.outlier_std_ratio)
     kept = np.asarray(kept, dtype=np.int64)
     return MergedCloud(
         points=cloud.points[kept], colors=cloud.colors[kept], view_dirs=cloud.view_dirs[kept], counts=cloud.counts[kept]

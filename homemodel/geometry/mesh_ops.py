@@ -171,6 +171,8 @@ def repair_surface(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     """Vertices nearer than MERGE_FRACTION of the diagonal merged, faces on non-manifold edges
     dropped, the faces wound one way (outward where closed), holes of up to MAX_HOLE_EDGES
     edges closed."""
+    if len(mesh.faces) == 0:
+        raise ModelError("the mesh has no faces")
     # Marching cubes leaves edges of a micrometre or less; a file's 6 decimals would fuse their
     # ends, and a reader merging vertices by position would find holes and folds there.
     repaired = drop_non_manifold_faces(
@@ -183,6 +185,8 @@ def repair_surface(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
         o3d_mesh.orient_triangles()
         repaired = from_open3d(o3d_mesh)
     repaired = close_holes(repaired)
+    if repaired is mesh:
+        repaired = mesh.copy()  # the caller's mesh is left as it is
     repaired.remove_unreferenced_vertices()
     if len(repaired.faces) == 0:
         raise ModelError("the mesh has no faces after repair")
