@@ -26,7 +26,7 @@ import numpy as np
 from homemodel.core.yaml_specs import FieldError
 from modeller.blender_scene import LINK_PROPERTY, texture_material
 from modeller.photo_texture import (
-    TextureOptions,
+    FaceTextureOptions,
     face_corners_px,
     read_photo,
     rectify_planar,
@@ -84,7 +84,7 @@ class _FaceMapping:
     corners_m: np.ndarray  # (4, 3) in the part's frame
 
 
-def apply_photos(photos: list[FacePhoto], texture_dir: Path, options: TextureOptions) -> list[PhotoPlacement]:
+def apply_photos(photos: list[FacePhoto], texture_dir: Path, options: FaceTextureOptions) -> list[PhotoPlacement]:
     """Texture the scene's parts with `photos`; textures are written into `texture_dir`.
 
     Raises `FieldError` located at `photos.<i>.<field>`.
@@ -112,7 +112,7 @@ def _part(name: str) -> bpy.types.Object:
     return bpy.data.objects[name]
 
 
-def _apply_photo(index: int, photo: FacePhoto, texture_dir: Path, options: TextureOptions) -> PhotoPlacement:
+def _apply_photo(index: int, photo: FacePhoto, texture_dir: Path, options: FaceTextureOptions) -> PhotoPlacement:
     import bmesh
     import bpy
 

@@ -45,7 +45,7 @@ from modeller.builders.vessels import (
     build_jar,
     build_plate,
 )
-from modeller.photo_texture import TextureOptions, texture_folder
+from modeller.photo_texture import FaceTextureOptions, texture_folder
 from modeller.spec_loading import load_spec
 from modeller.specs import Spec
 
@@ -91,7 +91,7 @@ def build_textured(
     *,
     blend_path: Path | None = None,
     spec_path: Path | None = None,
-    texture_options: TextureOptions | None = None,
+    texture_options: FaceTextureOptions | None = None,
 ) -> TexturedBuild:
     """`build_from_spec`, also returning the photos' placements (for comparison pictures).
 
@@ -105,7 +105,7 @@ def build_textured(
         folder = Path(spec_path).parent if spec_path is not None else Path.cwd()
         photos = [p.model_copy(update={"photo": folder / p.photo}) for p in spec.photos]
         try:
-            placements = apply_photos(photos, texture_folder(), texture_options or TextureOptions())
+            placements = apply_photos(photos, texture_folder(), texture_options or FaceTextureOptions())
         except FieldError as exc:
             where = spec_path if spec_path is not None else f"spec {name!r}"
             raise SpecError(f"{where}: {'.'.join(str(part) for part in exc.loc)}: {exc}") from None
@@ -118,7 +118,7 @@ def build_textured(
 @dataclass(kw_only=True)
 class BuildOptions:
     name: str | None = None  # the model's name; None: the spec's `name`, else the file's name without .yaml
-    texture: TextureOptions = field(default_factory=TextureOptions)
+    texture: FaceTextureOptions = field(default_factory=FaceTextureOptions)
     # Also render comparison_<i>.png, the model beside each of the spec's photos (which it must have).
     pictures: PictureOptions | None = None
 

@@ -31,7 +31,7 @@ _MIN_DETECTED_FRACTION = 0.05
 
 
 @dataclass(kw_only=True)
-class TextureOptions:
+class FaceTextureOptions:
     """How finely a photo is resampled onto a face.
 
     The texture takes the photo's own pixel density on the face (its sharpest edge),
@@ -186,7 +186,7 @@ def texture_size_px(
     corners: np.ndarray,
     width_m: float,
     height_m: float,
-    options: TextureOptions,
+    options: FaceTextureOptions,
     *,
     source_width_m: float | None = None,
 ) -> tuple[int, int]:
@@ -241,7 +241,7 @@ def rectify_wrap(
     return texture
 
 
-def write_texture(texture: np.ndarray, path: Path, options: TextureOptions) -> Path:
+def write_texture(texture: np.ndarray, path: Path, options: FaceTextureOptions) -> Path:
     """Write a BGR texture as JPEG (atomically): photos compress well and stay small."""
     ok, data = cv2.imencode(".jpg", texture, [cv2.IMWRITE_JPEG_QUALITY, options.jpeg_quality])
     if not ok:

@@ -15,8 +15,7 @@ import trimesh
 
 from homemodel.core.checks import require_between, require_positive
 from homemodel.core.errors import ModelError
-
-MERGE_FRACTION = 1e-4  # of the mesh's diagonal: vertices nearer than this are one (20 um on a 0.2 m vase)
+from homemodel.geometry.mesh_ops import largest_piece, point_cloud, poisson_surface
 
 
 @dataclass(kw_only=True)
@@ -93,12 +92,12 @@ def segment_object(
     # Stray points (the tail of the plane's noise, lone mismatches) have few neighbours; a
     # surface sampled at the voxel size has about 25 within three voxels.
     voxel = options.voxel_fraction * scene_scale
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    cloud = point_cloud(points)
     _, dense_enough = cloud.remove_radius_outlier(nb_points=8, radius=3 * voxel)
     points, colours, to_camera = points[dense_enough], colours[dense_enough], to_camera[dense_enough]
     if len(points) < 100:
         raise ModelError(f"only {len(points)} dense points lie above the support plane: no object to mesh")
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    cloud = point_cloud(points)
     labels = np.asarray(cloud.cluster_dbscan(eps=options.cluster_gap_fraction * scene_scale, min_points=4))
     # The object is the piece nearest the point the cameras look at; others (background
     # furniture, a cable, a stray mismatch) are dropped.
@@ -152,59 +151,16 @@ def floor_points(points: np.ndarray, *, spacing: float, base_share: float = 0.1)
 
 def mesh_object(obj: ObjectPoints, scene_scale: float, options: CleaningOptions) -> trimesh.Trimesh:
     """Poisson surface of the object's points, cut at the support plane and closed at the bottom."""
-    import open3d as o3d
-
     voxel = options.voxel_fraction * scene_scale
     floor = floor_points(obj.points, spacing=voxel)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.vstack([obj.points, floor])))
     normals = np.vstack([obj.normals, np.tile([0.0, 0.0, -1.0], (len(floor), 1))])
-    cloud.normals = o3d.utility.Vector3dVector(normals)
-    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
-        poisson, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
-            cloud, depth=0, width=options.poisson_cell_voxels * voxel, scale=1.1, linear_fit=False
-        )
-    mesh = trimesh.Trimesh(np.asarray(poisson.vertices), np.asarray(poisson.triangles), process=True)
+    surface, _ = poisson_surface(
+        np.vstack([obj.points, floor]), normals, width_m=options.poisson_cell_voxels * voxel, scale=1.1
+    )
+    mesh = trimesh.Trimesh(surface.vertices, surface.faces, process=True)
     # Poisson closes the surface below the object, where no photo saw it, with a smooth bulge
     # through the support plane: cut it at the plane and close the cut with a flat cap.
     mesh = mesh.slice_plane(np.zeros(3), np.array([0.0, 0.0, 1.0]), cap=True)
     if len(mesh.faces) == 0:
         raise ModelError("the Poisson surface lies entirely below the support plane")
     return largest_piece(mesh)
-
-
-def to_open3d(mesh: trimesh.Trimesh):
-    import open3d as o3d
-
-    return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces))
-
-
-def largest_piece(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """The largest connected piece (Poisson leaves small bubbles)."""
-    pieces = mesh.split(only_watertight=False)
-    if len(pieces) == 0:
-        raise ModelError("the mesh has no faces")
-    return max(pieces, key=lambda m: len(m.faces))
-
-
-def finish_mesh(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
-    """Near-duplicate vertices merged, small holes closed, decimated to `max_faces` with its
-    topology kept, so a closed surface stays closed (pymeshlab)."""
-    import pymeshlab
-
-    meshes = pymeshlab.MeshSet()
-    meshes.add_mesh(pymeshlab.Mesh(mesh.vertices, mesh.faces))
-    # Marching cubes leaves edges of a micrometre or less; a file's 6 decimals would fuse their
-    # ends, and a reader merging vertices by position would find holes and folds there.
-    merge_distance = MERGE_FRACTION * float(np.linalg.norm(mesh.extents))
-    meshes.meshing_merge_close_vertices(threshold=pymeshlab.PureValue(merge_distance))
-    meshes.meshing_remove_null_faces()
-    meshes.meshing_repair_non_manifold_edges()
-    meshes.meshing_close_holes(maxholesize=100)
-    if meshes.current_mesh().face_number() > max_faces:
-        meshes.meshing_decimation_quadric_edge_collapse(targetfacenum=max_faces, preservetopology=True, qualitythr=0.5)
-        meshes.meshing_close_holes(maxholesize=100)
-    result = meshes.current_mesh()
-    finished = trimesh.Trimesh(result.vertex_matrix(), result.face_matrix(), process=True)
-    if len(finished.faces) == 0:
-        raise ModelError("the mesh has no faces after repair")
-    return finished

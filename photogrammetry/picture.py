@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from photogrammetry.cleaning import to_open3d
+from homemodel.geometry.mesh_ops import decimate
 from photogrammetry.sfm import View
 
 MAX_DRAWN_FACES = 4000
@@ -23,9 +23,7 @@ def draw_cameras(mesh: trimesh.Trimesh, views: list[View], path: Path, *, title:
 
     from homemodel.core.atomic import write_bytes_atomic
 
-    if len(mesh.faces) > MAX_DRAWN_FACES:
-        simplified = to_open3d(mesh).simplify_quadric_decimation(MAX_DRAWN_FACES)
-        mesh = trimesh.Trimesh(np.asarray(simplified.vertices), np.asarray(simplified.triangles))
+    mesh = decimate(mesh, MAX_DRAWN_FACES)
     triangles = mesh.vertices[mesh.faces]
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)

@@ -22,10 +22,10 @@ from homemodel.core.checks import check_nested, require_at_least, require_betwee
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.images import read_image
 from homemodel.core.progress import Progress, StageClock
+from homemodel.geometry.mesh_ops import watertight_finish
 from photogrammetry.cleaning import (
     CleaningOptions,
     downsample,
-    finish_mesh,
     mesh_object,
     segment_object,
 )
@@ -35,7 +35,7 @@ from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_to_points
 from photogrammetry.support_plane import find_support_plane, focus_point
-from photogrammetry.texturing import TexturedMesh, TextureOptions, bake_texture
+from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
 from semantic_map import MapEntry, Registration, add_model_folder
 
@@ -45,7 +45,7 @@ class ReconstructOptions:
     sfm: SfmOptions = field(default_factory=SfmOptions)
     dense: DenseOptions = field(default_factory=DenseOptions)
     cleaning: CleaningOptions = field(default_factory=CleaningOptions)
-    texture: TextureOptions = field(default_factory=TextureOptions)
+    texture: TextureBakingOptions = field(default_factory=TextureBakingOptions)
     marker_size_m: float | None = None  # the printed markers' black-square edge; None: no markers
     dictionary: str = "apriltag_36h11"
     max_faces: int = 40_000  # the mesh is decimated to this before texturing
@@ -178,7 +178,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
                          model_focus, model_scale, options.cleaning)  # fmt: skip
 
     clock.start("meshing")
-    mesh = finish_mesh(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
+    mesh = watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
 
     clock.start("texturing")
     views = [frame.view(v) for v in sparse.views]

@@ -17,12 +17,13 @@ from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
+from homemodel.geometry.uv_atlas import atlas_texels, uv_atlas
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import View
 
 
 @dataclass(kw_only=True)
-class TextureOptions:
+class TextureBakingOptions:
     size_px: int = 2048
     charts: int = 300  # xatlas is fast with many small charts, slow with a few large ones
     depth_buffer_px: int = 480  # longer side of the per-view visibility depth buffers
@@ -39,54 +40,6 @@ class TexturedMesh:
     covered_share: float  # share of the atlas texels that some view saw
 
 
-def uv_atlas(mesh: trimesh.Trimesh, options: TextureOptions) -> tuple[trimesh.Trimesh, np.ndarray]:
-    """The mesh with its vertices split along chart seams, and one UV per vertex."""
-    import xatlas
-
-    chart_options = xatlas.ChartOptions()
-    chart_options.max_iterations = 1
-    chart_options.max_chart_area = float(mesh.area) / options.charts
-    pack_options = xatlas.PackOptions()
-    pack_options.resolution = options.size_px
-    pack_options.padding = options.padding_px
-    pack_options.bilinear = True
-    atlas = xatlas.Atlas()
-    # xatlas needs float32 vertices and uint32 faces (other types crash it).
-    atlas.add_mesh(mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32))
-    atlas.generate(chart_options, pack_options)
-    vmapping, faces, uv = atlas[0]
-    split = trimesh.Trimesh(mesh.vertices[vmapping], faces.astype(np.int64), process=False)
-    return split, uv.astype(np.float64)
-
-
-def _texel_surface(mesh: trimesh.Trimesh, uv: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The texels inside some triangle: their (row, col), 3D point and surface normal."""
-    import cv2
-
-    face_ids = np.full((size, size), -1, np.int32)
-    corners_px = np.stack([uv[:, 0] * size - 0.5, (1 - uv[:, 1]) * size - 0.5], axis=1)
-    triangles = np.round(corners_px[mesh.faces] * 16).astype(np.int32)  # 4 bits of sub-pixel precision
-    for index, triangle in enumerate(triangles):
-        cv2.fillConvexPoly(face_ids, triangle, int(index), lineType=cv2.LINE_8, shift=4)
-    rows, cols = np.nonzero(face_ids >= 0)
-    faces = face_ids[rows, cols]
-    # Barycentric coordinates of each texel centre in its triangle's UV corners.
-    a, b, c = (corners_px[mesh.faces[faces, k]] for k in range(3))
-    p = np.stack([cols, rows], axis=1).astype(np.float64)
-    v0, v1, v2 = b - a, c - a, p - a
-    denominator = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
-    denominator = np.where(np.abs(denominator) < 1e-12, 1e-12, denominator)
-    w1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / denominator
-    w2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / denominator
-    weights = np.clip(np.stack([1 - w1 - w2, w1, w2], axis=1), 0, 1)
-    weights /= weights.sum(axis=1, keepdims=True)
-    triangle_points = mesh.vertices[mesh.faces[faces]]
-    points = np.einsum("nk,nkd->nd", weights, triangle_points)
-    normals = np.einsum("nk,nkd->nd", weights, mesh.vertex_normals[mesh.faces[faces]])
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    return np.stack([rows, cols], axis=1), points, normals
-
-
 def _depth_buffer(caster: RayCaster, view: View, max_side_px: int) -> tuple[np.ndarray, Camera]:
     """Ray-cast depth (along the optical axis) of the mesh in a shrunk view, and that view's camera."""
     camera = view.camera.scaled(min(1.0, max_side_px / max(view.camera.width, view.camera.height)))
@@ -98,15 +51,17 @@ def _depth_buffer(caster: RayCaster, view: View, max_side_px: int) -> tuple[np.n
 def bake_texture(
     mesh: trimesh.Trimesh,
     views: list[View],
-    options: TextureOptions | None = None,
+    options: TextureBakingOptions | None = None,
     progress: Progress | None = None,
 ) -> TexturedMesh:
     """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame);
     progress stage "texturing"."""
-    options = options or TextureOptions()
-    split, uv = uv_atlas(mesh, options)
-    size = options.size_px
-    texels, points, normals = _texel_surface(split, uv, size)
+    options = options or TextureBakingOptions()
+    atlas = uv_atlas(mesh, size_px=options.size_px, padding_px=options.padding_px, charts=options.charts)
+    texels = atlas_texels(atlas, options.size_px)
+    points = texels.points
+    normals = texels.interpolate(atlas.mesh.vertex_normals)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
     caster = RayCaster(mesh)
     colour_sum = np.zeros((len(points), 3))
     weight_sum = np.zeros(len(points))
@@ -137,14 +92,11 @@ def bake_texture(
     seen = weight_sum > 0
     if not seen.any():
         raise ModelError("no view sees the mesh: cannot bake a texture")
-    texture = np.zeros((size, size, 3), np.uint8)
     colours = np.zeros((len(points), 3))
     colours[seen] = colour_sum[seen] / weight_sum[seen, None]
     colours[~seen] = colours[seen].mean(axis=0)  # texels no photo saw (the bottom): the mean colour
-    texture[texels[:, 0], texels[:, 1]] = np.clip(colours, 0, 255).astype(np.uint8)
-    return TexturedMesh(
-        mesh=split, uv=uv, texture=_pad_charts(texture, texels, options.padding_px), covered_share=float(seen.mean())
-    )
+    texture = texels.paint(np.clip(colours, 0, 255).astype(np.uint8), gutter_px=options.padding_px)
+    return TexturedMesh(mesh=atlas.mesh, uv=atlas.uv, texture=texture, covered_share=float(seen.mean()))
 
 
 def _sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
@@ -158,18 +110,3 @@ def _sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
     maps = padded.reshape(-1, width, 2)
     sampled = cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
     return sampled.reshape(-1, image.shape[2])[:count].astype(np.float64)
-
-
-def _pad_charts(texture: np.ndarray, texels: np.ndarray, padding_px: int) -> np.ndarray:
-    """Grow each chart's colours into its gutter so bilinear filtering and mip-maps do not
-    bleed the black background into the model."""
-    import cv2
-
-    filled = np.zeros(texture.shape[:2], np.uint8)
-    filled[texels[:, 0], texels[:, 1]] = 1
-    for _ in range(padding_px):
-        grown = cv2.dilate(texture, np.ones((3, 3), np.uint8))
-        ring = (cv2.dilate(filled, np.ones((3, 3), np.uint8)) > 0) & (filled == 0)
-        texture[ring] = grown[ring]
-        filled[ring] = 1
-    return texture

@@ -22,6 +22,7 @@ import trimesh
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import InputError
 from homemodel.geometry.mesh_io import MAX_MESH_BYTES, MESH_SUFFIXES, load_mesh
+from homemodel.geometry.mesh_ops import decimate
 from homemodel.core.input_files import read_bounded
 from shape_completion.procedural import GENERATORS, generate_instances
 
@@ -93,22 +94,14 @@ def load_library(folder: Path, *, min_per_class: int = 2) -> Library:
 
 
 def working_mesh(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """A copy of `mesh` simplified by quadric decimation (open3d) to at most
-    MAX_WORKING_TRIANGLES, its faces wound consistently (outward where it is closed): the
-    fitting keeps the library surface that faces the camera by its normals, and meshes from
-    elsewhere are not always wound one way."""
-    if len(mesh.faces) > MAX_WORKING_TRIANGLES:
-        import open3d as o3d
-
-        dense = o3d.geometry.TriangleMesh(
-            o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces)
-        )
-        simple = dense.simplify_quadric_decimation(target_number_of_triangles=MAX_WORKING_TRIANGLES)
-        mesh = trimesh.Trimesh(np.asarray(simple.vertices), np.asarray(simple.triangles), process=True)
-    else:
-        mesh = mesh.copy()
-    trimesh.repair.fix_normals(mesh)
-    return mesh
+    """A copy of `mesh` decimated to at most MAX_WORKING_TRIANGLES, its faces wound
+    consistently (outward where it is closed): the fitting keeps the library surface that faces
+    the camera by its normals, and meshes from elsewhere are not always wound one way."""
+    working = decimate(mesh, MAX_WORKING_TRIANGLES)
+    if working is mesh:
+        working = mesh.copy()
+    trimesh.repair.fix_normals(working)
+    return working
 
 
 def write_procedural_library(

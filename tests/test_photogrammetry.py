@@ -12,7 +12,7 @@ import trimesh
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
-from photogrammetry.cleaning import CleaningOptions, finish_mesh, mesh_object, segment_object
+from photogrammetry.cleaning import CleaningOptions, mesh_object, segment_object
 from photogrammetry.markers import aruco_dictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import metric_frame
 from photogrammetry.photos import list_photos
@@ -207,29 +207,3 @@ def test_support_plane_found_and_removed_object_kept(tmp_path: Path) -> None:
     assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-6)  # cut at the support plane ...
     assert mean_surface_distance_m(centred, truth) < 0.0025  # ... with the bottom closed like the truth's
     assert abs(mesh.extents[2] - 0.15) < 0.003
-
-
-def test_finished_mesh_has_no_micrometre_edges_to_tear_in_a_file(tmp_path: Path) -> None:
-    # A closed sphere with one edge split 0.5 um from its end, as marching cubes leaves them.
-    sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)
-    a, b = sphere.edges_unique[0]
-    near_a = sphere.vertices[a] + 5e-7 * (sphere.vertices[b] - sphere.vertices[a]) / sphere.edges_unique_length[0]
-    vertices = np.vstack([sphere.vertices, near_a])
-    split = len(vertices) - 1
-    faces = []
-    for face in sphere.faces:
-        if a in face and b in face:  # the two faces on the edge: each becomes two, one a sliver
-            faces += [np.where(face == b, split, face), np.where(face == a, split, face)]
-        else:
-            faces.append(face)
-    torn = trimesh.Trimesh(vertices, np.array(faces), process=False)
-    assert torn.is_watertight and torn.edges_unique_length.min() < 1e-6
-
-    finished = finish_mesh(torn, max_faces=10_000)
-    assert finished.is_watertight
-    assert finished.edges_unique_length.min() > 1e-5
-    # Written with 6 decimals and read back merging vertices by position: still closed.
-    finished.export(tmp_path / "mesh.obj")
-    read = trimesh.load(tmp_path / "mesh.obj", force="mesh")
-    read.merge_vertices()
-    assert read.is_watertight

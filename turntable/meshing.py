@@ -11,6 +11,7 @@ import trimesh
 
 from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import ModelError
+from homemodel.geometry.mesh_ops import decimate_closed, largest_piece, point_cloud, poisson_surface, repair_surface
 from turntable.fusion import Cylinder, MergedCloud
 
 # Poisson's cube around the points, relative to their extent: room for the surface to close
@@ -49,19 +50,11 @@ class MeshingFigures:
     density_trimmed: bool  # False: trimming would have left the mesh open, Poisson's closed surface kept
 
 
-def _o3d_cloud(points: np.ndarray, colors: np.ndarray | None = None):  # noqa: ANN202
-    import open3d as o3d
-
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
-    if colors is not None:
-        cloud.colors = o3d.utility.Vector3dVector(np.clip(colors, 0.0, 1.0))
-    return cloud
-
-
 def remove_outliers(cloud: MergedCloud, options: MeshingOptions) -> MergedCloud:
     """Statistical outlier removal: drop points whose mean neighbour distance is far above the
     cloud's (stray depth at silhouettes, the odd mis-posed frame)."""
-    _, kept = _o3d_cloud(cloud.points).remove_statistical_outlier(options.outlier_neighbours, options.outlier_std_ratio)
+    cloud_o3d = point_cloud(cloud.points)
+    _, kept = cloud_o3d.remove_statistical_outlier(options.outlier_neighbours, options.outlier_std_ratio)
     kept = np.asarray(kept, dtype=np.int64)
     return MergedCloud(
         points=cloud.points[kept], colors=cloud.colors[kept], view_dirs=cloud.view_dirs[kept], counts=cloud.counts[kept]
@@ -78,48 +71,43 @@ def poisson_mesh(
     if points_in < options.min_points:
         raise ModelError(f"only {points_in} merged points above the table: too few for a mesh")
     cloud = remove_outliers(cloud, options)
-    pcd = _o3d_cloud(cloud.points, cloud.colors)
+    pcd = point_cloud(cloud.points)
     pcd.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(options.normal_neighbours))
     normals = np.asarray(pcd.normals)
     # Outward = towards the cameras that saw the point (a turntable sees no inside).
     flip = np.sum(normals * cloud.view_dirs, axis=1) < 0
     normals[flip] *= -1
+    points = cloud.points
     if options.close_bottom:
         base = footprint_points(cloud.points, cylinder.z_min_m, voxel_size_m)
-        pcd.points.extend(o3d.utility.Vector3dVector(base))
+        points = np.concatenate([points, base])
         normals = np.concatenate([normals, np.tile([0.0, 0.0, -1.0], (len(base), 1))])
-        pcd.colors.extend(o3d.utility.Vector3dVector(np.zeros_like(base)))
-    pcd.normals = o3d.utility.Vector3dVector(normals)
     extent = float(np.max(np.ptp(cloud.points, axis=0)))
     depth = options.poisson_depth or int(np.clip(math.ceil(math.log2(_POISSON_SCALE * extent / voxel_size_m)), 6, 10))
-    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
-        # One thread: Open3D's multi-threaded Poisson segfaults now and then on a busy
-        # machine (isl-org/Open3D#6828, #7229); it did here, in a test run.
-        o3d_mesh, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
-            pcd, depth=depth, scale=_POISSON_SCALE, n_threads=1
-        )
-    densities = np.asarray(densities)
-    triangles_poisson = len(o3d_mesh.triangles)
+    surface, densities = poisson_surface(points, normals, depth=depth, scale=_POISSON_SCALE)
+    triangles_poisson = len(surface.faces)
     if triangles_poisson == 0:
         raise ModelError("Poisson reconstruction returned an empty mesh")
-    vertices = np.asarray(o3d_mesh.vertices)
+    vertices = surface.vertices
     # Trim unsupported surface (Poisson's closure where no camera looked) and anything
     # outside the cylinder the object stands in. The band between the footprint and the
     # lowest kept points has no points by construction: trimming it would cut the bottom off.
     weak = densities < np.quantile(densities, options.density_quantile)
     weak &= vertices[:, 2] > cylinder.z_min_m + 3 * voxel_size_m
     radial = np.hypot(vertices[:, 0] - cylinder.axis_xy_m[0], vertices[:, 1] - cylinder.axis_xy_m[1])
-    untrimmed = _to_trimesh(o3d_mesh)
-    o3d_mesh.remove_vertices_by_mask(weak | (radial > cylinder.radius_m))
-    mesh = _to_trimesh(o3d_mesh)
-    # Trimming opens holes where the surface was unsupported (inside a mug, under a
-    # handle); a closed solid is what collision, inertia and VoxelIOU need, so small holes
-    # are filled and, if the trimmed mesh stays open, Poisson's closed surface is kept.
-    trimesh.repair.fill_holes(mesh)
-    trimmed = bool(mesh.is_watertight and len(mesh.faces))
+    kept = ~(weak | (radial > cylinder.radius_m))
+    faces = surface.faces[kept[surface.faces].all(axis=1)]
+    mesh = _on_table_top(vertices[kept], (np.cumsum(kept) - 1)[faces])
+    # Trimming opens holes where the surface was unsupported (inside a mug, under a handle); a
+    # closed solid is what collision, inertia and VoxelIOU need, so small holes are closed and,
+    # if the trimmed mesh stays open, Poisson's closed surface is kept.
+    trimmed = bool(len(mesh.faces))
+    if trimmed:
+        mesh = repair_surface(mesh)
+        trimmed = mesh.is_watertight
     if not trimmed:
-        mesh = untrimmed
-    mesh = decimate_mesh(mesh, options.max_triangles)
+        mesh = repair_surface(_on_table_top(vertices, surface.faces))
+    mesh = decimate_closed(mesh, options.max_triangles)
     if len(mesh.faces) == 0:
         raise ModelError("the trimmed Poisson mesh is empty")
     colors = _vertex_colors(mesh, cloud)
@@ -133,29 +121,12 @@ def poisson_mesh(
     return mesh, colors, figures
 
 
-def _to_trimesh(o3d_mesh) -> trimesh.Trimesh:  # noqa: ANN001
-    mesh = trimesh.Trimesh(np.asarray(o3d_mesh.vertices), np.asarray(o3d_mesh.triangles), process=True)
-    return _on_table_top(mesh)
-
-
-def decimate_mesh(mesh: trimesh.Trimesh, max_triangles: int) -> trimesh.Trimesh:
-    import open3d as o3d
-
-    if len(mesh.faces) <= max_triangles:
-        return mesh
-    o3d_mesh = o3d.geometry.TriangleMesh(
-        o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces)
-    )
-    simple = o3d_mesh.simplify_quadric_decimation(max_triangles)
-    return trimesh.Trimesh(np.asarray(simple.vertices), np.asarray(simple.triangles), process=True)
-
-
-def _on_table_top(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+def _on_table_top(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
     """The biggest connected piece (trimming leaves islands), flattened onto the table top:
     the object stands on it, so nothing lies below z = 0."""
-    pieces = mesh.split(only_watertight=False)
-    if len(pieces) > 1:
-        mesh = max(pieces, key=lambda piece: len(piece.faces))
+    mesh = trimesh.Trimesh(vertices, faces, process=True)
+    if len(mesh.faces):
+        mesh = largest_piece(mesh)
     vertices = mesh.vertices.copy()
     vertices[:, 2] = np.maximum(vertices[:, 2], 0.0)
     return trimesh.Trimesh(vertices, mesh.faces, process=False)

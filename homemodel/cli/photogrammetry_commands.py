@@ -88,7 +88,7 @@ def reconstruct(
     from photogrammetry import reconstruct as run
     from photogrammetry.sfm import SfmOptions
     from photogrammetry.stereo import DenseOptions
-    from photogrammetry.texturing import TextureOptions
+    from photogrammetry.texturing import TextureBakingOptions
     from semantic_map import MapEntry
 
     console = make_console()
@@ -106,7 +106,7 @@ def reconstruct(
         options = ReconstructOptions(
             sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value),
             dense=DenseOptions(max_image_size_px=depth_image_px),
-            texture=TextureOptions(size_px=texture_px),
+            texture=TextureBakingOptions(size_px=texture_px),
             marker_size_m=marker_size_m,
             dictionary=dictionary.value,
             max_faces=max_faces,
