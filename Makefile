@@ -20,7 +20,8 @@ demo: setup
 	$(VENV)/bin/homemodel build examples/kitchen --out build/kitchen --force
 
 test: setup
-	$(PY) -m pytest -q
+	$(VENV)/bin/lint-imports
+	$(PY) -m pytest -q --durations=15
 
 setup: $(APT_STAMP) $(STAMP) $(NODE_TOOLS)
 

@@ -60,7 +60,7 @@ class ReconstructOptions:
         check_nested("sfm", self.sfm)
         check_nested("dense", self.dense)
         check_nested("cleaning", self.cleaning)
-        require_at_least("texture.size_px", self.texture.size_px, 64)
+        check_nested("texture", self.texture)
         if self.marker_size_m is not None and not (np.isfinite(self.marker_size_m) and self.marker_size_m > 0):
             raise InputError(
                 f"marker_size_m: the marker size must be a positive length in metres, got {self.marker_size_m}"

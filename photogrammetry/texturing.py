@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from homemodel.core.checks import require_at_least, require_between
 from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress
 from homemodel.geometry.camera import Camera
@@ -30,6 +31,14 @@ class TextureBakingOptions:
     max_image_px: int = 1600  # colour is sampled from the photos shrunk to this longer side
     min_cos: float = 0.15  # views more grazing than this never contribute
     padding_px: int = 4
+
+    def check(self) -> None:
+        require_at_least("size_px", self.size_px, 64)
+        require_at_least("charts", self.charts, 1)
+        require_at_least("depth_buffer_px", self.depth_buffer_px, 16)
+        require_at_least("max_image_px", self.max_image_px, 16)
+        require_between("min_cos", self.min_cos, 0.0, 1.0)
+        require_at_least("padding_px", self.padding_px, 0)
 
 
 @dataclass(kw_only=True)
