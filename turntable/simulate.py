@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
+from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.progress import Progress, no_progress
@@ -72,18 +73,10 @@ class SimulationOptions:
 
     def check(self) -> None:
         positive = ("frames", "width_px", "height_px", "camera_distance_m", "table_diameter_m", "tag_size_m", "samples")
-        for name in positive:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise InputError(f"simulation option {name}={value!r} must be positive")
-        if not 1 <= self.horizontal_fov_deg <= 170:
-            raise InputError(f"simulation option horizontal_fov_deg={self.horizontal_fov_deg} is not in [1, 170]")
-        if not (math.isfinite(self.camera_height_m) and self.camera_height_m > 0):
-            raise InputError(f"simulation option camera_height_m={self.camera_height_m} must be above the table")
-        if not (math.isfinite(self.depth_noise_m) and self.depth_noise_m >= 0):
-            raise InputError(f"simulation option depth_noise_m={self.depth_noise_m} must be zero or positive")
-        if not (math.isfinite(self.mesh_scale) and self.mesh_scale > 0):
-            raise InputError(f"simulation option mesh_scale={self.mesh_scale} must be positive")
+        for name in (*positive, "camera_height_m", "mesh_scale"):  # the camera stands above the table
+            require_positive(name, getattr(self, name))
+        require_between("horizontal_fov_deg", self.horizontal_fov_deg, 1.0, 170.0)
+        require_at_least("depth_noise_m", self.depth_noise_m, 0.0)
 
 
 @dataclass(kw_only=True)
