@@ -101,7 +101,7 @@ def test_map_without_parent_is_refused(tmp_path: Path) -> None:
     result = runner.invoke(
         app, ["turntable", "reconstruct", str(capture), "--out", str(tmp_path / "o"), "--map", "m.xml"]
     )
-    assert_one_line_error(result, "--map needs --parent")
+    assert_one_line_error(result, "--map and --parent go together")
 
 
 def test_depth_files_round_trip(tmp_path: Path) -> None:

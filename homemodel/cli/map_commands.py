@@ -15,7 +15,7 @@ import typer
 from homemodel.cli.errors import exit_on_error
 
 if TYPE_CHECKING:
-    from semantic_map import MapObject, Node, ParkingPosition, Registration, SemanticMap
+    from semantic_map import MapEntry, MapObject, Node, ParkingPosition, Registration, SemanticMap
 
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
@@ -26,6 +26,27 @@ class RelationChoice(str, enum.Enum):
     on = "on"
     in_ = "in"
     under = "under"
+
+
+def map_entry_from_flags(
+    map_path: Path | None, parent_id: str | None, object_id: str, xyz: tuple[float, float, float]
+) -> MapEntry | None:
+    """Where a reconstruction command's `--map --parent --id --xyz` register its model, or None
+    without `--map`."""
+    from homemodel.core.errors import InputError
+    from homemodel.core.transforms import transform_from_xyz_rpy
+    from semantic_map import MapEntry
+
+    if (map_path is None) != (parent_id is None):
+        raise InputError("--map and --parent go together (the parent: the room, or large object, the object belongs to)")
+    if map_path is None:
+        return None
+    return MapEntry(
+        map_path=map_path,
+        object_id=object_id,
+        parent_id=parent_id,
+        parent_from_object=transform_from_xyz_rpy(xyz, (0.0, 0.0, 0.0)),
+    )
 
 
 def _key_values(items: list[str], option: str) -> dict[str, str]:

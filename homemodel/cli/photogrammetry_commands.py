@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
 from homemodel.cli.progress import figures_table, make_console, stage_bars
 
 photogrammetry_app = typer.Typer(no_args_is_help=True)
@@ -81,28 +82,15 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a textured, cleaned mesh from photos; metric and levelled when markers are seen."""
-    from homemodel.cli.map_commands import echo_registration
-    from homemodel.core.errors import InputError
-    from homemodel.core.transforms import transform_from_xyz_rpy
     from photogrammetry import ReconstructOptions
     from photogrammetry import reconstruct as run
     from photogrammetry.sfm import SfmOptions
     from photogrammetry.stereo import DenseOptions
     from photogrammetry.texturing import TextureBakingOptions
-    from semantic_map import MapEntry
 
     console = make_console()
     with exit_on_error():
-        if (map_path is None) != (parent is None):
-            raise InputError("--map and --parent go together")
-        map_entry = None
-        if map_path is not None:
-            map_entry = MapEntry(
-                map_path=map_path,
-                object_id=object_id or name,
-                parent_id=parent,
-                parent_from_object=transform_from_xyz_rpy(xyz, (0.0, 0.0, 0.0)),
-            )
+        map_entry = map_entry_from_flags(map_path, parent, object_id or name, xyz)
         options = ReconstructOptions(
             sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value),
             dense=DenseOptions(max_image_size_px=depth_image_px),

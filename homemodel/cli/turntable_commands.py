@@ -12,6 +12,7 @@ import typer
 from rich.console import Console
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
 from homemodel.cli.progress import figures_table, make_console, stage_bars
 
 turntable_app = typer.Typer(no_args_is_help=True)
@@ -173,10 +174,6 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
-    from homemodel.cli.map_commands import echo_registration
-    from homemodel.core.errors import InputError
-    from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import MapEntry
     from turntable import ReconstructionOptions
     from turntable import reconstruct as run
     from turntable.pose import PoseOptions
@@ -184,16 +181,7 @@ def reconstruct(
 
     console = make_console()
     with exit_on_error():
-        if map_path is not None and parent_id is None:
-            raise InputError("--map needs --parent (the large object, or room, the object belongs to)")
-        map_entry = None
-        if map_path is not None:
-            map_entry = MapEntry(
-                map_path=map_path,
-                object_id=object_id or name,
-                parent_id=parent_id,
-                parent_from_object=transform_from_xyz_rpy(xyz, (0.0, 0.0, 0.0)),
-            )
+        map_entry = map_entry_from_flags(map_path, parent_id, object_id or name, xyz)
         options = ReconstructionOptions(
             detection=DetectionOptions(detector=detector.value, intensity="srgb" if srgb else "linear"),
             pose=PoseOptions(min_tags=min_tags),
