@@ -3,9 +3,8 @@ clock that times each stage for the summaries (`times_s`: stage name -> seconds)
 
 from __future__ import annotations
 
-import contextlib
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 Progress = Callable[[str, int, int | None], None]
 """`progress(stage, done, total)`: `done` of `total` steps of `stage`; `total` is None while
@@ -43,12 +42,3 @@ class StageClock:
         if self._stage is not None:
             self.times_s[self._stage] = self.times_s.get(self._stage, 0.0) + time.perf_counter() - self._start
             self._stage = None
-
-    @contextlib.contextmanager
-    def stage(self, stage: str, total: int | None = None) -> Iterator[None]:
-        """`with clock.stage("mesh"): ...`: the stage runs for the block."""
-        self.start(stage, total)
-        try:
-            yield
-        finally:
-            self.stop()
