@@ -129,6 +129,14 @@ class JointLimits:
 
 
 @dataclass(kw_only=True)
+class JointDynamics:
+    """Viscous damping (N·m·s/rad or N·s/m) and Coulomb friction (N·m or N), as URDF's `<dynamics>`."""
+
+    damping: float = 0.0
+    friction: float = 0.0
+
+
+@dataclass(kw_only=True)
 class JointState:
     """A named discrete position of a joint, e.g. an oven knob's "3" at 1.2 rad."""
 
@@ -145,6 +153,7 @@ class Joint:
     parent_from_joint: np.ndarray = field(default_factory=lambda: np.eye(4))
     axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     limits: JointLimits | None = None
+    dynamics: JointDynamics | None = None
     states: list[JointState] = field(default_factory=list)
 
     def __post_init__(self) -> None:

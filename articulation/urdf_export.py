@@ -134,6 +134,9 @@ def _joint_element(robot: etree._Element, joint: Joint) -> None:
         if joint.type != "continuous":
             attributes = {"lower": fixed(limits.lower), "upper": fixed(limits.upper), **attributes}
         etree.SubElement(el, "limit", **attributes)
+    if joint.dynamics is not None:
+        dynamics = joint.dynamics
+        etree.SubElement(el, "dynamics", damping=significant(dynamics.damping), friction=significant(dynamics.friction))
 
 
 def _extension_element(robot: etree._Element, model: Model) -> None:

@@ -22,6 +22,7 @@ from articulation.model import (
     GraspPoint,
     Inertial,
     Joint,
+    JointDynamics,
     JointLimits,
     JointState,
     Link,
@@ -250,6 +251,13 @@ def _joints(ctx: _Context, robot: etree._Element, states: dict[str, list[JointSt
                 effort=ctx.floats(limit_el, "effort", 1, "0")[0],
                 velocity=ctx.floats(limit_el, "velocity", 1, "0")[0],
             )
+        dynamics_el = el.find("dynamics")
+        dynamics = None
+        if dynamics_el is not None:
+            dynamics = JointDynamics(
+                damping=ctx.floats(dynamics_el, "damping", 1, "0")[0],
+                friction=ctx.floats(dynamics_el, "friction", 1, "0")[0],
+            )
         joints.append(
             Joint(
                 name=name,
@@ -259,6 +267,7 @@ def _joints(ctx: _Context, robot: etree._Element, states: dict[str, list[JointSt
                 parent_from_joint=ctx.origin(el),
                 axis=axis,
                 limits=limits,
+                dynamics=dynamics,
                 states=states.get(name, []),
             )
         )

@@ -251,3 +251,22 @@ def test_a_partnet_mobility_folder_registers_into_a_map_from_the_cli(tmp_path: P
     node = load_map(tmp_path / "map.xml").node("cabinet")
     assert [j.name for j in node.joints] == ["joint_0"]
     assert node.model_ref == "7128/mobility.urdf"
+
+
+def test_joint_dynamics_round_trip_through_urdf(tmp_path):
+    """`<dynamics damping friction>` is written for a joint that has it and read back."""
+    import trimesh
+
+    from articulation import Joint, JointDynamics, JointLimits, Link, Material, Model, Visual
+    from articulation.urdf_export import write_urdf
+    from articulation.urdf_import import load_urdf
+
+    box = trimesh.creation.box((0.1, 0.1, 0.1))
+    grey = Material(name="grey")
+    links = [Link(name=n, visuals=[Visual(name=n, mesh=box, material=grey)]) for n in ("base", "door")]
+    door = Joint(
+        name="hinge", type="revolute", parent="base", child="door",
+        limits=JointLimits(lower=0.0, upper=1.5), dynamics=JointDynamics(damping=0.5, friction=0.25),
+    )
+    loaded = load_urdf(write_urdf(Model(name="m", links=links, joints=[door]), tmp_path))
+    assert loaded.joint("hinge").dynamics == JointDynamics(damping=0.5, friction=0.25)
