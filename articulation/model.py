@@ -178,7 +178,7 @@ class Joint:
         return np.eye(4)
 
 
-GraspKind = Literal["handle", "knob", "body", "rim"]
+GraspKind = Literal["handle", "knob", "body", "rim", "push", "button"]
 
 
 @dataclass(kw_only=True)

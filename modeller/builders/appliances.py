@@ -9,9 +9,10 @@ import math
 
 import numpy as np
 
-from articulation.model import Box, Collision
+from articulation.model import Box, Collision, Joint
 from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import (
+    add_object,
     add_solidify,
     box_mesh,
     cylinder_mesh,
@@ -20,7 +21,7 @@ from modeller.blender_scene import (
 )
 from modeller.blender_to_model import Assembly
 from modeller.builders import FACE_NORMALS, box_collision, wall_collisions
-from modeller.builders.cabinet import build_cabinet
+from modeller.builders.cabinet import build_cabinet, material
 from modeller.builders.handles import blender_matrix, cylinder_collision
 from modeller.specs import (
     DishwasherSpec,
@@ -37,6 +38,8 @@ _RACK_WIRE_M = 0.004
 # The drum's wall as this many boxes, so it stays hollow for a simulator.
 _DRUM_WALL_BOXES = 12
 _TURNTABLE_THICKNESS_M = 0.006
+# The drive coupler a raised plate rests on, at its centre.
+_COUPLER_RADIUS_M = 0.02
 _RACK_COLOUR = "grey"
 
 _APPLIANCE_AFFORDANCES = ["container", "openable"]
@@ -111,17 +114,47 @@ def build_washing_machine(spec: WashingMachineSpec, name: str) -> Assembly:
 
 
 def build_microwave(spec: MicrowaveSpec, name: str) -> Assembly:
+    """The plate sits on the cavity floor, or `turntable_raise_m` above it on a coupler (fixed
+    to the body); a turning plate is link `turntable` on the continuous joint `turntable_spin`."""
     cabinet = build_cabinet(spec, name, category="microwave", affordances=_APPLIANCE_AFFORDANCES)
     if spec.turntable_diameter_m is None:
         return cabinet.assembly
     left, right = spec.cavity_span_m()
-    radius = spec.turntable_diameter_m / 2
-    centre = (
-        spec.wall_thickness_m / 2,
-        -spec.width_m / 2 + (left + right) / 2,
-        spec.inner_floor_m + _TURNTABLE_THICKNESS_M / 2,
-    )
+    radius, lift = spec.turntable_diameter_m / 2, spec.turntable_raise_m
+    axis_x, axis_y = (spec.back_inner_x_m + spec.depth_m / 2) / 2, -spec.width_m / 2 + (left + right) / 2
+    if lift > 0:
+        hub_centre = (axis_x, axis_y, spec.inner_floor_m + lift / 2)
+        hub = cylinder_mesh("body.turntable_coupler", _COUPLER_RADIUS_M, lift, segments=24)
+        cabinet.add_to_body("turntable_coupler", hub, hub_centre, "grey")
+        cabinet.body_collisions.append(cylinder_collision("turntable_coupler", _COUPLER_RADIUS_M, lift, hub_centre, "z"))
+    centre = (axis_x, axis_y, spec.inner_floor_m + lift + _TURNTABLE_THICKNESS_M / 2)
     mesh = cylinder_mesh("body.turntable", radius, _TURNTABLE_THICKNESS_M, segments=48)
-    cabinet.add_to_body("turntable", mesh, centre, spec.turntable_colour)
-    cabinet.body_collisions.append(cylinder_collision("turntable", radius, _TURNTABLE_THICKNESS_M, centre, "z"))
+    if not spec.turntable_turns:
+        cabinet.add_to_body("turntable", mesh, centre, spec.turntable_colour)
+        cabinet.body_collisions.append(cylinder_collision("turntable", radius, _TURNTABLE_THICKNESS_M, centre, "z"))
+        return cabinet.assembly
+    body_from_plate = translation_transform((axis_x, axis_y, spec.inner_floor_m + lift))
+    plate_centre = (0.0, 0.0, _TURNTABLE_THICKNESS_M / 2)
+    mesh.transform(blender_matrix(translation_transform(plate_centre)))
+    add_object(
+        "turntable",
+        mesh,
+        link="turntable",
+        material=material(spec.turntable_colour),
+        parent=cabinet.body,
+        parent_from_object=body_from_plate,
+    )
+    cabinet.assembly.collisions["turntable"] = [
+        cylinder_collision("turntable", radius, _TURNTABLE_THICKNESS_M, plate_centre, "z")
+    ]
+    cabinet.assembly.joints.append(
+        Joint(
+            name="turntable_spin",
+            type="continuous",
+            parent="body",
+            child="turntable",
+            parent_from_joint=body_from_plate,
+            axis=np.array([0.0, 0.0, 1.0]),
+        )
+    )
     return cabinet.assembly

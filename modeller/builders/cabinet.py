@@ -43,12 +43,21 @@ from modeller.builders import FACE_NORMALS, box_collision, wall_collisions
 from modeller.builders.handles import (
     add_control_knob,
     add_handle,
+    add_push_button,
     blender_matrix,
     cylinder_collision,
 )
 from modeller.specs import colour_name, colour_rgb
-from modeller.specs.cabinet_geometry import door_shelf_box_m, drawer_box_bounds_m, front_x_m, shelf_span_m
-from modeller.specs.cabinets import CabinetSpec, DoorSpec, Panel
+from modeller.specs.cabinet_geometry import (
+    door_face_x_m,
+    door_hinge_point_m,
+    door_shelf_box_m,
+    drawer_box_bounds_m,
+    drawer_front_x_m,
+    panel_face_x_m,
+    shelf_span_m,
+)
+from modeller.specs.cabinets import CabinetSpec, Panel
 
 if TYPE_CHECKING:
     import bpy
@@ -107,13 +116,17 @@ def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: l
         left, right, depth = shelf_span_m(spec, shelf)
         t = spec.wall_thickness_m
         size = (depth, right - left, t)
-        centre = (-spec.depth_m / 2 + t + depth / 2, -spec.width_m / 2 + (left + right) / 2, shelf.height_m - t / 2)
+        centre = (spec.back_inner_x_m + depth / 2, -spec.width_m / 2 + (left + right) / 2, shelf.height_m - t / 2)
         cabinet.add_to_body(f"shelf_{i}", box_mesh(f"body.shelf_{i}", size), centre)
         cabinet.body_collisions.append(box_collision(f"shelf_{i}", size, centre))
     for i, divider in enumerate(spec.dividers):
         t = spec.wall_thickness_m
         size = (spec.inner_depth_m, t, spec.inner_top_m - spec.inner_floor_m)
-        centre = (t / 2, -spec.width_m / 2 + divider.left_m + t / 2, (spec.inner_floor_m + spec.inner_top_m) / 2)
+        centre = (
+            (spec.back_inner_x_m + spec.depth_m / 2) / 2,
+            -spec.width_m / 2 + divider.left_m + t / 2,
+            (spec.inner_floor_m + spec.inner_top_m) / 2,
+        )
         cabinet.add_to_body(f"divider_{i}", box_mesh(f"body.divider_{i}", size), centre)
         cabinet.body_collisions.append(box_collision(f"divider_{i}", size, centre))
     for i, panel in enumerate(spec.panels):
@@ -124,8 +137,13 @@ def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: l
     for i in range(len(spec.drawers)):
         _add_drawer(cabinet, i, handle_material)
     for i, knob in enumerate(spec.knobs):
-        body_from_knob = translation_transform((spec.depth_m / 2, -spec.width_m / 2 + knob.left_m, knob.height_m))
+        face_x = panel_face_x_m(spec, knob.left_m, knob.height_m)
+        body_from_knob = translation_transform((face_x, -spec.width_m / 2 + knob.left_m, knob.height_m))
         add_control_knob(i, knob, cabinet.body, body_from_knob, assembly)
+    for i, button in enumerate(spec.buttons):
+        face_x = panel_face_x_m(spec, button.left_m, button.height_m)
+        body_from_button = translation_transform((face_x, -spec.width_m / 2 + button.left_m, button.height_m))
+        add_push_button(i, button, cabinet.body, body_from_button, assembly)
     return cabinet
 
 
@@ -135,10 +153,22 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
     size = (spec.depth_m, spec.width_m, top - bottom)
     centre = (0.0, 0.0, (bottom + top) / 2)
     mesh = box_mesh("body", size, centre)
-    remove_faces(mesh, [FACE_NORMALS["+x"]])
+    open_faces = ["+x"] + ([] if spec.top_panel else ["+z"]) + ([] if spec.back_panel is None else ["-x"])
+    remove_faces(mesh, [FACE_NORMALS[face] for face in open_faces])
     body = add_object("body", mesh, link="body", material=material(spec.colour))
     add_solidify(body, t)
-    collisions = wall_collisions("carcass", size, centre, ["-x", "+y", "-y", "+z", "-z"], t)
+    walls = [face for face in ("-x", "+y", "-y", "+z", "-z") if face not in open_faces]
+    collisions = wall_collisions("carcass", size, centre, walls, t)
+    for name, part_size, part_centre in _carcass_extras(spec):
+        add_object(
+            f"body.{name}",
+            box_mesh(f"body.{name}", part_size),
+            link="body",
+            material=material(spec.colour),
+            parent=body,
+            parent_from_object=translation_transform(part_centre),
+        )
+        collisions.append(box_collision(name, part_size, part_centre))
     if spec.plinth_height_m > 0:
         # A frame under the carcass, its front set back for the feet: a box without top and bottom.
         plinth_size = (spec.depth_m - spec.plinth_recess_m, spec.width_m, spec.plinth_height_m)
@@ -159,6 +189,32 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
     return body
 
 
+def _carcass_extras(spec: CabinetSpec) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float]]]:
+    """(name, size, centre) of the carcass' boxes beyond its five walls: a back panel set in
+    from the back edge, and a face frame's stiles and rails round the front opening."""
+    parts = []
+    bottom, top = spec.carcass_bottom_m, spec.carcass_top_m
+    half_w = spec.width_m / 2
+    if spec.back_panel is not None:
+        back = spec.back_panel
+        t = spec.wall_thickness_m
+        z0, z1 = bottom + t, top - (t if spec.top_panel else 0.0)
+        size = (back.thickness_m, spec.width_m - 2 * t, z1 - z0)
+        parts.append(("back_panel", size, (spec.back_inner_x_m - back.thickness_m / 2, 0.0, (z0 + z1) / 2)))
+    frame = spec.face_frame
+    if frame is not None:
+        w, x = frame.width_m, spec.depth_m / 2 - frame.thickness_m / 2
+        stile = (frame.thickness_m, w, top - bottom)
+        rail = (frame.thickness_m, spec.width_m - 2 * w, w)
+        parts += [
+            ("frame_left", stile, (x, -half_w + w / 2, (bottom + top) / 2)),
+            ("frame_right", stile, (x, half_w - w / 2, (bottom + top) / 2)),
+            ("frame_bottom", rail, (x, 0.0, bottom + w / 2)),
+            ("frame_top", rail, (x, 0.0, top - w / 2)),
+        ]
+    return parts
+
+
 def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
     """A slab in the front plane, inside the carcass' edges (they show round it), with its hole cut."""
     import bpy
@@ -171,7 +227,7 @@ def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
     if y1 - y0 <= 0 or z1 - z0 <= 0:
         return  # wholly in front of the carcass' edges, which are the panel
     size = (t, y1 - y0, z1 - z0)
-    centre = (spec.depth_m / 2 - t / 2, (y0 + y1) / 2, (z0 + z1) / 2)
+    centre = (spec.depth_m / 2 + panel.forward_m - t / 2, (y0 + y1) / 2, (z0 + z1) / 2)
     obj = cabinet.add_to_body(f"panel_{i}", box_mesh(f"body.panel_{i}", size), centre, panel.colour)
     hole = panel.hole
     if hole is None:
@@ -203,26 +259,17 @@ def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
             )
 
 
-def _door_hinge_point(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
-    """(y, z) of the door's hinge line's start: its hinge-side edge, bottom end or left end."""
-    y0 = -spec.width_m / 2 + door.left_m
-    if door.hinge == "right":
-        return y0 + door.width_m, door.bottom_m
-    if door.hinge == "top":
-        return y0, door.top_m
-    return y0, door.bottom_m
-
-
 def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> None:
     spec, assembly = cabinet.spec, cabinet.assembly
     door = spec.doors[i]
     link = f"door_{i}"
     thick = spec.door_thickness_m
-    hinge_y, hinge_z = _door_hinge_point(spec, door)
-    body_from_door = translation_transform((front_x_m(spec), hinge_y, hinge_z))
+    hinge = door_hinge_point_m(spec, door)
+    body_from_door = translation_transform(hinge)
+    face_x = door_face_x_m(spec, door)
     # The door's middle in its own frame.
     y0 = -spec.width_m / 2 + door.left_m
-    middle = np.array([-thick / 2, y0 + door.width_m / 2 - hinge_y, door.bottom_m + door.height_m / 2 - hinge_z])
+    middle = np.array([face_x - thick / 2, y0 + door.width_m / 2, door.bottom_m + door.height_m / 2]) - hinge
     door_material = material(spec.colour)
     if door.shape == "round":
         mesh = cylinder_mesh(link, door.width_m / 2, thick, axis="x", segments=64)
@@ -236,7 +283,7 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
     )
     if door.window is not None:
         glass_material = material(door.window.colour)
-        glass_x = -_GLASS_DEPTH_M / 2 + _GLASS_PROUD_M
+        glass_x = face_x - hinge[0] - _GLASS_DEPTH_M / 2 + _GLASS_PROUD_M
         centre = (glass_x, middle[1], middle[2])
         if door.shape == "round":
             glass = cylinder_mesh(
@@ -256,7 +303,7 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
     for k, shelf in enumerate(door.shelves):
         low, high = door_shelf_box_m(spec, door, shelf)
         size = high - low
-        centre = (low + high) / 2 - np.array([front_x_m(spec), hinge_y, hinge_z])
+        centre = (low + high) / 2 - hinge
         bin_mesh = box_mesh(f"{link}.shelf_{k}", size)
         remove_faces(bin_mesh, [FACE_NORMALS["+z"]])
         bin_obj = add_object(
@@ -282,7 +329,7 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
         )
     )
     across, up = door.handle_offset_m()
-    door_from_face = translation_transform((0.0, y0 + across - hinge_y, door.bottom_m + up - hinge_z))
+    door_from_face = translation_transform(np.array([face_x, y0 + across, door.bottom_m + up]) - hinge)
     add_handle(
         f"{link}_handle",
         link,
@@ -299,12 +346,14 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
     spec, assembly = cabinet.spec, cabinet.assembly
     drawer = spec.drawers[i]
     link = f"drawer_{i}"
-    thick, gap = spec.door_thickness_m, spec.door_gap_m
+    thick = spec.door_thickness_m
+    # The front's inner face, from the body's front plane (the drawer's origin).
+    inner = drawer_front_x_m(spec, drawer) - spec.depth_m / 2
     left_y = -spec.width_m / 2 + drawer.left_m
     middle_y = left_y + drawer.width_m / 2
     body_from_drawer = translation_transform((spec.depth_m / 2, middle_y, drawer.bottom_m))
     front_size = (thick, drawer.width_m, drawer.height_m)
-    front_centre = (gap + thick / 2, 0.0, drawer.height_m / 2)
+    front_centre = (inner + thick / 2, 0.0, drawer.height_m / 2)
     drawer_material = material(spec.colour)
     front_mesh = box_mesh(link, front_size, front_centre)
     drawer_obj = add_object(
@@ -314,7 +363,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
     # The box behind the front, inside the body: a box without its top, walls inward.
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     box_size = (drawer.depth_m, y_max - y_min, z_max - z_min)
-    box_centre = (gap - drawer.depth_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + z_max) / 2 - drawer.bottom_m)
+    box_centre = (inner - drawer.depth_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + z_max) / 2 - drawer.bottom_m)
     open_box = box_mesh(f"{link}.box", box_size)
     remove_faces(open_box, [FACE_NORMALS["+z"]])
     box = add_object(
@@ -341,7 +390,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
         )
     )
     across, up = drawer.handle_offset_m()
-    drawer_from_face = translation_transform((gap + thick, left_y + across - middle_y, up))
+    drawer_from_face = translation_transform((inner + thick, left_y + across - middle_y, up))
     add_handle(
         f"{link}_handle",
         link,

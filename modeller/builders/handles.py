@@ -25,7 +25,7 @@ from modeller.blender_scene import add_object, box_mesh, colour_material, cylind
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame
 from modeller.specs import colour_name, colour_rgb
-from modeller.specs.handles import ControlKnob, Handle, Orientation
+from modeller.specs.handles import ControlKnob, Handle, Orientation, PushButton
 
 if TYPE_CHECKING:
     import bpy
@@ -75,6 +75,12 @@ def add_handle(
     """Add `handle` to the `front` object, `front_from_face` being the point on the front's
     outer face at the handle's centre (axes as the body's, +x out of the front)."""
     along = _along(orientation)
+    if handle.type == "none":
+        # Push to open: nothing to add, but the robot needs to know where to press.
+        push = front_from_face @ grasp_frame((0, 0, 0), (-1, 0, 0), along)
+        name = link.removesuffix("_handle") + "_push"
+        assembly.grasp_points.append(GraspPoint(name=name, link=parent_link, link_from_grasp=push, kind="push"))
+        return
     if handle.type == "bar":
         front_from_handle = front_from_face @ translation_transform((handle.standoff_m, 0, 0))
         _bar(link, front, front_from_handle, handle, orientation, material, assembly)
@@ -246,3 +252,31 @@ def add_control_knob(
     )
     grasp = grasp_frame((projection / 2, 0, 0), (-1, 0, 0), (0, 0, 1))
     assembly.grasp_points.append(GraspPoint(name=link, link=link, link_from_grasp=grasp, kind="knob"))
+
+
+def add_push_button(
+    i: int, button: PushButton, body: bpy.types.Object, body_from_button: np.ndarray, assembly: Assembly
+) -> None:
+    """A push button: link `button_<i>` at the panel's face, a disc along +x, pressed in along -x."""
+    link = f"button_{i}"
+    radius, projection = button.diameter_m / 2, button.projection_m
+    mesh = cylinder_mesh(link, radius, projection, axis="x")
+    mesh.transform(blender_matrix(translation_transform((projection / 2, 0, 0))))
+    material = colour_material(colour_name(button.colour), colour_rgb(button.colour))
+    add_object(link, mesh, link=link, material=material, parent=body, parent_from_object=body_from_button)
+    # Pressed, the button's stem goes into a hole in the panel; its cap (what stays out) collides.
+    cap = projection - button.travel_m
+    assembly.collisions[link] = [cylinder_collision(link, radius, cap, (button.travel_m + cap / 2, 0, 0))]
+    assembly.joints.append(
+        Joint(
+            name=f"{link}_press",
+            type="prismatic",
+            parent="body",
+            child=link,
+            parent_from_joint=body_from_button,
+            axis=np.array([-1.0, 0.0, 0.0]),
+            limits=JointLimits(lower=0.0, upper=button.travel_m),
+        )
+    )
+    grasp = grasp_frame((projection, 0, 0), (-1, 0, 0), (0, 0, 1))
+    assembly.grasp_points.append(GraspPoint(name=link, link=link, link_from_grasp=grasp, kind="button"))

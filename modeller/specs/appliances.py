@@ -281,7 +281,7 @@ class DishwasherSpec(_ApplianceSpec):
         """(x_min, x_max, y_min, y_max, z_min, z_max) of a rack in the model frame."""
         t, c = self.wall_thickness_m, rack.clearance_m
         return (
-            -self.depth_m / 2 + t + c,
+            self.back_inner_x_m + c,
             self.depth_m / 2 - c,
             -self.width_m / 2 + t + c,
             self.width_m / 2 - t - c,
@@ -422,7 +422,7 @@ class WashingMachineSpec(_ApplianceSpec):
             )
         if 2 * self.drum.wall_thickness_m >= self.drum.diameter_m:
             raise FieldError(("drum", "wall_thickness_m"), "fills the drum")
-        if x_back < -self.depth_m / 2 + t - _EPS_M:
+        if x_back < self.back_inner_x_m - _EPS_M:
             raise FieldError(("drum", "depth_m"), f"drum {self.drum.depth_m} m deep goes through the back wall")
         if y - r < -self.width_m / 2 + t - _EPS_M or y + r > self.width_m / 2 - t + _EPS_M:
             raise FieldError(("drum", "diameter_m"), "drum goes through the side walls")
@@ -456,6 +456,10 @@ class MicrowaveSpec(_ApplianceSpec):
     panel_width_m: Length = Field(0.12, description="default layout: width of the control panel on the right")
     turntable_diameter_m: Length | None = Field(0.27, description="glass plate on the cavity floor; null: none")
     turntable_colour: Colour = GLASS_COLOUR
+    turntable_raise_m: Offset = Field(
+        0.0, description="from the cavity floor up to the plate's underside (on its roller ring and coupler)"
+    )
+    turntable_turns: bool = Field(False, description="true: the plate turns freely (a continuous joint)")
 
     def default_layout(self) -> None:
         g = self.door_gap_m
@@ -507,3 +511,5 @@ class MicrowaveSpec(_ApplianceSpec):
                 ("turntable_diameter_m",),
                 f"a plate {d} m across does not fit a cavity {right - left:.3f} x {self.inner_depth_m:.3f} m",
             )
+        if self.inner_floor_m + self.turntable_raise_m >= self.inner_top_m - _EPS_M:
+            raise FieldError(("turntable_raise_m",), "raises the plate to the cavity's top")

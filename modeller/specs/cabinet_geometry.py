@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from modeller.specs.hinges import check_hinge_offsets, solve_free_corner, solve_open_at_90
+
 if TYPE_CHECKING:
     from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Shelf
 
@@ -21,32 +23,114 @@ def shelf_span_m(spec: CabinetSpec, shelf: Shelf) -> tuple[float, float, float]:
     t = spec.wall_thickness_m
     left = t if shelf.left_m is None else shelf.left_m
     right = spec.width_m - t if shelf.width_m is None else left + shelf.width_m
-    return left, right, spec.inner_depth_m if shelf.depth_m is None else shelf.depth_m
+    default_depth = spec.inner_depth_m - spec.front_recess_m
+    return left, right, default_depth if shelf.depth_m is None else shelf.depth_m
 
 
 def drawer_box_bounds_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[float, float, float, float]:
     """(y_min, y_max, z_min, z_max) of a drawer's box: behind its front, inside the body
     between the walls or dividers either side of the front's middle."""
     t, gap = spec.wall_thickness_m, spec.door_gap_m
+    runners = gap if drawer.runner_clearance_m is None else drawer.runner_clearance_m
     middle = drawer.left_m + drawer.width_m / 2
     inner_left = max([t] + [d.left_m + t for d in spec.dividers if d.left_m + t <= middle])
     inner_right = min([spec.width_m - t] + [d.left_m for d in spec.dividers if d.left_m >= middle])
     # Seen from in front, the body's left edge is at y = -width/2.
-    y_min = -spec.width_m / 2 + max(drawer.left_m, inner_left) + gap
-    y_max = -spec.width_m / 2 + min(drawer.right_m, inner_right) - gap
+    y_min = -spec.width_m / 2 + max(drawer.left_m, inner_left) + runners
+    y_max = -spec.width_m / 2 + min(drawer.right_m, inner_right) - runners
     z_min = max(drawer.bottom_m, spec.inner_floor_m) + gap
     z_max = min(drawer.top_m, spec.inner_top_m) - gap
+    if drawer.box_height_m is not None:
+        z_max = min(z_max, z_min + drawer.box_height_m)
     return y_min, y_max, z_min, z_max
 
 
+def drawer_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+    """x of a closed drawer front's inner face: behind it starts the box."""
+    if drawer.mounting == "inset":
+        return spec.depth_m / 2 - spec.door_thickness_m
+    return spec.depth_m / 2 + spec.door_gap_m
+
+
+def panel_face_x_m(spec: CabinetSpec, left_m: float, height_m: float) -> float:
+    """x of the face of the panel a knob or button at (`left_m`, `height_m`) sits on."""
+    for panel in spec.panels:
+        if panel.left_m <= left_m <= panel.right_m and panel.bottom_m <= height_m <= panel.top_m:
+            return spec.depth_m / 2 + panel.forward_m
+    return spec.depth_m / 2
+
+
 def front_x_m(spec: CabinetSpec) -> float:
-    """x of the fronts' outer faces (closed)."""
+    """x of an overlay front's outer face (closed)."""
     return spec.depth_m / 2 + spec.door_gap_m + spec.door_thickness_m
+
+
+def door_face_x_m(spec: CabinetSpec, door: DoorSpec) -> float:
+    """x of a closed door's outer face: in front of the body, or flush with its front if inset."""
+    return spec.depth_m / 2 if door.mounting == "inset" else front_x_m(spec)
+
+
+def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
+    """(left, right, bottom, top) of the front opening an inset front sits in: inside the
+    carcass' edges, or inside the face frame; left and right from the body's left edge."""
+    t = spec.wall_thickness_m
+    rim = max(t, spec.face_frame.width_m) if spec.face_frame is not None else t
+    top_rim = rim if spec.top_panel or spec.face_frame is not None else 0.0
+    return rim, spec.width_m - rim, spec.carcass_bottom_m + rim, spec.carcass_top_m - top_rim
+
+
+def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
+    """How far the door's hinge-side edge is in from the body's outer face on that side."""
+    return {
+        "left": door.left_m,
+        "right": spec.width_m - door.right_m,
+        "top": spec.top_m - door.top_m,
+        "bottom": door.bottom_m - spec.base_m,
+    }[door.hinge]
+
+
+def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
+    """(behind_face_m, in_from_edge_m) of the door's hinge line (see `modeller.specs.hinges`)."""
+    thick = spec.door_thickness_m
+    if door.hinge_line is not None:
+        return door.hinge_line.behind_face_m, door.hinge_line.in_from_edge_m
+    face_forward = door_face_x_m(spec, door) - spec.depth_m / 2
+    tape = door.hinge_measured
+    if tape is not None:
+        edge_in = door_edge_in_m(spec, door)
+        if tape.open_at_90 is not None:
+            offsets = solve_open_at_90(tape.open_at_90, face_forward_m=face_forward, edge_in_m=edge_in, thickness_m=thick)
+            check_hinge_offsets(offsets, "open_at_90")
+        else:
+            across = door.width_m if door.side_hinged else door.height_m
+            offsets = solve_free_corner(tape.free_corner, face_forward_m=face_forward, edge_in_m=edge_in, width_m=across)
+            check_hinge_offsets(offsets, "free_corner")
+        return offsets
+    if door.hinge_type == "concealed":
+        # In the carcass' front plane (the arm reaches over its front edge), in by the cup's rim.
+        return face_forward, door.concealed.boring_distance_m
+    if door.hinge_type == "pivot":
+        return thick / 2, thick / 2 if door.pivot_in_from_edge_m is None else door.pivot_in_from_edge_m
+    return 0.0, 0.0
+
+
+def door_hinge_point_m(spec: CabinetSpec, door: DoorSpec) -> np.ndarray:
+    """A point on the door's hinge line in the model frame: at its bottom end for a
+    side-hinged door, at its left end for a top- or bottom-hinged one."""
+    behind, inward = hinge_offsets_m(spec, door)
+    y_left = -spec.width_m / 2 + door.left_m
+    point = {
+        "left": (y_left + inward, door.bottom_m),
+        "right": (y_left + door.width_m - inward, door.bottom_m),
+        "top": (y_left, door.top_m - inward),
+        "bottom": (y_left, door.bottom_m + inward),
+    }[door.hinge]
+    return np.array([door_face_x_m(spec, door) - behind, *point])
 
 
 def door_shelf_box_m(spec: CabinetSpec, door: DoorSpec, shelf: DoorShelf) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of a closed door's bin in the model frame."""
-    inner_x = spec.depth_m / 2 + spec.door_gap_m
+    inner_x = door_face_x_m(spec, door) - spec.door_thickness_m
     y0 = -spec.width_m / 2 + door.left_m + shelf.margin_m
     y1 = -spec.width_m / 2 + door.right_m - shelf.margin_m
     z0 = door.bottom_m + shelf.height_m
@@ -56,7 +140,7 @@ def door_shelf_box_m(spec: CabinetSpec, door: DoorSpec, shelf: DoorShelf) -> tup
 def shelf_box_m(spec: CabinetSpec, shelf: Shelf) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of a fixed shelf in the model frame."""
     left, right, depth = shelf_span_m(spec, shelf)
-    back = -spec.depth_m / 2 + spec.wall_thickness_m
+    back = spec.back_inner_x_m
     y0 = -spec.width_m / 2
     return (
         np.array([back, y0 + left, shelf.height_m - spec.wall_thickness_m]),
@@ -67,5 +151,5 @@ def shelf_box_m(spec: CabinetSpec, shelf: Shelf) -> tuple[np.ndarray, np.ndarray
 def drawer_reach_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of the space a closed drawer's box takes in the model frame."""
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
-    front = spec.depth_m / 2 + spec.door_gap_m
+    front = drawer_front_x_m(spec, drawer)
     return np.array([front - drawer.depth_m, y_min, z_min]), np.array([front, y_max, z_max])

@@ -15,10 +15,12 @@ import numpy as np
 
 from homemodel.core.yaml_specs import FieldError
 from modeller.specs.cabinet_geometry import (
+    door_hinge_point_m,
     door_shelf_box_m,
     drawer_box_bounds_m,
+    drawer_front_x_m,
     drawer_reach_m,
-    front_x_m,
+    opening_bounds_m,
     shelf_box_m,
     shelf_span_m,
 )
@@ -132,9 +134,13 @@ def check_cabinet(spec: CabinetSpec) -> None:
         _check_drawer(spec, i, drawer)
     for i, door in enumerate(spec.doors):
         _check_door(spec, i, door)
+    for group, i, front in fronts:
+        if front.mounting == "inset":
+            _check_inset(spec, group, i, front)
     for i, panel in enumerate(spec.panels):
         _check_panel(spec, i, panel)
     _check_knobs(spec)
+    _check_buttons(spec)
 
 
 def _check_walls(spec: CabinetSpec) -> None:
@@ -247,10 +253,11 @@ def _check_no_overlap(fronts: list[tuple[str, int, Front]]) -> None:
 
 
 def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
-    if drawer.depth_m > spec.inner_depth_m + _EPS_M:
+    room = min(drawer_front_x_m(spec, drawer), spec.depth_m / 2) - spec.back_inner_x_m
+    if drawer.depth_m > room + _EPS_M:
         raise FieldError(
             ("drawers", i, "depth_m"),
-            f"drawer box is {drawer.depth_m} m deep but the body is {spec.inner_depth_m:.3f} m deep inside",
+            f"drawer box is {drawer.depth_m} m deep but the body has {room:.3f} m behind the front",
         )
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     t = spec.wall_thickness_m
@@ -314,9 +321,8 @@ def _check_door_shelf(spec: CabinetSpec, i: int, door: DoorSpec, k: int, shelf: 
                 f"bin runs into {name} when the door is closed; set that back or the bin shallower",
             )
     # Swinging open, the bin's far corners must clear the side wall on the door's free side.
-    hinge_y = -spec.width_m / 2 + (door.left_m if door.hinge == "left" else door.right_m)
+    hinge_x, hinge_y, _ = door_hinge_point_m(spec, door)
     inner_wall = (spec.width_m / 2 - t) if door.hinge == "left" else (-spec.width_m / 2 + t)
-    hinge_x = front_x_m(spec)
     angles = np.radians(np.linspace(0, door.opening_limit_deg, _SWEEP_SAMPLES))
     for corner_y in (low[1], high[1]):
         dx, dy = low[0] - hinge_x, corner_y - hinge_y
@@ -331,7 +337,31 @@ def _check_door_shelf(spec: CabinetSpec, i: int, door: DoorSpec, k: int, shelf: 
             )
 
 
+def _check_inset(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
+    """An inset front sits inside the opening (the carcass' edges or the face frame)."""
+    left, right, bottom, top = opening_bounds_m(spec)
+    if front.left_m < left - _EPS_M or front.right_m > right + _EPS_M:
+        raise FieldError(
+            (group, i, "left_m"),
+            f"inset {group[:-1]} spans {front.left_m}..{front.right_m:.3f} m but the opening is {left:.3f}..{right:.3f} m",
+        )
+    if front.bottom_m < bottom - _EPS_M or front.top_m > top + _EPS_M:
+        raise FieldError(
+            (group, i, "bottom_m"),
+            f"inset {group[:-1]} spans {front.bottom_m}..{front.top_m:.3f} m up but the opening is "
+            f"{bottom:.3f}..{top:.3f} m",
+        )
+
+
 def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
+    for j, door in enumerate(spec.doors):
+        over = (
+            min(door.right_m, panel.right_m) - max(door.left_m, panel.left_m) > _EPS_M
+            and min(door.top_m, panel.top_m) - max(door.bottom_m, panel.bottom_m) > _EPS_M
+        )
+        room = spec.door_gap_m if door.mounting != "inset" else -spec.door_thickness_m
+        if over and panel.forward_m > room + _EPS_M:
+            raise FieldError(("panels", i, "forward_m"), f"panel stands {panel.forward_m} m out, into door {j}")
     hole = panel.hole
     if hole is None:
         return
@@ -346,18 +376,33 @@ def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
         raise FieldError(("panels", i, "hole"), f"hole {hole.diameter_m} m across is not inside its panel")
 
 
+def _on_a_panel(spec: CabinetSpec, left_m: float, height_m: float, radius_m: float) -> bool:
+    return any(
+        left_m - radius_m >= p.left_m - _EPS_M
+        and left_m + radius_m <= p.right_m + _EPS_M
+        and height_m - radius_m >= p.bottom_m - _EPS_M
+        and height_m + radius_m <= p.top_m + _EPS_M
+        for p in spec.panels
+    )
+
+
+def _check_buttons(spec: CabinetSpec) -> None:
+    for i, button in enumerate(spec.buttons):
+        if not _on_a_panel(spec, button.left_m, button.height_m, button.diameter_m / 2):
+            raise FieldError(
+                ("buttons", i, "left_m"),
+                f"button at {button.left_m} m from the left, {button.height_m} m up is off every panel",
+            )
+        for k, knob in enumerate(spec.knobs):
+            gap = math.hypot(button.left_m - knob.left_m, button.height_m - knob.height_m)
+            if gap < (button.diameter_m + knob.diameter_m) / 2 - _EPS_M:
+                raise FieldError(("buttons", i, "left_m"), f"button {i} overlaps knob {k}")
+
+
 def _check_knobs(spec: CabinetSpec) -> None:
     for i, knob in enumerate(spec.knobs):
         r = knob.diameter_m / 2
-        on = [
-            p
-            for p in spec.panels
-            if knob.left_m - r >= p.left_m - _EPS_M
-            and knob.left_m + r <= p.right_m + _EPS_M
-            and knob.height_m - r >= p.bottom_m - _EPS_M
-            and knob.height_m + r <= p.top_m + _EPS_M
-        ]
-        if not on:
+        if not _on_a_panel(spec, knob.left_m, knob.height_m, r):
             raise FieldError(
                 ("knobs", i, "left_m"),
                 f"knob {knob.diameter_m} m across at {knob.left_m} m from the left, {knob.height_m} m up "

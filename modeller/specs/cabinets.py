@@ -4,7 +4,8 @@ wardrobes, and the appliances in `modeller.specs.appliances`); each kind adds it
 
 Heights (`bottom_m` of a front, `height_m` of a shelf, a knob's `height_m`) are above the
 floor, that is the model frame's z, for every kind; `left_m` is from the body's left outer
-edge as seen from in front. The hinge line of a door is its hinge-side edge on its outer face.
+edge as seen from in front. The hinge line of a door is, by default, its hinge-side edge on
+its outer face; `modeller.specs.hinges` moves it where the real hinges put it.
 
 The rules every cabinet must meet are in `modeller.specs.cabinet_rules`, where its parts lie
 (shelf spans, drawer boxes, door bins) in `modeller.specs.cabinet_geometry`.
@@ -21,7 +22,8 @@ from homemodel.core.yaml_specs import FieldError
 from modeller.specs.cabinet_geometry import shelf_span_m
 from modeller.specs.cabinet_rules import check_cabinet, check_door_front, check_drawer_front
 from modeller.specs.common import _EPS_M, Colour, Length, ObjectSpec, Offset, _Spec
-from modeller.specs.handles import ControlKnob, DoorHandle, DrawerHandle, Orientation
+from modeller.specs.handles import ControlKnob, DoorHandle, DrawerHandle, Orientation, PushButton
+from modeller.specs.hinges import DoorMount, Mounting
 
 Hinge = Literal["left", "right", "top", "bottom"]
 # Dark glass for door windows and hob plates.
@@ -61,8 +63,9 @@ class DoorShelf(_Spec):
     margin_m: Offset = Field(0.06, description="from each side edge of the door to the bin's side")
 
 
-class DoorSpec(Front):
-    """A door turning about its hinge line: the hinge-side edge on its outer face.
+class DoorSpec(Front, DoorMount):
+    """A door turning about its hinge line (by default the hinge-side edge on its outer face;
+    `mounting`, `hinge_type`, `hinge_line` and `hinge_measured` from `DoorMount`).
 
     `left`/`right` hinges are vertical (seen from in front); `bottom` opens down (an oven),
     `top` opens up (a wall cabinet's flap). A `round` door (a washing machine's) is a disc
@@ -97,6 +100,11 @@ class DoorSpec(Front):
     @model_validator(mode="after")
     def _door_possible(self) -> DoorSpec:
         check_door_front(self)
+        if self.hinge_type == "concealed" and self.opening_limit_deg > self.concealed.opening_deg:
+            raise FieldError(
+                ("opening_limit_deg",),
+                f"a {self.concealed.opening_deg:g} degree concealed hinge does not open to {self.opening_limit_deg:g}",
+            )
         return self
 
 
@@ -106,6 +114,13 @@ class DrawerSpec(Front):
     depth_m: Length = Field(description="depth of the drawer box behind the front")
     travel_m: Length = Field(description="how far the drawer pulls out")
     handle: DrawerHandle = Field(default_factory=DrawerHandle)
+    mounting: Mounting = Field("overlay", description="overlay: in front of the body; inset: flush with its front")
+    box_height_m: Length | None = Field(
+        None, description="height of the box's sides (lower than the front); default: as high as the opening allows"
+    )
+    runner_clearance_m: Offset | None = Field(
+        None, description="gap each side between the box and the carcass for the runners; default: door_gap_m"
+    )
 
     def handle_orientation(self) -> Orientation:
         return self.handle.direction("horizontal")
@@ -148,10 +163,27 @@ class Hole(_Spec):
 
 
 class Panel(Front):
-    """A fixed panel flush with the body's front (a control panel, a kick plate), as thick as the walls."""
+    """A fixed panel in the body's front (a control panel, a kick plate), as thick as the walls."""
 
     hole: Hole | None = None
+    forward_m: float = Field(
+        0.0, description="how far the panel's face stands out of the body's front (negative: set back into it)"
+    )
     colour: Colour | None = Field(None, description="default: the body's colour")
+
+
+class FaceFrame(_Spec):
+    """A frame round the front opening (stiles and rails), its face flush with the body's front."""
+
+    width_m: Length = Field(0.038, description="width of the stiles and rails, seen from in front")
+    thickness_m: Length = Field(0.019, description="depth of the frame, front to back")
+
+
+class BackPanel(_Spec):
+    """A back panel of its own thickness, set in from the body's back edge (in a groove)."""
+
+    thickness_m: Length = Field(0.008, description="3 to 8 mm usually")
+    inset_m: Offset = Field(0.0, description="from the sides' back edges forward to the panel's back face")
 
 
 class CabinetSpec(ObjectSpec):
@@ -169,7 +201,10 @@ class CabinetSpec(ObjectSpec):
     width_m: Length = 0.8
     depth_m: Length = Field(0.45, description="depth of the body, without doors and handles")
     height_m: Length = Field(0.9, description="floor to the top of the body")
-    wall_thickness_m: Length = 0.018
+    wall_thickness_m: Length = Field(0.018, description="sides, top, bottom (and back, without back_panel)")
+    top_panel: bool = Field(True, description="false: no top (a base unit under a worktop)")
+    back_panel: BackPanel | None = Field(None, description="default: a back wall as thick as the walls, flush")
+    face_frame: FaceFrame | None = None
     plinth_height_m: Offset = 0.0
     plinth_recess_m: Offset = Field(0.05, description="how far the plinth's front sits back from the body's front")
     door_thickness_m: Length = 0.018
@@ -180,6 +215,7 @@ class CabinetSpec(ObjectSpec):
     doors: list[DoorSpec] | None = None
     drawers: list[DrawerSpec] | None = None
     knobs: list[ControlKnob] = []
+    buttons: list[PushButton] = Field([], description="push buttons on panels (a microwave's door release)")
     colour: Colour = "white"
     handle_colour: Colour = "silver"
 
@@ -205,8 +241,15 @@ class CabinetSpec(ObjectSpec):
         return self.top_m
 
     @property
+    def back_inner_x_m(self) -> float:
+        """x of the back wall's (or back panel's) inner face."""
+        back = self.back_panel
+        return -self.depth_m / 2 + (self.wall_thickness_m if back is None else back.inset_m + back.thickness_m)
+
+    @property
     def inner_depth_m(self) -> float:
-        return self.depth_m - self.wall_thickness_m
+        back = self.back_panel
+        return self.depth_m - (self.wall_thickness_m if back is None else back.inset_m + back.thickness_m)
 
     @property
     def inner_floor_m(self) -> float:
@@ -214,7 +257,14 @@ class CabinetSpec(ObjectSpec):
 
     @property
     def inner_top_m(self) -> float:
-        return self.carcass_top_m - self.wall_thickness_m
+        return self.carcass_top_m - (self.wall_thickness_m if self.top_panel else 0.0)
+
+    @property
+    def front_recess_m(self) -> float:
+        """How far inset fronts reach back from the body's front (shelves stop behind them)."""
+        fronts = [*self.doors, *self.drawers] if self.doors is not None and self.drawers is not None else []
+        inset = any(front.mounting == "inset" for front in fronts)
+        return self.door_thickness_m + self.door_gap_m if inset else 0.0
 
     # ------------------------------------------------------------------ layout and checks
 
@@ -345,7 +395,7 @@ class WardrobeSpec(CabinetSpec):
         left = t if rail.left_m is None else rail.left_m
         right = self.width_m - t if rail.width_m is None else left + rail.width_m
         from_back = self.inner_depth_m / 2 if rail.from_back_m is None else rail.from_back_m
-        return left, right, -self.depth_m / 2 + t + from_back
+        return left, right, self.back_inner_x_m + from_back
 
     def _check_kind(self) -> None:
         t = self.wall_thickness_m
@@ -356,7 +406,7 @@ class WardrobeSpec(CabinetSpec):
                 raise FieldError(("rails", i, "width_m"), f"rail spans {left:.3f}..{right:.3f} m, not inside the body")
             if rail.height_m + r > self.inner_top_m + _EPS_M or rail.height_m - r < self.inner_floor_m - _EPS_M:
                 raise FieldError(("rails", i, "height_m"), f"rail at {rail.height_m} m is not inside the body")
-            if x - r < -self.depth_m / 2 + t - _EPS_M or x + r > self.depth_m / 2 + _EPS_M:
+            if x - r < self.back_inner_x_m - _EPS_M or x + r > self.depth_m / 2 + _EPS_M:
                 raise FieldError(("rails", i, "from_back_m"), "rail is not between the back wall and the front")
             for k, divider in enumerate(self.dividers):
                 if left < divider.left_m + t - _EPS_M and right > divider.left_m + _EPS_M:
@@ -364,7 +414,7 @@ class WardrobeSpec(CabinetSpec):
             for k, shelf in enumerate(self.shelves):
                 s_left, s_right, depth = shelf_span_m(self, shelf)
                 overlaps = s_left < right and s_right > left
-                in_depth = x - r < -self.depth_m / 2 + t + depth
+                in_depth = x - r < self.back_inner_x_m + depth
                 if (
                     overlaps
                     and in_depth

@@ -1,4 +1,5 @@
-"""Handles on door and drawer fronts (bar, knob, recessed), and appliance control knobs."""
+"""Handles on door and drawer fronts (bar, knob, recessed, or none: push to open), appliance
+control knobs and push buttons."""
 
 from __future__ import annotations
 
@@ -21,9 +22,11 @@ class Handle(_Spec):
       `knob_projection_m` in front of the front's outer face.
     - `recessed`: a finger pocket cut into the front, `length_m` along `orientation`,
       `recess_width_m` across, `recess_depth_m` deep.
+    - `none`: no handle (push to open, or a grip channel in the carcass); the front gets a
+      `push` grasp point where its handle would be.
     """
 
-    type: Literal["bar", "knob", "recessed"] = "bar"
+    type: Literal["bar", "knob", "recessed", "none"] = "bar"
     orientation: Orientation | None = Field(
         None, description="bar or pocket direction on the front; default: along the front's free edge"
     )
@@ -60,6 +63,8 @@ class Handle(_Spec):
         """Half the handle's footprint on the front: (across the front, up the front)."""
         if self.type == "knob":
             return self.knob_diameter_m / 2, self.knob_diameter_m / 2
+        if self.type == "none":
+            return 0.0, 0.0
         along = self.length_m / 2
         across = self.diameter_m / 2 if self.type == "bar" else self.recess_width_m / 2
         return (across, along) if self.direction(default) == "vertical" else (along, across)
@@ -110,5 +115,25 @@ class ControlKnob(_Spec):
         if (len(self.states) - 1) * self.step_deg > 360:
             raise FieldError(
                 ("step_deg",), f"{len(self.states)} states {self.step_deg} degrees apart turn more than once round"
+            )
+        return self
+
+
+class PushButton(_Spec):
+    """A round push button on a front panel (a microwave's door release): a prismatic link
+    pressed straight in (-x) by up to `travel_m`."""
+
+    left_m: Offset = Field(description="button centre from the body's left edge, seen from in front")
+    height_m: Offset = Field(description="button centre above the floor")
+    diameter_m: Length = 0.02
+    projection_m: Length = Field(0.006, description="from the panel's outer face to the button's face")
+    travel_m: Length = Field(0.004, description="how far the button presses in")
+    colour: Colour = "grey"
+
+    @model_validator(mode="after")
+    def _travel_fits(self) -> PushButton:
+        if self.travel_m >= self.projection_m:
+            raise FieldError(
+                ("travel_m",), f"a button standing {self.projection_m} m out cannot press in {self.travel_m} m"
             )
         return self
