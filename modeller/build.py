@@ -45,6 +45,7 @@ from modeller.builders.vessels import (
     build_jar,
     build_plate,
 )
+from modeller.builders.worktop import build_worktop
 from modeller.photo_texture import FaceTextureOptions, texture_folder
 from modeller.spec_loading import load_spec
 from modeller.specs import Spec
@@ -55,7 +56,7 @@ if TYPE_CHECKING:
 
 _BUILDERS: dict[str, Callable[..., Assembly]] = {"cupboard": build_cupboard, "table": build_table, "cup": build_cup}
 _BUILDERS |= {"chair": build_chair, "sofa": build_sofa, "bed": build_bed, "shelving": build_shelving, "mug": build_cup, "glass": build_glass, "plate": build_plate, "bowl": build_bowl, "bottle": build_bottle, "box": build_box, "jar": build_jar, "pill_box": build_pill_box, "spoon": build_spoon, "fork": build_fork, "knife": build_knife, "remote_control": build_remote_control}
-_BUILDERS |= {"wall_cabinet": build_wall_cabinet, "wardrobe": build_wardrobe, "fridge": build_fridge, "oven": build_oven, "dishwasher": build_dishwasher, "washing_machine": build_washing_machine, "microwave": build_microwave}
+_BUILDERS |= {"wall_cabinet": build_wall_cabinet, "wardrobe": build_wardrobe, "fridge": build_fridge, "oven": build_oven, "dishwasher": build_dishwasher, "washing_machine": build_washing_machine, "microwave": build_microwave, "worktop": build_worktop}
 
 
 def build_model(spec_path: Path, *, blend_path: Path | None = None) -> Model:

@@ -17,7 +17,15 @@ import logging
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from homemodel.app.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
+import numpy as np
+
+from homemodel.app.home_spec import (
+    HomeSpec,
+    LargeObjectSpec,
+    PoseSpec,
+    RunSpec,
+    SmallObjectSpec,
+)
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import SpecError
 from homemodel.core.progress import Progress
@@ -63,13 +71,50 @@ def load_home(example_dir: Path) -> HomeSpec:
     return load_yaml_spec(example_dir / HOME_FILE, HomeSpec)
 
 
-def _placements(home: HomeSpec):
-    """(field path, room, large object, small object or None) for every object, in build order."""
+def _placements(home: HomeSpec, example_dir: Path):
+    """(field path, room, large object, small object or None) for every object, in build
+    order; the units and worktops of runs come placed (see `_placed_run`)."""
     for r, room in enumerate(home.rooms):
-        for o, large in enumerate(room.objects):
-            yield f"rooms.{r}.objects.{o}", room, large, None
+        larges = [(f"rooms.{r}.objects.{o}", large) for o, large in enumerate(room.objects)]
+        for k, run in enumerate(room.runs):
+            larges += _placed_run(run, f"rooms.{r}.runs.{k}", example_dir)
+        for field_path, large in larges:
+            yield field_path, room, large, None
             for s, small in enumerate(large.objects):
-                yield f"rooms.{r}.objects.{o}.objects.{s}", room, large, small
+                yield f"{field_path}.objects.{s}", room, large, small
+
+
+def _placed_run(run: RunSpec, field_path: str, example_dir: Path) -> list[tuple[str, LargeObjectSpec]]:
+    """The run's units and worktop with their poses in the map frame, from their specs' sizes;
+    a unit standing higher than the worktop's underside is refused."""
+    from modeller import load_spec
+
+    home_file = example_dir / HOME_FILE
+    placed, left, tops = [], run.left_m, []
+    members = [(f"{field_path}.units.{u}", unit, None) for u, unit in enumerate(run.units)]
+    if run.worktop is not None:
+        members.append((f"{field_path}.worktop", run.worktop, run.worktop_left_m))
+    for member_path, large, worktop_left in members:
+        spec = load_spec(_spec_path(example_dir, home_file, member_path, large.spec))
+        if not (hasattr(spec, "width_m") and hasattr(spec, "depth_m")):
+            raise SpecError(f"{home_file}: {member_path}.spec: a {spec.kind} has no width and depth to stand in a run")
+        if worktop_left is None:
+            centre = (spec.depth_m / 2, left + spec.width_m / 2, 0.0)
+            left += spec.width_m + run.gap_m
+            tops.append((member_path, spec.top_m if hasattr(spec, "top_m") else spec.height_m))
+        else:
+            centre = (spec.depth_m / 2, worktop_left + spec.width_m / 2, 0.0)
+            underside = spec.height_m - getattr(spec, "thickness_m", 0.0)
+            for unit_path, top in tops:
+                if top > underside + ON_SURFACE_TOLERANCE_M:
+                    raise SpecError(
+                        f"{home_file}: {unit_path}: the unit's top at {top:.3f} m is above the worktop's "
+                        f"underside at {underside:.3f} m"
+                    )
+        xyz = run.pose.matrix() @ np.array([*centre, 1.0])
+        pose = PoseSpec(xyz=tuple(float(v) for v in xyz[:3]), rpy_deg=run.pose.rpy_deg)
+        placed.append((member_path, large.model_copy(update={"pose": pose})))
+    return placed
 
 
 def _spec_path(example_dir: Path, home_file: Path, field_path: str, spec: str) -> Path:
@@ -103,7 +148,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
     example_dir = Path(example_dir)
     home_file = example_dir / HOME_FILE
     home = load_home(example_dir)
-    placements = list(_placements(home))
+    placements = list(_placements(home, example_dir))
     # Every spec is checked before anything is built, so a typo fails in a second, not a minute.
     spec_paths = {}
     for field_path, _, large, small in placements:

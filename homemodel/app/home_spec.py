@@ -75,11 +75,37 @@ class LargeObjectSpec(_Strict):
         return parking
 
 
+class RunSpec(_Strict):
+    """Base units side by side against a wall, under one worktop, placed for the installer.
+
+    The run's frame (`pose`, in the map frame): origin on the floor at the wall behind the
+    run's left end (seen from in front), +x out of the fronts, +y along the run to the right.
+    Units stand left to right from `left_m`, `gap_m` apart, backs to the wall; the worktop's
+    back edge is at the wall and its left end at `worktop_left_m`. Their poses in the map are
+    worked out from their specs' widths and depths, so `pose` is not given for them.
+    """
+
+    pose: PoseSpec = PoseSpec()
+    left_m: float = Field(0.0, description="from the run's origin to the first unit's left side")
+    gap_m: float = Field(0.0, ge=0, description="between neighbouring units")
+    units: list[LargeObjectSpec] = Field(min_length=1)
+    worktop: LargeObjectSpec | None = None
+    worktop_left_m: float = Field(0.0, description="from the run's origin to the worktop's left end")
+
+    @model_validator(mode="after")
+    def _placed_by_the_run(self) -> RunSpec:
+        for large in [*self.units, *([self.worktop] if self.worktop else [])]:
+            if large.pose != PoseSpec():
+                raise ValueError(f"{large.id}: a unit in a run is placed by the run; give the run's pose instead")
+        return self
+
+
 class RoomSpec(_Strict):
     id: MapId
     name: str = Field(min_length=1)
     point_cloud: str | None = None
     objects: list[LargeObjectSpec] = Field(default_factory=list)
+    runs: list[RunSpec] = Field(default_factory=list)
 
 
 class ApartmentSpec(_Strict):
@@ -96,7 +122,8 @@ class HomeSpec(_Strict):
         ids = [self.apartment.id]
         for room in self.rooms:
             ids.append(room.id)
-            for large in room.objects:
+            runs = [large for run in room.runs for large in [*run.units, *([run.worktop] if run.worktop else [])]]
+            for large in [*room.objects, *runs]:
                 ids.append(large.id)
                 ids.extend(small.id for small in large.objects)
         dupes = sorted({i for i in ids if ids.count(i) > 1})

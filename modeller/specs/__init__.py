@@ -32,9 +32,10 @@ from modeller.specs.furniture import (
     TableSpec,
 )
 from modeller.specs.tableware import BowlSpec, CupSpec, GlassSpec, MugSpec, PlateSpec
+from modeller.specs.worktop import WorktopSpec
 
 _FURNITURE_AND_SMALL_OBJECT_SPECS = (ChairSpec, SofaSpec, BedSpec, ShelvingSpec, MugSpec, GlassSpec, PlateSpec, BowlSpec, BottleSpec, BoxSpec, JarSpec, PillBoxSpec, SpoonSpec, ForkSpec, KnifeSpec, RemoteControlSpec)
-_CABINET_AND_APPLIANCE_SPECS = (WallCabinetSpec, WardrobeSpec, FridgeSpec, OvenSpec, DishwasherSpec, WashingMachineSpec, MicrowaveSpec)
+_CABINET_AND_APPLIANCE_SPECS = (WallCabinetSpec, WardrobeSpec, FridgeSpec, OvenSpec, DishwasherSpec, WashingMachineSpec, MicrowaveSpec, WorktopSpec)
 SPEC_TYPES: dict[str, type[ObjectSpec]] = {
     spec_type.model_fields["kind"].annotation.__args__[0]: spec_type
     for spec_type in (CupboardSpec, TableSpec, CupSpec, *_FURNITURE_AND_SMALL_OBJECT_SPECS, *_CABINET_AND_APPLIANCE_SPECS)
@@ -53,6 +54,7 @@ __all__ = [
     "ObjectSpec",
     "Spec",
     "TableSpec",
+    "WorktopSpec",
     "colour_name",
     "colour_rgb",
 ]

@@ -8,6 +8,7 @@ left edge (seen from in front) at y = -width_m / 2.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -33,13 +34,15 @@ def drawer_box_bounds_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[float, f
     t, gap = spec.wall_thickness_m, spec.door_gap_m
     runners = gap if drawer.runner_clearance_m is None else drawer.runner_clearance_m
     middle = drawer.left_m + drawer.width_m / 2
-    inner_left = max([t] + [d.left_m + t for d in spec.dividers if d.left_m + t <= middle])
-    inner_right = min([spec.width_m - t] + [d.left_m for d in spec.dividers if d.left_m >= middle])
+    # Inside the opening: the carcass' walls, or a face frame's stiles and rails.
+    open_left, open_right, open_bottom, open_top = opening_bounds_m(spec)
+    inner_left = max([open_left] + [d.left_m + t for d in spec.dividers if d.left_m + t <= middle])
+    inner_right = min([open_right] + [d.left_m for d in spec.dividers if d.left_m >= middle])
     # Seen from in front, the body's left edge is at y = -width/2.
     y_min = -spec.width_m / 2 + max(drawer.left_m, inner_left) + runners
     y_max = -spec.width_m / 2 + min(drawer.right_m, inner_right) - runners
-    z_min = max(drawer.bottom_m, spec.inner_floor_m) + gap
-    z_max = min(drawer.top_m, spec.inner_top_m) - gap
+    z_min = max(drawer.bottom_m, open_bottom) + gap
+    z_max = min(drawer.top_m, open_top) - gap
     if drawer.box_height_m is not None:
         z_max = min(z_max, z_min + drawer.box_height_m)
     return y_min, y_max, z_min, z_max
@@ -107,8 +110,15 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
             check_hinge_offsets(offsets, "free_corner")
         return offsets
     if door.hinge_type == "concealed":
-        # In the carcass' front plane (the arm reaches over its front edge), in by the cup's rim.
-        return face_forward, door.concealed.boring_distance_m
+        # See `ConcealedHinge`: the fixed axis taking the door to its 90 degree place.
+        boring = door.concealed.boring_distance_m
+        if door.mounting == "inset":
+            return boring, boring
+        edge_in = door_edge_in_m(spec, door)
+        over_side = edge_in if edge_in <= spec.wall_thickness_m + 1e-9 else 0.0
+        # Opened fully, the inner face's hinge-side corner comes round to the side's plane.
+        full = math.radians(max(door.concealed.opening_deg, 90.0))
+        return thick + (over_side + boring * (1 - math.cos(full))) / math.sin(full), boring
     if door.hinge_type == "pivot":
         return thick / 2, thick / 2 if door.pivot_in_from_edge_m is None else door.pivot_in_from_edge_m
     return 0.0, 0.0

@@ -38,12 +38,15 @@ class HingeLine(_Spec):
 
 
 class ConcealedHinge(_Spec):
-    """A cup hinge (a 35 mm "European" hinge) by its published geometry.
+    """A cup hinge (a 35 mm "European" hinge) by its published geometry, as one fixed axis.
 
-    Its door turns, in effect, about the line where the hinge arm meets the carcass's front:
-    in the carcass's front plane (behind the door by its thickness and its gap), and in from
-    the door's hinge-side edge by the boring distance, the cup's rim nearest that edge. So the
-    edge's outer corner, the point furthest out, swings round the carcass's front corner.
+    The hinge's linkage is replaced by one fixed axis, in from the door's hinge-side edge by
+    the boring distance (the cup's rim nearest that edge, where the arm's knuckle sits). An
+    overlay door swings clear of the carcass: opened to the hinge's full angle, the hinge-side
+    corner of its inner face comes round to the plane of the side panel's outer face (hinged
+    on a middle panel, to the plane of its own closed edge), and no further. An inset door
+    swings inside its opening: the axis is as far behind its outer face as in from its edge,
+    so the edge's outer corner swings out by only (sqrt(2) - 1) times the boring distance.
     """
 
     cup_diameter_m: Length = Field(0.035, description="diameter of the cup bored in the door")
