@@ -15,6 +15,10 @@ import numpy as np
 
 from modeller.specs.hinges import check_hinge_offsets, solve_free_corner, solve_open_at_90
 
+# A cup hinge's door keeps at least this gap to the carcass' front (its axis' depth grows as
+# the gap shrinks, see `hinge_offsets_m`).
+_MIN_HINGE_GAP_M = 0.0005
+
 if TYPE_CHECKING:
     from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Shelf
 
@@ -116,9 +120,14 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
             return boring, boring
         edge_in = door_edge_in_m(spec, door)
         over_side = edge_in if edge_in <= spec.wall_thickness_m + 1e-9 else 0.0
-        # Opened fully, the inner face's hinge-side corner comes round to the side's plane.
+        # Opened fully, the inner face's hinge-side corner comes round to the side's plane ...
         full = math.radians(max(door.concealed.opening_deg, 90.0))
-        return thick + (over_side + boring * (1 - math.cos(full))) / math.sin(full), boring
+        corner_rule = (over_side + boring * (1 - math.cos(full))) / math.sin(full)
+        # ... and on the way the inner face passes the side's front corner, which circles the
+        # axis: its radius may not exceed the inner face's distance from the axis.
+        gap = max(spec.door_gap_m, _MIN_HINGE_GAP_M)
+        front_corner_rule = ((over_side + boring) ** 2 + gap**2) / (2 * gap)
+        return thick + max(corner_rule, front_corner_rule), boring
     if door.hinge_type == "pivot":
         return thick / 2, thick / 2 if door.pivot_in_from_edge_m is None else door.pivot_in_from_edge_m
     return 0.0, 0.0

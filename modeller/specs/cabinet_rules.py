@@ -20,6 +20,7 @@ from modeller.specs.cabinet_geometry import (
     drawer_box_bounds_m,
     drawer_front_x_m,
     drawer_reach_m,
+    hinge_offsets_m,
     opening_bounds_m,
     shelf_box_m,
     shelf_span_m,
@@ -291,6 +292,10 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
 
 
 def _check_door(spec: CabinetSpec, i: int, door: DoorSpec) -> None:
+    try:
+        hinge_offsets_m(spec, door)  # measurements solved here, so a misread tape fails on load
+    except FieldError as exc:
+        raise FieldError(("doors", i, *exc.loc), str(exc)) from None
     if door.handle.type == "recessed" and door.handle.recess_depth_m >= spec.door_thickness_m:
         raise FieldError(
             ("doors", i, "handle", "recess_depth_m"),

@@ -42,9 +42,11 @@ class ConcealedHinge(_Spec):
 
     The hinge's linkage is replaced by one fixed axis, in from the door's hinge-side edge by
     the boring distance (the cup's rim nearest that edge, where the arm's knuckle sits). An
-    overlay door swings clear of the carcass: opened to the hinge's full angle, the hinge-side
-    corner of its inner face comes round to the plane of the side panel's outer face (hinged
-    on a middle panel, to the plane of its own closed edge), and no further. An inset door
+    overlay door swings clear of the carcass with the axis as little behind it as that allows:
+    its inner face passes the side panel's front corner (which circles the axis) without
+    touching it, and, opened to the hinge's full angle, the hinge-side corner of its inner
+    face comes no further round than the plane of the side panel's outer face (hinged on a
+    middle panel: of its own closed edge). An inset door
     swings inside its opening: the axis is as far behind its outer face as in from its edge,
     so the edge's outer corner swings out by only (sqrt(2) - 1) times the boring distance.
     """
