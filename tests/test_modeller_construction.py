@@ -1,0 +1,182 @@
+"""How real furniture is built: open tops, back panels, face frames, drawer boxes on runners,
+panels set back or out, handleless fronts, push buttons, a raised turning microwave plate,
+worktops with cut-outs and runs of units under them (examples/catalogue, examples/kitchen_run)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from spec_edits import read_spec, with_field, write_spec
+
+from homemodel.core.errors import SpecError
+from modeller.spec_loading import load_spec
+from modeller.specs.cabinet_geometry import drawer_box_bounds_m
+
+REPO = Path(__file__).resolve().parents[1]
+CATALOGUE = REPO / "examples" / "catalogue"
+NEW_EXAMPLES = ["base_unit_inset", "cupboard_face_frame", "wall_cabinet_handleless", "microwave_release_button", "worktop"]
+
+
+def _collision(model, link: str, name: str):
+    return next(c for c in model.link(link).collisions if c.name == name)
+
+
+@pytest.mark.bpy
+@pytest.mark.parametrize("name", NEW_EXAMPLES)
+def test_new_catalogue_examples_pass_the_gate(catalogue, name: str) -> None:
+    report = catalogue[name].report
+    assert report.ok, report.format()
+
+
+@pytest.mark.bpy
+def test_base_unit_has_no_top_and_its_back_panel_set_in(catalogue) -> None:
+    spec, model, _ = catalogue["base_unit_inset"]
+    names = {c.name for c in model.link("body").collisions}
+    assert "carcass_top" not in names and "carcass_back" not in names and "carcass_bottom" in names
+    back = _collision(model, "body", "back_panel")
+    x = back.link_from_collision[0, 3]
+    # Its back face 20 mm in from the sides' back edges, 8 mm thick (EN 1116 carcass, 3..8 mm backs).
+    assert x - back.geometry.size_m[0] / 2 == pytest.approx(-spec.depth_m / 2 + 0.02)
+    assert back.geometry.size_m[0] == pytest.approx(0.008)
+    # Nothing of the body is above its sides' top edges, and the shelf stops behind the inset doors.
+    assert model.world_mesh({}).bounds[1][2] == pytest.approx(spec.height_m, abs=1e-4)
+    shelf = _collision(model, "body", "shelf_0")
+    assert shelf.link_from_collision[0, 3] + shelf.geometry.size_m[0] / 2 <= spec.depth_m / 2 - 0.018 - 0.002 + 1e-9
+
+
+@pytest.mark.bpy
+def test_inset_doors_close_flush_with_the_carcass_front(catalogue) -> None:
+    spec, model, _ = catalogue["base_unit_inset"]
+    for k in range(2):
+        lo, hi = np.min(_door_points(model, f"door_{k}"), 0), np.max(_door_points(model, f"door_{k}"), 0)
+        assert hi[0] == pytest.approx(spec.depth_m / 2, abs=1e-6)
+        assert lo[0] == pytest.approx(spec.depth_m / 2 - spec.door_thickness_m, abs=1e-6)
+
+
+def _door_points(model, link: str) -> np.ndarray:
+    world = model.world_from_links({})[link]
+    visual = next(v for v in model.link(link).visuals if v.name == link)
+    return (world @ visual.link_from_visual @ np.c_[visual.mesh.vertices, np.ones(len(visual.mesh.vertices))].T).T[:, :3]
+
+
+@pytest.mark.bpy
+def test_face_frame_round_the_opening_and_the_drawer_box_on_its_runners(catalogue) -> None:
+    spec, model, _ = catalogue["cupboard_face_frame"]
+    stile = _collision(model, "body", "frame_left")
+    assert stile.geometry.size_m[:2] == pytest.approx((0.019, 0.038))
+    assert stile.link_from_collision[0, 3] + 0.019 / 2 == pytest.approx(spec.depth_m / 2)
+    drawer = spec.drawers[0]
+    y0, y1, z0, z1 = drawer_box_bounds_m(spec, drawer)
+    # Inside the frame's stiles with 12.5 mm for the runners each side; 120 mm high sides.
+    assert y0 == pytest.approx(-spec.width_m / 2 + 0.038 + 0.0125)
+    assert y1 == pytest.approx(spec.width_m / 2 - 0.038 - 0.0125)
+    assert z1 - z0 == pytest.approx(0.12)
+    box = next(v for v in model.link("drawer_0").visuals if v.name == "drawer_0.box")
+    assert np.ptp(box.mesh.vertices, axis=0) == pytest.approx((drawer.depth_m, y1 - y0, 0.12), abs=1e-6)
+
+
+@pytest.mark.bpy
+def test_handleless_doors_have_a_push_point_and_no_handle(catalogue) -> None:
+    _, model, _ = catalogue["wall_cabinet_handleless"]
+    assert not any(link.name.endswith("_handle") for link in model.links)
+    pushes = {g.name: g for g in model.grasp_points if g.kind == "push"}
+    assert set(pushes) == {"door_0_push", "door_1_push"}
+    assert pushes["door_0_push"].link == "door_0"
+
+
+@pytest.mark.bpy
+def test_microwave_release_button_presses_in_and_the_raised_plate_turns(catalogue) -> None:
+    spec, model, _ = catalogue["microwave_release_button"]
+    press = model.joint("button_0_press")
+    assert press.type == "prismatic" and np.allclose(press.axis, (-1, 0, 0))
+    assert press.limits.upper == pytest.approx(0.005)
+    assert any(g.kind == "button" and g.link == "button_0" for g in model.grasp_points)
+    spin = model.joint("turntable_spin")
+    assert spin.type == "continuous" and np.allclose(spin.axis, (0, 0, 1))
+    assert spin.parent_from_joint[2, 3] == pytest.approx(spec.inner_floor_m + 0.012)
+    turned = model.world_from_links({"turntable_spin": 1.0})["turntable"]
+    assert np.allclose(turned[:3, 3], spin.parent_from_joint[:3, 3])  # it turns about its centre
+    assert "turntable" not in {c.name for c in model.link("body").collisions}
+    assert "turntable_coupler" in {c.name for c in model.link("body").collisions}
+
+
+@pytest.mark.bpy
+def test_worktop_slab_has_its_cutouts_and_the_sink_its_basin(catalogue) -> None:
+    spec, model, _ = catalogue["worktop"]
+    slab = [c for c in model.link("body").collisions if c.name.startswith("slab_")]
+    area = sum(c.geometry.size_m[0] * c.geometry.size_m[1] for c in slab)
+    holes = sum(c.width_m * c.depth_m for c in spec.cutouts)
+    assert area == pytest.approx(spec.width_m * spec.depth_m - holes)
+    # A point in the middle of each cut-out is in no slab box; the slab's top is the surface.
+    for cut in spec.cutouts:
+        x0, x1, y0, y1 = spec.cutout_box_m(cut)
+        centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        for c in slab:
+            half = np.array(c.geometry.size_m[:2]) / 2
+            assert np.any(np.abs(centre - c.link_from_collision[:2, 3]) >= half)
+    lo, hi = model.world_mesh().bounds
+    assert hi[2] == pytest.approx(0.9) and lo[2] == pytest.approx(0.9 - 0.18)
+    assert model.properties["surface_heights_m"] == "0.9"
+
+
+@pytest.mark.bpy
+def test_run_of_units_stands_side_by_side_under_its_worktop(tmp_path: Path) -> None:
+    from homemodel.app.home_build import build_home
+    from semantic_map import load_map
+
+    result = build_home(REPO / "examples" / "kitchen_run", tmp_path / "out")
+    assert result.ok
+    smap = load_map(tmp_path / "out" / "map.xml")
+    xyz = {i: smap.node(i).world_from_object.xyz for i in ("sink_unit", "drawer_unit", "worktop_1")}
+    # The wall is x = 0, the run starts at y = 1.0: 0.6 m then 0.5 m units, backs to the wall.
+    assert xyz["sink_unit"] == pytest.approx((0.28, 1.3, 0.0))
+    assert xyz["drawer_unit"] == pytest.approx((0.29, 1.85, 0.0))
+    assert xyz["worktop_1"] == pytest.approx((0.3, 1.55, 0.0))
+
+
+def test_run_refuses_a_unit_taller_than_the_worktop_underside(tmp_path: Path) -> None:
+    from homemodel.app.home_build import build_home
+
+    folder = tmp_path / "run"
+    folder.mkdir()
+    for name in ("sink_unit", "drawer_unit", "worktop"):
+        (folder / f"{name}.yaml").write_text((REPO / "examples" / "kitchen_run" / f"{name}.yaml").read_text())
+    (folder / "home.yaml").write_text((REPO / "examples" / "kitchen_run" / "home.yaml").read_text())
+    write_spec(folder, with_field(read_spec(folder / "worktop.yaml"), "height_m", 0.89), "worktop.yaml")
+    with pytest.raises(SpecError, match=r"rooms\.0\.runs\.0\.units\.0: the unit's top at 0\.870 m is above"):
+        build_home(folder, tmp_path / "out")
+
+
+# One case per new rule: (example, dotted field, value, dotted field the error must name, words).
+REFUSALS = [
+    ("cupboard_face_frame", "doors.0.opening_limit_deg", 120, "doors.0.opening_limit_deg", "does not open to 120"),
+    ("wall_cabinet_handleless", "doors.0.hinge_line", {"behind_face_m": 0.02, "in_from_edge_m": 0.0}, "doors.0.hinge_measured", "not both"),
+    ("wall_cabinet_handleless", "doors.0.hinge_measured", {}, "doors.0.hinge_measured", "give open_at_90 or free_corner"),
+    ("base_unit_inset", "doors.1.bottom_m", 0.1, "doors.1.bottom_m", "the opening is"),
+    ("microwave_release_button", "buttons.0.left_m", 0.2, "buttons.0.left_m", "off every panel"),
+    ("microwave_release_button", "buttons.0.travel_m", 0.008, "buttons.0.travel_m", "cannot press in"),
+    ("microwave_release_button", "turntable_raise_m", 0.25, "turntable_raise_m", "cavity's top"),
+    ("worktop", "cutouts.1.left_m", 1.3, "cutouts.1.left_m", "runs off the slab"),
+    ("worktop", "cutouts.1.left_m", 0.5, "cutouts.1", "meets cut-out 0"),
+]
+
+
+@pytest.mark.parametrize(("example", "field", "value", "blamed", "words"), REFUSALS)
+def test_impossible_construction_is_refused_naming_the_field(
+    tmp_path: Path, example: str, field: str, value: object, blamed: str, words: str
+) -> None:
+    path = write_spec(tmp_path, with_field(read_spec(CATALOGUE / f"{example}.yaml"), field, value))
+    with pytest.raises(SpecError) as refused:
+        load_spec(path)
+    message = str(refused.value)
+    assert f"{path.name}: {blamed}:" in message and words in message, message
+
+
+def test_a_panel_standing_out_into_a_closed_door_is_refused(tmp_path: Path) -> None:
+    data = read_spec(CATALOGUE / "oven.yaml")
+    data = {**data, "panels": [{"left_m": 0.0, "width_m": 0.6, "bottom_m": 0.2, "height_m": 0.5, "forward_m": 0.01}]}
+    data.pop("knobs", None)
+    with pytest.raises(SpecError, match=r"panels\.0\.forward_m: panel stands 0\.01 m out, into door 0"):
+        load_spec(write_spec(tmp_path, data))
