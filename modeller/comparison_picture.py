@@ -6,6 +6,8 @@ the photo, by PnP (OpenCV SQPnP) with the principal point at the image centre an
 the focal length from the face's homography (Zhang's orthogonality constraint), or a
 normal lens (`fallback_fov_deg`) when the photo shows too little perspective to tell.
 A 3/4 view from the front right completes the picture: photo | same view | 3/4 view.
+Every door's hinge line (a revolute joint's axis, as the spec's hinge fields solved it) is
+drawn as a red line along the door's height, so a wrong axis shows against the photo.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ class PictureOptions:
     fallback_fov_deg: float = 50.0  # of the photo's longer side
     background_rgb: tuple[int, int, int] = (255, 255, 255)
     three_quarter_view: bool = True
+    hinge_lines: bool = True
+    hinge_line_rgb: tuple[int, int, int] = (220, 20, 20)
 
     def check(self) -> None:
         require_between("panel_height_px", self.panel_height_px, 64, 2048)
@@ -127,16 +131,59 @@ def three_quarter_camera(
 
 
 def render_model(
-    model: Model, camera_from_model: np.ndarray, focal_px: float, image_size: tuple[int, int], options: PictureOptions
+    model: Model,
+    camera_from_model: np.ndarray,
+    focal_px: float,
+    image_size: tuple[int, int],
+    options: PictureOptions,
+    joint_positions: dict[str, float] | None = None,
 ) -> np.ndarray:
-    """An RGB picture of the model (joints at zero) through a pinhole camera, textures and
-    colours lit evenly, as the photos' faces look."""
+    """An RGB picture of the model (joints at zero unless given) through a pinhole camera,
+    textures and colours lit evenly, as the photos' faces look; hinge lines in red."""
     with captured_c_output():  # VTK warns on stderr about the missing X display
-        return _render(model, camera_from_model, focal_px, image_size, options)
+        picture = _render(model, camera_from_model, focal_px, image_size, options, joint_positions)
+    if options.hinge_lines:
+        # Drawn over the render, not in the scene: a concealed hinge's line is behind its door.
+        picture = np.ascontiguousarray(picture)
+        for segment in hinge_line_segments(model, joint_positions):
+            points = segment @ camera_from_model[:3, :3].T + camera_from_model[:3, 3]
+            if (points[:, 2] <= 0).any():
+                continue
+            pixels = points[:, :2] / points[:, 2:] * focal_px + (np.asarray(image_size) - 1) / 2
+            ends = [tuple(int(round(c)) for c in p) for p in pixels]
+            cv2.line(picture, ends[0], ends[1], options.hinge_line_rgb, 2, cv2.LINE_AA)
+    return picture
+
+
+def hinge_line_segments(model: Model, joint_positions: dict[str, float] | None = None) -> list[np.ndarray]:
+    """(2, 3) end points, in the model frame, of each revolute joint's axis where its child
+    link spans it (a door's hinge line from its bottom to its top), 3 cm longer each end."""
+    world_from_links = model.world_from_links(joint_positions)
+    segments = []
+    for joint in model.joints:
+        if joint.type != "revolute":
+            continue
+        child = model.link(joint.child)
+        if not child.visuals:
+            continue
+        world_from_joint = world_from_links[joint.child]
+        axis = world_from_joint[:3, :3] @ joint.axis
+        origin = world_from_joint[:3, 3]
+        points = np.concatenate(
+            [v.mesh.copy().apply_transform(world_from_joint @ v.link_from_visual).vertices for v in child.visuals]
+        )
+        along = (points - origin) @ axis
+        segments.append(origin + np.outer([along.min() - 0.03, along.max() + 0.03], axis))
+    return segments
 
 
 def _render(
-    model: Model, camera_from_model: np.ndarray, focal_px: float, image_size: tuple[int, int], options: PictureOptions
+    model: Model,
+    camera_from_model: np.ndarray,
+    focal_px: float,
+    image_size: tuple[int, int],
+    options: PictureOptions,
+    joint_positions: dict[str, float] | None,
 ) -> np.ndarray:
     import pyvista as pv
 
@@ -144,7 +191,7 @@ def _render(
     plotter = pv.Plotter(off_screen=True, window_size=(width, height), lighting="none")
     try:
         plotter.set_background([c / 255 for c in options.background_rgb])
-        world_from_links = model.world_from_links()
+        world_from_links = model.world_from_links(joint_positions)
         textures: dict[Path, pv.Texture] = {}
         for link in model.links:
             for visual in link.visuals:

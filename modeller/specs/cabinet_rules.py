@@ -258,7 +258,7 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
     if drawer.depth_m > room + _EPS_M:
         raise FieldError(
             ("drawers", i, "depth_m"),
-            f"drawer box is {drawer.depth_m} m deep but the body has {room:.3f} m behind the front",
+            f"drawer box is {drawer.depth_m} m deep but the body is {room:.3f} m deep inside, behind the front",
         )
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     t = spec.wall_thickness_m
