@@ -38,6 +38,7 @@ class PictureOptions:
     background_rgb: tuple[int, int, int] = (255, 255, 255)
     three_quarter_view: bool = True
     hinge_lines: bool = True
+    shaded: bool = False  # lit from a light kit (faces told apart), not evenly as the photos' faces look
     hinge_line_rgb: tuple[int, int, int] = (220, 20, 20)
 
     def check(self) -> None:
@@ -188,7 +189,9 @@ def _render(
     import pyvista as pv
 
     width, height = image_size
-    plotter = pv.Plotter(off_screen=True, window_size=(width, height), lighting="none")
+    lighting = "light kit" if options.shaded else "none"
+    plotter = pv.Plotter(off_screen=True, window_size=(width, height), lighting=lighting)
+    light = {"ambient": 0.35, "diffuse": 0.7} if options.shaded else {"ambient": 0.75, "diffuse": 0.0}
     try:
         plotter.set_background([c / 255 for c in options.background_rgb])
         world_from_links = model.world_from_links(joint_positions)
@@ -205,7 +208,7 @@ def _render(
                         textures[texture_path] = pv.Texture(cv2.cvtColor(read_photo(texture_path), cv2.COLOR_BGR2RGB))
                     plotter.add_mesh(mesh, texture=textures[texture_path], ambient=1.0, diffuse=0.0)
                 else:
-                    plotter.add_mesh(mesh, color=_srgb(visual.material.rgba[:3]), ambient=0.75, diffuse=0.0)
+                    plotter.add_mesh(mesh, color=_srgb(visual.material.rgba[:3]), **light)
         rotation, translation = camera_from_model[:3, :3], camera_from_model[:3, 3]
         position = -rotation.T @ translation
         plotter.camera.position = position.tolist()

@@ -333,3 +333,23 @@ def test_doors_without_the_new_fields_keep_their_hinge_on_the_outer_edge(name: s
         }[door.hinge]
         expected = (spec.depth_m / 2 + spec.door_gap_m + spec.door_thickness_m, *edge)
         assert np.allclose(point, expected, atol=1e-12)
+
+
+@pytest.mark.bpy
+def test_comparison_render_draws_the_solved_hinge_line(catalogue) -> None:
+    from modeller.comparison_picture import PictureOptions, hinge_line_segments, render_model, three_quarter_camera
+
+    spec, model, _ = catalogue["cupboard_face_frame"]
+    door = spec.doors[0]
+    (segment,) = hinge_line_segments(model)
+    joint = model.joint("door_0_hinge")
+    # Along the solved axis, from 3 cm below the door to 3 cm above it.
+    offsets = segment - joint.parent_from_joint[:3, 3]
+    assert np.allclose(offsets[:, :2], 0, atol=1e-9)
+    assert offsets[:, 2] == pytest.approx([-0.03, door.height_m + 0.03], abs=1e-6)
+    size = (200, 200)
+    camera, focal = three_quarter_camera(model, size)
+    with_lines = render_model(model, camera, focal, size, PictureOptions())
+    without = render_model(model, camera, focal, size, PictureOptions(hinge_lines=False))
+    red = (with_lines[..., 0] > 180) & (with_lines[..., 1] < 80) & (with_lines[..., 2] < 80)
+    assert red.sum() > 100 and not ((without[..., 0] > 180) & (without[..., 1] < 80) & (without[..., 2] < 80)).any()
