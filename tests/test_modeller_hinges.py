@@ -353,3 +353,27 @@ def test_comparison_render_draws_the_solved_hinge_line(catalogue) -> None:
     without = render_model(model, camera, focal, size, PictureOptions(hinge_lines=False))
     red = (with_lines[..., 0] > 180) & (with_lines[..., 1] < 80) & (with_lines[..., 2] < 80)
     assert red.sum() > 100 and not ((without[..., 0] > 180) & (without[..., 1] < 80) & (without[..., 2] < 80)).any()
+
+
+def _door_on_a_middle_panel(hinge_fields: dict) -> dict:
+    """A 1.2 m unit with a middle panel at 0.6 m; the right door hangs (half overlay) on it."""
+    door = {"hinge": "left", "mounting": "half_overlay", "left_m": 0.609, "width_m": 0.589, "bottom_m": 0.102,
+            "height_m": 0.766, **hinge_fields}
+    return {"kind": "cupboard", "width_m": 1.2, "depth_m": 0.56, "height_m": 0.87, "plinth_height_m": 0.1,
+            "dividers": [{"left_m": 0.6}], "doors": [door]}
+
+
+def test_a_door_on_a_middle_panel_is_measured_from_that_panel(tmp_path: Path) -> None:
+    behind, inward = 0.03, 0.004
+    data = _door_on_a_middle_panel({})
+    # The tape reads from the middle panel's far face (0.6 m): the door's edge is 9 mm in from it.
+    probe = {**data, "doors": [{**data["doors"][0], "left_m": 0.009}], "height_m": 0.87}
+    data["doors"][0]["hinge_measured"] = _measure(probe, behind, inward, "open_at_90", tape_step_m=0.0005)
+    spec = load_spec(write_spec(tmp_path, data))
+    solved = hinge_offsets_m(spec, spec.doors[0])
+    assert solved == pytest.approx((behind, inward), abs=1e-3)
+
+
+def test_a_concealed_hinge_on_a_middle_panel_must_be_measured(tmp_path: Path) -> None:
+    with pytest.raises(SpecError, match=r"doors\.0\.hinge_type: .*middle panel.*hinge_measured"):
+        load_spec(write_spec(tmp_path, _door_on_a_middle_panel({"hinge_type": "concealed"})))

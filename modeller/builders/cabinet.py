@@ -1,23 +1,26 @@
 """What every cabinet-like kind is built from (cupboards, wall cabinets, wardrobes and the
-appliances): a box at the real outer size with its front face removed and walls of the
-measured thickness, a plinth, shelves, dividers, fixed front panels, and doors, drawers,
-handles and control knobs at their measured places.
+appliances): a box at the real outer size with its front face (and its top, or its back
+for a back panel set in) removed and walls of the measured thickness, a plinth, a face
+frame, shelves, dividers, fixed front panels, and doors, drawers, handles, control knobs
+and push buttons at their measured places.
 
 Links and frames (model frame: see `modeller.specs`):
 - `body` (root): the model frame. Carcass, plinth, shelves, dividers, panels, and a kind's
   fixed parts (a hob, rails, racks, a drum).
-- `door_<i>`: origin on the door's hinge line (its hinge-side edge on its outer face): for a
-  side-hinged door at the height of its bottom edge, for a top- or bottom-hinged one at its
-  left end; axes as the body's. Joint `door_<i>_hinge`, revolute, 0..opening limit, positive
-  opening the door outward: axis -z (hinged left), +z (right), +y (bottom, opening down),
-  -y (top, opening up). Turning about the outer front edge keeps the whole door at
-  x >= the body's front plane + `door_gap_m` at every angle, so an open door never enters
-  the body.
+- `door_<i>`: origin on the door's hinge line (`modeller.specs.cabinet_geometry.
+  door_hinge_point_m`: by default its hinge-side edge on its outer face, else where the
+  spec's hinge type, hinge line or tape measurements put it): for a side-hinged door at the
+  height of its bottom edge, for a top- or bottom-hinged one at its left end; axes as the
+  body's. Joint `door_<i>_hinge`, revolute, 0..opening limit, positive opening the door
+  outward: axis -z (hinged left), +z (right), +y (bottom, opening down), -y (top, opening
+  up). About the outer front edge an overlay door never enters the body; an axis further
+  in is the spec's to keep clear (the gate's collision sweep checks it).
 - `drawer_<i>`: origin on the body's front plane (x = depth/2) at the middle of the front's
-  width and the height of its bottom edge. Joint `drawer_<i>_slide`, prismatic along +x,
-  0..travel.
+  width and the height of its bottom edge (an inset front lies behind it). Joint
+  `drawer_<i>_slide`, prismatic along +x, 0..travel.
 - `<door or drawer>_handle`: fixed joint `<...>_handle_mount` (see `modeller.builders.handles`).
 - `knob_<i>`: origin on the panel's outer face at the knob's centre; joint `knob_<i>_turn`.
+- `button_<i>`: origin on the panel's outer face at the button's centre; joint `button_<i>_press`.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from homemodel.core.yaml_specs import FieldError
 from modeller.specs.hinges import check_hinge_offsets, solve_free_corner, solve_open_at_90
 
 # A cup hinge's door keeps at least this gap to the carcass' front (its axis' depth grows as
@@ -20,7 +21,7 @@ from modeller.specs.hinges import check_hinge_offsets, solve_free_corner, solve_
 _MIN_HINGE_GAP_M = 0.0005
 
 if TYPE_CHECKING:
-    from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Shelf
+    from modeller.specs.cabinets import CabinetSpec, Divider, DoorShelf, DoorSpec, DrawerSpec, Shelf
 
 
 def shelf_span_m(spec: CabinetSpec, shelf: Shelf) -> tuple[float, float, float]:
@@ -86,8 +87,23 @@ def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
     return rim, spec.width_m - rim, spec.carcass_bottom_m + rim, spec.carcass_top_m - top_rim
 
 
+def hinge_divider(spec: CabinetSpec, door: DoorSpec) -> Divider | None:
+    """The middle panel (divider) a side-hinged door hangs on, if its hinge-side edge is over one."""
+    if not door.side_hinged:
+        return None
+    edge = door.left_m if door.hinge == "left" else door.right_m
+    t = spec.wall_thickness_m
+    return next((d for d in spec.dividers if d.left_m - 1e-9 <= edge <= d.left_m + t + 1e-9), None)
+
+
 def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
-    """How far the door's hinge-side edge is in from the body's outer face on that side."""
+    """How far the door's hinge-side edge is in from the outer face of what it hangs on: the
+    body's side (its top or underside for a flap), or, for a door hung on a middle panel,
+    that panel's face on the far side from the door."""
+    divider = hinge_divider(spec, door)
+    if divider is not None:
+        far_face = divider.left_m if door.hinge == "left" else divider.left_m + spec.wall_thickness_m
+        return abs(far_face - (door.left_m if door.hinge == "left" else door.right_m))
     return {
         "left": door.left_m,
         "right": spec.width_m - door.right_m,
@@ -118,6 +134,13 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
         boring = door.concealed.boring_distance_m
         if door.mounting == "inset":
             return boring, boring
+        if hinge_divider(spec, door) is not None:
+            # Cranked hinges bring such a door forward as it opens, past its closed neighbour,
+            # which no fixed axis behind it can: its line has to be measured.
+            raise FieldError(
+                ("hinge_type",),
+                "a concealed hinge on a middle panel has no fixed axis of its own; measure it (hinge_measured)",
+            )
         edge_in = door_edge_in_m(spec, door)
         over_side = edge_in if edge_in <= spec.wall_thickness_m + 1e-9 else 0.0
         # Opened fully, the inner face's hinge-side corner comes round to the side's plane ...
