@@ -180,3 +180,24 @@ def test_a_panel_standing_out_into_a_closed_door_is_refused(tmp_path: Path) -> N
     data.pop("knobs", None)
     with pytest.raises(SpecError, match=r"panels\.0\.forward_m: panel stands 0\.01 m out, into door 0"):
         load_spec(write_spec(tmp_path, data))
+
+
+@pytest.mark.bpy
+def test_inset_drawer_front_closes_flush_and_slides_clear(tmp_path: Path) -> None:
+    from articulation.export import export_model
+    from articulation.gate.validate import validate_path
+    from modeller import build_model
+
+    data = read_spec(CATALOGUE / "base_unit_inset.yaml")
+    door = {**data["doors"][0], "width_m": 0.56, "height_m": 0.55, "handle": {"type": "knob", "height_m": 0.5}}
+    drawer = {"mounting": "inset", "left_m": 0.02, "width_m": 0.56, "bottom_m": 0.674, "height_m": 0.194,
+              "depth_m": 0.45, "travel_m": 0.4, "runner_clearance_m": 0.0125, "box_height_m": 0.12}
+    path = write_spec(tmp_path, {**data, "doors": [door], "drawers": [drawer]})
+    spec = load_spec(path)
+    model = build_model(path)
+    front = _door_points(model, "drawer_0")
+    assert front[:, 0].max() == pytest.approx(spec.depth_m / 2, abs=1e-6)
+    assert front[:, 0].min() == pytest.approx(spec.depth_m / 2 - spec.door_thickness_m, abs=1e-6)
+    export_model(model, tmp_path / "model")
+    report = validate_path(tmp_path / "model")
+    assert report.ok, report.format()
