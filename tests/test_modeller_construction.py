@@ -201,3 +201,25 @@ def test_inset_drawer_front_closes_flush_and_slides_clear(tmp_path: Path) -> Non
     export_model(model, tmp_path / "model")
     report = validate_path(tmp_path / "model")
     assert report.ok, report.format()
+
+
+@pytest.mark.bpy
+def test_inset_door_in_a_face_frame_clears_the_frame(tmp_path: Path) -> None:
+    from articulation.export import export_model
+    from articulation.gate.validate import validate_path
+    from modeller import build_model
+
+    # A 38 mm frame round a single inset door 2 mm clear of it all round, on butt hinges.
+    data = read_spec(CATALOGUE / "base_unit_inset.yaml")
+    data["face_frame"] = {"width_m": 0.038, "thickness_m": 0.019}
+    door = {"hinge": "left", "mounting": "inset", "left_m": 0.04, "width_m": 0.52, "bottom_m": 0.14,
+            "height_m": 0.69, "opening_limit_deg": 110, "handle": {"type": "none"}}
+    data["doors"] = [door]
+    path = write_spec(tmp_path, data)
+    assert load_spec(path).face_frame.width_m == 0.038
+    export_model(build_model(path), tmp_path / "model")
+    report = validate_path(tmp_path / "model")
+    assert report.ok, report.format()
+    # The same door moved 4 mm left, into the frame's stile, is refused.
+    with pytest.raises(SpecError, match=r"doors\.0\.left_m: inset door spans 0\.036"):
+        load_spec(write_spec(tmp_path, with_field(data, "doors.0.left_m", 0.036), "wide.yaml"))
