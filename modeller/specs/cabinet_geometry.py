@@ -130,7 +130,7 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
             check_hinge_offsets(offsets, "free_corner")
         return offsets
     if door.hinge_type == "concealed":
-        # See `ConcealedHinge`: the fixed axis taking the door to its 90 degree place.
+        # See `ConcealedHinge`: the least deep fixed axis that keeps the door clear of the side.
         boring = door.concealed.boring_distance_m
         if door.mounting == "inset":
             return boring, boring
