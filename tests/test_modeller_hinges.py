@@ -67,7 +67,7 @@ def _least_clear_axis_depth(
     face_f = gap + thick  # the carcass' front plane is f = 0, the side panel s = 0..side
     door = _door_section(face_f, edge_in, thick, 0.4)
     panel = np.array([[0.0, 0.0], [0.0, side], [-0.5, side], [-0.5, 0.0]])
-    angles = np.radians(np.linspace(0, opening_deg, 881))  # 0.125 degree steps
+    angles = np.radians(np.linspace(0, opening_deg, 441))  # 0.25 degree steps
 
     def clear(behind: float) -> bool:
         axis = np.array([face_f - behind, edge_in + boring])
@@ -76,7 +76,7 @@ def _least_clear_axis_depth(
 
     low, high = thick, thick + 0.08
     assert not clear(low) and clear(high)
-    while high - low > 1e-5:
+    while high - low > 2e-5:
         mid = (low + high) / 2
         low, high = (low, mid) if clear(mid) else (mid, high)
     return high
