@@ -64,6 +64,12 @@ def _door_points(model, link: str) -> np.ndarray:
 @pytest.mark.bpy
 def test_face_frame_round_the_opening_and_the_drawer_box_on_its_runners(catalogue) -> None:
     spec, model, _ = catalogue["cupboard_face_frame"]
+    # Each panel its own thickness: 16 mm sides, 19 mm top and bottom, a 4 mm back.
+    assert _collision(model, "body", "carcass_left").geometry.size_m[1] == pytest.approx(0.016)
+    for board in ("carcass_top", "carcass_bottom"):
+        assert _collision(model, "body", board).geometry.size_m[2] == pytest.approx(0.019)
+    assert _collision(model, "body", "back_panel").geometry.size_m[0] == pytest.approx(0.004)
+    assert spec.inner_floor_m == pytest.approx(0.1 + 0.019)
     stile = _collision(model, "body", "frame_left")
     assert stile.geometry.size_m[:2] == pytest.approx((0.019, 0.038))
     assert stile.link_from_collision[0, 3] + 0.019 / 2 == pytest.approx(spec.depth_m / 2)

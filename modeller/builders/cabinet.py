@@ -156,7 +156,11 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
     size = (spec.depth_m, spec.width_m, top - bottom)
     centre = (0.0, 0.0, (bottom + top) / 2)
     mesh = box_mesh("body", size, centre)
-    open_faces = ["+x"] + ([] if spec.top_panel else ["+z"]) + ([] if spec.back_panel is None else ["-x"])
+    # Boards of their own thickness are boxes of their own, not the shell's faces.
+    own_top = not spec.top_panel or spec.top_thickness_m is not None
+    own_bottom = spec.bottom_thickness_m is not None
+    open_faces = ["+x"] + (["+z"] if own_top else []) + (["-z"] if own_bottom else [])
+    open_faces += [] if spec.back_panel is None else ["-x"]
     remove_faces(mesh, [FACE_NORMALS[face] for face in open_faces])
     body = add_object("body", mesh, link="body", material=material(spec.colour))
     add_solidify(body, t)
@@ -193,16 +197,23 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
 
 
 def _carcass_extras(spec: CabinetSpec) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float]]]:
-    """(name, size, centre) of the carcass' boxes beyond its five walls: a back panel set in
-    from the back edge, and a face frame's stiles and rails round the front opening."""
+    """(name, size, centre) of the carcass' boxes beyond its shell: a top and a bottom of their
+    own thickness (between the sides), a back panel set in from the back edge, and a face
+    frame's stiles and rails round the front opening."""
     parts = []
     bottom, top = spec.carcass_bottom_m, spec.carcass_top_m
-    half_w = spec.width_m / 2
+    half_w, t = spec.width_m / 2, spec.wall_thickness_m
+    between_sides = spec.width_m - 2 * t
+    if spec.top_panel and spec.top_thickness_m is not None:
+        size = (spec.depth_m, between_sides, spec.top_board_m)
+        parts.append(("carcass_top", size, (0.0, 0.0, top - spec.top_board_m / 2)))
+    if spec.bottom_thickness_m is not None:
+        size = (spec.depth_m, between_sides, spec.bottom_board_m)
+        parts.append(("carcass_bottom", size, (0.0, 0.0, bottom + spec.bottom_board_m / 2)))
     if spec.back_panel is not None:
         back = spec.back_panel
-        t = spec.wall_thickness_m
-        z0, z1 = bottom + t, top - (t if spec.top_panel else 0.0)
-        size = (back.thickness_m, spec.width_m - 2 * t, z1 - z0)
+        z0, z1 = spec.inner_floor_m, spec.inner_top_m
+        size = (back.thickness_m, between_sides, z1 - z0)
         parts.append(("back_panel", size, (spec.back_inner_x_m - back.thickness_m / 2, 0.0, (z0 + z1) / 2)))
     frame = spec.face_frame
     if frame is not None:

@@ -81,10 +81,11 @@ def door_face_x_m(spec: CabinetSpec, door: DoorSpec) -> float:
 def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
     """(left, right, bottom, top) of the front opening an inset front sits in: inside the
     carcass' edges, or inside the face frame; left and right from the body's left edge."""
-    t = spec.wall_thickness_m
-    rim = max(t, spec.face_frame.width_m) if spec.face_frame is not None else t
-    top_rim = rim if spec.top_panel or spec.face_frame is not None else 0.0
-    return rim, spec.width_m - rim, spec.carcass_bottom_m + rim, spec.carcass_top_m - top_rim
+    frame = 0.0 if spec.face_frame is None else spec.face_frame.width_m
+    side = max(spec.wall_thickness_m, frame)
+    bottom = max(spec.bottom_board_m, frame)
+    top = max(spec.top_board_m if spec.top_panel else 0.0, frame)
+    return side, spec.width_m - side, spec.carcass_bottom_m + bottom, spec.carcass_top_m - top
 
 
 def hinge_divider(spec: CabinetSpec, door: DoorSpec) -> Divider | None:

@@ -156,10 +156,11 @@ def _check_walls(spec: CabinetSpec) -> None:
             ("wall_thickness_m",),
             f"a back wall {t} m thick leaves no room in a {spec.depth_m} m deep {spec.kind_label}",
         )
-    if 2 * t >= carcass_height:
+    if spec.inner_top_m - spec.inner_floor_m <= 0:
         raise FieldError(
             ("plinth_height_m",) if spec.plinth_height_m > 0 else ("wall_thickness_m",),
-            f"walls {t} m thick leave no room in a body {carcass_height:.3f} m high above the plinth",
+            f"top and bottom {spec.carcass_top_m - spec.inner_top_m:.3f} and {spec.bottom_board_m} m thick leave "
+            f"no room in a body {carcass_height:.3f} m high above the plinth",
         )
     if spec.plinth_height_m > 0 and spec.plinth_recess_m + 2 * t >= spec.depth_m:
         raise FieldError(

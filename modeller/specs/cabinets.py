@@ -203,6 +203,8 @@ class CabinetSpec(ObjectSpec):
     height_m: Length = Field(0.9, description="floor to the top of the body")
     wall_thickness_m: Length = Field(0.018, description="sides, top, bottom (and back, without back_panel)")
     top_panel: bool = Field(True, description="false: no top (a base unit under a worktop)")
+    top_thickness_m: Length | None = Field(None, description="the top's own thickness; default: wall_thickness_m")
+    bottom_thickness_m: Length | None = Field(None, description="the bottom's own thickness; default: wall_thickness_m")
     back_panel: BackPanel | None = Field(None, description="default: a back wall as thick as the walls, flush")
     face_frame: FaceFrame | None = None
     plinth_height_m: Offset = 0.0
@@ -252,12 +254,21 @@ class CabinetSpec(ObjectSpec):
         return self.depth_m - (self.wall_thickness_m if back is None else back.inset_m + back.thickness_m)
 
     @property
+    def top_board_m(self) -> float:
+        """Thickness of the top (when it has one)."""
+        return self.wall_thickness_m if self.top_thickness_m is None else self.top_thickness_m
+
+    @property
+    def bottom_board_m(self) -> float:
+        return self.wall_thickness_m if self.bottom_thickness_m is None else self.bottom_thickness_m
+
+    @property
     def inner_floor_m(self) -> float:
-        return self.carcass_bottom_m + self.wall_thickness_m
+        return self.carcass_bottom_m + self.bottom_board_m
 
     @property
     def inner_top_m(self) -> float:
-        return self.carcass_top_m - (self.wall_thickness_m if self.top_panel else 0.0)
+        return self.carcass_top_m - (self.top_board_m if self.top_panel else 0.0)
 
     @property
     def front_recess_m(self) -> float:
