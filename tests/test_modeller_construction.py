@@ -229,3 +229,15 @@ def test_inset_door_in_a_face_frame_clears_the_frame(tmp_path: Path) -> None:
     # The same door moved 4 mm left, into the frame's stile, is refused.
     with pytest.raises(SpecError, match=r"doors\.0\.left_m: inset door spans 0\.036"):
         load_spec(write_spec(tmp_path, with_field(data, "doors.0.left_m", 0.036), "wide.yaml"))
+
+
+@pytest.mark.bpy
+def test_worktop_defaults_build_to_their_size() -> None:
+    from modeller import build_from_spec
+    from modeller.specs import SPEC_TYPES
+
+    spec = SPEC_TYPES["worktop"].model_validate({"kind": "worktop"})
+    lo, hi = build_from_spec(spec, "worktop").world_mesh().bounds
+    half = np.array([spec.depth_m / 2, spec.width_m / 2])
+    np.testing.assert_allclose(lo, (*-half, spec.height_m - spec.thickness_m), atol=1e-6)
+    np.testing.assert_allclose(hi, (*half, spec.height_m), atol=1e-6)

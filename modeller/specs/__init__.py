@@ -34,8 +34,8 @@ from modeller.specs.furniture import (
 from modeller.specs.tableware import BowlSpec, CupSpec, GlassSpec, MugSpec, PlateSpec
 from modeller.specs.worktop import WorktopSpec
 
-_FURNITURE_AND_SMALL_OBJECT_SPECS = (ChairSpec, SofaSpec, BedSpec, ShelvingSpec, MugSpec, GlassSpec, PlateSpec, BowlSpec, BottleSpec, BoxSpec, JarSpec, PillBoxSpec, SpoonSpec, ForkSpec, KnifeSpec, RemoteControlSpec)
-_CABINET_AND_APPLIANCE_SPECS = (WallCabinetSpec, WardrobeSpec, FridgeSpec, OvenSpec, DishwasherSpec, WashingMachineSpec, MicrowaveSpec, WorktopSpec)
+_FURNITURE_AND_SMALL_OBJECT_SPECS = (ChairSpec, SofaSpec, BedSpec, ShelvingSpec, WorktopSpec, MugSpec, GlassSpec, PlateSpec, BowlSpec, BottleSpec, BoxSpec, JarSpec, PillBoxSpec, SpoonSpec, ForkSpec, KnifeSpec, RemoteControlSpec)
+_CABINET_AND_APPLIANCE_SPECS = (WallCabinetSpec, WardrobeSpec, FridgeSpec, OvenSpec, DishwasherSpec, WashingMachineSpec, MicrowaveSpec)
 SPEC_TYPES: dict[str, type[ObjectSpec]] = {
     spec_type.model_fields["kind"].annotation.__args__[0]: spec_type
     for spec_type in (CupboardSpec, TableSpec, CupSpec, *_FURNITURE_AND_SMALL_OBJECT_SPECS, *_CABINET_AND_APPLIANCE_SPECS)
