@@ -85,35 +85,42 @@ def _placements(home: HomeSpec, example_dir: Path):
 
 
 def _placed_run(run: RunSpec, field_path: str, example_dir: Path) -> list[tuple[str, LargeObjectSpec]]:
-    """The run's units and worktop with their poses in the map frame, from their specs' sizes;
-    a unit standing higher than the worktop's underside is refused."""
+    """The run's units (cabinet kinds) and worktop with their poses in the map frame, from
+    their specs' sizes; a unit standing higher than the worktop's underside is refused."""
     from modeller import load_spec
+    from modeller.specs import WorktopSpec
+    from modeller.specs.cabinets import CabinetSpec
 
     home_file = example_dir / HOME_FILE
+    world_from_run = run.pose.matrix()
     placed, left, tops = [], run.left_m, []
-    members = [(f"{field_path}.units.{u}", unit, None) for u, unit in enumerate(run.units)]
-    if run.worktop is not None:
-        members.append((f"{field_path}.worktop", run.worktop, run.worktop_left_m))
-    for member_path, large, worktop_left in members:
-        spec = load_spec(_spec_path(example_dir, home_file, member_path, large.spec))
-        if not (hasattr(spec, "width_m") and hasattr(spec, "depth_m")):
-            raise SpecError(f"{home_file}: {member_path}.spec: a {spec.kind} has no width and depth to stand in a run")
-        if worktop_left is None:
-            centre = (spec.depth_m / 2, left + spec.width_m / 2, 0.0)
-            left += spec.width_m + run.gap_m
-            tops.append((member_path, spec.top_m if hasattr(spec, "top_m") else spec.height_m))
-        else:
-            centre = (spec.depth_m / 2, worktop_left + spec.width_m / 2, 0.0)
-            underside = spec.height_m - getattr(spec, "thickness_m", 0.0)
-            for unit_path, top in tops:
-                if top > underside + ON_SURFACE_TOLERANCE_M:
-                    raise SpecError(
-                        f"{home_file}: {unit_path}: the unit's top at {top:.3f} m is above the worktop's "
-                        f"underside at {underside:.3f} m"
-                    )
-        xyz = run.pose.matrix() @ np.array([*centre, 1.0])
+
+    def place(member_path: str, large: LargeObjectSpec, centre: tuple[float, float, float]) -> None:
+        xyz = world_from_run @ np.array([*centre, 1.0])
         pose = PoseSpec(xyz=tuple(float(v) for v in xyz[:3]), rpy_deg=run.pose.rpy_deg)
         placed.append((member_path, large.model_copy(update={"pose": pose})))
+
+    for u, unit in enumerate(run.units):
+        unit_path = f"{field_path}.units.{u}"
+        spec = load_spec(_spec_path(example_dir, home_file, unit_path, unit.spec))
+        if not isinstance(spec, CabinetSpec):
+            raise SpecError(f"{home_file}: {unit_path}.spec: a {spec.kind} is not a unit to stand in a run")
+        place(unit_path, unit, (spec.depth_m / 2, left + spec.width_m / 2, 0.0))
+        left += spec.width_m + run.gap_m
+        tops.append((unit_path, spec.top_m))
+    if run.worktop is not None:
+        top_path = f"{field_path}.worktop"
+        spec = load_spec(_spec_path(example_dir, home_file, top_path, run.worktop.spec))
+        if not isinstance(spec, WorktopSpec):
+            raise SpecError(f"{home_file}: {top_path}.spec: a {spec.kind} is not a worktop")
+        underside = spec.height_m - spec.thickness_m
+        for unit_path, top in tops:
+            if top > underside + ON_SURFACE_TOLERANCE_M:
+                raise SpecError(
+                    f"{home_file}: {unit_path}: the unit's top at {top:.3f} m is above the worktop's "
+                    f"underside at {underside:.3f} m"
+                )
+        place(top_path, run.worktop, (spec.depth_m / 2, run.worktop_left_m + spec.width_m / 2, 0.0))
     return placed
 
 
