@@ -153,6 +153,9 @@ def test_run_refuses_a_unit_taller_than_the_worktop_underside(tmp_path: Path) ->
     write_spec(folder, with_field(read_spec(folder / "worktop.yaml"), "height_m", 0.89), "worktop.yaml")
     with pytest.raises(SpecError, match=r"rooms\.0\.runs\.0\.units\.0: the unit's top at 0\.870 m is above"):
         build_home(folder, tmp_path / "out")
+    (folder / "drawer_unit.yaml").write_text((REPO / "examples" / "kitchen" / "table.yaml").read_text())
+    with pytest.raises(SpecError, match=r"rooms\.0\.runs\.0\.units\.1\.spec: a table is not a unit"):
+        build_home(folder, tmp_path / "out")
 
 
 # One case per new rule: (example, dotted field, value, dotted field the error must name, words).
