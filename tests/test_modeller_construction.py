@@ -161,6 +161,7 @@ def test_run_refuses_a_unit_taller_than_the_worktop_underside(tmp_path: Path) ->
 # One case per new rule: (example, dotted field, value, dotted field the error must name, words).
 REFUSALS = [
     ("cupboard_face_frame", "doors.0.opening_limit_deg", 120, "doors.0.opening_limit_deg", "does not open to 120"),
+    ("cupboard_face_frame", "doors.0.concealed.cup_diameter_m", 0.5, "doors.0.concealed.cup_diameter_m", "cup reaches"),
     ("wall_cabinet_handleless", "doors.0.hinge_line", {"behind_face_m": 0.02, "in_from_edge_m": 0.0}, "doors.0.hinge_measured", "not both"),
     ("wall_cabinet_handleless", "doors.0.hinge_measured", {}, "doors.0.hinge_measured", "give open_at_90 or free_corner"),
     ("base_unit_inset", "doors.1.bottom_m", 0.1, "doors.1.bottom_m", "the opening is"),

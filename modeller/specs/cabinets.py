@@ -100,6 +100,9 @@ class DoorSpec(Front, DoorMount):
     @model_validator(mode="after")
     def _door_possible(self) -> DoorSpec:
         check_door_front(self)
+        cup = self.concealed.boring_distance_m + self.concealed.cup_diameter_m
+        if self.hinge_type == "concealed" and cup >= (self.width_m if self.side_hinged else self.height_m):
+            raise FieldError(("concealed", "cup_diameter_m"), f"the hinge's cup reaches {cup:.3f} m across the door")
         if self.hinge_type == "concealed" and self.opening_limit_deg > self.concealed.opening_deg:
             raise FieldError(
                 ("opening_limit_deg",),

@@ -8,8 +8,9 @@ edge toward its free edge. A butt hinge on the edge is (0, 0), today's default.
 
 The measurements are taken in the plane square to the hinge line, relative to the body:
 "forward" from the carcass's front plane (the front edges of its sides), "out" from the
-body's outer face on the hinge side (the side panel's outer face for a left or right hinge,
-the top for a top hinge, the underside for a bottom hinge), positive away from the body.
+outer face of what the door hangs on (the side panel's outer face for a left or right hinge,
+the top for a top hinge, the underside for a bottom hinge; for a door hung on a middle
+panel, that panel's face on the far side from the door), positive away from the door.
 """
 
 from __future__ import annotations
@@ -45,10 +46,11 @@ class ConcealedHinge(_Spec):
     overlay door swings clear of the carcass with the axis as little behind it as that allows:
     its inner face passes the side panel's front corner (which circles the axis) without
     touching it, and, opened to the hinge's full angle, the hinge-side corner of its inner
-    face comes no further round than the plane of the side panel's outer face (hinged on a
-    middle panel: of its own closed edge). An inset door
+    face comes no further round than the plane of the side panel's outer face. An inset door
     swings inside its opening: the axis is as far behind its outer face as in from its edge,
     so the edge's outer corner swings out by only (sqrt(2) - 1) times the boring distance.
+    On a middle panel a cranked hinge brings the door forward past its neighbour, which no
+    fixed axis does: such a door's line is measured. The cup must lie on the door.
     """
 
     cup_diameter_m: Length = Field(0.035, description="diameter of the cup bored in the door")
