@@ -44,8 +44,10 @@ class PictureOptions:
     def check(self) -> None:
         require_between("panel_height_px", self.panel_height_px, 64, 2048)
         require_between("fallback_fov_deg", self.fallback_fov_deg, 1.0, 170.0)
-        if len(self.background_rgb) != 3 or not all(0 <= c <= 255 for c in self.background_rgb):
-            raise InputError(f"background_rgb: three values in [0, 255], got {self.background_rgb!r}")
+        for name in ("background_rgb", "hinge_line_rgb"):
+            rgb = getattr(self, name)
+            if len(rgb) != 3 or not all(0 <= c <= 255 for c in rgb):
+                raise InputError(f"{name}: three values in [0, 255], got {rgb!r}")
 
 
 def focal_from_corners(
