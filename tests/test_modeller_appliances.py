@@ -347,7 +347,7 @@ def test_wardrobe_rail_dishwasher_racks_microwave_plate(catalogue) -> None:
 REFUSALS = [
     ("cupboard", "shelves.0.width_m", 1.0, "shelves.0.width_m", "cuts through divider 0"),
     ("cupboard", "drawers.1.handle.recess_depth_m", 0.02, "drawers.1.handle.recess_depth_m", "goes through"),
-    ("cupboard", "doors.0.handle.type", "lever", "doors.0.handle.type", "'bar', 'knob', 'recessed' or 'none'"),
+    ("cupboard", "doors.0.handle.type", "lever", "doors.0.handle.type", "'bar', 'knob', 'recessed', 'none' or 'channel'"),
     ("cupboard", "dividers.0.left_m", 1.19, "dividers.0.left_m", "not between the side walls"),
     ("cupboard", "doors.1.left_m", 0.3, "doors.1", "door 1 overlaps door 0"),
     ("wall_cabinet", "plinth_height_m", 0.1, "plinth_height_m", "has no plinth"),

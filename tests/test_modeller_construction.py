@@ -245,3 +245,24 @@ def test_worktop_defaults_build_to_their_size() -> None:
     half = np.array([spec.depth_m / 2, spec.width_m / 2])
     np.testing.assert_allclose(lo, (*-half, spec.height_m - spec.thickness_m), atol=1e-6)
     np.testing.assert_allclose(hi, (*half, spec.height_m), atol=1e-6)
+
+
+@pytest.mark.bpy
+def test_grip_channel_fronts_are_grasped_over_their_top_edge(tmp_path: Path) -> None:
+    from modeller import build_model
+
+    data = read_spec(CATALOGUE / "cupboard_face_frame.yaml")
+    data = with_field(data, "drawers.0.handle", {"type": "channel"})
+    data = with_field(data, "doors.0.handle", {"type": "channel", "from_free_edge_m": 0.05})
+    model = build_model(write_spec(tmp_path, data))
+    spec = load_spec(write_spec(tmp_path, data))
+    assert not any(link.name.endswith("_handle") for link in model.links)
+    grips = model.world_from_grasp_points({})
+    drawer, door = spec.drawers[0], spec.doors[0]
+    front_x = spec.depth_m / 2 + spec.door_gap_m + spec.door_thickness_m
+    # On the outer face's top edge, the hand coming down (x of the grasp frame is -z).
+    assert grips["drawer_0_grip"][:3, 3] == pytest.approx((front_x, 0.0, drawer.top_m))
+    assert grips["drawer_0_grip"][:3, 0] == pytest.approx((0, 0, -1))
+    assert grips["door_0_grip"][:3, 3] == pytest.approx((front_x, -spec.width_m / 2 + door.left_m + 0.05, door.top_m))
+    with pytest.raises(SpecError, match=r"doors\.0\.handle\.type: a grip channel is over a side-hinged door"):
+        load_spec(write_spec(tmp_path, with_field(read_spec(CATALOGUE / "oven.yaml"), "doors.0.handle", {"type": "channel"})))

@@ -81,6 +81,12 @@ def add_handle(
         name = link.removesuffix("_handle") + "_push"
         assembly.grasp_points.append(GraspPoint(name=name, link=parent_link, link_from_grasp=push, kind="push"))
         return
+    if handle.type == "channel":
+        # Fingers come down the channel and hook over the front's top edge, along it.
+        grip = front_from_face @ grasp_frame((0, 0, 0), (0, 0, -1), (0, 1, 0))
+        name = link.removesuffix("_handle") + "_grip"
+        assembly.grasp_points.append(GraspPoint(name=name, link=parent_link, link_from_grasp=grip, kind="handle"))
+        return
     if handle.type == "bar":
         front_from_handle = front_from_face @ translation_transform((handle.standoff_m, 0, 0))
         _bar(link, front, front_from_handle, handle, orientation, material, assembly)

@@ -45,6 +45,8 @@ def check_door_front(door: DoorSpec) -> None:
             ("height_m",),
             f"a round door is {door.width_m} m wide, so it is {door.width_m} m high, not {door.height_m}",
         )
+    if not door.side_hinged and door.handle.type == "channel":
+        raise FieldError(("handle", "type"), f"a grip channel is over a side-hinged door, not a {door.hinge}-hinged one")
     if door.side_hinged and door.handle.from_left_m is not None:
         raise FieldError(("handle", "from_left_m"), f"a {door.hinge}-hinged door's handle is placed by height_m")
     if not door.side_hinged and door.handle.height_m is not None:

@@ -92,6 +92,7 @@ class DoorSpec(Front, DoorMount):
         if self.side_hinged:
             across = self.width_m - from_free if self.hinge == "left" else from_free
             up = self.height_m / 2 if self.handle.height_m is None else self.handle.height_m
+            up = self.height_m if self.handle.type == "channel" else up  # its top edge
         else:
             across = self.width_m / 2 if self.handle.from_left_m is None else self.handle.from_left_m
             up = self.height_m - from_free if self.hinge == "bottom" else from_free
@@ -132,7 +133,7 @@ class DrawerSpec(Front):
         """Handle centre from the front's left edge (seen from in front) and above its bottom edge."""
         across = self.width_m / 2 if self.handle.from_left_m is None else self.handle.from_left_m
         up = self.height_m / 2 if self.handle.height_m is None else self.handle.height_m
-        return across, up
+        return across, self.height_m if self.handle.type == "channel" else up
 
     @model_validator(mode="after")
     def _drawer_fits(self) -> DrawerSpec:

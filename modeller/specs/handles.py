@@ -22,11 +22,14 @@ class Handle(_Spec):
       `knob_projection_m` in front of the front's outer face.
     - `recessed`: a finger pocket cut into the front, `length_m` along `orientation`,
       `recess_width_m` across, `recess_depth_m` deep.
-    - `none`: no handle (push to open, or a grip channel in the carcass); the front gets a
-      `push` grasp point where its handle would be.
+    - `none`: no handle (push to open); the front gets a `push` grasp point where its
+      handle would be.
+    - `channel`: no handle, a grip channel above the front (a handleless kitchen's rail):
+      fingers hook over the front's top edge; a `handle` grasp point there, approached from
+      above. Side-hinged doors and drawers only.
     """
 
-    type: Literal["bar", "knob", "recessed", "none"] = "bar"
+    type: Literal["bar", "knob", "recessed", "none", "channel"] = "bar"
     orientation: Orientation | None = Field(
         None, description="bar or pocket direction on the front; default: along the front's free edge"
     )
@@ -63,7 +66,7 @@ class Handle(_Spec):
         """Half the handle's footprint on the front: (across the front, up the front)."""
         if self.type == "knob":
             return self.knob_diameter_m / 2, self.knob_diameter_m / 2
-        if self.type == "none":
+        if self.type in ("none", "channel"):
             return 0.0, 0.0
         along = self.length_m / 2
         across = self.diameter_m / 2 if self.type == "bar" else self.recess_width_m / 2
