@@ -1,10 +1,11 @@
 """Write a scene as MuJoCo MJCF (`scene.xml`), by our own writer rather than MuJoCo's URDF
 import, whose behaviour changes between versions.
 
-- Meshes are OBJ files under `meshes/<object id>/`, named by path relative to the XML (no
+- Meshes are OBJ files under `meshes/<object id>/` (`scene_meshes`), named by path relative to the XML (no
   `meshdir`), so the saved file loads again from any working directory.
 - Visual geoms (group 2) never collide; collision geoms (group 3) carry the contacts; only
-  the collision group counts for inertia where a body has no `<inertial>`.
+  the collision group counts for inertia where a body has no `<inertial>`. The floor and
+  walls (group 0) both show and collide.
 - Each body is written at its joint's position and the joint's `ref` is that position, so
   `qpos0` is the scene's state (the map's joint states) and the limits keep their meaning.
 - A part never collides with the rigid body it is hinged to: MuJoCo filters parent/child
@@ -27,14 +28,12 @@ from lxml import etree
 from articulation.gltf_export import quaternion_xyzw
 from articulation.joint_physics import actuator_effort, export_dynamics
 from articulation.model import Box, Cylinder, Joint, Link, MeshGeometry, Sphere
-from articulation.naming import file_stem, unique
 from articulation.numbers import fixed, fixed_list, significant
-from articulation.obj_io import obj_text
 from articulation.scene import Scene, SceneObject
+from articulation.scene_meshes import SceneMeshes
 from homemodel.core.atomic import write_text_atomic
 
 SCENE_FILE = "scene.xml"
-MESH_DIR = "meshes"
 VISUAL_GROUP, COLLISION_GROUP = 2, 3
 TIMESTEP_S = 0.002
 # Small rotor inertia on every joint: keeps 10 g knobs stable at a 2 ms step.
@@ -63,22 +62,18 @@ def rigid_groups(obj: SceneObject) -> dict[str, frozenset[str]]:
 
 @dataclass
 class _Writer:
-    folder: Path
-    scene: Scene
+    meshes: SceneMeshes
     asset: etree._Element = None
     world: etree._Element = None
     contact: etree._Element = None
     actuator: etree._Element = None
-    taken_files: set[str] = field(default_factory=set)
     qpos0: list[float] = field(default_factory=list)
     # (scoped joint name, qpos index, named states)
     actuated: list[tuple[str, int, list]] = field(default_factory=list)
     state_joints: list[tuple[str, int, list]] = field(default_factory=list)
 
     def mesh_asset(self, obj: SceneObject, stem: str, mesh) -> str:
-        name = unique(file_stem(obj.name(stem)), self.taken_files)
-        relative = f"{MESH_DIR}/{obj.id}/{name}.obj"
-        write_text_atomic(self.folder / relative, obj_text(mesh, mtl_file=None, material=None, uv=None))
+        name, relative = self.meshes.write(obj, stem, mesh)
         etree.SubElement(self.asset, "mesh", name=name, file=relative)
         return name
 
@@ -110,7 +105,7 @@ class _Writer:
             )
             _pos_quat(geom, visual.link_from_visual)
         for collision in link.collisions:
-            name = unique(file_stem(obj.name(f"{link.name}_{collision.name}_collision")), self.taken_files)
+            name = self.meshes.name(obj, f"{link.name}_{collision.name}_collision")
             geom = etree.SubElement(body, "geom", name=name, group=str(COLLISION_GROUP), rgba="0.5 0.5 0.9 0.4")
             shape = collision.geometry
             if isinstance(shape, Box):
@@ -225,11 +220,10 @@ def _environment(writer: _Writer, scene: Scene) -> None:
         etree.SubElement(writer.asset, "texture", name="floor_tiles", type="2d", builtin="checker", width="256", height="256",
                          rgb1="0.78 0.74 0.68", rgb2="0.7 0.66 0.6")
         etree.SubElement(writer.asset, "material", name="floor", texture="floor_tiles", texrepeat="8 8", texuniform="true")
-        etree.SubElement(writer.world, "geom", name="floor", type="plane", size="0 0 0.05", material="floor",
-                         group=str(COLLISION_GROUP))
+        etree.SubElement(writer.world, "geom", name="floor", type="plane", size="0 0 0.05", material="floor")
     for wall in scene.walls:
         geom = etree.SubElement(writer.world, "geom", name=wall.name, type="box", size=fixed_list(np.asarray(wall.size_m) / 2),
-                                rgba="0.93 0.92 0.88 1", group=str(COLLISION_GROUP))
+                                rgba="0.93 0.92 0.88 1")
         _pos_quat(geom, wall.world_from_wall())
 
 
@@ -241,7 +235,7 @@ def mjcf_bytes(scene: Scene, folder: Path) -> bytes:
     visual = etree.SubElement(mujoco, "visual")
     etree.SubElement(visual, "global", offwidth="1280", offheight="960")
     etree.SubElement(visual, "quality", shadowsize="4096")
-    writer = _Writer(Path(folder), scene)
+    writer = _Writer(SceneMeshes(folder))
     writer.asset = etree.SubElement(mujoco, "asset")
     writer.world = etree.SubElement(mujoco, "worldbody")
     writer.contact = etree.SubElement(mujoco, "contact")

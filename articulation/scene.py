@@ -52,6 +52,11 @@ class SceneObject:
         """
         return _NAME_UNSAFE.sub("_", f"{self.id}__{part}")
 
+    @property
+    def safe_id(self) -> str:
+        """The object id in the spelling of `name`."""
+        return _NAME_UNSAFE.sub("_", self.id)
+
     def position(self, joint_name: str) -> float:
         return float(self.joint_positions.get(joint_name, 0.0))
 
@@ -86,13 +91,23 @@ class Wall:
 
 
 def walls_from_outline(room_id: str, outline_xy: list[tuple[float, float]]) -> list[Wall]:
-    """One wall per edge of a closed polygon (the last corner joins the first)."""
-    corners = list(outline_xy)
-    return [
-        Wall(name=f"{room_id}__wall_{i}", start_xy=tuple(a), end_xy=tuple(b))
-        for i, (a, b) in enumerate(zip(corners, corners[1:] + corners[:1]))
-        if np.hypot(b[0] - a[0], b[1] - a[1]) > 1e-9
-    ]
+    """One wall per edge of a closed polygon (the last corner joins the first), standing
+    outside it: the room keeps its full floor, and each wall runs on by its thickness at
+    both ends so the corners close."""
+    corners = np.asarray(outline_xy, dtype=np.float64)
+    x, y = corners[:, 0], corners[:, 1]
+    counter_clockwise = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) > 0
+    walls = []
+    for i, (a, b) in enumerate(zip(corners, np.roll(corners, -1, axis=0))):
+        length = float(np.linalg.norm(b - a))
+        if length < 1e-9:
+            continue
+        along = (b - a) / length
+        outward = np.array([along[1], -along[0]]) if counter_clockwise else np.array([-along[1], along[0]])
+        shift = outward * WALL_THICKNESS_M / 2
+        start, end = a + shift - along * WALL_THICKNESS_M, b + shift + along * WALL_THICKNESS_M
+        walls.append(Wall(name=f"{room_id}__wall_{i}", start_xy=tuple(start), end_xy=tuple(end)))
+    return walls
 
 
 @dataclass(kw_only=True)
