@@ -37,7 +37,6 @@ from articulation.model import (
     Link,
     MeshGeometry,
     Sphere,
-    Visual,
 )
 from articulation.naming import unique
 from articulation.scene import Scene, SceneObject

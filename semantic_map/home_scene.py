@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from articulation.scene import Scene, SceneObject, walls_from_outline
+from articulation.simulator_export import SimulatorExport, export_scene
 from homemodel.core.errors import InputError, MapError, ModelError
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, MapObject, Room
@@ -48,6 +49,18 @@ def _rooms(map_path: Path, smap: SemanticMap, room_id: str | None) -> list[Room]
 
 def scene_from_map(map_path: Path, *, room_id: str | None = None) -> Scene:
     """The scene of the whole apartment, or of the room `room_id`."""
+    return _scene_and_sources(map_path, room_id)[0]
+
+
+def export_home(
+    map_path: Path, out_dir: Path, fmt: str, *, room_id: str | None = None, force: bool = False
+) -> SimulatorExport:
+    """Export the home (or one room) of `map_path` in `fmt` (`SCENE_FORMATS`) to `out_dir`."""
+    scene, sources = _scene_and_sources(map_path, room_id)
+    return export_scene(scene, out_dir, fmt, force=force, inputs=sources)
+
+
+def _scene_and_sources(map_path: Path, room_id: str | None) -> tuple[Scene, list[Path]]:
     map_path = Path(map_path)
     try:
         smap = load_map(map_path)
@@ -55,14 +68,16 @@ def scene_from_map(map_path: Path, *, room_id: str | None = None) -> Scene:
         raise InputError(str(exc)) from None
     rooms = _rooms(map_path, smap, room_id)
     objects: list[SceneObject] = []
+    sources = [map_path]
     walls = []
     for room in rooms:
         if room.outline is not None:
             walls += walls_from_outline(room.id, room.outline)
         for large in room.objects:
-            objects.append(_scene_object(map_path, smap, large, free=False))
-            objects += [_scene_object(map_path, smap, small, free=True) for small in large.small_objects]
+            for obj, free in ((large, False), *((small, True) for small in large.small_objects)):
+                objects.append(_scene_object(map_path, smap, obj, free=free))
+                sources.append(_model_path(map_path, obj).parent)
     if not objects:
         where = f"room {room_id!r}" if room_id else "the apartment"
         raise InputError(f"{map_path}: {where} has no objects to export")
-    return Scene(name=room_id or smap.apartment.id, objects=objects, floor=True, walls=walls)
+    return Scene(name=room_id or smap.apartment.id, objects=objects, floor=True, walls=walls), sources
