@@ -45,7 +45,7 @@ def _hinge_and_slide(model):
     import mujoco
 
     for j in range(model.njnt):
-        if model.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
             yield j, model.joint(j).name, model.jnt_qposadr[j]
 
 

@@ -209,8 +209,43 @@ def test_kitchen_usd_passes_usds_validators_and_matches_the_models(kitchen_expor
             assert usd_joint.GetUpperLimitAttr().Get() == pytest.approx(joint.limits.upper * scale, abs=1e-4)
     fixed = {str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdPhysics.FixedJoint) and p.GetName().endswith("__placed")}
     assert "/World/oven_1/joints/oven_1__placed" in fixed and not any(s in p for p in fixed for s in SMALL_OBJECTS)
+    colliders = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.CollisionAPI)]
+    models = [load_urdf(urdf) for urdf in sorted((built_kitchen / "models").glob("*/model.urdf"))]
+    floor_and_walls = 5
+    assert len(colliders) == floor_and_walls + sum(len(link.collisions) for m in models for link in m.links)
+
+
+def test_mesh_colliders_are_convex_hulls_in_every_format(tmp_path: Path) -> None:
+    """A concave collision mesh (a bowl-like ring) goes out as its convex hull, with USD's
+    convexHull approximation named."""
+    import trimesh
+    from pxr import Usd, UsdPhysics
+
+    from articulation import Collision, Inertial, Link, Material, MeshGeometry, Model, Visual
+    from articulation.scene import single_model_scene
+    from articulation.simulator_export import export_scene
+
+    ring = trimesh.creation.annulus(r_min=0.05, r_max=0.08, height=0.04)
+    link = Link(
+        name="body",
+        visuals=[Visual(name="ring", mesh=ring, material=Material(name="grey"))],
+        collisions=[Collision(name="ring", geometry=MeshGeometry(mesh=ring))],
+        inertial=Inertial(mass_kg=0.2, inertia_kgm2=np.eye(3) * 1e-4),
+    )
+    scene = single_model_scene(Model(name="ring", links=[link]))
+    usd = export_scene(scene, tmp_path / "usd", "usd").file
+    stage = Usd.Stage.Open(str(usd))
     hulls = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.MeshCollisionAPI)]
-    assert hulls and all(UsdPhysics.MeshCollisionAPI(p).GetApproximationAttr().Get() == "convexHull" for p in hulls)
+    assert len(hulls) == 1 and UsdPhysics.MeshCollisionAPI(hulls[0]).GetApproximationAttr().Get() == "convexHull"
+    assert usd_errors(usd) == []
+    mjcf = export_scene(scene, tmp_path / "mjcf", "mjcf").file
+    model = load_mjcf(mjcf)
+    hull = model.geom("ring__body_ring_collision")
+    assert model.mesh_vertnum[hull.dataid[0]] == len(ring.convex_hull.vertices)
+    sdf = export_scene(scene, tmp_path / "sdf", "sdf").file
+    assert sdf_check(sdf)[0]
+    uri = etree.parse(str(sdf)).getroot().findtext(".//collision/geometry/mesh/uri")
+    assert trimesh.load(sdf.parent / uri).is_convex
 
 
 def test_usd_validators_catch_a_broken_stage(kitchen_exports: dict[str, Path], tmp_path: Path) -> None:
@@ -323,8 +358,8 @@ def test_ros_package_resolves_every_uri_and_loads(built_kitchen: Path, tmp_path:
         assert (package / uri.removeprefix("package://kitchen_oven/")).is_file()
         assert resolve_mesh(uri, urdf.parent) == (package / uri.removeprefix("package://kitchen_oven/")).resolve()
 
-    def in_package(uri: str) -> str:
-        return str(package / uri.removeprefix("package://kitchen_oven/"))
+    def in_package(fname: str) -> str:
+        return str(package / fname.removeprefix("package://kitchen_oven/"))
 
     loaded = yourdfpy.URDF.load(str(urdf), load_meshes=True, filename_handler=in_package)
     visuals = [m for v in etree.parse(str(urdf)).getroot().iter("visual") for m in v.iter("mesh")]
