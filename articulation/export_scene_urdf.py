@@ -1,5 +1,6 @@
-"""A scene as one URDF (`scene.urdf`) or one glTF (`scene.glb`): every object's links and
-joints renamed by its object id, under a root link `world` with the floor and walls.
+"""A scene as one URDF (`scene.urdf`) or one glTF (`scene.glb`): every object's links,
+joints, grasp points and materials renamed by its object id, under a root link `world` with
+the floor and walls.
 
 URDF has one root and no free bodies, so here small objects are fixed where the map puts
 them (MJCF, SDF and USD make them free), and URDF has no initial joint position, so the
@@ -56,7 +57,17 @@ def _box_link(name: str, size: tuple[float, float, float], material: Material) -
 
 
 def _renamed(obj: SceneObject, *, bake_states: bool) -> tuple[list[Link], list[Joint], list[GraspPoint]]:
-    links = [dataclasses.replace(link, name=obj.name(link.name)) for link in obj.model.links]
+    links = [
+        dataclasses.replace(
+            link,
+            name=obj.name(link.name),
+            visuals=[
+                dataclasses.replace(v, material=dataclasses.replace(v.material, name=obj.name(v.material.name)))
+                for v in link.visuals
+            ],
+        )
+        for link in obj.model.links
+    ]
     joints = []
     for j in obj.model.joints:
         q = obj.position(j.name) if bake_states and j.is_movable else 0.0
