@@ -410,3 +410,19 @@ def test_a_map_whose_model_is_missing_names_the_object(built_kitchen: Path, tmp_
     shutil.rmtree(home / "models" / "bowl_1")
     result = runner.invoke(app, ["map", "export", str(home / "map.xml"), "--format", "mjcf", "--out", str(tmp_path / "out")])
     assert result.exit_code == 2 and "bowl_1" in result.output and not (tmp_path / "out").exists()
+
+
+def test_room_outline_comes_from_home_yaml_and_round_trips(built_kitchen: Path, tmp_path: Path) -> None:
+    from homemodel.core.errors import MapError
+    from semantic_map import load_map, map_to_bytes, save_map
+
+    smap = load_map(built_kitchen / "map.xml")
+    kitchen = smap.node("kitchen")
+    assert kitchen.outline == [(0.0, 0.0), (4.0, 0.0), (4.0, 5.0), (0.0, 5.0)]
+    assert smap.node("bathroom").outline is None
+    save_map(smap, tmp_path / "map.xml")
+    assert (tmp_path / "map.xml").read_bytes() == (built_kitchen / "map.xml").read_bytes() == map_to_bytes(smap)
+    two_corners = (built_kitchen / "map.xml").read_text().replace('<corner xy="4.0 5.0"/>', "").replace('<corner xy="0.0 5.0"/>', "")
+    (tmp_path / "bad.xml").write_text(two_corners)
+    with pytest.raises(MapError, match="corner"):
+        load_map(tmp_path / "bad.xml")
