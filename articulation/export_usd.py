@@ -4,7 +4,8 @@ simulators.
 Layout: `/World` (the default prim, z up, metres, kilograms) holds a physics scene, the
 floor and walls as static colliders, and one Xform per object. Under an object, its links
 are sibling rigid bodies (USD physics does not nest rigid bodies), each with its mass,
-centre of mass and principal inertia, visual meshes (display colour from the material) and
+centre of mass and principal inertia, visual meshes (bound to a UsdPreviewSurface material
+in the object's `Looks` scope, named by object id, and with a display colour) and
 colliders (boxes, cylinders and spheres as such, meshes with a convex-hull approximation,
 purpose "guide" so they do not render). Joints live in the object's `joints` scope:
 
@@ -35,6 +36,7 @@ from articulation.model import (
     Cylinder,
     Joint,
     Link,
+    Material,
     MeshGeometry,
     Sphere,
 )
@@ -58,10 +60,12 @@ def _rotation_x_to(axis: np.ndarray) -> np.ndarray:
 
 class _StageWriter:
     def __init__(self, stage) -> None:
-        from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
+        from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
 
         self.stage = stage
-        self.Gf, self.Sdf, self.Usd, self.UsdGeom, self.UsdPhysics = Gf, Sdf, Usd, UsdGeom, UsdPhysics
+        self.Gf, self.Sdf, self.Usd, self.UsdGeom, self.UsdPhysics, self.UsdShade = Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
+        self.materials: dict[tuple, object] = {}
+        self.material_names: set[str] = set()
 
     def matrix(self, a_from_b: np.ndarray):
         # USD matrices are row-vector: the transpose of ours.
@@ -92,6 +96,22 @@ class _StageWriter:
             prim.CreateDisplayOpacityAttr([float(rgba[3])])
         prim.AddTransformOp().Set(self.matrix(a_from_mesh))
         return prim
+
+    def material(self, obj: SceneObject, material: Material):
+        """A UsdPreviewSurface material per object and colour, in the object's `Looks` scope."""
+        key = (obj.id, material.name, tuple(material.rgba))
+        if key not in self.materials:
+            name = unique(obj.name(material.name), self.material_names)
+            usd_material = self.UsdShade.Material.Define(self.stage, f"/World/{obj.safe_id}/Looks/{name}")
+            shader = self.UsdShade.Shader.Define(self.stage, f"/World/{obj.safe_id}/Looks/{name}/surface")
+            shader.CreateIdAttr("UsdPreviewSurface")
+            r, g, b, a = (float(c) for c in material.rgba)
+            shader.CreateInput("diffuseColor", self.Sdf.ValueTypeNames.Color3f).Set(self.Gf.Vec3f(r, g, b))
+            shader.CreateInput("opacity", self.Sdf.ValueTypeNames.Float).Set(a)
+            shader.CreateInput("roughness", self.Sdf.ValueTypeNames.Float).Set(0.8)
+            usd_material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+            self.materials[key] = usd_material
+        return self.materials[key]
 
     def collider(self, path: str, collision: Collision):
         UsdGeom, UsdPhysics = self.UsdGeom, self.UsdPhysics
@@ -132,7 +152,10 @@ class _StageWriter:
             mass.CreatePrincipalAxesAttr(self.quat(axes))
         names: set[str] = set()
         for visual in link.visuals:
-            self.mesh(f"{path}/visuals/{unique(obj.name(visual.name), names)}", visual.mesh, visual.link_from_visual, visual.material.rgba)
+            prim = self.mesh(
+                f"{path}/visuals/{unique(obj.name(visual.name), names)}", visual.mesh, visual.link_from_visual, visual.material.rgba
+            )
+            self.UsdShade.MaterialBindingAPI.Apply(prim.GetPrim()).Bind(self.material(obj, visual.material))
         for collision in link.collisions:
             self.collider(f"{path}/collisions/{unique(obj.name(collision.name), names)}", collision)
 

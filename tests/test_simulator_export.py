@@ -209,6 +209,13 @@ def test_kitchen_usd_passes_usds_validators_and_matches_the_models(kitchen_expor
             assert usd_joint.GetUpperLimitAttr().Get() == pytest.approx(joint.limits.upper * scale, abs=1e-4)
     fixed = {str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdPhysics.FixedJoint) and p.GetName().endswith("__placed")}
     assert "/World/oven_1/joints/oven_1__placed" in fixed and not any(s in p for p in fixed for s in SMALL_OBJECTS)
+    from pxr import UsdGeom, UsdShade
+
+    visuals = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh) and "/visuals/" in str(p.GetPath())]
+    for prim in visuals:
+        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        object_id = str(prim.GetPath()).split("/")[2]
+        assert material and material.GetPrim().GetName().startswith(f"{object_id}__"), prim.GetPath()
     colliders = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.CollisionAPI)]
     models = [load_urdf(urdf) for urdf in sorted((built_kitchen / "models").glob("*/model.urdf"))]
     floor_and_walls = 5
