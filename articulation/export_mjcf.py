@@ -72,10 +72,22 @@ class _Writer:
     actuated: list[tuple[str, int, list]] = field(default_factory=list)
     state_joints: list[tuple[str, int, list]] = field(default_factory=list)
 
-    def mesh_asset(self, obj: SceneObject, stem: str, mesh) -> str:
-        name, relative = self.meshes.write(obj, stem, mesh)
-        etree.SubElement(self.asset, "mesh", name=name, file=relative)
+    def mesh_asset(self, obj: SceneObject, stem: str, mesh, uv=None, *, visual: bool = False) -> str:
+        name, relative = self.meshes.write(obj, stem, mesh, uv)
+        asset = etree.SubElement(self.asset, "mesh", name=name, file=relative)
+        if visual:
+            # MuJoCo computes every mesh's inertia, and refuses a flat one (a photo on a face)
+            # as a solid; visuals count for no inertia here anyway (inertiagrouprange).
+            asset.set("inertia", "shell")
         return name
+
+    def textured_material(self, obj: SceneObject, visual) -> str:
+        """An MJCF material showing the visual's texture image (its colour's alpha kept)."""
+        texture, relative = self.meshes.texture(obj, visual.material.texture)
+        if self.asset.find(f"texture[@name='{texture}']") is None:
+            etree.SubElement(self.asset, "texture", name=texture, type="2d", file=relative)
+            etree.SubElement(self.asset, "material", name=texture, texture=texture, rgba=f"1 1 1 {fixed(visual.material.rgba[3])}")
+        return texture
 
     def link_geoms(self, body: etree._Element, obj: SceneObject, link: Link) -> None:
         if link.inertial is not None:
@@ -91,18 +103,15 @@ class _Writer:
                 ),
             )
         for visual in link.visuals:
-            mesh = self.mesh_asset(obj, f"{link.name}_{visual.name}", visual.mesh)
+            textured = visual.material.texture is not None and visual.uv is not None
+            mesh = self.mesh_asset(obj, f"{link.name}_{visual.name}", visual.mesh, visual.uv if textured else None, visual=True)
             geom = etree.SubElement(
-                body,
-                "geom",
-                name=mesh,
-                type="mesh",
-                mesh=mesh,
-                group=str(VISUAL_GROUP),
-                contype="0",
-                conaffinity="0",
-                rgba=fixed_list(visual.material.rgba),
+                body, "geom", name=mesh, type="mesh", mesh=mesh, group=str(VISUAL_GROUP), contype="0", conaffinity="0"
             )
+            if textured:
+                geom.set("material", self.textured_material(obj, visual))
+            else:
+                geom.set("rgba", fixed_list(visual.material.rgba))
             _pos_quat(geom, visual.link_from_visual)
         for collision in link.collisions:
             name = self.meshes.name(obj, f"{link.name}_{collision.name}_collision")

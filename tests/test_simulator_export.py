@@ -433,3 +433,34 @@ def test_room_outline_comes_from_home_yaml_and_round_trips(built_kitchen: Path, 
     (tmp_path / "bad.xml").write_text(two_corners)
     with pytest.raises(MapError, match="corner"):
         load_map(tmp_path / "bad.xml")
+
+
+def test_mjcf_keeps_photo_textures_on_flat_faces(tmp_path: Path) -> None:
+    """A photo on a flat face (one quad, no volume) loads, with its texture and coordinates."""
+    import trimesh
+    from PIL import Image
+
+    from articulation import Box, Collision, Inertial, Link, Material, Model, Visual
+    from articulation.scene import single_model_scene
+    from articulation.simulator_export import export_scene
+
+    photo = tmp_path / "front.jpg"
+    Image.new("RGB", (64, 32), (200, 40, 30)).save(photo)
+    quad = trimesh.Trimesh(vertices=[[0, -0.1, 0], [0, 0.1, 0], [0, 0.1, 0.2], [0, -0.1, 0.2]], faces=[[0, 1, 2], [0, 2, 3]])
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    link = Link(
+        name="body",
+        visuals=[
+            Visual(name="box", mesh=trimesh.creation.box((0.1, 0.2, 0.2)), material=Material(name="card", rgba=(0.9, 0.8, 0.1, 1))),
+            Visual(name="front", mesh=quad, material=Material(name="photo", texture=photo), uv=uv),
+        ],
+        collisions=[Collision(name="box", geometry=Box(size_m=(0.1, 0.2, 0.2)))],
+        inertial=Inertial(mass_kg=0.3, inertia_kgm2=np.eye(3) * 1e-3),
+    )
+    xml = export_scene(single_model_scene(Model(name="packet", links=[link])), tmp_path / "mjcf", "mjcf").file
+    model = load_mjcf(xml)
+    assert model.ntex == 1 and Image.open(xml.parent / "meshes" / "packet" / "packet__front.png").size == (64, 32)
+    front = model.geom("packet__body_front")
+    assert model.mat_texid[front.matid[0]].max() == 0  # the photo's texture
+    assert model.mesh_texcoordnum[front.dataid[0]] == 4
+    assert model.geom("packet__body_box").matid[0] == -1 and model.geom("packet__body_box").rgba == pytest.approx([0.9, 0.8, 0.1, 1])
