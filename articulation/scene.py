@@ -90,23 +90,45 @@ class Wall:
         return (self.length_m, self.thickness_m, self.height_m)
 
 
-def walls_from_outline(room_id: str, outline_xy: list[tuple[float, float]]) -> list[Wall]:
-    """One wall per edge of a closed polygon (the last corner joins the first), standing
-    outside it: the room keeps its full floor, and each wall runs on by its thickness at
-    both ends so the corners close."""
+def _edges(outline_xy: list[tuple[float, float]]):
+    """(start, end, outward unit normal) of each edge of a closed polygon."""
     corners = np.asarray(outline_xy, dtype=np.float64)
     x, y = corners[:, 0], corners[:, 1]
     counter_clockwise = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) > 0
-    walls = []
-    for i, (a, b) in enumerate(zip(corners, np.roll(corners, -1, axis=0))):
+    for a, b in zip(corners, np.roll(corners, -1, axis=0)):
         length = float(np.linalg.norm(b - a))
         if length < 1e-9:
             continue
         along = (b - a) / length
-        outward = np.array([along[1], -along[0]]) if counter_clockwise else np.array([-along[1], along[0]])
-        shift = outward * WALL_THICKNESS_M / 2
+        yield a, b, (np.array([along[1], -along[0]]) if counter_clockwise else np.array([-along[1], along[0]]))
+
+
+def walls_from_outlines(outlines: list[tuple[str, list[tuple[float, float]]]]) -> list[Wall]:
+    """Walls on the edges of rooms' floor plans, (room id, closed polygon) each.
+
+    A wall stands outside its room, so the room keeps its full floor, and runs on by its
+    thickness at both ends so corners close. An edge two rooms share (the same segment, in
+    opposite directions) gets one wall, centred on it, named after both rooms.
+    """
+    edges = [(room, a, b, n) for room, outline in outlines for a, b, n in _edges(outline)]
+    key = lambda a, b: (tuple(np.round(a, 6)), tuple(np.round(b, 6)))  # noqa: E731
+    owners: dict[tuple, str] = {}
+    for room, a, b, _ in edges:
+        owners.setdefault(key(a, b), room)
+    walls: list[Wall] = []
+    counts: dict[str, int] = {}
+    for room, a, b, outward in edges:
+        other = owners.get(key(b, a))
+        if other is not None and other != room and owners[key(a, b)] == room and room > other:
+            continue  # the other room writes this shared wall
+        shared = other is not None and other != room
+        name = f"{min(room, other)}__{max(room, other)}" if shared else room
+        along = (b - a) / np.linalg.norm(b - a)
+        shift = np.zeros(2) if shared else outward * WALL_THICKNESS_M / 2
         start, end = a + shift - along * WALL_THICKNESS_M, b + shift + along * WALL_THICKNESS_M
-        walls.append(Wall(name=f"{room_id}__wall_{i}", start_xy=tuple(start), end_xy=tuple(end)))
+        index = counts.get(name, 0)
+        counts[name] = index + 1
+        walls.append(Wall(name=f"{name}__wall_{index}", start_xy=tuple(start), end_xy=tuple(end)))
     return walls
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from articulation.scene import Scene, SceneObject, walls_from_outline
+from articulation.scene import Scene, SceneObject, walls_from_outlines
 from articulation.simulator_export import SimulatorExport, export_scene
 from homemodel.core.errors import InputError, MapError, ModelError
 from semantic_map.hierarchy import SemanticMap
@@ -69,10 +69,7 @@ def _scene_and_sources(map_path: Path, room_id: str | None) -> tuple[Scene, list
     rooms = _rooms(map_path, smap, room_id)
     objects: list[SceneObject] = []
     sources = [map_path]
-    walls = []
     for room in rooms:
-        if room.outline is not None:
-            walls += walls_from_outline(room.id, room.outline)
         for large in room.objects:
             for obj, free in ((large, False), *((small, True) for small in large.small_objects)):
                 objects.append(_scene_object(map_path, smap, obj, free=free))
@@ -80,4 +77,5 @@ def _scene_and_sources(map_path: Path, room_id: str | None) -> tuple[Scene, list
     if not objects:
         where = f"room {room_id!r}" if room_id else "the apartment"
         raise InputError(f"{map_path}: {where} has no objects to export")
+    walls = walls_from_outlines([(room.id, room.outline) for room in rooms if room.outline is not None])
     return Scene(name=room_id or smap.apartment.id, objects=objects, floor=True, walls=walls), sources

@@ -464,3 +464,18 @@ def test_mjcf_keeps_photo_textures_on_flat_faces(tmp_path: Path) -> None:
     assert model.mat_texid[front.matid[0]].max() == 0  # the photo's texture
     assert model.mesh_texcoordnum[front.dataid[0]] == 4
     assert model.geom("packet__body_box").matid[0] == -1 and model.geom("packet__body_box").rgba == pytest.approx([0.9, 0.8, 0.1, 1])
+
+
+def test_rooms_sharing_an_edge_get_one_wall_centred_on_it() -> None:
+    from articulation.scene import WALL_THICKNESS_M, walls_from_outlines
+
+    living = [(0.0, 0.0), (6.0, 0.0), (6.0, 3.0), (3.0, 3.0), (3.0, 5.0), (0.0, 5.0)]  # an L
+    utility = [(3.0, 3.0), (6.0, 3.0), (6.0, 5.0), (3.0, 5.0)]
+    walls = walls_from_outlines([("living", living), ("utility", utility)])
+    shared = [w for w in walls if w.name.startswith("living__utility__")]
+    assert len(walls) == 8 and len(shared) == 2
+    for wall in shared:  # centred on x = 3 or y = 3
+        centre = wall.world_from_wall()[:2, 3]
+        assert min(abs(centre[0] - 3.0), abs(centre[1] - 3.0)) < 1e-9
+    outer = next(w for w in walls if w.name == "living__wall_0")  # y = 0, outside the room
+    assert outer.world_from_wall()[1, 3] == pytest.approx(-WALL_THICKNESS_M / 2)
