@@ -150,6 +150,7 @@ class Scene:
             raise ModelError(f"scene {self.name!r}: object ids repeat: {dupes}")
 
 
-def single_model_scene(model: Model) -> Scene:
-    """One model, fixed at the origin with its joints at zero, named after the model."""
-    return Scene(name=model.name, objects=[SceneObject(id=model.name, model=model)])
+def single_model_scene(model: Model, *, free: bool = False) -> Scene:
+    """One model at the origin with its joints at zero, named after the model: fixed, or
+    `free` (a body that can be picked up) standing on a floor."""
+    return Scene(name=model.name, objects=[SceneObject(id=model.name, model=model, free=free)], floor=free)

@@ -96,17 +96,21 @@ def export_model_for(
     fmt: str,
     *,
     package: str | None = None,
+    free: bool = False,
     force: bool = False,
     inputs: Sequence[Path] = (),
 ) -> SimulatorExport:
-    """One model, fixed at the origin, in `fmt` (one of MODEL_FORMATS); `urdf-ros` writes a
-    ROS 2 package named `package` (default: the model's name)."""
+    """One model at the origin in `fmt` (one of MODEL_FORMATS): fixed, or `free` on a floor
+    (mjcf, sdf, usd); `urdf-ros` writes a ROS 2 package named `package` (default: the model's
+    name)."""
     if fmt not in MODEL_FORMATS:
         raise InputError(f"--format {fmt!r}: expected one of {', '.join(MODEL_FORMATS)}")
     if package is not None and fmt != "urdf-ros":
         raise InputError("--package goes with --format urdf-ros")
+    if free and fmt in FIXED_ONLY_FORMATS:
+        raise InputError(f"--free: a {fmt} model is fixed; use mjcf, sdf or usd for a free body")
     if fmt != "urdf-ros":
-        return export_scene(single_model_scene(model), out_dir, fmt, force=force, inputs=inputs)
+        return export_scene(single_model_scene(model, free=free), out_dir, fmt, force=force, inputs=inputs)
     from articulation.ros_package import check_package_name, write_ros_package
 
     name = check_package_name(package or model.name)

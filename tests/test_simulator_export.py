@@ -479,3 +479,16 @@ def test_rooms_sharing_an_edge_get_one_wall_centred_on_it() -> None:
         assert min(abs(centre[0] - 3.0), abs(centre[1] - 3.0)) < 1e-9
     outer = next(w for w in walls if w.name == "living__wall_0")  # y = 0, outside the room
     assert outer.world_from_wall()[1, 3] == pytest.approx(-WALL_THICKNESS_M / 2)
+
+
+@pytest.mark.parametrize("object_id", ["pill_box", "red_cup"])
+def test_a_small_model_exported_free_rests_on_a_floor(built_kitchen: Path, tmp_path: Path, object_id: str) -> None:
+    model_dir = built_kitchen / "models" / object_id
+    figures = mujoco_figures(_export_model(model_dir, tmp_path / "mjcf", "mjcf", "--free") / "scene.xml")
+    assert list(figures.free_drift_m) == [f"{object_id}__free"]
+    assert_mujoco_stable(figures)
+    sdf = _export_model(model_dir, tmp_path / "sdf", "sdf", "--free") / "scene.sdf"
+    assert sdf_check(sdf)[0] and etree.parse(str(sdf)).getroot().find(".//joint/parent[.='world']") is None
+    assert usd_errors(_export_model(model_dir, tmp_path / "usd", "usd", "--free") / "scene.usda") == []
+    result = runner.invoke(app, ["export", str(model_dir), "--format", "urdf-ros", "--free", "--out", str(tmp_path / "ros")])
+    assert result.exit_code == 2 and "--free" in result.output
