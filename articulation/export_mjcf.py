@@ -1,8 +1,9 @@
 """Write a scene as MuJoCo MJCF (`scene.xml`), by our own writer rather than MuJoCo's URDF
 import, whose behaviour changes between versions.
 
-- Meshes are OBJ files under `meshes/<object id>/` (`scene_meshes`), named by path relative to the XML (no
-  `meshdir`), so the saved file loads again from any working directory.
+- Meshes are OBJ files under `meshes/<object id>/` (`scene_meshes`), named by their path
+  relative to the XML (no `meshdir`), so the saved file loads from any working directory;
+  photo textures become PNG textures and materials.
 - Visual geoms (group 2) never collide; collision geoms (group 3) carry the contacts; only
   the collision group counts for inertia where a body has no `<inertial>`. The floor and
   walls (group 0) both show and collide.
@@ -19,7 +20,6 @@ import, whose behaviour changes between versions.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +27,7 @@ from lxml import etree
 
 from articulation.gltf_export import quaternion_xyzw
 from articulation.joint_physics import actuator_effort, export_dynamics
-from articulation.model import Box, Cylinder, Joint, Link, MeshGeometry, Sphere
+from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Sphere
 from articulation.numbers import fixed, fixed_list, significant
 from articulation.scene import Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes
@@ -60,17 +60,19 @@ def rigid_groups(obj: SceneObject) -> dict[str, frozenset[str]]:
     return {name: frozenset(members) for name, members in group.items()}
 
 
-@dataclass
 class _Writer:
-    meshes: SceneMeshes
-    asset: etree._Element = None
-    world: etree._Element = None
-    contact: etree._Element = None
-    actuator: etree._Element = None
-    qpos0: list[float] = field(default_factory=list)
-    # (scoped joint name, qpos index, named states)
-    actuated: list[tuple[str, int, list]] = field(default_factory=list)
-    state_joints: list[tuple[str, int, list]] = field(default_factory=list)
+    """Fills the sections of one MJCF document, keeping the `qpos0` it implies (joints in
+    body order, as MuJoCo numbers them) for the keyframes."""
+
+    def __init__(self, meshes: SceneMeshes, mujoco: etree._Element) -> None:
+        self.meshes = meshes
+        self.asset = etree.SubElement(mujoco, "asset")
+        self.world = etree.SubElement(mujoco, "worldbody")
+        self.contact = etree.SubElement(mujoco, "contact")
+        self.actuator = etree.SubElement(mujoco, "actuator")
+        self.qpos0: list[float] = []
+        # (scoped joint name, qpos index, named states) of each joint with a position actuator
+        self.actuated: list[tuple[str, int, list[JointState]]] = []
 
     def mesh_asset(self, obj: SceneObject, stem: str, mesh, uv=None, *, visual: bool = False) -> str:
         name, relative = self.meshes.write(obj, stem, mesh, uv)
@@ -131,10 +133,10 @@ class _Writer:
                 geom.set("mesh", self.mesh_asset(obj, f"{link.name}_{collision.name}_hull", shape.mesh.convex_hull))
             _pos_quat(geom, collision.link_from_collision)
 
-    def joint(self, body: etree._Element, obj: SceneObject, joint: Joint, gravity_model: np.ndarray) -> None:
+    def joint(self, body: etree._Element, obj: SceneObject, joint: Joint) -> None:
         name = obj.name(joint.name)
         q = obj.position(joint.name)
-        dynamics = export_dynamics(obj.model, joint, gravity_model=gravity_model)
+        dynamics = export_dynamics(obj.model, joint, gravity_model=obj.gravity_model)
         el = etree.SubElement(
             body,
             "joint",
@@ -155,7 +157,6 @@ class _Writer:
         index = len(self.qpos0)
         self.qpos0.append(q)
         if joint.states:
-            self.state_joints.append((name, index, joint.states))
             effort = actuator_effort(obj.model, joint, dynamics)
             # Stiff enough that the friction (which already holds gravity) leaves at most a
             # quarter of ACTUATOR_TOLERANCE of error; no stiffer, so a 10 g knob stays stable.
@@ -175,15 +176,15 @@ class _Writer:
                 actuator.set("ctrllimited", "true")
             self.actuated.append((name, index, joint.states))
 
-    def body_tree(self, parent_el: etree._Element, obj: SceneObject, link_name: str, gravity_model: np.ndarray) -> None:
+    def body_tree(self, parent_el: etree._Element, obj: SceneObject, link_name: str) -> None:
         model = obj.model
         for j in (j for j in model.joints if j.parent == link_name):
             body = etree.SubElement(parent_el, "body", name=obj.name(j.child))
             _pos_quat(body, j.parent_from_joint @ j.joint_from_child(obj.position(j.name)))
             if j.is_movable:
-                self.joint(body, obj, j, gravity_model)
+                self.joint(body, obj, j)
             self.link_geoms(body, obj, model.link(j.child))
-            self.body_tree(body, obj, j.child, gravity_model)
+            self.body_tree(body, obj, j.child)
 
     def exclusions(self, obj: SceneObject) -> None:
         groups = rigid_groups(obj)
@@ -195,13 +196,12 @@ class _Writer:
         model = obj.model
         root = etree.SubElement(self.world, "body", name=obj.name(model.root_link))
         _pos_quat(root, obj.world_from_model)
-        gravity_model = obj.world_from_model[:3, :3].T @ np.array([0.0, 0.0, -9.81])
         if obj.free:
             etree.SubElement(root, "freejoint", name=obj.name("free"))
             x, y, z, w = quaternion_xyzw(obj.world_from_model[:3, :3])
             self.qpos0.extend([*obj.world_from_model[:3, 3], w, x, y, z])
         self.link_geoms(root, obj, model.link(model.root_link))
-        self.body_tree(root, obj, model.root_link, gravity_model)
+        self.body_tree(root, obj, model.root_link)
         self.exclusions(obj)
 
     def keyframes(self, mujoco: etree._Element) -> None:
@@ -214,7 +214,7 @@ class _Writer:
                 el.set("ctrl", fixed_list(ctrl, 9))
 
         key("initial", self.qpos0, ctrl0)
-        for joint_name, index, states in self.state_joints:
+        for joint_name, index, states in self.actuated:
             for state in states:
                 qpos = list(self.qpos0)
                 qpos[index] = state.position
@@ -244,11 +244,7 @@ def mjcf_bytes(scene: Scene, folder: Path) -> bytes:
     visual = etree.SubElement(mujoco, "visual")
     etree.SubElement(visual, "global", offwidth="1280", offheight="960")
     etree.SubElement(visual, "quality", shadowsize="4096")
-    writer = _Writer(SceneMeshes(folder))
-    writer.asset = etree.SubElement(mujoco, "asset")
-    writer.world = etree.SubElement(mujoco, "worldbody")
-    writer.contact = etree.SubElement(mujoco, "contact")
-    writer.actuator = etree.SubElement(mujoco, "actuator")
+    writer = _Writer(SceneMeshes(folder), mujoco)
     _environment(writer, scene)
     for obj in scene.objects:
         writer.object(obj)

@@ -21,7 +21,7 @@ from articulation.export_scene_urdf import FLOOR_MATERIAL, WALL_MATERIAL, floor_
 from articulation.joint_physics import export_dynamics
 from articulation.model import Box, Cylinder, Link, Material, MeshGeometry, Sphere
 from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
-from articulation.scene import Scene, SceneObject
+from articulation.scene import GRAVITY_M_S2, Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes
 from homemodel.core.atomic import write_text_atomic
 from homemodel.core.transforms import translation_transform
@@ -92,7 +92,6 @@ def _link(model_el: etree._Element, obj: SceneObject, link: Link, model_from_lin
 
 
 def _joints(model_el: etree._Element, obj: SceneObject) -> None:
-    gravity_model = obj.world_from_model[:3, :3].T @ np.array([0.0, 0.0, -9.81])
     if not obj.free:
         joint = etree.SubElement(model_el, "joint", name=obj.name("placed"), type="fixed")
         _text(joint, "parent", "world")
@@ -118,7 +117,7 @@ def _joints(model_el: etree._Element, obj: SceneObject) -> None:
         if j.limits is not None:
             _text(limit, "effort", significant(j.limits.effort))
             _text(limit, "velocity", significant(j.limits.velocity))
-        dynamics = export_dynamics(obj.model, j, gravity_model=gravity_model)
+        dynamics = export_dynamics(obj.model, j, gravity_model=obj.gravity_model)
         dyn = etree.SubElement(axis, "dynamics")
         _text(dyn, "damping", significant(dynamics.damping))
         _text(dyn, "friction", significant(dynamics.friction))
@@ -153,7 +152,7 @@ def sdf_bytes(scene: Scene, folder: Path) -> bytes:
     """The SDF document of `scene`; writes its meshes under `folder/meshes/`."""
     sdf = etree.Element("sdf", version=SDF_VERSION, nsmap={"homemodel": HOMEMODEL_NS})
     world = etree.SubElement(sdf, "world", name=scene.name)
-    _text(world, "gravity", "0 0 -9.81")
+    _text(world, "gravity", f"0 0 {-GRAVITY_M_S2}")
     physics = etree.SubElement(world, "physics", name="default", type="dart")
     _text(physics, "max_step_size", "0.001")
     _text(physics, "real_time_factor", "1")

@@ -41,7 +41,7 @@ from articulation.model import (
     Sphere,
 )
 from articulation.naming import unique
-from articulation.scene import Scene, SceneObject
+from articulation.scene import GRAVITY_M_S2, Scene, SceneObject
 from homemodel.core.errors import ModelError
 
 SCENE_FILE = "scene.usda"
@@ -184,8 +184,7 @@ class _StageWriter:
             scale = 1.0 if joint.type == "prismatic" else 180.0 / np.pi
             usd_joint.CreateLowerLimitAttr(float(joint.limits.lower * scale))
             usd_joint.CreateUpperLimitAttr(float(joint.limits.upper * scale))
-        gravity_model = obj.world_from_model[:3, :3].T @ np.array([0.0, 0.0, -9.81])
-        dynamics = export_dynamics(obj.model, joint, gravity_model=gravity_model)
+        dynamics = export_dynamics(obj.model, joint, gravity_model=obj.gravity_model)
         kind = "linear" if joint.type == "prismatic" else "angular"
         drive = UsdPhysics.DriveAPI.Apply(usd_joint.GetPrim(), kind)
         drive.CreateTypeAttr("force")
@@ -239,7 +238,7 @@ def write_usd(scene: Scene, folder: Path) -> Path:
     stage.SetDefaultPrim(world.GetPrim())
     physics = UsdPhysics.Scene.Define(stage, "/World/physicsScene")
     physics.CreateGravityDirectionAttr(Gf.Vec3f(0.0, 0.0, -1.0))
-    physics.CreateGravityMagnitudeAttr(9.81)
+    physics.CreateGravityMagnitudeAttr(GRAVITY_M_S2)
     writer = _StageWriter(stage)
     if scene.floor:
         world_from_floor, size = floor_box(scene)

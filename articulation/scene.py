@@ -53,6 +53,11 @@ class SceneObject:
         return _NAME_UNSAFE.sub("_", f"{self.id}__{part}")
 
     @property
+    def gravity_model(self) -> np.ndarray:
+        """Gravity (m/s²) in the model's frame: -z for an upright object."""
+        return self.world_from_model[:3, :3].T @ np.array([0.0, 0.0, -GRAVITY_M_S2])
+
+    @property
     def safe_id(self) -> str:
         """The object id in the spelling of `name`."""
         return _NAME_UNSAFE.sub("_", self.id)
