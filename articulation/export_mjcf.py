@@ -240,7 +240,10 @@ def mjcf_bytes(scene: Scene, folder: Path) -> bytes:
     """The MJCF document of `scene`; writes its meshes under `folder/meshes/`."""
     mujoco = etree.Element("mujoco", model=scene.name)
     etree.SubElement(mujoco, "compiler", angle="radian", autolimits="true", inertiagrouprange=f"{COLLISION_GROUP} {COLLISION_GROUP}")
-    etree.SubElement(mujoco, "option", timestep=str(TIMESTEP_S), integrator="implicitfast")
+    option = etree.SubElement(mujoco, "option", timestep=str(TIMESTEP_S), integrator="implicitfast")
+    # Several contact points between convex shapes: a cup stands on a table instead of rocking
+    # on one point (MuJoCo 3.3 let the kitchen's cups creep 3 mm in 4 s without it, 0.1 mm with).
+    etree.SubElement(option, "flag", multiccd="enable")
     visual = etree.SubElement(mujoco, "visual")
     etree.SubElement(visual, "global", offwidth="1280", offheight="960")
     etree.SubElement(visual, "quality", shadowsize="4096")
