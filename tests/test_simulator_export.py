@@ -29,9 +29,10 @@ pytestmark = pytest.mark.bpy
 
 runner = CliRunner()
 SMALL_OBJECTS = {"red_cup", "blue_cup", "bowl_1", "sugar_container", "pill_box"}
-# A catalogue sample with every kind of joint: bottom-hinged doors (oven, dishwasher), a
-# flap (wall cabinet), knobs (oven), drawers, side-hinged doors, and a jar.
-CATALOGUE_SAMPLE = ("oven", "dishwasher", "wall_cabinet", "washing_machine", "jar")
+# A catalogue sample with every kind of joint: a bottom-hinged door, knobs and a drawer
+# (oven), a flap and a side-hinged door (wall cabinet), a round door and a knob (washing
+# machine). The kitchen's models are in the scene tests; the slow test takes all 27.
+CATALOGUE_SAMPLE = ("oven", "wall_cabinet", "washing_machine")
 CATALOGUE = tuple(sorted(p.stem for p in (Path(__file__).parents[1] / "examples" / "catalogue").glob("*.yaml")))
 
 
@@ -315,11 +316,6 @@ def _check_model_everywhere(model_dir: Path, out: Path) -> None:
     assert usd_errors(_export_model(model_dir, out / "usd", "usd") / "scene.usda") == []
 
 
-@pytest.mark.parametrize("object_id", ["oven_1", "fridge_1", "cupboard_1", "pill_box", "sugar_container"])
-def test_kitchen_model_in_every_simulator(built_kitchen: Path, tmp_path: Path, object_id: str) -> None:
-    _check_model_everywhere(built_kitchen / "models" / object_id, tmp_path)
-
-
 def _catalogue_model_dir(catalogue, name: str, tmp_path: Path) -> Path:
     from articulation.export import export_model
 
@@ -481,7 +477,7 @@ def test_rooms_sharing_an_edge_get_one_wall_centred_on_it() -> None:
     assert outer.world_from_wall()[1, 3] == pytest.approx(-WALL_THICKNESS_M / 2)
 
 
-@pytest.mark.parametrize("object_id", ["pill_box", "red_cup"])
+@pytest.mark.parametrize("object_id", ["pill_box"])
 def test_a_small_model_exported_free_rests_on_a_floor(built_kitchen: Path, tmp_path: Path, object_id: str) -> None:
     model_dir = built_kitchen / "models" / object_id
     figures = mujoco_figures(_export_model(model_dir, tmp_path / "mjcf", "mjcf", "--free") / "scene.xml")
