@@ -7,7 +7,8 @@
   the positions `<homemodel:states>` names) are shifted by that position, so the door still
   stops where the real one does.
 - Damping and friction come from `joint_physics`, as in the MJCF.
-- Meshes are OBJ files under `meshes/<object id>/` (`scene_meshes`), by relative URI.
+- Meshes are OBJ files under `meshes/<object id>/` (`scene_meshes`), by relative URI; a
+  photo texture is a PNG beside them, the visual's PBR albedo map.
 """
 
 from __future__ import annotations
@@ -42,11 +43,13 @@ def _pose(parent: etree._Element, a_from_b: np.ndarray, **attributes: str) -> No
     _text(parent, "pose", fixed_list([*xyz, *rpy]), **attributes)
 
 
-def _material(parent: etree._Element, material: Material) -> None:
+def _material(parent: etree._Element, material: Material, texture_uri: str | None = None) -> None:
     el = etree.SubElement(parent, "material")
-    colour = fixed_list(material.rgba)
+    colour = "1 1 1 1" if texture_uri else fixed_list(material.rgba)
     _text(el, "ambient", colour)
     _text(el, "diffuse", colour)
+    if texture_uri:
+        _text(etree.SubElement(etree.SubElement(el, "pbr"), "metal"), "albedo_map", texture_uri)
 
 
 def _geometry(parent: etree._Element, shape, uri: str | None) -> None:
@@ -75,11 +78,12 @@ def _link(model_el: etree._Element, obj: SceneObject, link: Link, model_from_lin
         for key, value in (("ixx", i[0, 0]), ("ixy", i[0, 1]), ("ixz", i[0, 2]), ("iyy", i[1, 1]), ("iyz", i[1, 2]), ("izz", i[2, 2])):
             _text(inertia, key, significant(value))
     for visual in link.visuals:
-        name, uri = meshes.write(obj, f"{link.name}_{visual.name}", visual.mesh)
+        textured = visual.material.texture is not None and visual.uv is not None
+        name, uri = meshes.write(obj, f"{link.name}_{visual.name}", visual.mesh, visual.uv if textured else None)
         v = etree.SubElement(el, "visual", name=name)
         _pose(v, visual.link_from_visual)
         _geometry(v, None, uri)
-        _material(v, visual.material)
+        _material(v, visual.material, meshes.texture(obj, visual.material.texture)[1] if textured else None)
     for collision in link.collisions:
         shape = collision.geometry
         if isinstance(shape, MeshGeometry):

@@ -42,6 +42,7 @@ from articulation.model import (
 )
 from articulation.naming import unique
 from articulation.scene import GRAVITY_M_S2, Scene, SceneObject
+from articulation.scene_meshes import SceneMeshes
 from homemodel.core.errors import ModelError
 
 SCENE_FILE = "scene.usda"
@@ -59,10 +60,11 @@ def _rotation_x_to(axis: np.ndarray) -> np.ndarray:
 
 
 class _StageWriter:
-    def __init__(self, stage) -> None:
+    def __init__(self, stage, meshes: SceneMeshes) -> None:
         from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
 
         self.stage = stage
+        self.meshes = meshes
         self.Gf, self.Sdf, self.Usd, self.UsdGeom, self.UsdPhysics, self.UsdShade = Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
         self.materials: dict[tuple, object] = {}
         self.material_names: set[str] = set()
@@ -97,21 +99,35 @@ class _StageWriter:
         prim.AddTransformOp().Set(self.matrix(a_from_mesh))
         return prim
 
-    def material(self, obj: SceneObject, material: Material):
-        """A UsdPreviewSurface material per object and colour, in the object's `Looks` scope."""
-        key = (obj.id, material.name, tuple(material.rgba))
-        if key not in self.materials:
-            name = unique(obj.name(material.name), self.material_names)
-            usd_material = self.UsdShade.Material.Define(self.stage, f"/World/{obj.safe_id}/Looks/{name}")
-            shader = self.UsdShade.Shader.Define(self.stage, f"/World/{obj.safe_id}/Looks/{name}/surface")
-            shader.CreateIdAttr("UsdPreviewSurface")
-            r, g, b, a = (float(c) for c in material.rgba)
-            shader.CreateInput("diffuseColor", self.Sdf.ValueTypeNames.Color3f).Set(self.Gf.Vec3f(r, g, b))
-            shader.CreateInput("opacity", self.Sdf.ValueTypeNames.Float).Set(a)
-            shader.CreateInput("roughness", self.Sdf.ValueTypeNames.Float).Set(0.8)
-            usd_material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-            self.materials[key] = usd_material
-        return self.materials[key]
+    def material(self, obj: SceneObject, material: Material, textured: bool):
+        """A UsdPreviewSurface material per object and look, in the object's `Looks` scope; a
+        photo texture (a PNG under `meshes/`) read through the mesh's `st` coordinates."""
+        key = (obj.id, material.name, tuple(material.rgba), material.texture if textured else None)
+        if key in self.materials:
+            return self.materials[key]
+        Sdf, UsdShade = self.Sdf, self.UsdShade
+        looks = f"/World/{obj.safe_id}/Looks/{unique(obj.name(material.name), self.material_names)}"
+        usd_material = UsdShade.Material.Define(self.stage, looks)
+        shader = UsdShade.Shader.Define(self.stage, f"{looks}/surface")
+        shader.CreateIdAttr("UsdPreviewSurface")
+        r, g, b, a = (float(c) for c in material.rgba)
+        colour = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+        shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(a)
+        shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.8)
+        usd_material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+        if textured:
+            reader = UsdShade.Shader.Define(self.stage, f"{looks}/st_reader")
+            reader.CreateIdAttr("UsdPrimvarReader_float2")
+            reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+            image = UsdShade.Shader.Define(self.stage, f"{looks}/photo")
+            image.CreateIdAttr("UsdUVTexture")
+            image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(f"./{self.meshes.texture(obj, material.texture)[1]}")
+            image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+            colour.ConnectToSource(image.ConnectableAPI(), "rgb")
+        else:
+            colour.Set(self.Gf.Vec3f(r, g, b))
+        self.materials[key] = usd_material
+        return usd_material
 
     def collider(self, path: str, collision: Collision):
         UsdGeom, UsdPhysics = self.UsdGeom, self.UsdPhysics
@@ -155,7 +171,13 @@ class _StageWriter:
             prim = self.mesh(
                 f"{path}/visuals/{unique(obj.name(visual.name), names)}", visual.mesh, visual.link_from_visual, visual.material.rgba
             )
-            self.UsdShade.MaterialBindingAPI.Apply(prim.GetPrim()).Bind(self.material(obj, visual.material))
+            textured = visual.material.texture is not None and visual.uv is not None
+            if textured:
+                st = self.UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+                    "st", self.Sdf.ValueTypeNames.TexCoord2fArray, self.UsdGeom.Tokens.vertex
+                )
+                st.Set([self.Gf.Vec2f(float(u), float(v)) for u, v in visual.uv])
+            self.UsdShade.MaterialBindingAPI.Apply(prim.GetPrim()).Bind(self.material(obj, visual.material, textured))
         for collision in link.collisions:
             self.collider(f"{path}/collisions/{unique(obj.name(collision.name), names)}", collision)
 
@@ -239,7 +261,7 @@ def write_usd(scene: Scene, folder: Path) -> Path:
     physics = UsdPhysics.Scene.Define(stage, "/World/physicsScene")
     physics.CreateGravityDirectionAttr(Gf.Vec3f(0.0, 0.0, -1.0))
     physics.CreateGravityMagnitudeAttr(GRAVITY_M_S2)
-    writer = _StageWriter(stage)
+    writer = _StageWriter(stage, SceneMeshes(folder))
     if scene.floor:
         world_from_floor, size = floor_box(scene)
         writer.static_box("/World/floor", world_from_floor, size, FLOOR_MATERIAL.rgba)

@@ -431,7 +431,7 @@ def test_room_outline_comes_from_home_yaml_and_round_trips(built_kitchen: Path, 
         load_map(tmp_path / "bad.xml")
 
 
-def test_mjcf_keeps_photo_textures_on_flat_faces(tmp_path: Path) -> None:
+def test_photo_textures_on_flat_faces_in_mjcf_sdf_and_usd(tmp_path: Path) -> None:
     """A photo on a flat face (one quad, no volume) loads, with its texture and coordinates."""
     import trimesh
     from PIL import Image
@@ -453,13 +453,31 @@ def test_mjcf_keeps_photo_textures_on_flat_faces(tmp_path: Path) -> None:
         collisions=[Collision(name="box", geometry=Box(size_m=(0.1, 0.2, 0.2)))],
         inertial=Inertial(mass_kg=0.3, inertia_kgm2=np.eye(3) * 1e-3),
     )
-    xml = export_scene(single_model_scene(Model(name="packet", links=[link])), tmp_path / "mjcf", "mjcf").file
+    scene = single_model_scene(Model(name="packet", links=[link]))
+    xml = export_scene(scene, tmp_path / "mjcf", "mjcf").file
     model = load_mjcf(xml)
     assert model.ntex == 1 and Image.open(xml.parent / "meshes" / "packet" / "packet__front.png").size == (64, 32)
     front = model.geom("packet__body_front")
     assert model.mat_texid[front.matid[0]].max() == 0  # the photo's texture
     assert model.mesh_texcoordnum[front.dataid[0]] == 4
     assert model.geom("packet__body_box").matid[0] == -1 and model.geom("packet__body_box").rgba == pytest.approx([0.9, 0.8, 0.1, 1])
+
+    sdf = export_scene(scene, tmp_path / "sdf", "sdf").file
+    assert sdf_check(sdf)[0]
+    albedo = etree.parse(str(sdf)).getroot().findtext(".//visual[@name='packet__body_front']/material/pbr/metal/albedo_map")
+    assert Image.open(sdf.parent / albedo).size == (64, 32)
+    assert "vt 1 1" in (sdf.parent / "meshes" / "packet" / "packet__body_front.obj").read_text()
+
+    from pxr import Usd, UsdGeom, UsdShade
+
+    usd = export_scene(scene, tmp_path / "usd", "usd").file
+    assert usd_errors(usd) == []
+    stage = Usd.Stage.Open(str(usd))
+    front = stage.GetPrimAtPath("/World/packet/packet__body/visuals/packet__front")
+    assert np.array(UsdGeom.PrimvarsAPI(front).GetPrimvar("st").Get()) == pytest.approx(uv)
+    material, _ = UsdShade.MaterialBindingAPI(front).ComputeBoundMaterial()
+    image = UsdShade.Shader(stage.GetPrimAtPath(f"{material.GetPath()}/photo"))
+    assert Image.open(usd.parent / image.GetInput("file").Get().path).size == (64, 32)
 
 
 def test_rooms_sharing_an_edge_get_one_wall_centred_on_it() -> None:
