@@ -12,9 +12,10 @@ import, whose behaviour changes between versions.
 - A part never collides with the rigid body it is hinged to: MuJoCo filters parent/child
   pairs only away from the world, and a fixed appliance body is welded to the world.
 - Joints get damping and friction (`frictionloss`) from `joint_physics`, which hold every
-  door against gravity; joints with named discrete states (knobs) get a position actuator
-  named after the joint, and every named state is a keyframe `<joint>=<state>`. The
-  keyframe `initial` holds the scene's state with the actuators' targets on it.
+  door against gravity; knobs (joints with named states that turn a knob grasp point) get a
+  position actuator named after the joint, and every named state of any joint is a keyframe
+  `<joint>=<state>`. The keyframe `initial` holds the scene's state with the actuators'
+  targets on it.
 - A free object gets a `<freejoint>`.
 """
 
@@ -26,8 +27,8 @@ import numpy as np
 from lxml import etree
 
 from articulation.gltf_export import quaternion_xyzw
-from articulation.joint_physics import actuator_effort, export_dynamics
-from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Sphere
+from articulation.joint_physics import actuator_effort, export_dynamics, subtree
+from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Model, Sphere
 from articulation.numbers import fixed, fixed_list, significant
 from articulation.scene import Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes
@@ -47,6 +48,14 @@ def _pos_quat(element: etree._Element, a_from_b: np.ndarray) -> None:
     x, y, z, w = quaternion_xyzw(a_from_b[:3, :3])
     element.set("pos", fixed_list(a_from_b[:3, 3]))
     element.set("quat", fixed_list((w, x, y, z), 9))
+
+
+def turns_a_knob(model: Model, joint: Joint) -> bool:
+    """Whether `joint` moves a knob grasp point. Knobs get a position actuator; a door, even
+    one with named states, stays passive: at a reset MuJoCo zeroes every control, and a
+    position actuator would then pull the door shut."""
+    moved = set(subtree(model, joint.child))
+    return any(g.kind == "knob" and g.link in moved for g in model.grasp_points)
 
 
 def rigid_groups(obj: SceneObject) -> dict[str, frozenset[str]]:
@@ -71,7 +80,9 @@ class _Writer:
         self.contact = etree.SubElement(mujoco, "contact")
         self.actuator = etree.SubElement(mujoco, "actuator")
         self.qpos0: list[float] = []
-        # (scoped joint name, qpos index, named states) of each joint with a position actuator
+        # (scoped joint name, qpos index, named states) of each joint with named states, and
+        # of those with a position actuator
+        self.stated: list[tuple[str, int, list[JointState]]] = []
         self.actuated: list[tuple[str, int, list[JointState]]] = []
 
     def mesh_asset(self, obj: SceneObject, stem: str, mesh, uv=None, *, visual: bool = False) -> str:
@@ -157,6 +168,8 @@ class _Writer:
         index = len(self.qpos0)
         self.qpos0.append(q)
         if joint.states:
+            self.stated.append((name, index, joint.states))
+        if joint.states and turns_a_knob(obj.model, joint):
             effort = actuator_effort(obj.model, joint, dynamics)
             # Stiff enough that the friction (which already holds gravity) leaves at most a
             # quarter of ACTUATOR_TOLERANCE of error; no stiffer, so a 10 g knob stays stable.
@@ -214,7 +227,7 @@ class _Writer:
                 el.set("ctrl", fixed_list(ctrl, 9))
 
         key("initial", self.qpos0, ctrl0)
-        for joint_name, index, states in self.actuated:
+        for joint_name, index, states in self.stated:
             for state in states:
                 qpos = list(self.qpos0)
                 qpos[index] = state.position

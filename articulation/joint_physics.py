@@ -25,7 +25,7 @@ HOLDING_MARGIN = 1.3
 _ANGLE_SAMPLES = 91
 
 
-def _subtree(model: Model, link_name: str) -> list[str]:
+def subtree(model: Model, link_name: str) -> list[str]:
     """`link_name` and every link below it."""
     children: dict[str, list[str]] = {}
     for j in model.joints:
@@ -39,7 +39,7 @@ def _subtree(model: Model, link_name: str) -> list[str]:
 
 
 def moved_mass_kg(model: Model, joint: Joint) -> float:
-    return sum(model.link(n).inertial.mass_kg for n in _subtree(model, joint.child) if model.link(n).inertial)
+    return sum(model.link(n).inertial.mass_kg for n in subtree(model, joint.child) if model.link(n).inertial)
 
 
 def gravity_effort(
@@ -53,7 +53,7 @@ def gravity_effort(
     g = np.array([0.0, 0.0, -GRAVITY_M_S2]) if gravity_model is None else np.asarray(gravity_model, dtype=float)
     if not joint.is_movable:
         return 0.0
-    links = _subtree(model, joint.child)
+    links = subtree(model, joint.child)
     lower, upper = (joint.limits.lower, joint.limits.upper) if joint.limits and joint.type != "continuous" else (-np.pi, np.pi)
     worst = 0.0
     for q in np.linspace(lower, upper, _ANGLE_SAMPLES if joint.type != "prismatic" else 2):

@@ -506,3 +506,23 @@ def test_a_small_model_exported_free_rests_on_a_floor(built_kitchen: Path, tmp_p
     assert usd_errors(_export_model(model_dir, tmp_path / "usd", "usd", "--free") / "scene.usda") == []
     result = runner.invoke(app, ["export", str(model_dir), "--format", "urdf-ros", "--free", "--out", str(tmp_path / "ros")])
     assert result.exit_code == 2 and "--free" in result.output
+
+
+def test_a_door_with_named_states_gets_keyframes_but_no_actuator(built_kitchen: Path, tmp_path: Path) -> None:
+    """At a reset MuJoCo zeroes every control: a position actuator would pull a door shut."""
+    import mujoco
+
+    from articulation import JointState
+    from articulation.scene import single_model_scene
+    from articulation.simulator_export import export_scene
+    from articulation.urdf_import import load_urdf
+
+    cupboard = load_urdf(built_kitchen / "models" / "cupboard_1" / "model.urdf")
+    cupboard.joint("door_0_hinge").states = [JointState(name="closed", position=0.0), JointState(name="open", position=1.5)]
+    xml = export_scene(single_model_scene(cupboard), tmp_path / "mjcf", "mjcf").file
+    model = load_mjcf(xml)
+    assert model.nu == 0
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("cupboard_1__door_0_hinge=open").id)
+    assert data.qpos[model.joint("cupboard_1__door_0_hinge").qposadr[0]] == pytest.approx(1.5)
+    assert_mujoco_stable(mujoco_figures(xml))
