@@ -57,7 +57,7 @@ def _summary(scene: Scene, fmt: str, file: Path, out_dir: Path, seconds: float) 
     meshes = out_dir / "meshes"
     return {
         "format": fmt,
-        "file": file.name if file.parent == out_dir else str(file.relative_to(out_dir)),
+        "file": file.relative_to(out_dir).as_posix(),
         "objects": [
             {
                 "id": o.id,
