@@ -9,10 +9,13 @@ STAMP := $(VENV)/.installed
 NODE_TOOLS := tools/node_modules/gltf-validator/package.json
 APT_STAMP := .venv-apt.stamp
 
-# Shared libraries that open3d (libusb), bpy and vtk/pyvista (X11, GL, EGL) load on Debian 12.
+# Shared libraries that open3d (libusb), bpy, vtk/pyvista and MuJoCo's renderer (X11, GL, EGL)
+# load on Debian 12; `ign sdf -k` (ignition-tools with SDFormat 12's libsdformat-dev) checks
+# the SDF exports.
 APT_PACKAGES := libusb-1.0-0 libegl1 libgl1 libglx0 libopengl0 libsm6 libice6 libx11-6 \
 	libxext6 libxfixes3 libxi6 libxkbcommon0 libxrender1 libxt6 libxxf86vm1 \
-	libfontconfig1 libfreetype6 libgomp1
+	libfontconfig1 libfreetype6 libgomp1 \
+	ignition-tools libsdformat-dev
 
 .PHONY: demo test setup clean
 
@@ -25,7 +28,7 @@ test: setup
 
 setup: $(APT_STAMP) $(STAMP) $(NODE_TOOLS)
 
-$(APT_STAMP):
+$(APT_STAMP): Makefile
 	@missing=$$(for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	command -v npm >/dev/null || missing="$$missing nodejs npm"; \
 	if [ -n "$$missing" ]; then \

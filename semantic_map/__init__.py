@@ -10,6 +10,9 @@ object's pose and default positions are in its parent object's frame; joint orig
 axes and grasp points are in the owning object's frame (its model's root link frame with
 every joint at zero). `SemanticMap.world_from_object` composes them.
 
+`scene_from_map` turns a map into a simulator scene and `export_home` writes it as URDF, MJCF,
+SDF, USD or glTF (`homemodel map export`).
+
 `add_model_folder` registers a model folder into a map file (the command `homemodel map add`
 and the pipelines' maps).
 
@@ -19,6 +22,7 @@ object's timestamped history.
 """
 
 from semantic_map.hierarchy import SemanticMap
+from semantic_map.home_scene import export_home, scene_from_map
 from semantic_map.model_folder import MapEntry, Registration, add_model_folder
 from semantic_map.nodes import (
     Apartment,
@@ -62,7 +66,9 @@ __all__ = [
     "SmallObject",
     "Switch",
     "add_model_folder",
+    "export_home",
     "load_map",
     "map_to_bytes",
     "save_map",
+    "scene_from_map",
 ]

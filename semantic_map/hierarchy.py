@@ -94,9 +94,19 @@ class SemanticMap:
 
     # Building
 
-    def add_room(self, *, room_id: str, name: str, point_cloud: str | None = None) -> Room:
-        """Add a room; `point_cloud` refers to its part of the metric map."""
-        room = Room(id=self._new_id(room_id), name=check_label(name, "room name"), point_cloud=point_cloud)
+    def add_room(
+        self,
+        *,
+        room_id: str,
+        name: str,
+        point_cloud: str | None = None,
+        outline: list[tuple[float, float]] | None = None,
+    ) -> Room:
+        """Add a room; `point_cloud` refers to its part of the metric map, `outline` is its
+        floor plan (polygon corners in the map frame)."""
+        room = Room(
+            id=self._new_id(room_id), name=check_label(name, "room name"), point_cloud=point_cloud, outline=outline
+        )
         self.apartment.rooms.append(room)
         self._index(room, self.apartment.id)
         return room

@@ -289,11 +289,22 @@ class LargeArticulatedObject(LargeObject, Jointed):
 
 @dataclass(kw_only=True)
 class Room:
+    """A room; `outline`, if known, is its floor plan: polygon corners (x, y) in the map frame."""
+
     id: str
     name: str
     point_cloud: str | None = None
+    outline: list[tuple[float, float]] | None = None
     switches: list[Switch] = field(default_factory=list)
     objects: list[LargeObject] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if self.outline is None:
+            return
+        corners = [tuple(float(v) + 0.0 for v in corner) for corner in self.outline]
+        if len(corners) < 3 or any(len(c) != 2 or not all(math.isfinite(v) for v in c) for c in corners):
+            raise MapError(f"room {self.id!r}: outline needs at least 3 corners of 2 finite numbers, got {self.outline!r}")
+        self.outline = corners  # type: ignore[assignment]
 
 
 @dataclass(kw_only=True)

@@ -138,6 +138,7 @@ class _Reader:
             id=el.get("id"),
             name=el.get("name"),
             point_cloud=el.get("pointCloud"),
+            outline=[_floats(c.get("xy")) for c in el.iterfind(f"{q('outline')}/{q('corner')}")] or None,
             switches=[
                 Switch(id=s.get("id"), type=s.get("type"), world_from_switch=_pose(s)) for s in el.iterfind(q("switch"))
             ],

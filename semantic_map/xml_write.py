@@ -127,6 +127,10 @@ def _large_object(room: etree._Element, obj: LargeObject) -> None:
 
 def _room(apartment: etree._Element, room: Room) -> None:
     el = _sub(apartment, "room", id=room.id, name=room.name, pointCloud=room.point_cloud)
+    if room.outline is not None:
+        outline = _sub(el, "outline")
+        for corner in room.outline:
+            _sub(outline, "corner", xy=numbers(corner))
     for switch in room.switches:
         _posed(el, "switch", switch.world_from_switch, id=switch.id, type=switch.type)
     for obj in room.objects:

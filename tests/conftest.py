@@ -52,6 +52,19 @@ def textured_dir() -> Path:
     return REPO / "examples" / "textured"
 
 
+@pytest.fixture(scope="session")
+def built_kitchen(tmp_path_factory: pytest.TempPathFactory, kitchen_dir: Path) -> Path:
+    """`homemodel build examples/kitchen` run once for the session: `map.xml` and `models/`."""
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    out = tmp_path_factory.mktemp("kitchen") / "out"
+    result = CliRunner().invoke(app, ["build", str(kitchen_dir), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    return out
+
+
 class Catalogue:
     """The catalogue examples by name, each built in Blender, exported and validated by the
     gate the first time a test asks for it, then kept for the session."""

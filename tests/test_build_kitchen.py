@@ -17,11 +17,8 @@ runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory: pytest.TempPathFactory, kitchen_dir: Path) -> Path:
-    out = tmp_path_factory.mktemp("kitchen") / "out"
-    result = runner.invoke(app, ["build", str(kitchen_dir), "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    return out
+def built(built_kitchen: Path) -> Path:
+    return built_kitchen
 
 
 def test_build_writes_every_model_and_the_map(built: Path) -> None:

@@ -7,6 +7,7 @@ Every later check runs whatever the others found, so one report lists every faul
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 from lxml import etree
@@ -23,6 +24,7 @@ from articulation.gate.urdf_rules import (
     tree_check,
     unsafe_mesh_references,
 )
+from articulation.mesh_paths import with_package_uris_resolved
 from articulation.urdf_import import find_urdf
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.core.safe_xml import parse_xml_file
@@ -75,8 +77,10 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
     refusal = _pybullet_refusal(tree, robot, urdf.parent)
-    checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(urdf, declared))
-    checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(urdf))
+    with tempfile.TemporaryDirectory(prefix="homemodel-gate-") as tmp:
+        loadable = with_package_uris_resolved(urdf, Path(tmp))
+        checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(loadable, declared))
+        checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(loadable))
     return checks, True
 
 

@@ -165,7 +165,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
 
     smap = SemanticMap.new(apartment_id=home.apartment.id, name=home.apartment.name)
     for room in home.rooms:
-        smap.add_room(room_id=room.id, name=room.name, point_cloud=room.point_cloud)
+        smap.add_room(room_id=room.id, name=room.name, point_cloud=room.point_cloud, outline=room.outline)
 
     rows: list[ObjectRow] = []
     tops: dict[str, float] = {}

@@ -104,6 +104,9 @@ class RoomSpec(_Strict):
     id: MapId
     name: str = Field(min_length=1)
     point_cloud: str | None = None
+    outline: list[tuple[float, float]] | None = Field(
+        default=None, min_length=3, description="floor plan: polygon corners [x, y] in the map frame, metres"
+    )
     objects: list[LargeObjectSpec] = Field(default_factory=list)
     runs: list[RunSpec] = Field(default_factory=list)
 

@@ -13,6 +13,7 @@ import typer
 from homemodel.cli.build_command import build
 from homemodel.cli.completion_commands import completion_app
 from homemodel.cli.eval_commands import eval_app
+from homemodel.cli.export_command import export
 from homemodel.cli.map_commands import map_app
 from homemodel.cli.photogrammetry_commands import photogrammetry_app
 from homemodel.cli.render_command import render
@@ -29,6 +30,7 @@ app = typer.Typer(
 app.command()(build)
 app.command()(validate)
 app.command()(render)
+app.command()(export)
 app.add_typer(map_app, name="map", help="Show, query, extend and validate a hierarchical semantic map.")
 app.add_typer(turntable_app, name="turntable", help="AprilTag turntable: print a board, simulate a capture, reconstruct a mesh.")
 app.add_typer(photogrammetry_app, name="photogrammetry", help="Photos to a textured, metric mesh through COLMAP.")
