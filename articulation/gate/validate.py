@@ -14,6 +14,7 @@ from lxml import etree
 from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
 from articulation.gate.collisions import collisions_check
 from articulation.gate.gltf import gltf_checks
+from articulation.gate.physics import physics_check
 from articulation.gate.report import Check, ValidationReport
 from articulation.gate.urdf_rules import (
     axes_check,
@@ -77,6 +78,7 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     refusal = _pybullet_refusal(tree, robot, urdf.parent)
     checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(urdf, declared))
     checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(urdf))
+    checks.append(Check("physics", False, f"not run: {refusal}") if refusal else physics_check(urdf))
     return checks, True
 
 

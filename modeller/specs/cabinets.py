@@ -22,6 +22,7 @@ from modeller.specs.cabinet_geometry import shelf_span_m
 from modeller.specs.cabinet_rules import check_cabinet, check_door_front, check_drawer_front
 from modeller.specs.common import _EPS_M, Colour, Length, ObjectSpec, Offset, _Spec
 from modeller.specs.handles import ControlKnob, DoorHandle, DrawerHandle, Orientation
+from modeller.specs.joint_dynamics import JointDynamicsSpec
 
 Hinge = Literal["left", "right", "top", "bottom"]
 # Dark glass for door windows and hob plates.
@@ -74,6 +75,7 @@ class DoorSpec(Front):
     opening_limit_deg: Annotated[float, Field(gt=0, le=180)] = 100.0
     handle: DoorHandle = Field(default_factory=DoorHandle)
     window: Window | None = None
+    dynamics: JointDynamicsSpec | None = Field(None, description="the hinge's damping and friction; default: by its kind")
     shelves: list[DoorShelf] = Field([], description="bins on the door's inner face (a fridge door's)")
 
     @property
@@ -106,6 +108,7 @@ class DrawerSpec(Front):
     depth_m: Length = Field(description="depth of the drawer box behind the front")
     travel_m: Length = Field(description="how far the drawer pulls out")
     handle: DrawerHandle = Field(default_factory=DrawerHandle)
+    dynamics: JointDynamicsSpec | None = Field(None, description="the slide's damping and friction; default: by its kind")
 
     def handle_orientation(self) -> Orientation:
         return self.handle.direction("horizontal")
