@@ -38,9 +38,6 @@ PENETRATION_TOLERANCE_M = 1e-3
 # pybullet's URDF importer gives every convex mesh collision shape this margin (Bullet's
 # gUrdfDefaultCollisionMargin); boxes, cylinders and spheres have their margin inside.
 BULLET_MESH_MARGIN_M = 1e-3
-# getClosestPoints returns nothing at all for a query distance of zero, so ask a little
-# further out and keep the pairs that overlap.
-_QUERY_DISTANCE_M = 0.01
 # Between its limits a joint is also tried at these fractions of its range, so a door that
 # swings through a wall and out the other side is caught on the way.
 _SWEEP_FRACTIONS = (0.25, 0.5, 0.75)
@@ -63,14 +60,16 @@ class _Joint:
 
 @dataclass(frozen=True)
 class _Configuration:
+    """One joint moved to `position`, every other at rest (no joint: all at rest)."""
+
     label: str
-    positions: dict[int, float]
+    joint: _Joint | None = None
+    position: float = 0.0
 
 
 def _configurations(joints: list[_Joint]) -> list[_Configuration]:
     """Rest, then each joint alone at its limits and on the way between them (others at rest)."""
-    rest = {j.index: j.rest for j in joints}
-    configurations = [_Configuration("at rest", rest)]
+    configurations = [_Configuration("at rest")]
     for joint in joints:
         if joint.lower <= joint.upper:
             span = joint.upper - joint.lower
@@ -84,7 +83,7 @@ def _configurations(joints: list[_Joint]) -> list[_Configuration]:
             samples = [(f"at {q:.3g} rad", q) for q in _UNLIMITED_SAMPLES_RAD]
         for label, q in samples:
             if q != joint.rest:
-                configurations.append(_Configuration(f"{joint.name} {label}", {**rest, joint.index: q}))
+                configurations.append(_Configuration(f"{joint.name} {label}", joint, q))
     return configurations
 
 
@@ -122,36 +121,54 @@ class _Links:
             for index in self.names
         }
 
-    def pairs(self) -> list[tuple[int, int]]:
-        """Every pair of links with collision shapes that can move against each other."""
-        links = self.with_shapes
-        return [(a, b) for k, a in enumerate(links) for b in links[k + 1 :] if self.group[a] != self.group[b]]
+    def pair_count(self) -> int:
+        """How many pairs of links with collision shapes can move against each other."""
+        sizes: dict[int, int] = {}
+        for index in self.with_shapes:
+            sizes[self.group[index]] = sizes.get(self.group[index], 0) + 1
+        n = len(self.with_shapes)
+        return n * (n - 1) // 2 - sum(k * (k - 1) // 2 for k in sizes.values())
 
 
-def _depths_m(pb: Any, client: int, body: int, links: _Links, pairs: list[tuple[int, int]]) -> dict:
-    """How far each pair passes into each other (positive), for the pairs that do at all."""
-    depths = {}
-    for a, b in pairs:
-        points = pb.getClosestPoints(body, body, _QUERY_DISTANCE_M, a, b, physicsClientId=client)
-        if points:
-            depth = -min(p[8] for p in points) - links.margin_m[a] - links.margin_m[b]
-            if depth > 0:
-                depths[(a, b)] = depth
+def _depths_m(pb: Any, client: int, body: int, links: _Links) -> dict[tuple[int, int], float]:
+    """How far each pair of links not welded together passes into each other (positive),
+    for the pairs that do at all.
+
+    pybullet's broadphase finds the pairs whose boxes overlap, so the cost follows the
+    contacts, not the square of the number of links.
+    """
+    pb.performCollisionDetection(physicsClientId=client)
+    depths: dict[tuple[int, int], float] = {}
+    for point in pb.getContactPoints(bodyA=body, bodyB=body, physicsClientId=client):
+        a, b = sorted((point[3], point[4]))
+        if links.group[a] == links.group[b]:
+            continue
+        depth = -point[8] - links.margin_m[a] - links.margin_m[b]
+        if depth > depths.get((a, b), 0.0):
+            depths[(a, b)] = depth
     return depths
 
 
 def collision_problems(pb: Any, client: int, body: int) -> tuple[list[str], str]:
-    """The penetrations found, and a one-line account of what was checked."""
+    """The penetrations found, and a one-line account of what was checked.
+
+    Only the swept joint is moved, and put back at rest after its samples, so each
+    configuration costs pybullet one collision pass, whatever the number of joints.
+    """
     links = _Links(pb, client, body)
-    pairs = links.pairs()
     configurations = _configurations(links.joints)
+    for joint in links.joints:
+        pb.resetJointState(body, joint.index, joint.rest, physicsClientId=client)
     problems: list[str] = []
     at_rest: dict = {}
     deepest = 0.0
     for configuration in configurations:
-        for joint in links.joints:
-            pb.resetJointState(body, joint.index, configuration.positions[joint.index], physicsClientId=client)
-        depths = _depths_m(pb, client, body, links, pairs)
+        moved = configuration.joint
+        if moved is not None:
+            pb.resetJointState(body, moved.index, configuration.position, physicsClientId=client)
+        depths = _depths_m(pb, client, body, links)
+        if moved is not None:
+            pb.resetJointState(body, moved.index, moved.rest, physicsClientId=client)
         # A pair already overlapping at rest is reported once, then again only if a joint drives it deeper.
         baseline = at_rest if configuration is not configurations[0] else {}
         for (a, b), depth in depths.items():
@@ -164,7 +181,7 @@ def collision_problems(pb: Any, client: int, body: int) -> tuple[list[str], str]
         if configuration is configurations[0]:
             at_rest = depths
     summary = (
-        f"{count(len(pairs), 'link pair')} at {count(len(configurations), 'joint configuration')}; "
+        f"{count(links.pair_count(), 'link pair')} at {count(len(configurations), 'joint configuration')}; "
         f"deepest contact {deepest * 1000:.2f} mm (tolerance {PENETRATION_TOLERANCE_M * 1000:g} mm)"
     )
     return problems, summary
@@ -184,7 +201,10 @@ def collisions_check(urdf: Path) -> Check:
 
         client = pb.connect(pb.DIRECT)
         try:
-            body = pb.loadURDF(str(urdf), useFixedBase=True, physicsClientId=client)
+            # Self-collision with parent and child included: every pair of links goes
+            # through the broadphase; welded pairs are left out after.
+            flags = pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_INCLUDE_PARENT
+            body = pb.loadURDF(str(urdf), useFixedBase=True, flags=flags, physicsClientId=client)
             problems, summary = collision_problems(pb, client, body)
         except pb.error as exc:
             error = str(exc)
