@@ -25,7 +25,7 @@ from articulation.gate.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
 RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes"]
-URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions"]
+URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions", "physics"]
 GLTF_CHECKS = ["glTF validator", "glTF joints"]
 
 # A cupboard body with a door (revolute), a drawer (prismatic), an oven-style knob
