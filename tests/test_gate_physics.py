@@ -6,8 +6,6 @@ import math
 import time
 from pathlib import Path
 
-import pytest
-
 from articulation.gate.physics import MAX_DRIFT_M, physics_check, physics_problems
 from articulation.gate.validate import PYBULLET_MAX_JOINTS, validate_path
 from homemodel.core.c_stdio_capture import captured_c_output
