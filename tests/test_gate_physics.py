@@ -87,6 +87,11 @@ def test_a_small_object_standing_on_its_base_stays_and_one_on_a_point_topples(tm
     point = _small(tmp_path / "point", xyz="0 0 0.005", geometry='<sphere radius="0.005"/>', com="0.03 0 0.05")
     check = physics_check(point)
     assert not check.passed and "set free on a floor, it moved" in check.detail
+    # In another frame (a completed shape in its camera's, 0.6 m ahead): not set down at all.
+    elsewhere = _small(tmp_path / "elsewhere", xyz="0 0 0.6", geometry='<sphere radius="0.005"/>', com="0.03 0 0.65")
+    with captured_c_output():
+        problems, summary, _, resting = physics_problems(elsewhere)
+    assert resting is None and not problems and "floor" not in summary
 
 
 def _chain(path: Path, joints: int) -> Path:

@@ -10,8 +10,10 @@ a fixed base do not touch each other in this simulation (pybullet leaves self-co
 off), so setting them together tests each alone, in one simulation: the cost grows
 linearly with the number of joints.
 
-A small object (at most `SMALL_MAX_KG` and `SMALL_MAX_EXTENT_M` across) is also set free on
-a floor under its lowest point, its joints at rest, and must stay within `MAX_DRIFT_M`.
+A small object (at most `SMALL_MAX_KG` and `SMALL_MAX_EXTENT_M` across) that stands in its
+frame as homemodel's models do (its lowest point on z = 0, within `STANDING_TOLERANCE_M`) is
+also set free on a floor there, its joints at rest, and must stay within `MAX_DRIFT_M`. A
+model in another frame (a completed shape in its camera's) is not set down.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ MAX_DRIFT_RAD = math.radians(5.0)
 MAX_DRIFT_M = 0.005
 SMALL_MAX_KG = 5.0
 SMALL_MAX_EXTENT_M = 0.5
+STANDING_TOLERANCE_M = 0.005
 GRAVITY_M_S2 = 9.80665
 _FLOOR_PROBE_M = 0.1
 # A slide whose axis is within this angle of the vertical is one gravity drives to an end.
@@ -132,7 +135,7 @@ def _mass_kg(pb: Any, client: int, body: int) -> float:
 
 def resting_drift_m(pb: Any, client: int, urdf: Path) -> float | None:
     """How far a small object set free on a floor under it moves in `SIMULATED_S`; None
-    when the model is not a small object."""
+    when the model is not a small object standing on z = 0."""
     body = pb.loadURDF(str(urdf), useFixedBase=False, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client)
     bounds = _bounds(pb, client, body)
     if _mass_kg(pb, client, body) > SMALL_MAX_KG or (bounds[1] - bounds[0]).max() > SMALL_MAX_EXTENT_M:
@@ -143,8 +146,10 @@ def resting_drift_m(pb: Any, client: int, urdf: Path) -> float | None:
     below = float(bounds[0, 2]) - _FLOOR_PROBE_M
     shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=client)
     floor = pb.createMultiBody(0.0, shape, basePosition=(0.0, 0.0, below), physicsClientId=client)
-    gap = min(p[8] for p in pb.getClosestPoints(body, floor, 2 * _FLOOR_PROBE_M, physicsClientId=client))
-    pb.resetBasePositionAndOrientation(floor, (0.0, 0.0, below + gap), (0, 0, 0, 1), physicsClientId=client)
+    lowest = below + min(p[8] for p in pb.getClosestPoints(body, floor, 2 * _FLOOR_PROBE_M, physicsClientId=client))
+    if abs(lowest) > STANDING_TOLERANCE_M:
+        return None
+    pb.resetBasePositionAndOrientation(floor, (0.0, 0.0, lowest), (0, 0, 0, 1), physicsClientId=client)
     _hold_with_friction(pb, client, body, _movable(pb, client, body))
     start = np.array(pb.getBasePositionAndOrientation(body, physicsClientId=client)[0])
     _simulate(pb, client)
