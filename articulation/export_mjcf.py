@@ -27,7 +27,8 @@ import numpy as np
 from lxml import etree
 
 from articulation.gltf_export import quaternion_xyzw
-from articulation.joint_physics import actuator_effort, export_dynamics, subtree
+from articulation.export_dynamics import actuator_effort, export_dynamics
+from articulation.joint_loads import subtree_links
 from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Model, Sphere
 from articulation.numbers import fixed, fixed_list, significant
 from articulation.scene import Scene, SceneObject
@@ -54,7 +55,7 @@ def turns_a_knob(model: Model, joint: Joint) -> bool:
     """Whether `joint` moves a knob grasp point. Knobs get a position actuator; a door, even
     one with named states, stays passive: at a reset MuJoCo zeroes every control, and a
     position actuator would then pull the door shut."""
-    moved = set(subtree(model, joint.child))
+    moved = set(subtree_links(model, joint))
     return any(g.kind == "knob" and g.link in moved for g in model.grasp_points)
 
 

@@ -19,10 +19,11 @@ import numpy as np
 from lxml import etree
 
 from articulation.export_scene_urdf import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
-from articulation.joint_physics import export_dynamics
+from articulation.export_dynamics import export_dynamics
 from articulation.model import Box, Cylinder, Link, Material, MeshGeometry, Sphere
 from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
-from articulation.scene import GRAVITY_M_S2, Scene, SceneObject
+from articulation.joint_loads import STANDARD_GRAVITY_M_S2
+from articulation.scene import Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes
 from homemodel.core.atomic import write_text_atomic
 from homemodel.core.transforms import translation_transform
@@ -156,7 +157,7 @@ def sdf_bytes(scene: Scene, folder: Path) -> bytes:
     """The SDF document of `scene`; writes its meshes under `folder/meshes/`."""
     sdf = etree.Element("sdf", version=SDF_VERSION, nsmap={"homemodel": HOMEMODEL_NS})
     world = etree.SubElement(sdf, "world", name=scene.name)
-    _text(world, "gravity", f"0 0 {-GRAVITY_M_S2}")
+    _text(world, "gravity", f"0 0 {-STANDARD_GRAVITY_M_S2}")
     physics = etree.SubElement(world, "physics", name="default", type="dart")
     _text(physics, "max_step_size", "0.001")
     _text(physics, "real_time_factor", "1")

@@ -29,7 +29,7 @@ import numpy as np
 import trimesh
 
 from articulation.export_scene_urdf import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
-from articulation.joint_physics import export_dynamics
+from articulation.export_dynamics import export_dynamics
 from articulation.model import (
     Box,
     Collision,
@@ -41,7 +41,8 @@ from articulation.model import (
     Sphere,
 )
 from articulation.naming import unique
-from articulation.scene import GRAVITY_M_S2, Scene, SceneObject
+from articulation.joint_loads import STANDARD_GRAVITY_M_S2
+from articulation.scene import Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes
 from homemodel.core.errors import ModelError
 
@@ -260,7 +261,7 @@ def write_usd(scene: Scene, folder: Path) -> Path:
     stage.SetDefaultPrim(world.GetPrim())
     physics = UsdPhysics.Scene.Define(stage, "/World/physicsScene")
     physics.CreateGravityDirectionAttr(Gf.Vec3f(0.0, 0.0, -1.0))
-    physics.CreateGravityMagnitudeAttr(GRAVITY_M_S2)
+    physics.CreateGravityMagnitudeAttr(STANDARD_GRAVITY_M_S2)
     writer = _StageWriter(stage, SceneMeshes(folder))
     if scene.floor:
         world_from_floor, size = floor_box(scene)

@@ -174,6 +174,8 @@ def _joint_extras(joint: Joint) -> dict:
         extras.update(lower=rounded(joint.limits.lower) + 0.0, upper=rounded(joint.limits.upper) + 0.0)
     if joint.limits is not None:
         extras.update(effort=float(significant(joint.limits.effort)), velocity=float(significant(joint.limits.velocity)))
+    if joint.dynamics is not None:
+        extras.update(damping=float(significant(joint.dynamics.damping)), friction=float(significant(joint.dynamics.friction)))
     if joint.states:
         extras["states"] = [{"name": s.name, "position": rounded(s.position) + 0.0} for s in joint.states]
     return extras

@@ -4,8 +4,10 @@ shape_completion hand to the exporter.
 One link, `body` (as the modeller names the root of its objects, and the map registers a
 model by its root link), holding the mesh as its visual (`body_body.obj` in meshes/), the
 mesh as its collision (the exporters write its convex hull, which pybullet and the gate's
-collision sweep load as one convex shape), and an inertial from the mesh's volume (its
-hull's, when the mesh is not closed).
+collision sweep load as one convex shape) or, for a closed concave mesh (a cup, a bowl),
+its convex parts (`articulation.convex_parts`, their fidelity in the property
+`collision_parts`), and an inertial from the mesh's volume (its hull's, when the mesh is
+not closed).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from articulation.convex_parts import decompose, is_concave
 from articulation.inertia import inertial_from_meshes
 from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
 
@@ -48,4 +51,11 @@ def scan_model(
         collisions=[Collision(name="hull", geometry=MeshGeometry(mesh=mesh))],
         inertial=inertial_from_meshes([mesh], density_kg_m3=density_kg_m3),
     )
-    return Model(name=name, links=[link], category=category, properties=dict(properties or {}))
+    properties = dict(properties or {})
+    if is_concave(mesh):
+        split = decompose(mesh)
+        link.collisions = [
+            Collision(name=f"part_{k}", geometry=MeshGeometry(mesh=part.mesh)) for k, part in enumerate(split.parts)
+        ]
+        properties["collision_parts"] = split.format()
+    return Model(name=name, links=[link], category=category, properties=properties)

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from articulation.joint_loads import UPRIGHT_GRAVITY_M_S2
 from articulation.model import Model
 from homemodel.core.errors import ModelError
 from homemodel.core.transforms import as_transform
 
-GRAVITY_M_S2 = 9.81
 WALL_HEIGHT_M = 2.5
 WALL_THICKNESS_M = 0.1
 _NAME_UNSAFE = re.compile(r"[^A-Za-z0-9_]+")
@@ -55,7 +55,7 @@ class SceneObject:
     @property
     def gravity_model(self) -> np.ndarray:
         """Gravity (m/s²) in the model's frame: -z for an upright object."""
-        return self.world_from_model[:3, :3].T @ np.array([0.0, 0.0, -GRAVITY_M_S2])
+        return self.world_from_model[:3, :3].T @ UPRIGHT_GRAVITY_M_S2
 
     @property
     def safe_id(self) -> str:

@@ -32,13 +32,19 @@ if TYPE_CHECKING:
     import bpy
     from mathutils import Matrix
 
+# Parts with fixed masses never take more than this share from the rest of the model (its
+# carcass, machinery and fittings), whatever their materials say.
+MIN_REST_SHARE = 0.3
+
 
 @dataclass(kw_only=True)
 class Assembly:
     """A builder's description of the model beside its Blender objects.
 
     `collisions` lists every link (root first) with its collision shapes in the link frame.
-    Give `mass_kg` (the whole model's, spread uniformly over its volume) or `density_kg_m3`.
+    Give `mass_kg` (the whole model's) or `density_kg_m3` (the total follows from the
+    volume). `link_masses_kg` fixes the mass of parts whose mass is known from what they are
+    (a door as a panel of its material); the other links share the rest of the total by volume.
     """
 
     name: str
@@ -50,6 +56,7 @@ class Assembly:
     properties: dict[str, str] = field(default_factory=dict)
     density_kg_m3: float | None = None
     mass_kg: float | None = None
+    link_masses_kg: dict[str, float] = field(default_factory=dict)
 
 
 def model_from_scene(assembly: Assembly) -> Model:
@@ -85,7 +92,9 @@ def model_from_scene(assembly: Assembly) -> Model:
     for link in links:
         if not link.visuals:
             raise ModelError(f"link {link.name!r} has no mesh objects in the scene")
-    _set_inertials(links, solids, density_kg_m3=assembly.density_kg_m3, mass_kg=assembly.mass_kg)
+    _set_inertials(
+        links, solids, density_kg_m3=assembly.density_kg_m3, mass_kg=assembly.mass_kg, fixed_kg=assembly.link_masses_kg
+    )
     return Model(
         name=assembly.name,
         links=links,
@@ -164,16 +173,35 @@ def _material(obj: bpy.types.Object, slot: int, materials: dict[str, Material]) 
 
 
 def _set_inertials(
-    links: list[Link], solids: dict[str, list[trimesh.Trimesh]], *, density_kg_m3: float | None, mass_kg: float | None
+    links: list[Link],
+    solids: dict[str, list[trimesh.Trimesh]],
+    *,
+    density_kg_m3: float | None,
+    mass_kg: float | None,
+    fixed_kg: dict[str, float],
 ) -> None:
-    """Inertials from each link's whole objects' meshes, at one density for the whole model."""
+    """Inertials from each link's whole objects' meshes: the links in `fixed_kg` at their
+    mass, the others sharing the rest of the total at one density.
+
+    The total is `mass_kg`, else `density_kg_m3` times the whole volume. Fixed masses that
+    would leave the other links less than `MIN_REST_SHARE` of the total are scaled down.
+    """
     if (density_kg_m3 is None) == (mass_kg is None):
         raise ValueError("give exactly one of density_kg_m3 and mass_kg")
+    unknown = set(fixed_kg) - {link.name for link in links}
+    if unknown:
+        raise ModelError(f"masses given for links {sorted(unknown)}, which the model does not have")
     # At unit density an inertial's mass is the link's volume, and mass and inertia scale
-    # linearly with density, so a total mass fixes the density after one pass.
-    unit = [inertial_from_meshes(solids[link.name], density_kg_m3=1.0) for link in links]
-    density = density_kg_m3 if density_kg_m3 is not None else mass_kg / sum(i.mass_kg for i in unit)
-    for link, inertial in zip(links, unit):
+    # linearly with density, so one pass gives every link's shape.
+    unit = {link.name: inertial_from_meshes(solids[link.name], density_kg_m3=1.0) for link in links}
+    total = mass_kg if mass_kg is not None else density_kg_m3 * sum(i.mass_kg for i in unit.values())
+    rest_volume = sum(i.mass_kg for name, i in unit.items() if name not in fixed_kg)
+    fixed_total = sum(fixed_kg.values())
+    scale = min(1.0, (1 - MIN_REST_SHARE) * total / fixed_total) if fixed_total > 0 else 1.0
+    rest_density = (total - scale * fixed_total) / rest_volume if rest_volume > 0 else 0.0
+    for link in links:
+        inertial = unit[link.name]
+        density = scale * fixed_kg[link.name] / inertial.mass_kg if link.name in fixed_kg else rest_density
         link.inertial = Inertial(
             mass_kg=inertial.mass_kg * density, com_m=inertial.com_m, inertia_kgm2=inertial.inertia_kgm2 * density
         )

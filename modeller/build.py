@@ -46,6 +46,7 @@ from modeller.builders.vessels import (
     build_plate,
 )
 from modeller.builders.worktop import build_worktop
+from modeller.joint_physics import set_joint_physics
 from modeller.photo_texture import FaceTextureOptions, texture_folder
 from modeller.spec_loading import load_spec
 from modeller.specs import Spec
@@ -111,6 +112,7 @@ def build_textured(
             where = spec_path if spec_path is not None else f"spec {name!r}"
             raise SpecError(f"{where}: {'.'.join(str(part) for part in exc.loc)}: {exc}") from None
     model = model_from_scene(assembly)
+    set_joint_physics(model)
     if blend_path is not None:
         save_blend(Path(blend_path))
     return TexturedBuild(model=model, photos=placements)
@@ -210,6 +212,7 @@ def build(
             "joints": len(model.movable_joints),
             "grasp_points": len(model.grasp_points),
             "triangles": sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
+            "masses_kg": {link.name: round(link.inertial.mass_kg, 4) for link in model.links if link.inertial},
             "valid": validation.ok,
             "failed_checks": failed_checks(validation),
             "times_s": dict(clock.times_s),

@@ -270,3 +270,16 @@ def test_joint_dynamics_round_trip_through_urdf(tmp_path):
     )
     loaded = load_urdf(write_urdf(Model(name="m", links=links, joints=[door]), tmp_path))
     assert loaded.joint("hinge").dynamics == JointDynamics(damping=0.5, friction=0.25)
+
+
+def test_glb_joint_extras_carry_the_joint_dynamics(tmp_path: Path) -> None:
+    from articulation import JointDynamics
+
+    model = cupboard_model()
+    model.joint("door_hinge").dynamics = JointDynamics(damping=0.5, friction=0.25)
+    export_model(model, tmp_path / "m")
+    data = (tmp_path / "m" / "model.glb").read_bytes()
+    (json_length,) = struct.unpack("<I", data[12:16])
+    nodes = {n["name"]: n for n in json.loads(data[20 : 20 + json_length])["nodes"]}
+    assert (nodes["door"]["extras"]["joint"]["damping"], nodes["door"]["extras"]["joint"]["friction"]) == (0.5, 0.25)
+    assert "damping" not in nodes["knob"]["extras"]["joint"]

@@ -185,3 +185,46 @@ def test_build_refuses_a_non_empty_out_dir_without_force(tmp_path: Path, kitchen
     result = runner.invoke(app, ["build", str(kitchen_dir), "--out", str(out)])
     assert result.exit_code == 2 and "--force" in result.output
     assert (out / "keep.txt").read_text() == "mine"
+
+
+def test_small_objects_set_on_their_parents_stay_put(built: Path) -> None:
+    """Every model at its map pose in pybullet, the large ones fixed and the small ones free
+    on their parents' surfaces: in 1 s of gravity no small object moves 5 mm."""
+    import pybullet as pb
+
+    from homemodel.core.c_stdio_capture import captured_c_output
+    from homemodel.core.transforms import rpy_from_rotation
+    from semantic_map import SmallObject, load_map
+
+    smap = load_map(built / "map.xml")
+    objects = [o for room in smap.apartment.rooms for o in room.objects]
+    objects += [s for o in list(objects) for s in o.small_objects]
+    assert sum(isinstance(o, SmallObject) for o in objects) == 5
+    with captured_c_output():
+        client = pb.connect(pb.DIRECT)
+        try:
+            free = {}
+            for node in objects:
+                world_from_object = smap.world_from_object(node.id)
+                quaternion = pb.getQuaternionFromEuler(rpy_from_rotation(world_from_object[:3, :3]))
+                body = pb.loadURDF(
+                    str(built / "models" / node.id / "model.urdf"),
+                    basePosition=world_from_object[:3, 3],
+                    baseOrientation=quaternion,
+                    useFixedBase=not isinstance(node, SmallObject),
+                    flags=pb.URDF_USE_INERTIA_FROM_FILE,
+                    physicsClientId=client,
+                )
+                if isinstance(node, SmallObject):
+                    free[node.id] = body
+            start = {k: np.array(pb.getBasePositionAndOrientation(b, physicsClientId=client)[0]) for k, b in free.items()}
+            pb.setGravity(0, 0, -9.81, physicsClientId=client)
+            for _ in range(240):
+                pb.stepSimulation(physicsClientId=client)
+            drift_mm = {
+                k: 1000 * float(np.linalg.norm(np.array(pb.getBasePositionAndOrientation(b, physicsClientId=client)[0]) - start[k]))
+                for k, b in free.items()
+            }
+        finally:
+            pb.disconnect(physicsClientId=client)
+    assert max(drift_mm.values()) < 5.0, drift_mm

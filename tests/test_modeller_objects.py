@@ -543,11 +543,12 @@ def test_bottle_shoulder_neck_and_cap(catalogue) -> None:
 
 
 @pytest.mark.bpy
-def test_jar_lid_is_a_fixed_link_with_its_knob(catalogue) -> None:
+def test_jar_lid_lifts_off_with_its_knob(catalogue) -> None:
     spec, model, _ = catalogue["jar"]
-    mount = model.joint("lid_mount")
-    assert mount.type == "fixed" and mount.parent == "body" and mount.child == "lid"
-    assert mount.parent_from_joint[2, 3] == pytest.approx(spec.body_height_m, abs=TOL_M)
+    lift = model.joint("lid_lift")
+    assert lift.type == "prismatic" and lift.parent == "body" and lift.child == "lid"
+    assert lift.axis.tolist() == [0.0, 0.0, 1.0] and lift.limits.lower == 0.0 and lift.limits.upper >= 0.1
+    assert lift.parent_from_joint[2, 3] == pytest.approx(spec.body_height_m, abs=TOL_M)
     lid = np.vstack(
         [transform_points(model.world_from_links()["lid"], v.mesh.vertices) for v in model.link("lid").visuals]
     )

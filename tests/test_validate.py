@@ -25,7 +25,7 @@ from articulation.gate.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
 RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes"]
-URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions"]
+URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions", "physics"]
 GLTF_CHECKS = ["glTF validator", "glTF joints"]
 
 # A cupboard body with a door (revolute), a drawer (prismatic), an oven-style knob
@@ -253,9 +253,9 @@ def test_the_clients_themselves_accept_what_our_rules_reject(tmp_path: Path, cha
 def test_pybullet_pose_mismatch_is_caught(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     declared = gate_clients.declared_pose
 
-    def off_by_a_millimetre(model, child: str, root: str) -> np.ndarray:
-        pose = declared(model, child, root).copy()
-        if child == "drawer":
+    def off_by_a_millimetre(rest, joint, position: float) -> np.ndarray:
+        pose = declared(rest, joint, position).copy()
+        if joint.child == "drawer":
             pose[0, 3] += 1e-3
         return pose
 

@@ -4,11 +4,13 @@ pybullet loads the URDF with its collision shapes; each movable joint goes to it
 its upper limit and to three places between (a quarter, half and three quarters of its
 range) with every other joint at rest. Joints are not moved together: two fronts that may
 each open fully but not both at once (a door opened past 90 degrees beside pulled-out
-drawers) are how real furniture is, not a fault of the model. At each configuration `getClosestPoints` measures every pair
-of links that are not welded together by fixed joints (parent and child across a movable
-joint included: a door swinging into its cupboard's side wall is the fault to catch), and a
-pair closer than `-PENETRATION_TOLERANCE_M` (one passing more than that into the other)
-fails the check, naming the joint, the limit, the two links and the depth.
+drawers) are how real furniture is, not a fault of the model. At each configuration
+pybullet's broadphase and narrowphase find the pairs of links in contact, among all pairs
+not welded together by fixed joints (parent and child across a movable joint included: a
+door swinging into its cupboard's side wall is the fault to catch), and a pair closer than
+`-PENETRATION_TOLERANCE_M` (one passing more than that into the other) fails the check,
+naming the joint, the limit, the two links and the depth. Only the swept joint moves, so
+the Python work per configuration follows the contacts, not the number of links.
 
 Why 1 mm: parts that are meant to touch (a closed door on its frame, a drawer on its floor)
 meet at distance zero, which pybullet's GJK/EPA reports to about a micrometre for boxes and
@@ -17,8 +19,10 @@ penetration below that is within what the measurements can say. pybullet inflate
 convex mesh shape by its collision margin (`BULLET_MESH_MARGIN_M`); that inflation is taken
 off before comparing, so two touching mesh parts are not reported as overlapping.
 
-Collision shapes must be honest for this to mean anything: a hollow body as wall slabs, not
-one convex hull that encloses its open cavity (and the drawers inside it).
+pybullet tests a collision mesh as its convex hull, which fills a concave part's cavity. A
+contact involving a mesh therefore counts only when the real triangle meshes intersect as
+well (`articulation.gate.real_meshes`, FCL); its depth is still the hulls', an upper bound.
+Boxes, cylinders and spheres need no such confirmation.
 """
 
 from __future__ import annotations
@@ -29,7 +33,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from articulation.gate.clients import pybullet_errors
+from articulation.gate.real_meshes import RealMeshes
 from articulation.gate.report import Check, check_from_problems, count
 from homemodel.core.c_stdio_capture import captured_c_output
 
@@ -38,9 +45,6 @@ PENETRATION_TOLERANCE_M = 1e-3
 # pybullet's URDF importer gives every convex mesh collision shape this margin (Bullet's
 # gUrdfDefaultCollisionMargin); boxes, cylinders and spheres have their margin inside.
 BULLET_MESH_MARGIN_M = 1e-3
-# getClosestPoints returns nothing at all for a query distance of zero, so ask a little
-# further out and keep the pairs that overlap.
-_QUERY_DISTANCE_M = 0.01
 # Between its limits a joint is also tried at these fractions of its range, so a door that
 # swings through a wall and out the other side is caught on the way.
 _SWEEP_FRACTIONS = (0.25, 0.5, 0.75)
@@ -63,14 +67,16 @@ class _Joint:
 
 @dataclass(frozen=True)
 class _Configuration:
+    """One joint moved to `position`, every other at rest (no joint: all at rest)."""
+
     label: str
-    positions: dict[int, float]
+    joint: _Joint | None = None
+    position: float = 0.0
 
 
 def _configurations(joints: list[_Joint]) -> list[_Configuration]:
     """Rest, then each joint alone at its limits and on the way between them (others at rest)."""
-    rest = {j.index: j.rest for j in joints}
-    configurations = [_Configuration("at rest", rest)]
+    configurations = [_Configuration("at rest")]
     for joint in joints:
         if joint.lower <= joint.upper:
             span = joint.upper - joint.lower
@@ -84,7 +90,7 @@ def _configurations(joints: list[_Joint]) -> list[_Configuration]:
             samples = [(f"at {q:.3g} rad", q) for q in _UNLIMITED_SAMPLES_RAD]
         for label, q in samples:
             if q != joint.rest:
-                configurations.append(_Configuration(f"{joint.name} {label}", {**rest, joint.index: q}))
+                configurations.append(_Configuration(f"{joint.name} {label}", joint, q))
     return configurations
 
 
@@ -117,41 +123,85 @@ class _Links:
         self.group = {index: find(index) for index in self.names}
         shapes = {index: pb.getCollisionShapeData(body, index, physicsClientId=client) for index in self.names}
         self.with_shapes = [index for index in self.names if shapes[index]]
-        self.margin_m = {
-            index: BULLET_MESH_MARGIN_M if any(s[2] == pb.GEOM_MESH for s in shapes[index]) else 0.0
-            for index in self.names
-        }
+        self.has_mesh = {index: any(s[2] == pb.GEOM_MESH for s in shapes[index]) for index in self.names}
+        self.margin_m = {index: BULLET_MESH_MARGIN_M if self.has_mesh[index] else 0.0 for index in self.names}
 
-    def pairs(self) -> list[tuple[int, int]]:
-        """Every pair of links with collision shapes that can move against each other."""
-        links = self.with_shapes
-        return [(a, b) for k, a in enumerate(links) for b in links[k + 1 :] if self.group[a] != self.group[b]]
+    def pair_count(self) -> int:
+        """How many pairs of links with collision shapes can move against each other."""
+        sizes: dict[int, int] = {}
+        for index in self.with_shapes:
+            sizes[self.group[index]] = sizes.get(self.group[index], 0) + 1
+        n = len(self.with_shapes)
+        return n * (n - 1) // 2 - sum(k * (k - 1) // 2 for k in sizes.values())
 
 
-def _depths_m(pb: Any, client: int, body: int, links: _Links, pairs: list[tuple[int, int]]) -> dict:
-    """How far each pair passes into each other (positive), for the pairs that do at all."""
-    depths = {}
-    for a, b in pairs:
-        points = pb.getClosestPoints(body, body, _QUERY_DISTANCE_M, a, b, physicsClientId=client)
-        if points:
-            depth = -min(p[8] for p in points) - links.margin_m[a] - links.margin_m[b]
-            if depth > 0:
-                depths[(a, b)] = depth
+def _depths_m(pb: Any, client: int, body: int, links: _Links) -> dict[tuple[int, int], float]:
+    """How far each pair of links not welded together passes into each other (positive),
+    for the pairs that do at all.
+
+    pybullet's broadphase finds the pairs whose boxes overlap, so the cost follows the
+    contacts, not the square of the number of links.
+    """
+    pb.performCollisionDetection(physicsClientId=client)
+    depths: dict[tuple[int, int], float] = {}
+    for point in pb.getContactPoints(bodyA=body, bodyB=body, physicsClientId=client):
+        a, b = sorted((point[3], point[4]))
+        if links.group[a] == links.group[b]:
+            continue
+        depth = -point[8] - links.margin_m[a] - links.margin_m[b]
+        if depth > depths.get((a, b), 0.0):
+            depths[(a, b)] = depth
     return depths
 
 
-def collision_problems(pb: Any, client: int, body: int) -> tuple[list[str], str]:
-    """The penetrations found, and a one-line account of what was checked."""
+def _world_from_link(pb: Any, client: int, body: int, index: int) -> np.ndarray:
+    """The URDF link frame in the world (pybullet's base pose is its inertial frame)."""
+    if index >= 0:
+        state = pb.getLinkState(body, index, computeForwardKinematics=True, physicsClientId=client)
+        position, orientation = state[4], state[5]
+    else:
+        world_com = pb.getBasePositionAndOrientation(body, physicsClientId=client)
+        info = pb.getDynamicsInfo(body, -1, physicsClientId=client)
+        link_com = pb.invertTransform(info[3], info[4])
+        position, orientation = pb.multiplyTransforms(world_com[0], world_com[1], link_com[0], link_com[1])
+    pose = np.eye(4)
+    pose[:3, :3] = np.reshape(pb.getMatrixFromQuaternion(orientation), (3, 3))
+    pose[:3, 3] = position
+    return pose
+
+
+def _real_contacts(pb: Any, client: int, body: int, links: _Links, real: RealMeshes, depths: dict) -> dict:
+    """`depths` without the contacts between mesh hulls whose real surfaces do not meet."""
+    kept = {}
+    for (a, b), depth in depths.items():
+        if links.has_mesh[a] or links.has_mesh[b]:
+            world_a, world_b = (_world_from_link(pb, client, body, i) for i in (a, b))
+            if not real.touch(links.names[a], world_a, links.names[b], world_b):
+                continue
+        kept[(a, b)] = depth
+    return kept
+
+
+def collision_problems(pb: Any, client: int, body: int, real: RealMeshes) -> tuple[list[str], str]:
+    """The penetrations found, and a one-line account of what was checked.
+
+    Only the swept joint is moved, and put back at rest after its samples, so each
+    configuration costs pybullet one collision pass, whatever the number of joints.
+    """
     links = _Links(pb, client, body)
-    pairs = links.pairs()
     configurations = _configurations(links.joints)
+    for joint in links.joints:
+        pb.resetJointState(body, joint.index, joint.rest, physicsClientId=client)
     problems: list[str] = []
     at_rest: dict = {}
     deepest = 0.0
     for configuration in configurations:
-        for joint in links.joints:
-            pb.resetJointState(body, joint.index, configuration.positions[joint.index], physicsClientId=client)
-        depths = _depths_m(pb, client, body, links, pairs)
+        moved = configuration.joint
+        if moved is not None:
+            pb.resetJointState(body, moved.index, configuration.position, physicsClientId=client)
+        depths = _real_contacts(pb, client, body, links, real, _depths_m(pb, client, body, links))
+        if moved is not None:
+            pb.resetJointState(body, moved.index, moved.rest, physicsClientId=client)
         # A pair already overlapping at rest is reported once, then again only if a joint drives it deeper.
         baseline = at_rest if configuration is not configurations[0] else {}
         for (a, b), depth in depths.items():
@@ -164,7 +214,7 @@ def collision_problems(pb: Any, client: int, body: int) -> tuple[list[str], str]
         if configuration is configurations[0]:
             at_rest = depths
     summary = (
-        f"{count(len(pairs), 'link pair')} at {count(len(configurations), 'joint configuration')}; "
+        f"{count(links.pair_count(), 'link pair')} at {count(len(configurations), 'joint configuration')}; "
         f"deepest contact {deepest * 1000:.2f} mm (tolerance {PENETRATION_TOLERANCE_M * 1000:g} mm)"
     )
     return problems, summary
@@ -184,8 +234,11 @@ def collisions_check(urdf: Path) -> Check:
 
         client = pb.connect(pb.DIRECT)
         try:
-            body = pb.loadURDF(str(urdf), useFixedBase=True, physicsClientId=client)
-            problems, summary = collision_problems(pb, client, body)
+            # Self-collision with parent and child included: every pair of links goes
+            # through the broadphase; welded pairs are left out after.
+            flags = pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_INCLUDE_PARENT
+            body = pb.loadURDF(str(urdf), useFixedBase=True, flags=flags, physicsClientId=client)
+            problems, summary = collision_problems(pb, client, body, RealMeshes(urdf))
         except pb.error as exc:
             error = str(exc)
         finally:

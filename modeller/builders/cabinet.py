@@ -50,6 +50,8 @@ from modeller.builders.handles import (
     blender_matrix,
     cylinder_collision,
 )
+from modeller.joint_physics import spec_dynamics
+from modeller.part_masses import front_masses_kg
 from modeller.specs import colour_name, colour_rgb
 from modeller.specs.cabinet_geometry import (
     door_face_x_m,
@@ -113,6 +115,7 @@ def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: l
         properties={"colour": spec.colour} if isinstance(spec.colour, str) else {},
         density_kg_m3=spec.density_or_default_kg_m3,
         mass_kg=spec.mass_kg,
+        link_masses_kg=front_masses_kg(spec),
     )
     cabinet = Cabinet(spec=spec, body=_add_carcass(spec, assembly), assembly=assembly)
     for i, shelf in enumerate(spec.shelves):
@@ -340,6 +343,7 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
             parent_from_joint=body_from_door,
             axis=np.array(_DOOR_AXES[door.hinge]),
             limits=JointLimits(lower=0.0, upper=math.radians(door.opening_limit_deg)),
+            dynamics=spec_dynamics(door.dynamics),
         )
     )
     across, up = door.handle_offset_m()
@@ -401,6 +405,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
             parent_from_joint=body_from_drawer,
             axis=np.array([1.0, 0.0, 0.0]),
             limits=JointLimits(lower=0.0, upper=drawer.travel_m),
+            dynamics=spec_dynamics(drawer.dynamics),
         )
     )
     across, up = drawer.handle_offset_m()

@@ -24,6 +24,7 @@ from homemodel.core.transforms import axis_angle_transform, translation_transfor
 from modeller.blender_scene import add_object, box_mesh, colour_material, cylinder_mesh
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame
+from modeller.joint_physics import spec_dynamics
 from modeller.specs import colour_name, colour_rgb
 from modeller.specs.handles import ControlKnob, Handle, Orientation, PushButton
 
@@ -254,6 +255,7 @@ def add_control_knob(
             axis=np.array([-1.0 if knob.turns == "clockwise" else 1.0, 0.0, 0.0]),
             limits=JointLimits(lower=0.0, upper=step * (len(knob.states) - 1)),
             states=[JointState(name=state, position=k * step) for k, state in enumerate(knob.states)],
+            dynamics=spec_dynamics(knob.dynamics),
         )
     )
     grasp = grasp_frame((projection / 2, 0, 0), (-1, 0, 0), (0, 0, 1))

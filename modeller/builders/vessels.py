@@ -1,5 +1,7 @@
 """Glasses, plates, bowls, bottles and jars: solids of revolution turned from an (r, z)
-profile by `modeller.blender_scene._revolve`, in the link `body` (a jar's lid in `lid`).
+profile by `modeller.blender_scene._revolve`, in the link `body` (a jar's lid in `lid`, on
+the prismatic joint `lid_lift` along +z: it rests on the jar and lifts off, up to
+`LID_LIFT_M` above it).
 
 Origin at the centre of the base, z up. Hollow vessels get collision shapes that keep them
 hollow (`shell_collisions`): a cylinder for the floor and a ring of boxes along the wall,
@@ -13,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 import trimesh
 
-from articulation.model import Box, Collision, Cylinder, GraspPoint, Joint, MeshGeometry
+from articulation.model import Box, Collision, Cylinder, GraspPoint, Joint, JointLimits, MeshGeometry
 from homemodel.core.transforms import axis_angle_transform, translation_transform
 from modeller.blender_scene import (
     _revolve,
@@ -31,9 +33,12 @@ from modeller.builders.rigid import (
     material,
 )
 from modeller.builders.shapes import bowl_profile_rz, smooth_step_rz
+from modeller.part_masses import jar_lid_mass_kg
 from modeller.specs import BottleSpec, BowlSpec, GlassSpec, JarSpec, PlateSpec
 
 SEGMENTS = 64  # around the axis; a multiple of 4 puts vertices on the x and y extremes
+# How far a jar's lid lifts: clear of the jar for a hand to take it away.
+LID_LIFT_M = 0.2
 _WALL_SECTORS = 16
 
 
@@ -264,13 +269,24 @@ def build_jar(spec: JarSpec, name: str) -> Assembly:
         lid_grasp = GraspPoint(name="lid_knob", link="lid", link_from_grasp=frame, kind="knob")
     else:
         lid_grasp = rim_grasp(lid_radius, lid_t / 2, link="lid", name="lid_rim")
-    return assembly(
+    lift = Joint(
+        name="lid_lift",
+        type="prismatic",
+        parent=ROOT_LINK,
+        child="lid",
+        parent_from_joint=body_from_lid,
+        axis=np.array([0.0, 0.0, 1.0]),
+        limits=JointLimits(lower=0.0, upper=LID_LIFT_M),
+    )
+    jar = assembly(
         spec,
         name,
         category=spec.category,
         collisions={ROOT_LINK: cup_wall_collisions(radius, wall, bottom, body_h), "lid": lid_collisions},
-        joints=[Joint(name="lid_mount", type="fixed", parent=ROOT_LINK, child="lid", parent_from_joint=body_from_lid)],
+        joints=[lift],
         grasp_points=[side_grasp("body", body_h / 2), lid_grasp],
         affordances=["container"],
         properties={**colour_property(spec.colour), **contents_property(spec.contents)},
     )
+    jar.link_masses_kg = {"lid": jar_lid_mass_kg(spec)}
+    return jar

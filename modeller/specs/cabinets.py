@@ -24,6 +24,7 @@ from modeller.specs.cabinet_rules import check_cabinet, check_door_front, check_
 from modeller.specs.common import _EPS_M, Colour, Length, ObjectSpec, Offset, _Spec
 from modeller.specs.handles import ControlKnob, DoorHandle, DrawerHandle, Orientation, PushButton
 from modeller.specs.hinges import DoorMount, Mounting
+from modeller.specs.joint_dynamics import JointDynamicsSpec
 
 Hinge = Literal["left", "right", "top", "bottom"]
 # Dark glass for door windows and hob plates.
@@ -77,6 +78,7 @@ class DoorSpec(Front, DoorMount):
     opening_limit_deg: Annotated[float, Field(gt=0, le=180)] = 100.0
     handle: DoorHandle = Field(default_factory=DoorHandle)
     window: Window | None = None
+    dynamics: JointDynamicsSpec | None = Field(None, description="the hinge's damping and friction; default: by its kind")
     shelves: list[DoorShelf] = Field([], description="bins on the door's inner face (a fridge door's)")
 
     @property
@@ -125,6 +127,7 @@ class DrawerSpec(Front):
     runner_clearance_m: Offset | None = Field(
         None, description="gap each side between the box and the carcass for the runners; default: door_gap_m"
     )
+    dynamics: JointDynamicsSpec | None = Field(None, description="the slide's damping and friction; default: by its kind")
 
     def handle_orientation(self) -> Orientation:
         return self.handle.direction("horizontal")

@@ -85,8 +85,8 @@ class BoxSpec(_FoodContainer):
 class JarSpec(_FoodContainer):
     """A jar or canister (a sugar container): a hollow cylinder with a flat lid and a knob on it.
 
-    The lid is its own link `lid`, fixed on the body (joint `lid_mount`), so its pose and
-    its knob reach the map.
+    The lid is its own link `lid` resting on the body on a prismatic joint `lid_lift` along
+    +z, so it lifts off, and its pose and its knob reach the map.
     """
 
     default_density_kg_m3: ClassVar[float] = 2400.0  # stoneware

@@ -9,6 +9,7 @@ from pydantic import Field, model_validator
 
 from homemodel.core.yaml_specs import FieldError
 from modeller.specs.common import Colour, Length, Offset, _Spec
+from modeller.specs.joint_dynamics import JointDynamicsSpec
 
 Orientation = Literal["vertical", "horizontal"]
 
@@ -110,6 +111,7 @@ class ControlKnob(_Spec):
     )
     colour: Colour = "black"
     marker_colour: Colour = "white"
+    dynamics: JointDynamicsSpec | None = Field(None, description="the knob's damping and friction; default: by its kind")
 
     @model_validator(mode="after")
     def _states_fit(self) -> ControlKnob:

@@ -1,0 +1,61 @@
+"""Concave collision meshes split into convex parts (V-HACD), measured against the real surface."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from articulation.convex_parts import decompose, is_concave
+from articulation.export import write_model_files
+from articulation.gate.validate import validate_path
+from articulation.model import MeshGeometry
+from articulation.scan_model import scan_model
+
+
+def _microwave_frame() -> trimesh.Trimesh:
+    """A 0.4 x 0.5 x 0.3 m box with a cavity open at the front (+x), 30 mm walls."""
+    cavity = trimesh.creation.box((0.4, 0.44, 0.26))
+    cavity.apply_translation((0.03, 0, 0))
+    return trimesh.creation.box((0.4, 0.5, 0.3)).difference(cavity)
+
+
+def _cup() -> trimesh.Trimesh:
+    """A 90 mm cup, 5 mm walls, 100 mm high, standing on z = 0."""
+    wall = trimesh.creation.annulus(0.04, 0.045, 0.1)
+    wall.apply_translation((0, 0, 0.05))
+    floor = trimesh.creation.cylinder(0.045, 0.005)
+    floor.apply_translation((0, 0, 0.0025))
+    return wall.union(floor)
+
+
+def test_a_concave_frame_is_split_into_faithful_convex_parts() -> None:
+    frame = _microwave_frame()
+    assert is_concave(frame) and not is_concave(trimesh.creation.box((0.4, 0.5, 0.3)))
+    split = decompose(frame)
+    assert 2 <= len(split.parts) <= 8
+    assert all(part.mesh.is_convex for part in split.parts)
+    # One hull reaches 60 mm or more past the frame into the cavity; no part reaches a third of that.
+    assert split.hull_overshoot_m > 0.05
+    assert max(p.overshoot_m for p in split.parts) < split.hull_overshoot_m / 3
+    assert split.coverage > 0.95
+    middle_of_cavity = np.array([[0.05, 0.0, 0.0]])
+    assert frame.convex_hull.contains(middle_of_cavity)[0]
+    assert not any(p.mesh.contains(middle_of_cavity)[0] for p in split.parts)
+
+
+@pytest.mark.slow
+def test_a_scanned_cup_keeps_its_opening_and_passes_the_gate(tmp_path: Path) -> None:
+    model = scan_model(_cup(), name="cup_scan", density_kg_m3=1000.0)
+    collisions = model.links[0].collisions
+    assert len(collisions) > 1 and all(c.name.startswith("part_") for c in collisions)
+    assert "convex parts covering" in model.properties["collision_parts"]
+    inside_cup = np.array([[0.0, 0.0, 0.06]])
+    assert not any(c.geometry.mesh.contains(inside_cup)[0] for c in collisions if isinstance(c.geometry, MeshGeometry))
+    write_model_files(model, tmp_path)
+    report = validate_path(tmp_path)
+    assert report.ok, report.format()
+    solid = scan_model(trimesh.creation.box((0.1, 0.1, 0.1)), name="box_scan", density_kg_m3=500.0)
+    assert [c.name for c in solid.links[0].collisions] == ["hull"] and "collision_parts" not in solid.properties
