@@ -1,0 +1,417 @@
+"""Operators on one model: the measurement form and Build, joints, import and export."""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+from pathlib import Path
+
+import bpy
+from bpy.props import EnumProperty, FloatProperty, FloatVectorProperty, StringProperty
+from bpy_extras.io_utils import ImportHelper
+from mathutils import Matrix, Vector
+
+from . import home, rig, spec_form, toolkit
+from .properties import preference, spec_kinds
+
+# What Export model last reported, one line per check of the gate, for the panel.
+GATE_REPORT: list[str] = []
+
+
+def _report_toolkit_error(operator, exc: Exception) -> set[str]:
+    operator.report({"ERROR"}, str(exc))
+    return {"CANCELLED"}
+
+
+def _form(context):
+    return context.scene.homemodel_form
+
+
+def fill_form(form, kind: str, rows: list[dict]) -> None:
+    form.rows.clear()
+    form.loaded_kind = kind
+    for row in rows:
+        item = form.rows.add()
+        for key in ("path", "kind", "label", "unit", "help", "depth", "given"):
+            setattr(item, key, row[key])
+        item.options = json.dumps(row["options"])
+        item.default = json.dumps(row.get("default"))
+        if row["kind"] not in ("list", "group", "item"):
+            item.set_value(row["value"])
+        elif row["kind"] == "list":
+            item.text = json.dumps(row["value"])
+
+
+def form_rows(form) -> list[dict]:
+    """The form as `spec_form` rows; a field the installer touched counts as given."""
+    rows = []
+    for item in form.rows:
+        value = item.value() if item.kind not in ("list", "group", "item") else (json.loads(item.text or "null") if item.kind == "list" else None)
+        rows.append({"path": item.path, "kind": item.kind, "given": item.given, "value": value, "default": json.loads(item.default or "null")})
+    return rows
+
+
+def form_spec(form) -> dict:
+    return spec_form.spec_from_rows(form.loaded_kind, form_rows(form))
+
+
+def _selected_model(context) -> bpy.types.Object | None:
+    return rig.model_root(context.active_object)
+
+
+class HOMEMODEL_OT_form_kind(bpy.types.Operator):
+    """Start the measurement form of the chosen kind, filled with an example"""
+
+    bl_idname = "homemodel.form_kind"
+    bl_label = "New form"
+    bl_options = {"REGISTER", "INTERNAL"}
+
+    def execute(self, context):
+        form = _form(context)
+        try:
+            kind = spec_kinds(context)[form.kind]
+        except (toolkit.ToolkitError, KeyError) as exc:
+            return _report_toolkit_error(self, exc)
+        fill_form(form, form.kind, spec_form.rows_for(kind["schema"], kind["example"]))
+        form.message = ""
+        form.target = ""
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_form_add_item(bpy.types.Operator):
+    """Add an element to this list (a copy of the last one)"""
+
+    bl_idname = "homemodel.form_add_item"
+    bl_label = "Add"
+    bl_options = {"REGISTER", "INTERNAL"}
+    path: StringProperty()
+
+    def execute(self, context):
+        form = _form(context)
+        schema = spec_kinds(context)[form.loaded_kind]["schema"]
+        fill_form(form, form.loaded_kind, spec_form.with_item_added(schema, form.loaded_kind, form_rows(form), self.path))
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_form_remove_item(bpy.types.Operator):
+    """Remove this element from its list"""
+
+    bl_idname = "homemodel.form_remove_item"
+    bl_label = "Remove"
+    bl_options = {"REGISTER", "INTERNAL"}
+    path: StringProperty()
+
+    def execute(self, context):
+        form = _form(context)
+        schema = spec_kinds(context)[form.loaded_kind]["schema"]
+        fill_form(form, form.loaded_kind, spec_form.with_item_removed(schema, form.loaded_kind, form_rows(form), self.path))
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_field_help(bpy.types.Operator):
+    """What this measurement is"""
+
+    bl_idname = "homemodel.field_help"
+    bl_label = "Help"
+    bl_options = {"INTERNAL"}
+    help: StringProperty()
+
+    @classmethod
+    def description(cls, context, properties):
+        return properties.help or "no description"
+
+    def execute(self, context):
+        self.report({"INFO"}, self.help or "no description")
+        return {"FINISHED"}
+
+
+def _build(operator, context) -> bpy.types.Object | None:
+    """Check the form, build its spec with the toolkit and put the model in the scene;
+    None (with the problems marked on the form) when the spec is impossible."""
+    form = _form(context)
+    for item in form.rows:
+        item.error = ""
+    spec = form_spec(form)
+    work = Path(tempfile.mkdtemp(prefix="homemodel-build-"))
+    spec_path = work / f"{spec.get('name') or form.loaded_kind}.json"
+    spec_path.write_text(json.dumps(spec), encoding="utf-8")
+    problems = json.loads(toolkit.run(["addon", "check-spec", str(spec_path)], preference(context), accept=(0, 1)).stdout)
+    if problems:
+        by_path = {item.path: item for item in form.rows}
+        for problem in problems:
+            # The deepest row the field path names: a list's problem lands on its header.
+            parts = problem["field"].split(".")
+            while parts and ".".join(parts) not in by_path:
+                parts.pop()
+            target = by_path.get(".".join(parts))
+            if target is not None:
+                target.error = problem["message"]
+        form.message = f"{problems[0]['field']}: {problems[0]['message']}"
+        operator.report({"ERROR"}, form.message)
+        return None
+    toolkit.run(["addon", "build", str(spec_path), "--out", str(work / "model"), "--force"], preference(context), accept=(0, 1))
+    doc = toolkit.read_json(work / "model" / "blender.json")
+    root = rig.add_model(doc, context.collection)
+    form.message = ""
+    return root
+
+
+class HOMEMODEL_OT_build(bpy.types.Operator):
+    """Build the model from the form's measurements and put it at the 3D cursor"""
+
+    bl_idname = "homemodel.build"
+    bl_label = "Build"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        try:
+            root = _build(self, context)
+        except toolkit.ToolkitError as exc:
+            return _report_toolkit_error(self, exc)
+        if root is None:
+            return {"CANCELLED"}
+        root.matrix_world = Matrix.Translation(context.scene.cursor.location)
+        _select_only(context, root)
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_edit_measurements(bpy.types.Operator):
+    """Open the selected model's measurements in the form, to change them and Rebuild"""
+
+    bl_idname = "homemodel.edit_measurements"
+    bl_label = "Edit measurements"
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        root = _selected_model(context)
+        return root is not None and rig.SPEC in root
+
+    def execute(self, context):
+        root = _selected_model(context)
+        spec = json.loads(root[rig.SPEC])
+        try:
+            schema = spec_kinds(context)[spec["kind"]]["schema"]
+        except (toolkit.ToolkitError, KeyError) as exc:
+            return _report_toolkit_error(self, exc)
+        form = _form(context)
+        fill_form(form, spec["kind"], spec_form.rows_for(schema, spec))
+        form.target = root.name
+        form.message = ""
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_rebuild(bpy.types.Operator):
+    """Build the form's measurements again and replace the model in place, keeping its pose and place in the home"""
+
+    bl_idname = "homemodel.rebuild"
+    bl_label = "Rebuild"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return bpy.data.objects.get(_form(context).target) is not None
+
+    def execute(self, context):
+        old = bpy.data.objects[_form(context).target]
+        try:
+            new = _build(self, context)
+        except toolkit.ToolkitError as exc:
+            return _report_toolkit_error(self, exc)
+        if new is None:
+            return {"CANCELLED"}
+        new.matrix_world = old.matrix_world.copy()
+        for key in (home.OBJECT_ID, home.PARENT, home.RELATION):
+            if key in old:
+                new[key] = old[key]
+        collection = home.room_of(old)
+        if collection is not None:
+            home.move_to_collection(new, collection)
+        for parking in home.parking_of(old):
+            world = parking.matrix_world.copy()
+            parking.parent = new
+            parking.matrix_parent_inverse = new.matrix_world.inverted()
+            parking.matrix_world = world
+        rig.remove_model(old)
+        _form(context).target = new.name
+        _select_only(context, new)
+        return {"FINISHED"}
+
+
+def _select_only(context, obj: bpy.types.Object) -> None:
+    for other in context.view_layer.objects:
+        other.select_set(False)
+    obj.select_set(True)
+    context.view_layer.objects.active = obj
+
+
+class HOMEMODEL_OT_rest(bpy.types.Operator):
+    """Put every joint of the selected model back to zero (or its nearest limit)"""
+
+    bl_idname = "homemodel.rest"
+    bl_label = "Rest"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return _selected_model(context) is not None
+
+    def execute(self, context):
+        for joint in rig.joints_of(_selected_model(context)):
+            rig.set_position(joint, 0.0)
+        context.view_layer.update()
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_set_joint_state(bpy.types.Operator):
+    """Move the joint to this named state"""
+
+    bl_idname = "homemodel.set_joint_state"
+    bl_label = "Set state"
+    bl_options = {"REGISTER", "UNDO", "INTERNAL"}
+    joint_object: StringProperty()
+    position: FloatProperty()
+
+    def execute(self, context):
+        rig.set_position(bpy.data.objects[self.joint_object], self.position)
+        context.view_layer.update()
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_edit_joint(bpy.types.Operator):
+    """Change the active link's joint: its type, axis and limits"""
+
+    bl_idname = "homemodel.edit_joint"
+    bl_label = "Edit joint"
+    bl_options = {"REGISTER", "UNDO"}
+    joint_type: EnumProperty(name="Type", items=[(t, t, "") for t in rig.JOINT_TYPES])
+    axis: FloatVectorProperty(name="Axis", size=3, default=(0.0, 0.0, 1.0), description="in the joint's frame")
+    lower: FloatProperty(name="Lower", description="rad for a revolute joint, m for a prismatic one")
+    upper: FloatProperty(name="Upper", description="rad for a revolute joint, m for a prismatic one")
+
+    @classmethod
+    def poll(cls, context):
+        return context.active_object is not None and rig.JOINT in context.active_object
+
+    def invoke(self, context, event):
+        joint = context.active_object
+        self.joint_type, self.axis = joint[rig.JOINT_TYPE], tuple(joint[rig.AXIS])
+        self.lower, self.upper = joint[rig.LOWER], joint[rig.UPPER]
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        if Vector(self.axis).length < 1e-9:
+            self.report({"ERROR"}, "the axis must not be zero")
+            return {"CANCELLED"}
+        if self.joint_type in ("revolute", "prismatic") and self.lower > self.upper:
+            self.report({"ERROR"}, f"lower limit {self.lower:g} is above upper limit {self.upper:g}")
+            return {"CANCELLED"}
+        joint = context.active_object
+        joint[rig.JOINT_TYPE] = self.joint_type
+        joint[rig.AXIS] = list(Vector(self.axis).normalized())
+        joint[rig.LOWER], joint[rig.UPPER] = self.lower, self.upper
+        rig.rig_joint(joint)
+        context.view_layer.update()
+        return {"FINISHED"}
+
+
+def _model_argument(path: Path) -> Path:
+    """A model folder for a file inside one (the file browser hands over files)."""
+    if path.is_file() and path.suffix.lower() != ".urdf":
+        return path.parent
+    return path
+
+
+class HOMEMODEL_OT_import_model(bpy.types.Operator, ImportHelper):
+    """Import a homemodel model folder or any URDF (PartNet-Mobility's mobility.urdf too), joints rigged"""
+
+    bl_idname = "homemodel.import_model"
+    bl_label = "Import homemodel model"
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".urdf"
+    filter_glob: StringProperty(default="*.urdf;*.glb", options={"HIDDEN"})
+
+    def execute(self, context):
+        source = _model_argument(Path(self.filepath))
+        work = Path(tempfile.mkdtemp(prefix="homemodel-import-"))
+        try:
+            toolkit.run(["addon", "describe", str(source), "--out", str(work / "model.json")], preference(context))
+        except toolkit.ToolkitError as exc:
+            return _report_toolkit_error(self, exc)
+        root = rig.add_model(toolkit.read_json(work / "model.json"), context.collection)
+        root.matrix_world = Matrix.Translation(context.scene.cursor.location)
+        _select_only(context, root)
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_export_model(bpy.types.Operator):
+    """Write the selected model as a model folder (URDF, glb, meshes) and run the validation gate on it"""
+
+    bl_idname = "homemodel.export_model"
+    bl_label = "Export model"
+    bl_options = {"REGISTER"}
+    directory: StringProperty(subtype="DIR_PATH", description="the model folder to write (replaced if it exists)")
+
+    @classmethod
+    def poll(cls, context):
+        return _selected_model(context) is not None
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        root = _selected_model(context)
+        rig.evaluate(context.view_layer, [root])
+        doc = rig.model_document(root, context.evaluated_depsgraph_get())
+        work = Path(tempfile.mkdtemp(prefix="homemodel-export-"))
+        (work / "model.json").write_text(json.dumps(doc), encoding="utf-8")
+        try:
+            result = toolkit.run(
+                ["addon", "export", str(work / "model.json"), "--out", str(Path(self.directory)), "--force"],
+                preference(context),
+                accept=(0, 1),
+            )
+        except toolkit.ToolkitError as exc:
+            return _report_toolkit_error(self, exc)
+        GATE_REPORT[:] = result.stdout.splitlines()
+        failed = [line for line in GATE_REPORT if line.startswith("FAIL ")]
+        _select_failures(root, failed)
+        if failed:
+            self.report({"WARNING"}, f"exported, but the gate failed {len(failed)} checks: {failed[0]}")
+        else:
+            self.report({"INFO"}, GATE_REPORT[-1] if GATE_REPORT else "exported")
+        return {"FINISHED"}
+
+
+def _select_failures(root: bpy.types.Object, failed: list[str]) -> None:
+    """Select the links a failed check names (the two links that collide)."""
+    text = " ".join(failed)
+    for link in rig.links_of(root):
+        hit = bool(failed) and (f"'{link[rig.LINK]}'" in text or f" {link[rig.LINK]} " in f" {text} ")
+        for obj in [link, *rig.model_objects(link)]:
+            if obj in rig.model_objects(root):
+                obj.select_set(hit)
+
+
+def joint_display(joint: bpy.types.Object) -> str:
+    """The joint's position in the unit an installer reads: degrees or millimetres."""
+    q = float(joint[rig.POSITION])
+    return f"{q * 1000:.0f} mm" if joint[rig.JOINT_TYPE] == "prismatic" else f"{math.degrees(q):.0f}°"
+
+
+CLASSES = (
+    HOMEMODEL_OT_form_kind,
+    HOMEMODEL_OT_form_add_item,
+    HOMEMODEL_OT_form_remove_item,
+    HOMEMODEL_OT_field_help,
+    HOMEMODEL_OT_build,
+    HOMEMODEL_OT_edit_measurements,
+    HOMEMODEL_OT_rebuild,
+    HOMEMODEL_OT_rest,
+    HOMEMODEL_OT_set_joint_state,
+    HOMEMODEL_OT_edit_joint,
+    HOMEMODEL_OT_import_model,
+    HOMEMODEL_OT_export_model,
+)
