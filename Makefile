@@ -14,7 +14,7 @@ APT_PACKAGES := libusb-1.0-0 libegl1 libgl1 libglx0 libopengl0 libsm6 libice6 li
 	libxext6 libxfixes3 libxi6 libxkbcommon0 libxrender1 libxt6 libxxf86vm1 \
 	libfontconfig1 libfreetype6 libgomp1
 
-.PHONY: demo test setup clean
+.PHONY: demo test setup clean addon addon-screenshots
 
 demo: setup
 	$(VENV)/bin/homemodel build examples/kitchen --out build/kitchen --force
@@ -44,6 +44,16 @@ $(STAMP): setup.cfg pyproject.toml
 $(NODE_TOOLS): tools/package.json
 	npm install --prefix tools --no-audit --no-fund --silent
 	@touch $@
+
+# The Blender extension: blender_addons/ zipped by Blender's own extension tool (it ships
+# inside the bpy wheel, so no Blender is needed) and checked by its validator.
+ADDON_ZIP ?= build/homemodel_addon.zip
+BLENDER_EXT = $$($(PY) -c "import glob, sysconfig; print(glob.glob(sysconfig.get_paths()['purelib'] + '/bpy/*/scripts/addons_core/bl_pkg/cli/blender_ext.py')[0])")
+
+addon: setup
+	@mkdir -p $(dir $(ADDON_ZIP))
+	$(PY) $(BLENDER_EXT) build --source-dir blender_addons --output-filepath $(ADDON_ZIP)
+	$(PY) $(BLENDER_EXT) validate $(ADDON_ZIP)
 
 clean:
 	rm -rf $(VENV) $(APT_STAMP) tools/node_modules build

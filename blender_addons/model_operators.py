@@ -48,6 +48,8 @@ def form_rows(form) -> list[dict]:
     rows = []
     for item in form.rows:
         value = item.value() if item.kind not in ("list", "group", "item") else (json.loads(item.text or "null") if item.kind == "list" else None)
+        if item.kind == "number":
+            value = float(f"{value:.7g}")  # Blender keeps float32: 0.397 comes back as 0.39700001
         rows.append({"path": item.path, "kind": item.kind, "given": item.given, "value": value, "default": json.loads(item.default or "null")})
     return rows
 
@@ -316,6 +318,59 @@ class HOMEMODEL_OT_edit_joint(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class HOMEMODEL_OT_make_model(bpy.types.Operator):
+    """Make the selected meshes one model: its root link stands at the 3D cursor"""
+
+    bl_idname = "homemodel.make_model"
+    bl_label = "Make model from selection"
+    bl_options = {"REGISTER", "UNDO"}
+    name: StringProperty(name="Name", default="object")
+    category: StringProperty(name="Category", default="object", description="the object's type in the map, e.g. cupboard")
+
+    @classmethod
+    def poll(cls, context):
+        return any(o.type == "MESH" and rig.model_root(o) is None for o in context.selected_objects)
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        meshes = [o for o in context.selected_objects if o.type == "MESH" and rig.model_root(o) is None]
+        root = rig.make_model(self.name, self.category, meshes, Matrix.Translation(context.scene.cursor.location), context.collection)
+        _select_only(context, root)
+        return {"FINISHED"}
+
+
+class HOMEMODEL_OT_add_joint(bpy.types.Operator):
+    """Make the selected meshes of a model a new part that moves: hinged or sliding at the 3D cursor"""
+
+    bl_idname = "homemodel.add_joint"
+    bl_label = "Add joint"
+    bl_options = {"REGISTER", "UNDO"}
+    name: StringProperty(name="Name", default="door")
+    joint_type: EnumProperty(name="Type", items=[(t, t, "") for t in rig.JOINT_TYPES])
+    axis: FloatVectorProperty(name="Axis", size=3, default=(0.0, 0.0, 1.0), description="in the model's frame")
+    lower: FloatProperty(name="Lower", default=0.0, description="rad for a revolute joint, m for a prismatic one")
+    upper: FloatProperty(name="Upper", default=math.pi / 2, description="rad for a revolute joint, m for a prismatic one")
+
+    @classmethod
+    def poll(cls, context):
+        return any(rig.model_root(o) is not None and o.type == "MESH" for o in context.selected_objects)
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        meshes = [o for o in context.selected_objects if o.type == "MESH" and rig.model_root(o) is not None]
+        if Vector(self.axis).length < 1e-9 or (self.joint_type in ("revolute", "prismatic") and self.lower > self.upper):
+            self.report({"ERROR"}, "the axis must not be zero and the lower limit not above the upper")
+            return {"CANCELLED"}
+        link = rig.add_joint(meshes, self.name, self.joint_type, Vector(self.axis), (self.lower, self.upper), context.scene.cursor.location)
+        context.view_layer.update()
+        _select_only(context, link)
+        return {"FINISHED"}
+
+
 def _model_argument(path: Path) -> Path:
     """A model folder for a file inside one (the file browser hands over files)."""
     if path.is_file() and path.suffix.lower() != ".urdf":
@@ -386,13 +441,12 @@ class HOMEMODEL_OT_export_model(bpy.types.Operator):
 
 
 def _select_failures(root: bpy.types.Object, failed: list[str]) -> None:
-    """Select the links a failed check names (the two links that collide)."""
+    """Select the links the failed checks name (the two links that collide), and only them."""
     text = " ".join(failed)
     for link in rig.links_of(root):
-        hit = bool(failed) and (f"'{link[rig.LINK]}'" in text or f" {link[rig.LINK]} " in f" {text} ")
-        for obj in [link, *rig.model_objects(link)]:
-            if obj in rig.model_objects(root):
-                obj.select_set(hit)
+        named = f"'{link[rig.LINK]}'" in text
+        for obj in [link, *rig.owned(link)]:
+            obj.select_set(named)
 
 
 def joint_display(joint: bpy.types.Object) -> str:
@@ -412,6 +466,8 @@ CLASSES = (
     HOMEMODEL_OT_rest,
     HOMEMODEL_OT_set_joint_state,
     HOMEMODEL_OT_edit_joint,
+    HOMEMODEL_OT_make_model,
+    HOMEMODEL_OT_add_joint,
     HOMEMODEL_OT_import_model,
     HOMEMODEL_OT_export_model,
 )

@@ -46,6 +46,7 @@ DYNAMICS = "hm_dynamics"
 POSITION = "hm_q"
 GRASP = "hm_grasp"
 GRASP_KIND = "hm_grasp_kind"
+FROM_MESHES = "from_meshes"
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
 # A continuous joint's slider still needs an end: one turn either way.
 CONTINUOUS_RANGE_RAD = 2 * math.pi
@@ -169,8 +170,7 @@ def add_model(doc: dict, collection: bpy.types.Collection, world_from_model: Mat
         empty.empty_display_size = 0.03
         empty[LINK] = link["name"]
         empty[COLLISIONS] = json.dumps(link.get("collisions", []))
-        if link.get("inertial") is not None:
-            empty[INERTIAL] = json.dumps(link["inertial"])
+        empty[INERTIAL] = json.dumps(link.get("inertial"))
         collection.objects.link(empty)
         links[link["name"]] = empty
         for visual in link.get("visuals", []):
@@ -202,6 +202,58 @@ def add_model(doc: dict, collection: bpy.types.Collection, world_from_model: Mat
     return root
 
 
+def owning_link(obj: bpy.types.Object) -> bpy.types.Object | None:
+    """The link `obj` belongs to: itself if it is one, else its nearest link ancestor."""
+    while obj is not None and LINK not in obj:
+        obj = obj.parent
+    return obj
+
+
+def _reparent(obj: bpy.types.Object, parent: bpy.types.Object) -> None:
+    """Parent `obj` to `parent` where it stands."""
+    world = obj.matrix_world.copy()
+    obj.parent = parent
+    obj.matrix_parent_inverse = parent.matrix_world.inverted()
+    obj.matrix_world = world
+
+
+def make_model(name: str, category: str, meshes, world_from_model: Matrix, collection) -> bpy.types.Object:
+    """A model of one link, "base", at `world_from_model`, owning `meshes`."""
+    root = bpy.data.objects.new(f"{name}:base", None)
+    root.empty_display_size = 0.05
+    collection.objects.link(root)
+    root.matrix_world = world_from_model
+    root[LINK] = "base"
+    root[MODEL] = json.dumps({"name": name, "category": category, "affordances": [], "properties": {}})
+    bpy.context.view_layer.update()
+    for mesh in meshes:
+        _reparent(mesh, root)
+    return root
+
+
+def add_joint(meshes, name: str, kind: str, model_axis: Vector, limits: tuple[float, float], world_point) -> bpy.types.Object:
+    """A new link `name` owning `meshes`, joined to the link that owned the first of them at
+    `world_point`, moving about or along `model_axis` (in the model's frame)."""
+    parent = owning_link(meshes[0])
+    link = bpy.data.objects.new(f"{json.loads(model_root(parent)[MODEL])['name']}:{name}", None)
+    link.empty_display_size = 0.03
+    for collection in parent.users_collection:
+        collection.objects.link(link)
+    bpy.context.view_layer.update()
+    parent_from_world = rigid(parent.matrix_world).inverted()
+    # The joint frame keeps the parent's orientation; the axis goes into it.
+    parent_from_joint = Matrix.Translation(parent_from_world @ Vector(world_point))
+    model_from_parent = rigid(model_root(parent).matrix_world).inverted() @ rigid(parent.matrix_world)
+    axis = (model_from_parent.to_3x3().inverted() @ model_axis).normalized()
+    _set_joint(link, {"name": f"{name}_joint", "type": kind, "parent_from_joint": parent_from_joint, "axis": axis,
+                      "limits": {"lower": limits[0], "upper": limits[1]}}, parent)
+    link[LINK] = name
+    bpy.context.view_layer.update()
+    for mesh in meshes:
+        _reparent(mesh, link)
+    return link
+
+
 # Reading a model back
 
 
@@ -222,13 +274,13 @@ def model_root(obj: bpy.types.Object | None) -> bpy.types.Object | None:
     return None
 
 
-def _owned(obj: bpy.types.Object):
+def owned(obj: bpy.types.Object):
     """The objects `obj` owns: its descendants, not passing through another link or model."""
     for child in obj.children:
         if LINK in child or MODEL in child:
             continue
         yield child
-        yield from _owned(child)
+        yield from owned(child)
 
 
 def links_of(root: bpy.types.Object) -> list[bpy.types.Object]:
@@ -257,7 +309,7 @@ def joint_motion(obj: bpy.types.Object) -> Matrix:
 def _visuals(link: bpy.types.Object, depsgraph) -> list[dict]:
     link_from_world = rigid(link.matrix_world).inverted()
     visuals = []
-    for obj in _owned(link):
+    for obj in owned(link):
         if obj.type != "MESH":
             continue
         link_from_object = link_from_world @ obj.matrix_world
@@ -292,14 +344,15 @@ def model_document(root: bpy.types.Object, depsgraph) -> dict:
     info = json.loads(root[MODEL])
     links, joints, grasps = [], [], []
     for link in links_of(root):
-        collisions = json.loads(link.get(COLLISIONS, "[]"))
+        collisions = json.loads(link[COLLISIONS]) if COLLISIONS in link else None
         visuals = _visuals(link, depsgraph)
         links.append(
             {
                 "name": link[LINK],
                 "visuals": visuals,
-                "collisions": collisions,
-                "inertial": json.loads(link[INERTIAL]) if INERTIAL in link else None,
+                "collisions": collisions,  # None: the toolkit wraps the visuals in a convex hull
+                # A link made by hand has neither: the toolkit derives them from its meshes.
+                "inertial": json.loads(link[INERTIAL]) if INERTIAL in link else FROM_MESHES,
             }
         )
         if JOINT in link:
@@ -320,7 +373,7 @@ def model_document(root: bpy.types.Object, depsgraph) -> dict:
             if DYNAMICS in link:
                 joint["dynamics"] = json.loads(link[DYNAMICS])
             joints.append(joint)
-        for obj in _owned(link):
+        for obj in owned(link):
             if GRASP in obj:
                 link_from_grasp = rigid(link.matrix_world).inverted() @ rigid(obj.matrix_world)
                 grasps.append({"name": obj[GRASP], "link": link[LINK], "kind": obj.get(GRASP_KIND, "handle"), "link_from_grasp": rows_of(link_from_grasp)})
@@ -339,7 +392,7 @@ def model_objects(root: bpy.types.Object) -> list[bpy.types.Object]:
     objects = []
     for link in links_of(root):
         objects.append(link)
-        objects.extend(_owned(link))
+        objects.extend(owned(link))
     return objects
 
 

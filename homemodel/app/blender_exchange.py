@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from articulation.inertia import inertial_from_meshes
 from articulation.model import (
     Box,
     Collision,
@@ -38,6 +39,9 @@ from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 
 MODEL_FORMAT = "homemodel.blender-model/1"
+# What a link made by hand in Blender says instead of an inertial; it gets this density.
+FROM_MESHES = "from_meshes"
+HAND_MADE_DENSITY_KG_M3 = 500.0
 # A kitchen's largest model is a few MB as JSON; this bounds a hostile file.
 MAX_DOCUMENT_BYTES = 512 * 1024 * 1024
 
@@ -124,6 +128,11 @@ def model_document(model: Model, *, spec: dict | None = None) -> dict[str, Any]:
     }
 
 
+def _hull(visuals: list[Visual]) -> trimesh.Trimesh:
+    points = np.vstack([trimesh.transform_points(v.mesh.vertices, v.link_from_visual) for v in visuals])
+    return trimesh.Trimesh(vertices=points).convex_hull
+
+
 class _Reader:
     """Turns a document into a Model, naming the file and the field on any fault."""
 
@@ -190,10 +199,20 @@ class _Reader:
                 )
             )
         inertial = doc.get("inertial")
+        if inertial == FROM_MESHES:  # a link made by hand in Blender
+            inertial = None
+            if visuals:
+                meshes = [v.mesh.copy().apply_transform(v.link_from_visual) for v in visuals]
+                derived = inertial_from_meshes(meshes, density_kg_m3=HAND_MADE_DENSITY_KG_M3)
+                inertial = {"mass_kg": derived.mass_kg, "com_m": derived.com_m, "inertia_kgm2": derived.inertia_kgm2}
+        if doc.get("collisions") is None:  # a link made by hand in Blender: its visuals' convex hull
+            collisions = [Collision(name="hull", geometry=MeshGeometry(mesh=_hull(visuals)))] if visuals else []
+        else:
+            collisions = [self.collision(c, f"{where}.collisions.{i}") for i, c in enumerate(doc["collisions"])]
         return Link(
             name=str(self.field(doc, "name", where)),
             visuals=visuals,
-            collisions=[self.collision(c, f"{where}.collisions.{i}") for i, c in enumerate(doc.get("collisions", []))],
+            collisions=collisions,
             inertial=None
             if inertial is None
             else Inertial(
