@@ -84,10 +84,7 @@ def _land(context, job: Job) -> bpy.types.Object:
     """Put the finished model at the 3D cursor, selected."""
     root = rig.add_model(job.document(), context.collection)
     root.matrix_world = Matrix.Translation(context.scene.cursor.location)
-    for other in context.view_layer.objects:
-        other.select_set(False)
-    root.select_set(True)
-    context.view_layer.objects.active = root
+    rig.select_only(context, root)
     return root
 
 

@@ -174,7 +174,7 @@ class HOMEMODEL_OT_build(bpy.types.Operator):
         if root is None:
             return {"CANCELLED"}
         root.matrix_world = Matrix.Translation(context.scene.cursor.location)
-        _select_only(context, root)
+        rig.select_only(context, root)
         return {"FINISHED"}
 
 
@@ -236,16 +236,10 @@ class HOMEMODEL_OT_rebuild(bpy.types.Operator):
             parking.matrix_parent_inverse = new.matrix_world.inverted()
             parking.matrix_world = world
         rig.remove_model(old)
+        context.view_layer.update()
         _form(context).target = new.name
-        _select_only(context, new)
+        rig.select_only(context, new)
         return {"FINISHED"}
-
-
-def _select_only(context, obj: bpy.types.Object) -> None:
-    for other in context.view_layer.objects:
-        other.select_set(False)
-    obj.select_set(True)
-    context.view_layer.objects.active = obj
 
 
 class HOMEMODEL_OT_rest(bpy.types.Operator):
@@ -337,7 +331,7 @@ class HOMEMODEL_OT_make_model(bpy.types.Operator):
     def execute(self, context):
         meshes = [o for o in context.selected_objects if o.type == "MESH" and rig.model_root(o) is None]
         root = rig.make_model(self.name, self.category, meshes, Matrix.Translation(context.scene.cursor.location), context.collection)
-        _select_only(context, root)
+        rig.select_only(context, root)
         return {"FINISHED"}
 
 
@@ -367,7 +361,7 @@ class HOMEMODEL_OT_add_joint(bpy.types.Operator):
             return {"CANCELLED"}
         link = rig.add_joint(meshes, self.name, self.joint_type, Vector(self.axis), (self.lower, self.upper), context.scene.cursor.location)
         context.view_layer.update()
-        _select_only(context, link)
+        rig.select_only(context, link)
         return {"FINISHED"}
 
 
@@ -396,7 +390,7 @@ class HOMEMODEL_OT_import_model(bpy.types.Operator, ImportHelper):
             return _report_toolkit_error(self, exc)
         root = rig.add_model(toolkit.read_json(work / "model.json"), context.collection)
         root.matrix_world = Matrix.Translation(context.scene.cursor.location)
-        _select_only(context, root)
+        rig.select_only(context, root)
         return {"FINISHED"}
 
 

@@ -49,24 +49,21 @@ class HOMEMODEL_PT_build(_SidebarPanel, bpy.types.Panel):
 
 def _draw_row(layout, item) -> None:
     row = layout.row(align=True)
-    if item.depth:
+    for _ in range(min(item.depth, 3)):
         row.label(text="", icon="BLANK1")
-        if item.depth > 1:
-            row.label(text="", icon="BLANK1")
-    if item.kind == "list":
+    if item.kind in ("list", "item", "group"):
         row.label(text=item.label)
-        row.operator("homemodel.form_add_item", text="", icon="ADD").path = item.path
-    elif item.kind == "item":
-        row.label(text=item.label)
-        row.operator("homemodel.form_remove_item", text="", icon="REMOVE").path = item.path
-    elif item.kind == "group":
-        row.label(text=item.label)
+        if item.kind == "list":
+            row.operator("homemodel.form_add_item", text="", icon="ADD").path = item.path
+        elif item.kind == "item":
+            row.operator("homemodel.form_remove_item", text="", icon="REMOVE").path = item.path
     else:
-        row.prop(item, VALUE_PROPS[item.kind], text=item.label)
-        if item.unit:
-            row.label(text=item.unit)
+        split = row.split(factor=0.5, align=True)
+        split.label(text=f"{item.label} ({item.unit})" if item.unit else item.label)
+        field = split.row(align=True)
+        field.prop(item, VALUE_PROPS[item.kind], text="")
         if item.help:
-            row.operator("homemodel.field_help", text="", icon="INFO").help = item.help
+            field.operator("homemodel.field_help", text="", icon="INFO").help = item.help
     if item.error:
         layout.label(text=item.error, icon="ERROR")
 
@@ -101,9 +98,12 @@ class HOMEMODEL_PT_model(_SidebarPanel, bpy.types.Panel):
         for joint in rig.joints_of(root):
             if joint[rig.JOINT_TYPE] == "fixed":
                 continue
-            row = column.row(align=True)
-            row.prop(joint, f'["{rig.POSITION}"]', text=joint[rig.JOINT], slider=True)
-            row.label(text=joint_display(joint))
+            split = column.split(factor=0.4, align=True)
+            split.label(text=joint[rig.JOINT])
+            row = split.row(align=True)
+            row.prop(joint, f'["{rig.POSITION}"]', text="", slider=True)
+            if joint[rig.JOINT_TYPE] == "prismatic":  # the slider shows metres
+                row.label(text=joint_display(joint))
             if json.loads(joint.get(rig.STATES, "[]")):
                 row.context_pointer_set("homemodel_joint", joint)
                 row.menu("HOMEMODEL_MT_joint_states", text="", icon="DOWNARROW_HLT")
@@ -139,7 +139,7 @@ class HOMEMODEL_PT_home(_SidebarPanel, bpy.types.Panel):
                 for parking in home.parking_of(root):
                     row = layout.row(align=True)
                     row.label(text=parking[home.PARKING], icon="EMPTY_ARROWS")
-                    row.prop(parking, f'["{home.PARKING_DEFAULT}"]', text="default")
+                    row.prop(parking, "homemodel_parking_default", text="default")
         layout.operator("homemodel.export_home", icon="EXPORT")
         for line in HOME_REPORT:
             layout.label(text=line, icon="ERROR" if line.startswith("FAIL") else "CHECKMARK")

@@ -122,6 +122,17 @@ def _relation_set(self, value: int) -> None:
     self[home.RELATION] = home.RELATIONS[value]
 
 
+def _parking_default_get(self) -> bool:
+    return bool(self.get(home.PARKING_DEFAULT, False))
+
+
+def _parking_default_set(self, value: bool) -> None:
+    if value and self.parent is not None:  # one default per large object
+        for other in home.parking_of(self.parent):
+            other[home.PARKING_DEFAULT] = False
+    self[home.PARKING_DEFAULT] = bool(value)
+
+
 def _object_id_get(self) -> str:
     return self.get(home.OBJECT_ID, "")
 
@@ -146,13 +157,16 @@ def register() -> None:
         get=_relation_get,
         set=_relation_set,
     )
+    bpy.types.Object.homemodel_parking_default = BoolProperty(
+        name="Default", description="the parking position the robot tries first", get=_parking_default_get, set=_parking_default_set
+    )
     bpy.types.Object.homemodel_object_id = StringProperty(
         name="Object id", description="the object's id in the semantic map", get=_object_id_get, set=_object_id_set
     )
 
 
 def unregister() -> None:
-    for name in ("homemodel_relation", "homemodel_object_id"):
+    for name in ("homemodel_relation", "homemodel_object_id", "homemodel_parking_default"):
         delattr(bpy.types.Object, name)
     for name in ("homemodel_form", "homemodel_room", "homemodel_job_progress", "homemodel_job_status"):
         delattr(bpy.types.Scene, name)

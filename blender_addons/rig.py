@@ -180,7 +180,7 @@ def add_model(doc: dict, collection: bpy.types.Collection, world_from_model: Mat
     for joint in doc.get("joints", []):
         _set_joint(links[joint["child"]], joint, links[joint["parent"]])
     for grasp in doc.get("grasp_points", []):
-        empty = bpy.data.objects.new(f"{name}:{grasp['name']}", None)
+        empty = bpy.data.objects.new(f"{name}:grasp:{grasp['name']}", None)
         empty.empty_display_type = "ARROWS"
         empty.empty_display_size = 0.04
         empty.show_name = True
@@ -200,6 +200,14 @@ def add_model(doc: dict, collection: bpy.types.Collection, world_from_model: Mat
     if world_from_model is not None:
         root.matrix_world = world_from_model
     return root
+
+
+def select_only(context, obj: bpy.types.Object) -> None:
+    """Make `obj` the one selected, active object."""
+    for other in context.selected_objects:
+        other.select_set(False)
+    obj.select_set(True)
+    context.view_layer.objects.active = obj
 
 
 def owning_link(obj: bpy.types.Object) -> bpy.types.Object | None:

@@ -68,11 +68,16 @@ def _list_item_schema(schema: dict, root: dict) -> dict | None:
 
 
 def text_of(value: Any) -> str:
+    """What a text row shows: a name as it is, nothing for "not given", else JSON."""
+    if value is None:
+        return ""
     return value if isinstance(value, str) else json.dumps(value)
 
 
 def value_of_text(text: str) -> Any:
-    """A text row's value: JSON when it parses, else the bare string ("white")."""
+    """A text row's value: None when empty, JSON when it parses, else the bare string ("white")."""
+    if not text.strip():
+        return None
     try:
         return json.loads(text)
     except json.JSONDecodeError:

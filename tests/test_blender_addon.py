@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -36,7 +37,6 @@ def homemodel(*args: str) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def addon():
     """The extension registered in this process's bpy, the toolkit found through HOMEMODEL_COMMAND."""
-    import bpy
 
     os.environ["HOMEMODEL_COMMAND"] = f"{sys.executable} -m homemodel"
     os.environ["PYTHONPATH"] = ENV["PYTHONPATH"]
@@ -214,20 +214,17 @@ def test_build_a_cupboard_at_the_cursor_then_edit_and_rebuild_it_in_place(cupboa
     expected = load_urdf(cupboard_dir / "model.urdf")
     assert {j[rig.JOINT] for j in rig.joints_of(root)} == {j.name for j in expected.joints}
     assert json.loads(root[rig.SPEC])["width_m"] == 1.2
-    # Placed in a room and turned, then re-measured: 1.2 m becomes 1.0 m wide.
+    # Placed in a room and turned, then re-measured: 0.56 m becomes 0.6 m deep.
     bpy.ops.homemodel.add_room(name="Kitchen")
     bpy.ops.homemodel.place(small=False)
     root.matrix_world = Matrix.Translation((3.0, 1.0, 0.0)) @ Matrix.Rotation(math.pi / 2, 4, "Z")
     home.add_parking(root, "front", Matrix.Translation((3.0, 2.0, 0.0)), True)
     assert bpy.ops.homemodel.edit_measurements() == {"FINISHED"}
     rows = {row.path: row for row in form.rows}
-    rows["width_m"].number = 1.0
-    rows["dividers.0.left_m"].number = 0.6
-    for i in range(3):
-        rows[f"drawers.{i}.left_m"].number = 0.602
+    rows["depth_m"].number = 0.6
     assert bpy.ops.homemodel.rebuild() == {"FINISHED"}
     new = _active()
-    assert json.loads(new[rig.SPEC])["width_m"] == 1.0
+    assert json.loads(new[rig.SPEC])["depth_m"] == 0.6
     np.testing.assert_allclose(np.array(new.matrix_world), np.array(Matrix.Translation((3.0, 1.0, 0.0)) @ Matrix.Rotation(math.pi / 2, 4, "Z")), atol=1e-6)
     assert home.room_of(new)[home.ROOM] == "kitchen" and [p[home.PARKING] for p in home.parking_of(new)] == ["front"]
     assert len(home.model_roots(scene)) == 1
@@ -388,7 +385,7 @@ def test_edits_by_hand_survive_the_export(scene, cupboard_dir: Path, tmp_path: P
     before, after = load_urdf(cupboard_dir / "model.urdf"), load_urdf(tmp_path / "out" / "model.urdf")
     assert after.joint("door_0_hinge").limits.upper == pytest.approx(1.2)
     assert len(after.link("body").visuals) == len(before.link("body").visuals) + 1
-    shelf_mesh = after.link("body").visuals[-1]
+    (shelf_mesh,) = [v for v in after.link("body").visuals if v.name == "Cube"]
     bounds = trimesh.transform_points(shelf_mesh.mesh.vertices, shelf_mesh.link_from_visual)
     np.testing.assert_allclose(bounds.max(axis=0) - bounds.min(axis=0), (0.4, 0.3, 0.009), atol=1e-6)
     moved = after.link("drawer_0_handle").visuals[0]
@@ -421,7 +418,6 @@ def test_a_failed_gate_is_reported_and_the_colliding_links_selected(scene, cupbo
 def test_a_model_made_by_hand_gets_a_joint_and_passes_the_gate(scene, tmp_path: Path) -> None:
     import bpy
 
-    from blender_addons import rig
     from blender_addons.model_operators import GATE_REPORT
 
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.4))
@@ -557,3 +553,63 @@ def test_a_small_object_without_its_parent_in_the_home_is_refused_and_nothing_wr
     with pytest.raises(RuntimeError, match="table_9"):
         bpy.ops.homemodel.export_home(directory=str(tmp_path / "home"))
     assert not (tmp_path / "home").exists()
+
+
+# Scans and photos
+
+
+def test_a_photo_job_reports_progress_and_cancels(scene, shared_data: Path) -> None:
+    import time
+
+    from blender_addons import home, jobs, toolkit
+
+    job = jobs.Job("photos", shared_data / "photogrammetry" / "kermit", "")
+    job.start()
+    deadline = time.monotonic() + 300
+    while job.stage == "starting" and not job.poll() and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert job.process.poll() is None, job.log.read_text()
+    assert job.stage != "starting"  # a stage the toolkit reported
+    assert 0.0 <= job.fraction <= 1.0
+    job.cancel()
+    assert job.poll() and job.process.returncode != 0
+    with pytest.raises(toolkit.ToolkitError):
+        job.document()
+    assert not home.model_roots(scene) and not (job.out / "model.urdf").exists()
+
+
+# A real Blender window
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    not (shutil.which("blender") and shutil.which("xvfb-run")),
+    reason="needs Debian's blender and xvfb (make addon-screenshots installs them)",
+)
+def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path) -> None:
+    from homemodel.core.images import read_image
+
+    empty = tmp_path / "empty.blend"
+    subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
+                    f"import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); bpy.ops.wm.save_as_mainfile(filepath={str(empty)!r})"], capture_output=True, check=True)
+    env = {**ENV, "HOMEMODEL_COMMAND": f"{sys.executable} -m homemodel"}
+    run = subprocess.run(
+        ["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", "blender", "--factory-startup", "--enable-event-simulate",
+         str(empty), "--python", str(REPO / "tools" / "addon_screenshots.py"), "--", str(REPO), str(kitchen / "map.xml"), str(tmp_path / "shots")],
+        capture_output=True, text=True, env=env, timeout=600,
+    )
+    output = run.stdout + run.stderr
+    assert "Traceback" not in output and "Error" not in output and "FAILED" not in output, output
+    drew = json.loads((tmp_path / "shots" / "screenshots.json").read_text())
+    assert drew == {
+        "addon_build.png": ["HOMEMODEL_PT_build"],
+        "addon_joints.png": ["HOMEMODEL_PT_model"],
+        "addon_home.png": ["HOMEMODEL_PT_home", "HOMEMODEL_PT_jobs"],
+    }
+    for name in drew:
+        image = read_image(tmp_path / "shots" / name)
+        sidebar = image[:, -260:-40].astype(float)
+        viewport = image[:, : image.shape[1] // 2].astype(float)
+        # The sidebar holds text and widgets (many tones), the viewport the kitchen.
+        assert len(np.unique(sidebar.reshape(-1, sidebar.shape[-1]), axis=0)) > 50, name
+        assert sidebar.std() > 10 and viewport.std() > 10, name
