@@ -49,7 +49,7 @@ class HOMEMODEL_PT_build(_SidebarPanel, bpy.types.Panel):
 
 def _draw_row(layout, item) -> None:
     row = layout.row(align=True)
-    for _ in range(min(item.depth, 3)):
+    if item.depth:  # one step of indent: deeper ones would squeeze the fields
         row.label(text="", icon="BLANK1")
     if item.kind in ("list", "item", "group"):
         row.label(text=item.label)
@@ -152,6 +152,7 @@ class HOMEMODEL_PT_jobs(_SidebarPanel, bpy.types.Panel):
         layout = self.layout
         for kind, (label, icon) in jobs.JOB_BUTTONS.items():
             layout.operator("homemodel.run_job", text=label, icon=icon).kind = kind
+        layout.operator("homemodel.render", text="Render selection or room", icon="RENDER_STILL")
         status = context.scene.homemodel_job_status
         if status:
             layout.label(text=status)
@@ -164,7 +165,7 @@ class HOMEMODEL_MT_main(bpy.types.Menu):
     def draw(self, context):
         layout = self.layout
         for op in ("build", "edit_measurements", "rebuild", "rest", "edit_joint", "export_model", "add_room",
-                   "add_parking", "export_home"):
+                   "add_parking", "export_home", "render", "make_model", "add_joint"):
             layout.operator(f"homemodel.{op}")
         layout.operator("homemodel.place", text="Place large object").small = False
         layout.operator("homemodel.place", text="Place small object").small = True

@@ -578,6 +578,20 @@ def test_a_photo_job_reports_progress_and_cancels(scene, shared_data: Path) -> N
     assert not home.model_roots(scene) and not (job.out / "model.urdf").exists()
 
 
+def test_render_the_selected_model_to_a_picture(scene, kitchen: Path, tmp_path: Path) -> None:
+    import bpy
+
+    from homemodel.core.images import read_image
+
+    bpy.ops.homemodel.import_model(filepath=str(kitchen / "models" / "blue_cup" / "model.urdf"))
+    assert bpy.ops.homemodel.render(directory=str(tmp_path), resolution_px=160, samples=4) == {"FINISHED"}
+    image = read_image(tmp_path / "render_blue_cup.png").astype(float)
+    assert image.shape[:2] == (120, 160)
+    blue, green, red = image[40:80, 55:105].reshape(-1, 3).mean(axis=0)  # OpenCV's BGR
+    assert blue > 1.5 * red and blue > 1.3 * green, (blue, green, red)  # the cup is blue and fills the frame
+    assert [o.name for o in bpy.data.objects if o.type in ("CAMERA", "LIGHT")] == []  # the scene is left as it was
+
+
 # A real Blender window
 
 
