@@ -365,15 +365,22 @@ class HOMEMODEL_OT_add_joint(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def _model_argument(path: Path) -> Path:
-    """A model folder for a file inside one (the file browser hands over files)."""
-    if path.is_file() and path.suffix.lower() != ".urdf":
-        return path.parent
-    return path
+def _import_glb(context, path: Path) -> bpy.types.Object | None:
+    """A glb exported from Blender with this extension's properties (Include › Custom
+    Properties), rigged again; None (and nothing left in the scene) for any other glb."""
+    before = set(bpy.data.objects)
+    bpy.ops.import_scene.gltf(filepath=str(path))
+    new = [obj for obj in bpy.data.objects if obj not in before]
+    roots = rig.rig_imported(new)
+    if len(roots) == 1:
+        return roots[0]
+    for obj in new:
+        bpy.data.objects.remove(obj, do_unlink=True)
+    return None
 
 
 class HOMEMODEL_OT_import_model(bpy.types.Operator, ImportHelper):
-    """Import a homemodel model folder or any URDF (PartNet-Mobility's mobility.urdf too), joints rigged"""
+    """Import a homemodel model folder, any URDF (PartNet-Mobility's mobility.urdf too), or a glb exported from Blender with its properties, joints rigged"""
 
     bl_idname = "homemodel.import_model"
     bl_label = "Import homemodel model"
@@ -382,14 +389,18 @@ class HOMEMODEL_OT_import_model(bpy.types.Operator, ImportHelper):
     filter_glob: StringProperty(default="*.urdf;*.glb", options={"HIDDEN"})
 
     def execute(self, context):
-        source = _model_argument(Path(self.filepath))
-        work = Path(tempfile.mkdtemp(prefix="homemodel-import-"))
-        try:
-            toolkit.run(["addon", "describe", str(source), "--out", str(work / "model.json")], preference(context))
-        except toolkit.ToolkitError as exc:
-            return _report_toolkit_error(self, exc)
-        root = rig.add_model(toolkit.read_json(work / "model.json"), context.collection)
-        root.matrix_world = Matrix.Translation(context.scene.cursor.location)
+        path = Path(self.filepath)
+        root = _import_glb(context, path) if path.suffix.lower() == ".glb" and path.is_file() else None
+        if root is None:
+            # A folder, a URDF, or a glb inside a model folder: the toolkit reads the URDF.
+            source = path.parent if path.is_file() and path.suffix.lower() != ".urdf" else path
+            work = Path(tempfile.mkdtemp(prefix="homemodel-import-"))
+            try:
+                toolkit.run(["addon", "describe", str(source), "--out", str(work / "model.json")], preference(context))
+            except toolkit.ToolkitError as exc:
+                return _report_toolkit_error(self, exc)
+            root = rig.add_model(toolkit.read_json(work / "model.json"), context.collection)
+            root.matrix_world = Matrix.Translation(context.scene.cursor.location)
         rig.select_only(context, root)
         return {"FINISHED"}
 

@@ -262,6 +262,18 @@ def add_joint(meshes, name: str, kind: str, model_axis: Vector, limits: tuple[fl
     return link
 
 
+def rig_imported(objects) -> list[bpy.types.Object]:
+    """Rig models that came back through Blender's glTF importer (their properties came back
+    from the node extras, their drivers did not); returns their root links."""
+    for obj in objects:
+        if JOINT in obj:
+            # The importer gives the node's local matrix: the origin, moved by the joint.
+            obj.matrix_parent_inverse = obj.matrix_parent_inverse @ obj.matrix_basis @ joint_motion(obj).inverted()
+            obj.matrix_basis = Matrix.Identity(4)
+            rig_joint(obj)
+    return [obj for obj in objects if MODEL in obj]
+
+
 # Reading a model back
 
 

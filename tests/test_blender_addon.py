@@ -466,6 +466,14 @@ def test_the_scheme_survives_save_reopen_and_the_gltf_exporter(scene, cupboard_d
     assert extras[rig.JOINT] == "door_1_hinge" and extras[rig.JOINT_TYPE] == "revolute"
     assert extras[rig.POSITION] == pytest.approx(0.5) and len(extras[rig.AXIS]) == 3
     assert json.loads(nodes[root.name][rig.MODEL])["category"] == "cupboard"
+    # That glb comes back as the same model, rigged.
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert bpy.ops.homemodel.import_model(filepath=str(tmp_path / "scene.glb")) == {"FINISHED"}
+    door = next(j for j in rig.joints_of(_active()) if j[rig.JOINT] == "door_1_hinge")
+    assert door[rig.POSITION] == pytest.approx(0.5)
+    rig.set_position(door, 0.0)
+    assert bpy.ops.homemodel.export_model(directory=str(tmp_path / "from_glb")) == {"FINISHED"}
+    _same_model(load_urdf(cupboard_dir / "model.urdf"), load_urdf(tmp_path / "from_glb" / "model.urdf"))
 
 
 # The home
