@@ -152,7 +152,11 @@ def _build(operator, context) -> bpy.types.Object | None:
         form.message = f"{problems[0]['field']}: {problems[0]['message']}"
         operator.report({"ERROR"}, form.message)
         return None
-    toolkit.run(["addon", "build", str(spec_path), "--out", str(work / "model"), "--force"], preference(context), accept=(0, 1))
+    built = toolkit.run(["addon", "build", str(spec_path), "--out", str(work / "model"), "--force"], preference(context), accept=(0, 1))
+    GATE_REPORT[:] = built.stdout.splitlines()
+    failed = [line for line in GATE_REPORT if line.startswith("FAIL ")]
+    if failed:  # built, but the gate refused it: the installer sees why in the panel
+        operator.report({"WARNING"}, f"built, but the gate failed {len(failed)} checks: {failed[0]}")
     doc = toolkit.read_json(work / "model" / "blender.json")
     root = rig.add_model(doc, context.collection)
     form.message = ""

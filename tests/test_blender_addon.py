@@ -38,6 +38,7 @@ def homemodel(*args: str) -> subprocess.CompletedProcess:
 def addon():
     """The extension registered in this process's bpy, the toolkit found through HOMEMODEL_COMMAND."""
 
+    saved = {key: os.environ.get(key) for key in ("HOMEMODEL_COMMAND", "PYTHONPATH")}
     os.environ["HOMEMODEL_COMMAND"] = f"{sys.executable} -m homemodel"
     os.environ["PYTHONPATH"] = ENV["PYTHONPATH"]
     import blender_addons
@@ -45,7 +46,11 @@ def addon():
     blender_addons.register()
     yield blender_addons
     blender_addons.unregister()
-    del os.environ["HOMEMODEL_COMMAND"]
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
 
 
 @pytest.fixture
@@ -635,3 +640,20 @@ def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path)
         # The sidebar holds text and widgets (many tones), the viewport the kitchen.
         assert len(np.unique(sidebar.reshape(-1, sidebar.shape[-1]), axis=0)) > 50, name
         assert sidebar.std() > 10 and viewport.std() > 10, name
+
+
+def test_a_bad_model_document_is_one_line_naming_the_field_and_nothing_is_written(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    box = trimesh.creation.box()
+    faces = box.faces.copy()
+    faces[3, 1] = 99  # a triangle pointing past the 8 vertices
+    doc = {"format": "homemodel.blender-model/1", "name": "box", "links": [
+        {"name": "body", "visuals": [{"name": "v", "vertices": box.vertices.tolist(), "faces": faces.tolist()}]}]}
+    (tmp_path / "model.json").write_text(json.dumps(doc))
+    result = CliRunner().invoke(app, ["addon", "export", str(tmp_path / "model.json"), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.output.strip() == f"error: {tmp_path / 'model.json'}: links.0.visuals.0.faces: an index outside the 8 vertices"
+    assert not (tmp_path / "out").exists()
