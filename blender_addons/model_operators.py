@@ -297,7 +297,7 @@ class HOMEMODEL_OT_edit_joint(bpy.types.Operator):
     def invoke(self, context, event):
         joint = context.active_object
         self.joint_type, self.axis = joint[rig.JOINT_TYPE], tuple(joint[rig.AXIS])
-        self.lower, self.upper = joint[rig.LOWER], joint[rig.UPPER]
+        self.lower, self.upper = rig.joint_range(joint) if joint[rig.JOINT_TYPE] != "continuous" else (0.0, 0.0)
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
@@ -310,7 +310,8 @@ class HOMEMODEL_OT_edit_joint(bpy.types.Operator):
         joint = context.active_object
         joint[rig.JOINT_TYPE] = self.joint_type
         joint[rig.AXIS] = list(Vector(self.axis).normalized())
-        joint[rig.LOWER], joint[rig.UPPER] = self.lower, self.upper
+        if self.joint_type in ("revolute", "prismatic"):
+            joint[rig.LOWER], joint[rig.UPPER] = self.lower, self.upper
         rig.rig_joint(joint)
         context.view_layer.update()
         return {"FINISHED"}

@@ -107,7 +107,7 @@ def joint_range(obj: bpy.types.Object) -> tuple[float, float]:
         return -CONTINUOUS_RANGE_RAD, CONTINUOUS_RANGE_RAD
     if obj[JOINT_TYPE] == "fixed":
         return 0.0, 0.0
-    return float(obj[LOWER]), float(obj[UPPER])
+    return float(obj.get(LOWER, 0.0)), float(obj.get(UPPER, 0.0))
 
 
 def set_position(obj: bpy.types.Object, position: float) -> None:
@@ -147,11 +147,12 @@ def _set_joint(obj: bpy.types.Object, joint: dict, parent: bpy.types.Object) -> 
     obj[JOINT] = joint["name"]
     obj[JOINT_TYPE] = joint["type"]
     obj[AXIS] = [float(v) for v in joint.get("axis", (0.0, 0.0, 1.0))]
-    limits = joint.get("limits") or {}
-    obj[LOWER] = float(limits.get("lower", 0.0))
-    obj[UPPER] = float(limits.get("upper", 0.0))
-    obj[EFFORT] = float(limits.get("effort", 10.0))
-    obj[VELOCITY] = float(limits.get("velocity", 1.0))
+    limits = joint.get("limits")
+    if limits is not None:  # a continuous or fixed joint may have none, and keeps none
+        obj[LOWER] = float(limits.get("lower", 0.0))
+        obj[UPPER] = float(limits.get("upper", 0.0))
+        obj[EFFORT] = float(limits.get("effort", 10.0))
+        obj[VELOCITY] = float(limits.get("velocity", 1.0))
     obj[STATES] = json.dumps(joint.get("states", []))
     if joint.get("dynamics") is not None:
         obj[DYNAMICS] = json.dumps(joint["dynamics"])
@@ -388,8 +389,9 @@ def model_document(root: bpy.types.Object, depsgraph) -> dict:
                 "states": json.loads(link.get(STATES, "[]")),
                 "position": float(link.get(POSITION, 0.0)),
             }
-            if link[JOINT_TYPE] != "fixed":
-                joint["limits"] = {k: float(link[p]) for k, p in (("lower", LOWER), ("upper", UPPER), ("effort", EFFORT), ("velocity", VELOCITY))}
+            if LOWER in link:
+                defaults = {EFFORT: 10.0, VELOCITY: 1.0}
+                joint["limits"] = {k: float(link.get(p, defaults.get(p, 0.0))) for k, p in (("lower", LOWER), ("upper", UPPER), ("effort", EFFORT), ("velocity", VELOCITY))}
             if DYNAMICS in link:
                 joint["dynamics"] = json.loads(link[DYNAMICS])
             joints.append(joint)

@@ -313,7 +313,7 @@ def test_import_then_export_with_no_edits_gives_the_same_model(scene, cupboard_d
 
 def _partnet_folder(folder: Path) -> Path:
     """A PartNet-Mobility-style object: mobility.urdf, OBJ parts in textured_objs/, a base
-    link without inertial, a lid on a revolute hinge and a slider."""
+    link without inertial, a lid on a revolute hinge, a slider and a wheel that turns for ever."""
     (folder / "textured_objs").mkdir(parents=True)
     trimesh.creation.box((0.4, 0.3, 0.2)).export(folder / "textured_objs" / "original-1.obj")
     trimesh.creation.box((0.4, 0.3, 0.02)).export(folder / "textured_objs" / "original-2.obj")
@@ -333,12 +333,17 @@ def _partnet_folder(folder: Path) -> Path:
   <link name="link_2">
     <visual name="tab"><origin xyz="0 0 0"/><geometry><mesh filename="textured_objs/original-3.obj"/></geometry></visual>
   </link>
+  <link name="link_3">
+    <visual name="wheel"><origin xyz="0 0 0.02"/><geometry><cylinder radius="0.03" length="0.02"/></geometry></visual>
+  </link>
   <joint name="joint_0" type="fixed"><origin rpy="1.570796326794897 0 -1.570796326794897" xyz="0 0 0"/>
     <child link="link_0"/><parent link="base"/></joint>
   <joint name="joint_1" type="revolute"><origin xyz="-0.2 0 0.1"/><axis xyz="0 -1 0"/>
     <child link="link_1"/><parent link="link_0"/><limit lower="0" upper="1.9"/></joint>
   <joint name="joint_2" type="prismatic"><origin xyz="0 0 0.3"/><axis xyz="1 0 0"/>
     <child link="link_2"/><parent link="link_0"/><limit lower="0" upper="0.1"/></joint>
+  <joint name="joint_3" type="continuous"><origin xyz="0.15 0.1 0.11"/><axis xyz="0 0 1"/>
+    <child link="link_3"/><parent link="link_0"/></joint>
 </robot>
 """
     )
@@ -355,7 +360,8 @@ def test_a_partnet_mobility_urdf_imports_rigged_and_exports_through_the_gate(sce
     assert bpy.ops.homemodel.import_model(filepath=str(folder / "mobility.urdf")) == {"FINISHED"}
     root = _active()
     joints = {j[rig.JOINT]: j for j in rig.joints_of(root)}
-    assert set(joints) == {"joint_0", "joint_1", "joint_2"}
+    assert set(joints) == {"joint_0", "joint_1", "joint_2", "joint_3"}
+    assert joints["joint_3"].id_properties_ui(rig.POSITION).as_dict()["max"] == pytest.approx(2 * math.pi)
     rig.set_position(joints["joint_1"], 1.0)
     bpy.context.view_layer.update()
     model = load_urdf(folder / "mobility.urdf")
@@ -363,6 +369,13 @@ def test_a_partnet_mobility_urdf_imports_rigged_and_exports_through_the_gate(sce
     np.testing.assert_allclose(np.array(next(link for link in rig.links_of(root) if link[rig.LINK] == "link_1").matrix_world), expected, atol=1e-5)
     rig.set_position(joints["joint_1"], 0.0)
     assert bpy.ops.homemodel.export_model(directory=str(tmp_path / "out")) == {"FINISHED"}
+    from articulation.gate.validate import validate_path
+    from blender_addons.model_operators import GATE_REPORT
+
+    # PartNet gives no inertials: the gate says so of the original, and of the export.
+    original = [c.name for c in validate_path(folder).checks if not c.passed]
+    assert original == ["inertials"]
+    assert [line.split()[1] for line in GATE_REPORT if line.startswith("FAIL ")] == original
     _same_model(model, load_urdf(tmp_path / "out" / "model.urdf"))
 
 
