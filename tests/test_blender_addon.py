@@ -485,6 +485,10 @@ def test_the_scheme_survives_save_reopen_and_the_gltf_exporter(scene, cupboard_d
     assert extras[rig.JOINT] == "door_1_hinge" and extras[rig.JOINT_TYPE] == "revolute"
     assert extras[rig.POSITION] == pytest.approx(0.5) and len(extras[rig.AXIS]) == 3
     assert json.loads(nodes[root.name][rig.MODEL])["category"] == "cupboard"
+    # The toolkit reads that glb back as the same model (the open door is not a change).
+    assert homemodel("addon", "describe", str(tmp_path / "scene.glb"), "--out", str(tmp_path / "glb.json")).returncode == 0
+    assert homemodel("addon", "export", str(tmp_path / "glb.json"), "--out", str(tmp_path / "toolkit_glb")).returncode == 0
+    _same_model(load_urdf(cupboard_dir / "model.urdf"), load_urdf(tmp_path / "toolkit_glb" / "model.urdf"))
     # That glb comes back as the same model, rigged.
     bpy.ops.wm.read_factory_settings(use_empty=True)
     assert bpy.ops.homemodel.import_model(filepath=str(tmp_path / "scene.glb")) == {"FINISHED"}

@@ -63,16 +63,21 @@ def build(
 
 @addon_app.command("describe")
 def describe(
-    model: Path = typer.Argument(..., help="a model folder (model.urdf or mobility.urdf) or a .urdf file"),
+    model: Path = typer.Argument(..., help="a model folder (model.urdf or mobility.urdf), a .urdf, or a .glb Blender exported"),
     out: Path = OUT_FILE,
 ) -> None:
-    """Write the model document of a URDF model, for the extension to import."""
+    """Write the model document of a URDF model, or of a glb Blender's exporter wrote from a
+    scene laid out with the extension (custom properties included)."""
     from articulation.urdf_import import find_urdf, load_urdf
     from homemodel.app.blender_exchange import model_document
+    from homemodel.app.blender_glb import model_document_from_glb
     from homemodel.core.atomic import write_json
 
     with exit_on_error():
-        write_json(out, model_document(load_urdf(find_urdf(model))))
+        if model.suffix.lower() == ".glb":
+            write_json(out, model_document_from_glb(model))
+        else:
+            write_json(out, model_document(load_urdf(find_urdf(model))))
 
 
 @addon_app.command("export")
