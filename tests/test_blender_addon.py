@@ -518,6 +518,7 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
         np.testing.assert_allclose(np.array(roots[obj.id].matrix_world), original.world_from_object(obj.id), atol=1e-5)
     parking = {p[home.PARKING]: p for p in home.parking_of(roots["table_1"])}
     assert set(parking) == {"south", "east", "north"} and parking["south"][home.PARKING_DEFAULT]
+    assert json.loads(roots["table_1"][rig.SPEC])["kind"] == "table"  # so Edit measurements works
     grasps = [o for o in rig.owned(roots["blue_cup"]) if rig.GRASP in o]
     assert grasps and all(g.show_name for g in grasps)
     # Open the fridge a little, then export the home.

@@ -274,6 +274,18 @@ def model_from_document(doc: dict, source: str) -> Model:
         raise reader.fail("model", str(exc)) from None
 
 
+def spec_of_model_folder(folder: Path) -> dict | None:
+    """The measurement spec a model folder was built from, when its summary.json names a
+    spec file that is still there (so "Edit measurements" works on models built before)."""
+    from homemodel.core.yaml_specs import read_yaml_mapping
+
+    summary_path = Path(folder) / "summary.json"
+    if not summary_path.is_file():
+        return None
+    spec = read_document(summary_path).get("spec")
+    return read_yaml_mapping(Path(spec)) if isinstance(spec, str) and Path(spec).is_file() else None
+
+
 def read_document(path: Path) -> dict:
     """A JSON document from `path`, size-bounded; InputError naming the file when it is not JSON."""
     path = Path(path)

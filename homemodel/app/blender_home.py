@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from homemodel.app.blender_exchange import matrix_list, model_document, model_from_document, read_document
+from homemodel.app.blender_exchange import matrix_list, model_document, model_from_document, read_document, spec_of_model_folder
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError
 
@@ -40,8 +40,8 @@ def describe_map(map_path: Path, out_dir: Path, *, force: bool = False) -> Path:
                 for obj in [large, *large.small_objects]:
                     if obj.model_ref is None:
                         raise InputError(f"{map_path}: object {obj.id!r} has no model to import (no model_ref)")
-                    model = load_urdf(map_path.parent / obj.model_ref)
-                    write_json(tmp / "models" / f"{obj.id}.json", model_document(model))
+                    urdf = map_path.parent / obj.model_ref
+                    write_json(tmp / "models" / f"{obj.id}.json", model_document(load_urdf(urdf), spec=spec_of_model_folder(urdf.parent)))
                     is_large = isinstance(obj, LargeObject)
                     objects.append(
                         {

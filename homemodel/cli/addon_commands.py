@@ -69,7 +69,7 @@ def describe(
     """Write the model document of a URDF model, or of a glb Blender's exporter wrote from a
     scene laid out with the extension (custom properties included)."""
     from articulation.urdf_import import find_urdf, load_urdf
-    from homemodel.app.blender_exchange import model_document
+    from homemodel.app.blender_exchange import model_document, spec_of_model_folder
     from homemodel.app.blender_glb import model_document_from_glb
     from homemodel.core.atomic import write_json
 
@@ -77,7 +77,8 @@ def describe(
         if model.suffix.lower() == ".glb":
             write_json(out, model_document_from_glb(model))
         else:
-            write_json(out, model_document(load_urdf(find_urdf(model))))
+            urdf = find_urdf(model)
+            write_json(out, model_document(load_urdf(urdf), spec=spec_of_model_folder(urdf.parent)))
 
 
 @addon_app.command("export")
