@@ -44,7 +44,7 @@ def fill_form(form, kind: str, rows: list[dict]) -> None:
 
 
 def form_rows(form) -> list[dict]:
-    """The form as `spec_form` rows; a field the installer touched counts as given."""
+    """The form as `spec_form` rows (a field left at its default and not in the spec stays out)."""
     rows = []
     for item in form.rows:
         value = item.value() if item.kind not in ("list", "group", "item") else (json.loads(item.text or "null") if item.kind == "list" else None)
