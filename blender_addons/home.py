@@ -6,6 +6,7 @@ Scheme (custom properties, as for models; see `rig`):
 - a room is a collection with `hm_room` (its id) and `hm_room_name`;
 - a model's root link holds `hm_object_id`; a small object also `hm_parent` (the large
   object's id) and `hm_relation` (on, in or under). Objects are in the map frame;
+- a light switch or button is an empty in its room with `hm_switch` (id) and `hm_switch_type`;
 - a parking position is an empty (arrows: x is where the robot faces) parented to its
   large object, with `hm_parking` (its name) and `hm_parking_default`.
 """
@@ -26,6 +27,8 @@ ROOM_NAME = "hm_room_name"
 OBJECT_ID = "hm_object_id"
 PARENT = "hm_parent"
 RELATION = "hm_relation"
+SWITCH = "hm_switch"
+SWITCH_TYPE = "hm_switch_type"
 PARKING = "hm_parking"
 PARKING_DEFAULT = "hm_parking_default"
 HOME_FORMAT = "homemodel.blender-home/1"
@@ -174,6 +177,12 @@ def home_document(scene: bpy.types.Scene, depsgraph, write_model) -> dict:
         "format": HOME_FORMAT,
         "apartment": apartment,
         "rooms": [{"id": r[ROOM], "name": r.get(ROOM_NAME, r.name), "point_cloud": r.get("hm_point_cloud")} for r in rooms(scene)],
+        "switches": [
+            {"id": o[SWITCH], "room": r[ROOM], "type": o.get(SWITCH_TYPE, "light"), "world_from_switch": rig.rows_of(rig.rigid(o.matrix_world))}
+            for r in rooms(scene)
+            for o in r.objects
+            if SWITCH in o
+        ],
         "objects": objects,
     }
 
@@ -187,6 +196,14 @@ def add_home(scene: bpy.types.Scene, home: dict, read_model) -> list[bpy.types.O
         collections[room["id"]] = add_room(scene, room["id"], room["name"])
         if room.get("point_cloud"):
             collections[room["id"]]["hm_point_cloud"] = room["point_cloud"]
+    for switch in home.get("switches", []):
+        empty = bpy.data.objects.new(f"switch:{switch['id']}", None)
+        empty.empty_display_type = "CUBE"
+        empty.empty_display_size = 0.04
+        empty.show_name = True
+        empty[SWITCH], empty[SWITCH_TYPE] = switch["id"], switch["type"]
+        collections[switch["room"]].objects.link(empty)
+        empty.matrix_world = rig.matrix_of(switch["world_from_switch"])
     roots: dict[str, bpy.types.Object] = {}
     for obj in home["objects"]:
         parent_from_object = rig.matrix_of(obj["parent_from_object"])

@@ -507,11 +507,15 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
     import bpy
 
     from blender_addons import home, rig
-    from semantic_map import load_map
+    from homemodel.core.transforms import transform_from_xyz_rpy
+    from semantic_map import load_map, save_map
 
-    assert bpy.ops.homemodel.import_map(filepath=str(kitchen / "map.xml")) == {"FINISHED"}
-    assert [r[home.ROOM] for r in home.rooms(scene)] == ["kitchen", "bathroom"]
     original = load_map(kitchen / "map.xml")
+    original.add_switch(room_id="kitchen", switch_id="kitchen_light", type="rotational",
+                        world_from_switch=transform_from_xyz_rpy((0.0, 0.1, 1.2), (0.0, 0.0, 0.5)))
+    save_map(original, kitchen / "map_with_switch.xml")  # beside the models it refers to
+    assert bpy.ops.homemodel.import_map(filepath=str(kitchen / "map_with_switch.xml")) == {"FINISHED"}
+    assert [r[home.ROOM] for r in home.rooms(scene)] == ["kitchen", "bathroom"]
     roots = {home.object_id(r): r for r in home.model_roots(scene)}
     assert set(roots) == {o.id for o in original.objects()}
     for obj in original.objects():
@@ -530,8 +534,9 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
     assert walk.returncode == 0, walk.stderr
     assert "demo_house > kitchen > table_1 > blue_cup" in walk.stdout and "1. south (default)" in walk.stdout
     exported = load_map(tmp_path / "home" / "map.xml")
-    for obj in original.objects():
-        np.testing.assert_allclose(exported.world_from_object(obj.id), original.world_from_object(obj.id), atol=1e-5)
+    for node_id in [o.id for o in original.objects()] + ["kitchen_light"]:
+        np.testing.assert_allclose(exported.world_from_object(node_id), original.world_from_object(node_id), atol=1e-5)
+    assert exported.node("kitchen_light").type == "rotational"
     assert exported.node("fridge_1").joint(fridge_door[rig.JOINT]).position == pytest.approx(0.4)
     assert all(json.loads((tmp_path / "home" / "models" / o.id / "summary.json").read_text())["valid"] for o in original.objects())
 

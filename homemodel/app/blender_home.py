@@ -5,6 +5,7 @@ Home document (`home.json`):
     format: homemodel.blender-home/1
     apartment: {id, name}
     rooms: [{id, name, point_cloud}]
+    switches: [{id, room, type, world_from_switch}]
     objects: [{id, room, parent, relation, parent_from_object, model, parking, joint_positions,
                properties}]  # large objects first, each before the small ones it holds
 `model` is the model document's path relative to home.json; `parent` is the room for a large
@@ -67,6 +68,11 @@ def describe_map(map_path: Path, out_dir: Path, *, force: bool = False) -> Path:
                 "format": HOME_FORMAT,
                 "apartment": {"id": smap.apartment.id, "name": smap.apartment.name},
                 "rooms": [{"id": r.id, "name": r.name, "point_cloud": r.point_cloud} for r in smap.apartment.rooms],
+                "switches": [
+                    {"id": sw.id, "room": r.id, "type": sw.type, "world_from_switch": matrix_list(sw.world_from_switch.matrix())}
+                    for r in smap.apartment.rooms
+                    for sw in r.switches
+                ],
                 "objects": objects,
             },
         )
@@ -105,6 +111,13 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
     smap = SemanticMap.new(apartment_id=_field(apartment, "id", "apartment", home_path), name=apartment.get("name") or apartment["id"])
     for i, room in enumerate(_field(home, "rooms", "home", home_path)):
         smap.add_room(room_id=_field(room, "id", f"rooms.{i}", home_path), name=room.get("name") or room["id"], point_cloud=room.get("point_cloud"))
+    for i, switch in enumerate(home.get("switches", [])):
+        smap.add_switch(
+            room_id=_field(switch, "room", f"switches.{i}", home_path),
+            switch_id=_field(switch, "id", f"switches.{i}", home_path),
+            type=_field(switch, "type", f"switches.{i}", home_path),
+            world_from_switch=np.asarray(_field(switch, "world_from_switch", f"switches.{i}", home_path), dtype=float),
+        )
     failed: dict[str, list[str]] = {}
     rows = []
     with atomic_dir(Path(out_dir), force=force, inputs=[home_path]) as tmp:
