@@ -4,8 +4,9 @@ objects on, in or under large ones, and parking positions as arrow empties.
 Scheme (custom properties, as for models; see `rig`):
 - the scene's `hm_apartment`: JSON {id, name};
 - a room is a collection with `hm_room` (its id) and `hm_room_name`;
-- a model's root link holds `hm_object_id`; a small object also `hm_parent` (the large
-  object's id) and `hm_relation` (on, in or under). Objects are in the map frame;
+- a model's root link holds `hm_object_id` and `hm_properties` (JSON, the map's properties
+  of the object); a small object also `hm_parent` (the large object's id) and `hm_relation`
+  (on, in or under). Objects are in the map frame;
 - a light switch or button is an empty in its room with `hm_switch` (id) and `hm_switch_type`;
 - a parking position is an empty (arrows: x is where the robot faces) parented to its
   large object, with `hm_parking` (its name) and `hm_parking_default`.
@@ -26,6 +27,7 @@ ROOM = "hm_room"
 ROOM_NAME = "hm_room_name"
 OBJECT_ID = "hm_object_id"
 PARENT = "hm_parent"
+PROPERTIES = "hm_properties"  # JSON: what the map says of the object beyond its model
 RELATION = "hm_relation"
 SWITCH = "hm_switch"
 SWITCH_TYPE = "hm_switch_type"
@@ -155,7 +157,7 @@ def home_document(scene: bpy.types.Scene, depsgraph, write_model) -> dict:
                 "room": room[ROOM],
                 "model": write_model(oid, rig.model_document(root, depsgraph)),
                 "joint_positions": {j[rig.JOINT]: float(j[rig.POSITION]) for j in rig.joints_of(root) if j[rig.JOINT_TYPE] != "fixed"},
-                "properties": {},
+                "properties": json.loads(root.get(PROPERTIES, "{}")),
                 "parking": [],
                 "relation": None,
             }
@@ -211,6 +213,8 @@ def add_home(scene: bpy.types.Scene, home: dict, read_model) -> list[bpy.types.O
         world_from_object = (roots[obj["parent"]].matrix_world @ parent_from_object) if small else parent_from_object
         root = rig.add_model(read_model(obj["model"]), collections[obj["room"]], world_from_object)
         root[OBJECT_ID] = obj["id"]
+        if obj.get("properties"):
+            root[PROPERTIES] = json.dumps(obj["properties"])
         if small:
             root[PARENT] = obj["parent"]
             root[RELATION] = obj["relation"]

@@ -511,6 +511,7 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
     from semantic_map import load_map, save_map
 
     original = load_map(kitchen / "map.xml")
+    original.node("fridge_1").properties["brand"] = "Bosch"  # the map's own, not the model's
     original.add_switch(room_id="kitchen", switch_id="kitchen_light", type="rotational",
                         world_from_switch=transform_from_xyz_rpy((0.0, 0.1, 1.2), (0.0, 0.0, 0.5)))
     save_map(original, kitchen / "map_with_switch.xml")  # beside the models it refers to
@@ -537,6 +538,7 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
     for node_id in [o.id for o in original.objects()] + ["kitchen_light"]:
         np.testing.assert_allclose(exported.world_from_object(node_id), original.world_from_object(node_id), atol=1e-5)
     assert exported.node("kitchen_light").type == "rotational"
+    assert {o.id: o.properties for o in exported.objects()} == {o.id: o.properties for o in original.objects()}
     assert exported.node("fridge_1").joint(fridge_door[rig.JOINT]).position == pytest.approx(0.4)
     assert all(json.loads((tmp_path / "home" / "models" / o.id / "summary.json").read_text())["valid"] for o in original.objects())
 
