@@ -18,9 +18,9 @@ bl_info = {
     "category": "Import-Export",
 }
 
-from . import home_operators, jobs, model_operators, panels, properties, render  # noqa: E402
+from . import form_operators, home_operators, jobs, model_operators, panels, properties, render  # noqa: E402
 
-_OPERATOR_CLASSES = (*model_operators.CLASSES, *home_operators.CLASSES, *jobs.CLASSES, *render.CLASSES)
+_OPERATOR_CLASSES = (*form_operators.CLASSES, *model_operators.CLASSES, *home_operators.CLASSES, *jobs.CLASSES, *render.CLASSES)
 
 
 def register() -> None:
