@@ -10,6 +10,7 @@ import logging
 
 import typer
 
+from homemodel.cli.addon_commands import addon_app
 from homemodel.cli.build_command import build
 from homemodel.cli.completion_commands import completion_app
 from homemodel.cli.eval_commands import eval_app
@@ -35,6 +36,7 @@ app.add_typer(map_app, name="map", help="Show, query, extend and validate a hier
 app.add_typer(turntable_app, name="turntable", help="AprilTag turntable: print a board, simulate a capture, reconstruct a mesh.")
 app.add_typer(photogrammetry_app, name="photogrammetry", help="Photos to a textured, metric mesh through COLMAP.")
 app.add_typer(completion_app, name="completion", help="A full mesh of a new object from one depth image.")
+app.add_typer(addon_app, name="addon", help="Files for the Blender extension: spec forms, model and home documents.")
 app.add_typer(eval_app, name="eval", help="Compare a reconstruction with ground truth: VoxelIOU, surface distance, F-score.")
 
 

@@ -4,6 +4,8 @@ table of the figures it measured."""
 from __future__ import annotations
 
 import contextlib
+import json
+import os
 import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -17,6 +19,24 @@ from rich.progress import Progress as Bars
 from rich.table import Table
 
 from homemodel.core.progress import Progress
+
+
+# The Blender extension runs commands without a terminal and reads their progress from the
+# file this names: one JSON line {"stage", "done", "total"} per callback.
+PROGRESS_FILE_ENV = "HOMEMODEL_PROGRESS_FILE"
+
+
+def _also_to_file(progress: Progress) -> Progress:
+    path = os.environ.get(PROGRESS_FILE_ENV)
+    if not path:
+        return progress
+
+    def both(stage: str, done: int, total: int | None) -> None:
+        with open(path, "a", encoding="utf-8") as f:
+            f.write(json.dumps({"stage": stage, "done": done, "total": total}) + "\n")
+        progress(stage, done, total)
+
+    return both
 
 
 def make_console() -> Console:
@@ -37,7 +57,7 @@ def progress_bar(console: Console, verb: str) -> Iterator[Progress]:
         transient=True,
     ) as bar:
         task = bar.add_task("starting", total=None)
-        yield lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total)
+        yield _also_to_file(lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total))
 
 
 @contextlib.contextmanager
@@ -63,7 +83,7 @@ def stage_bars(console: Console) -> Iterator[Progress]:
                 tasks[stage] = bar.add_task(stage, total=total)
             bar.update(tasks[stage], completed=done, total=total)
 
-        yield progress
+        yield _also_to_file(progress)
 
 
 def figures_table(title: str, rows: list[tuple[str, str]]) -> Table:

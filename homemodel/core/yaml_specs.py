@@ -45,17 +45,25 @@ def read_yaml_mapping(path: Path) -> dict:
     return data
 
 
+def validation_problems(error: pydantic.ValidationError) -> list[tuple[str, str]]:
+    """(dotted field, message) of every problem, with a model validator's FieldError blaming
+    its own field."""
+    problems = []
+    for item in error.errors():
+        loc = tuple(item["loc"])
+        cause = item.get("ctx", {}).get("error")
+        if isinstance(cause, FieldError):
+            loc += cause.loc
+        message = str(cause) if isinstance(cause, ValueError) else item["msg"]
+        problems.append((".".join(str(part) for part in loc) or "(top level)", message))
+    return problems
+
+
 def describe_validation_error(error: pydantic.ValidationError) -> str:
     """`dotted.field: message` of the first problem, with a count of the others."""
-    errors = error.errors()
-    first = errors[0]
-    loc = tuple(first["loc"])
-    cause = first.get("ctx", {}).get("error")
-    if isinstance(cause, FieldError):
-        loc += cause.loc
-    message = str(cause) if isinstance(cause, ValueError) else first["msg"]
-    field = ".".join(str(part) for part in loc) or "(top level)"
-    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    problems = validation_problems(error)
+    field, message = problems[0]
+    more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
     return f"{field}: {message}{more}"
 
 
