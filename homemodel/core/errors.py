@@ -31,3 +31,7 @@ class ModelError(HomemodelError):
 
 class OutputExistsError(HomemodelError):
     """An output folder is not empty and --force was not given."""
+
+
+class OutputError(HomemodelError):
+    """An output cannot be written: a full disk, a read-only or immutable folder."""

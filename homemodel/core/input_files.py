@@ -6,6 +6,8 @@ from pathlib import Path
 
 from homemodel.core.errors import InputError
 
+CHUNK_BYTES = 1024 * 1024
+
 
 def read_bounded(path: Path, max_bytes: int) -> bytes:
     """The bytes of `path`; refuses folders, FIFOs and devices (which would hang or never
@@ -15,11 +17,15 @@ def read_bounded(path: Path, max_bytes: int) -> bytes:
         raise InputError(f"{path}: no such file")
     if not path.is_file():
         raise InputError(f"{path}: not a regular file")
+    chunks, size = [], 0
     try:
         with path.open("rb") as f:
-            data = f.read(max_bytes + 1)
+            # In chunks: f.read(max_bytes + 1) allocates the whole bound before reading a byte.
+            while chunk := f.read(min(CHUNK_BYTES, max_bytes + 1 - size)):
+                chunks.append(chunk)
+                size += len(chunk)
+                if size > max_bytes:
+                    raise InputError(f"{path}: larger than the {max_bytes}-byte bound for this kind of file")
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror}") from None
-    if len(data) > max_bytes:
-        raise InputError(f"{path}: larger than the {max_bytes}-byte bound for this kind of file")
-    return data
+    return b"".join(chunks)
