@@ -14,6 +14,7 @@ from lxml import etree
 from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
 from articulation.gate.collisions import collisions_check
 from articulation.gate.gltf import gltf_checks
+from articulation.gate.mesh_geometry import mesh_geometry_check
 from articulation.gate.report import Check, ValidationReport
 from articulation.gate.urdf_rules import (
     axes_check,
@@ -23,7 +24,7 @@ from articulation.gate.urdf_rules import (
     tree_check,
     unsafe_mesh_references,
 )
-from articulation.urdf_import import find_urdf
+from articulation.urdf_import import check_robot_size, find_urdf
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.core.safe_xml import parse_xml_file
 
@@ -68,9 +69,14 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
         return [Check("safe XML", False, str(exc))], False
     if robot.tag != "robot":
         return [Check("safe XML", False, f"{urdf}: the root element is <{robot.tag}>, not <robot>")], False
+    try:
+        check_robot_size(robot, urdf)
+    except InputError as exc:
+        return [Check("safe XML", False, str(exc))], False
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
     tree = tree_check(robot)
     checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes_check(robot, urdf.parent)]
+    checks.append(mesh_geometry_check(robot, urdf.parent))
     checks.append(check_urdf_check(urdf))
     declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)

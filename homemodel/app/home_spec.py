@@ -18,6 +18,9 @@ from semantic_map.nodes import ID_PATTERN
 
 # Every id in the home becomes an id in the semantic map, so it follows the map's rule.
 MapId = Annotated[str, Field(pattern=ID_PATTERN)]
+# Bounds a home cannot exceed: they keep 1e300 from overflowing the transforms.
+Coordinate = Annotated[float, Field(ge=-10_000.0, le=10_000.0)]  # metres
+Degrees = Annotated[float, Field(ge=-3600.0, le=3600.0)]
 
 
 class _Strict(BaseModel):
@@ -25,8 +28,8 @@ class _Strict(BaseModel):
 
 
 class PoseSpec(_Strict):
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    xyz: tuple[Coordinate, Coordinate, Coordinate] = (0.0, 0.0, 0.0)
+    rpy_deg: tuple[Degrees, Degrees, Degrees] = (0.0, 0.0, 0.0)
 
     def matrix(self) -> np.ndarray:
         return transform_from_xyz_rpy(self.xyz, np.radians(self.rpy_deg))
@@ -36,8 +39,8 @@ class ParkingSpec(_Strict):
     """Where the robot's base stands (on the floor) to observe or reach the object."""
 
     name: str = Field(min_length=1)
-    xy: tuple[float, float]
-    yaw_deg: float = 0.0
+    xy: tuple[Coordinate, Coordinate]
+    yaw_deg: Degrees = 0.0
     default: bool = False
 
     def matrix(self) -> np.ndarray:

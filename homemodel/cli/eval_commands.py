@@ -67,9 +67,12 @@ def surface_distance_command(
         mean_surface_distance_m,
         rock_surface_distance,
     )
+    from homemodel.evaluation.surface import check_sample_count, check_threshold_fraction
     from homemodel.geometry.mesh_io import load_mesh
 
     with exit_on_error():
+        check_sample_count(samples)  # before the meshes are read: a bad option fails at once
+        check_threshold_fraction(threshold_fraction)
         pred_mesh, gt_mesh = load_mesh(pred), load_mesh(gt)
         figures = {
             "rock_surface_distance": rock_surface_distance(pred_mesh, gt_mesh, n_samples=samples, seed=seed),

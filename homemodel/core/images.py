@@ -12,9 +12,9 @@ import numpy as np
 
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
+from homemodel.core.limits import IMAGE_PIXELS
 
 MAX_IMAGE_BYTES = 256 * 1024 * 1024
-MAX_IMAGE_PIXELS = 120_000_000  # a 100-megapixel camera's photos pass
 
 
 def read_image(path: Path, flags: int | None = None) -> np.ndarray:
@@ -50,7 +50,7 @@ def _checked_size(path: Path, data: bytes) -> tuple[int, int]:
             with Image.open(io.BytesIO(data)) as header:
                 width, height = header.size
     except Image.DecompressionBombError:
-        raise InputError(f"{path}: over the {MAX_IMAGE_PIXELS} pixel bound") from None
+        raise InputError(f"{path}: over Pillow's own pixel bound, far over ours") from None
     except Exception:  # Pillow's format plugins raise many types on corrupt headers
         raise InputError(f"{path}: not a readable image (not an image file, or its header is corrupt)") from None
     check_pixel_count(path, width, height)
@@ -58,6 +58,5 @@ def _checked_size(path: Path, data: bytes) -> tuple[int, int]:
 
 
 def check_pixel_count(path: Path, width: int, height: int) -> None:
-    """Refuse an image whose header claims more than MAX_IMAGE_PIXELS (for readers of other formats)."""
-    if width * height > MAX_IMAGE_PIXELS:
-        raise InputError(f"{path}: {width}x{height} pixels is over the {MAX_IMAGE_PIXELS} pixel bound")
+    """Refuse an image whose header claims more than IMAGE_PIXELS (for readers of other formats)."""
+    IMAGE_PIXELS.check(f"{path}: {width}x{height}", width * height)

@@ -48,5 +48,6 @@ HOME_OBJECTS = Limit("HOMEMODEL_MAX_OBJECTS", 2_000, "objects")
 URDF_LINKS = Limit("HOMEMODEL_MAX_LINKS", 1_000, "links")
 URDF_JOINTS = Limit("HOMEMODEL_MAX_JOINTS", 1_000, "joints")
 MESH_TRIANGLES = Limit("HOMEMODEL_MAX_TRIANGLES", 1_000_000, "triangles")
-IMAGE_PIXELS = Limit("HOMEMODEL_MAX_PIXELS", 64_000_000, "pixels")
+IMAGE_PIXELS = Limit("HOMEMODEL_MAX_PIXELS", 120_000_000, "pixels")  # a 100-megapixel camera's photos pass
+SURFACE_SAMPLES = Limit("HOMEMODEL_MAX_SAMPLES", 10_000_000, "surface samples")
 MODEL_BYTES = Limit("HOMEMODEL_MAX_MODEL_BYTES", 1024**3, "bytes of completion model arrays")

@@ -1,0 +1,69 @@
+"""The gate's check of every mesh's geometry: finite, non-empty, not degenerate.
+
+A mesh read without error can still be unusable: all-NaN vertices pass every client (pybullet,
+check_urdf, yourdfpy load them), a triangle of zero area has no normal, and a collision mesh
+with no volume gives a physics engine nothing to collide with.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+from lxml import etree
+
+from articulation.gate.report import Check, check_from_problems, count
+from articulation.mesh_paths import resolve_mesh
+from homemodel.core.errors import InputError
+from homemodel.geometry.mesh_io import load_mesh
+
+# Relative to the squared size of the mesh's bounding box: below this a triangle has no area
+# and a solid no volume, whatever the units (float rounding of a real triangle stays far above).
+AREA_TOLERANCE = 1e-12
+VOLUME_TOLERANCE = 1e-12
+
+
+def _geometry_problems(mesh: trimesh.Trimesh, solid: bool) -> list[str]:
+    """What is wrong with a mesh that loaded (finite, with triangles); `solid` for collision meshes."""
+    size = float(np.linalg.norm(mesh.extents))
+    if size == 0.0:
+        return ["all its vertices are one point"]
+    problems = []
+    flat = int(np.count_nonzero(mesh.area_faces <= AREA_TOLERANCE * size**2))
+    if flat:
+        problems.append(f"{flat} of {len(mesh.faces)} triangles have zero area")
+    if solid:
+        try:
+            volume = abs(float(mesh.volume)) if mesh.is_watertight else float(mesh.convex_hull.volume)
+        except Exception:  # qhull refuses flat or collinear point sets
+            volume = 0.0
+        if volume <= VOLUME_TOLERANCE * size**3:
+            problems.append("a collision mesh with zero volume (flat or a line)")
+    return problems
+
+
+def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:
+    """Every visual and collision mesh file inside the model folder is finite, has triangles
+    of non-zero area, and (collision meshes, which are meant to be solid) has volume."""
+    problems: list[str] = []
+    checked: dict[tuple[Path, bool], list[str]] = {}
+    for link in robot.findall("link"):
+        for role in ("visual", "collision"):
+            for element in link.findall(f"{role}/geometry/mesh"):
+                filename = element.get("filename")
+                try:
+                    path = resolve_mesh(filename or "", urdf_dir)
+                except InputError:
+                    continue  # the meshes check reports references it cannot follow
+                if not path.is_file():
+                    continue
+                key = (path, role == "collision")
+                if key not in checked:
+                    try:
+                        checked[key] = _geometry_problems(load_mesh(path), solid=key[1])
+                    except InputError as exc:
+                        checked[key] = [str(exc).removeprefix(f"{path}: ")]
+                problems += [f"link {link.get('name')!r}: {role} mesh {filename!r}: {p}" for p in checked[key]]
+    detail = f"{count(len({p for p, _ in checked}), 'mesh file')} finite, with area, collision meshes with volume"
+    return check_from_problems("mesh geometry", problems, detail if checked else "no mesh files")
