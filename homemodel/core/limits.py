@@ -49,5 +49,6 @@ URDF_LINKS = Limit("HOMEMODEL_MAX_LINKS", 1_000, "links")
 URDF_JOINTS = Limit("HOMEMODEL_MAX_JOINTS", 1_000, "joints")
 MESH_TRIANGLES = Limit("HOMEMODEL_MAX_TRIANGLES", 1_000_000, "triangles")
 IMAGE_PIXELS = Limit("HOMEMODEL_MAX_PIXELS", 120_000_000, "pixels")  # a 100-megapixel camera's photos pass
+RENDER_PIXELS = Limit("HOMEMODEL_MAX_RENDER_PIXELS", 4096 * 4096, "pixels per rendered frame")
 SURFACE_SAMPLES = Limit("HOMEMODEL_MAX_SAMPLES", 10_000_000, "surface samples")
 MODEL_BYTES = Limit("HOMEMODEL_MAX_MODEL_BYTES", 1024**3, "bytes of completion model arrays")
