@@ -21,6 +21,7 @@ from homemodel.app.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import confined_path
+from homemodel.core.limits import HOME_OBJECTS
 from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
 
@@ -106,6 +107,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
     home_file = example_dir / HOME_FILE
     home = load_home(example_dir)
     placements = list(_placements(home))
+    HOME_OBJECTS.check(home_file, len(placements))
     # Every spec is checked before anything is built, so a typo fails in a second, not a minute.
     spec_paths = {}
     for field_path, _, large, small in placements:

@@ -8,6 +8,7 @@ footprint on the floor, z up), so a cup on a 0.75 m table has z = 0.75.
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Annotated, Literal
 
 import numpy as np
@@ -102,7 +103,7 @@ class HomeSpec(_Strict):
             for large in room.objects:
                 ids.append(large.id)
                 ids.extend(small.id for small in large.objects)
-        dupes = sorted({i for i in ids if ids.count(i) > 1})
+        dupes = sorted(i for i, n in Counter(ids).items() if n > 1)  # linear: a home file may be large
         if dupes:
             raise ValueError(f"ids must be unique in the home, repeated: {dupes}")
         return self
