@@ -1,0 +1,106 @@
+"""The gate refuses broken geometry that every client loads: NaN or infinite vertices, no
+triangles, triangles of zero area, a collision mesh with no volume; `map add` refuses it too."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from sample_house import box_model
+from typer.testing import CliRunner
+
+from articulation.export import export_model
+from articulation.gate.mesh_geometry import mesh_geometry_check
+from homemodel.cli import app
+from homemodel.core.safe_xml import parse_xml_file
+
+runner = CliRunner()
+BOX_OBJ = "meshes/body_body.obj"
+
+
+@pytest.fixture(scope="module")
+def box_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An exported one-link box whose URDF names its OBJ as the visual and as the collision mesh."""
+    folder = export_model(box_model("box", (0.4, 0.3, 0.9)), tmp_path_factory.mktemp("box") / "box")
+    urdf = folder / "model.urdf"
+    text = urdf.read_text()
+    assert BOX_OBJ in text and text.count("</link>") == 1
+    collision = f'<collision><geometry><mesh filename="{BOX_OBJ}"/></geometry></collision>'
+    urdf.write_text(text.replace("</link>", f"{collision}</link>"))
+    return folder
+
+
+def _edited(box_folder: Path, tmp_path: Path, edit) -> Path:
+    folder = tmp_path / "model"
+    shutil.copytree(box_folder, folder)
+    obj = folder / BOX_OBJ
+    lines = obj.read_text().splitlines()
+    vertices = [i for i, line in enumerate(lines) if line.startswith("v ")]
+    obj.write_text("\n".join(edit(lines, vertices)) + "\n")
+    return folder
+
+
+def _check(folder: Path):
+    return mesh_geometry_check(parse_xml_file(folder / "model.urdf").getroot(), folder)
+
+
+def _all_nan(lines, vertices):
+    return ["v nan nan nan" if i in vertices else line for i, line in enumerate(lines)]
+
+
+def _one_nan(lines, vertices):
+    return [line.replace(line, "v 0.1 nan 0.2") if i == vertices[3] else line for i, line in enumerate(lines)]
+
+
+def _one_inf(lines, vertices):
+    return [line.replace(line, "v inf 0 0") if i == vertices[0] else line for i, line in enumerate(lines)]
+
+
+def _no_faces(lines, vertices):
+    return [line for line in lines if not line.startswith("f ")]
+
+
+def _zero_area_triangle(lines, vertices):
+    return [*lines, "f 1 1 2"]
+
+
+def _flat(lines, vertices):
+    return [" ".join([*line.split()[:3], "0"]) if i in vertices else line for i, line in enumerate(lines)]
+
+
+def _one_point(lines, vertices):
+    return ["v 0.1 0.1 0.1" if i in vertices else line for i, line in enumerate(lines)]
+
+
+@pytest.mark.parametrize(
+    "edit, problem",
+    [
+        (_all_nan, "non-finite (NaN or infinite) vertex coordinates"),
+        (_one_nan, "non-finite (NaN or infinite) vertex coordinates"),
+        (_one_inf, "non-finite (NaN or infinite) vertex coordinates"),
+        (_no_faces, "holds no triangles"),
+        (_zero_area_triangle, "1 of 13 triangles have zero area"),
+        (_flat, "collision mesh with zero volume"),
+        (_one_point, "all its vertices are one point"),
+    ],
+)
+def test_broken_geometry_fails_the_gate(box_folder: Path, tmp_path: Path, edit, problem: str) -> None:
+    assert _check(box_folder).passed, _check(box_folder).detail
+    check = _check(_edited(box_folder, tmp_path, edit))
+    assert not check.passed
+    assert f"link 'body': " in check.detail and BOX_OBJ in check.detail and problem in check.detail, check.detail
+
+
+def test_validate_and_map_add_refuse_a_nan_model(box_folder: Path, tmp_path: Path, house_file: Path) -> None:
+    folder = _edited(box_folder, tmp_path, _all_nan)
+    result = runner.invoke(app, ["validate", str(folder)])
+    assert result.exit_code == 1
+    assert re.search(r"FAIL  mesh geometry +link 'body': visual mesh 'meshes/body_body.obj': the mesh has non-finite",
+                     result.output), result.output
+    before = house_file.read_bytes()
+    result = runner.invoke(app, ["map", "add", str(house_file), str(folder), "--id", "nan_box", "--parent", "kitchen"])
+    assert result.exit_code == 2
+    assert result.output.count("\n") == 1 and "body_body.obj has non-finite" in result.output, result.output
+    assert house_file.read_bytes() == before
