@@ -29,12 +29,15 @@ class Run:
 
 
 def run_cli(*args: object, memory_bytes: int = MEMORY_LIMIT_BYTES, timeout_s: float = TIME_LIMIT_S,
-            env: dict[str, str] | None = None, cwd: Path | None = None) -> Run:
-    """`python -m homemodel ARGS` with RLIMIT_AS at `memory_bytes`; a run past `timeout_s`
-    fails the test (subprocess.TimeoutExpired)."""
+            env: dict[str, str] | None = None, cwd: Path | None = None, file_size_bytes: int | None = None) -> Run:
+    """`python -m homemodel ARGS` with RLIMIT_AS at `memory_bytes` (and RLIMIT_FSIZE at
+    `file_size_bytes`: a disk that fills up); a run past `timeout_s` fails the test
+    (subprocess.TimeoutExpired)."""
 
     def limit_memory() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+        if file_size_bytes is not None:
+            resource.setrlimit(resource.RLIMIT_FSIZE, (file_size_bytes, file_size_bytes))
 
     argv = [str(a) for a in args]
     child_env = {**os.environ, "PYTHONPATH": str(REPO), **(env or {})}

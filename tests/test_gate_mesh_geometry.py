@@ -90,7 +90,7 @@ def test_broken_geometry_fails_the_gate(box_folder: Path, tmp_path: Path, edit, 
     assert _check(box_folder).passed, _check(box_folder).detail
     check = _check(_edited(box_folder, tmp_path, edit))
     assert not check.passed
-    assert f"link 'body': " in check.detail and BOX_OBJ in check.detail and problem in check.detail, check.detail
+    assert "link 'body': " in check.detail and BOX_OBJ in check.detail and problem in check.detail, check.detail
 
 
 def test_validate_and_map_add_refuse_a_nan_model(box_folder: Path, tmp_path: Path, house_file: Path) -> None:

@@ -21,6 +21,7 @@ from homemodel.app.home_spec import HomeSpec, LargeObjectSpec, SmallObjectSpec
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import confined_path
+from homemodel.core.interrupts import raise_if_interrupted
 from homemodel.core.limits import HOME_OBJECTS
 from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
@@ -130,6 +131,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
     with atomic_dir(Path(out_dir), force=force, inputs=[example_dir]) as tmp:
         for index, (field_path, room, large, small) in enumerate(placements):
             obj: LargeObjectSpec | SmallObjectSpec = small or large
+            raise_if_interrupted()
             if progress:
                 progress(obj.id, index, len(placements))
             if small is not None:

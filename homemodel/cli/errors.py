@@ -9,7 +9,6 @@ exit code 1, and writes the traceback to a log file whose path it prints.
 from __future__ import annotations
 
 import contextlib
-import errno
 import os
 import sys
 import tempfile
@@ -20,13 +19,11 @@ from pathlib import Path
 
 import typer
 
-from homemodel.core.errors import HomemodelError
+from homemodel.core.errors import WRITE_ERRNOS, HomemodelError
 
 EXIT_ERROR = 2
 EXIT_BUG = 1
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
-# What the system says when an output cannot be written: the user's to fix, not a bug.
-WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG}
 
 
 def one_line(exc: BaseException) -> str:

@@ -21,7 +21,8 @@ import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from homemodel.core.errors import InputError, OutputError, OutputExistsError
+from homemodel.core.errors import WRITE_ERRNOS, InputError, OutputError, OutputExistsError
+from homemodel.core.interrupts import raise_if_interrupted
 
 RENAME_EXCHANGE = 2  # linux/fs.h
 _TEMPORARY = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[^.]+\.(tmp|old)")
@@ -79,6 +80,7 @@ def write_bytes_atomic(path: Path, data: bytes, *, overwrite: bool = True) -> No
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
+        raise_if_interrupted()  # a Ctrl-C swallowed by a library still writes nothing
         if overwrite:
             os.replace(tmp, path)
         else:
@@ -90,7 +92,7 @@ def write_bytes_atomic(path: Path, data: bytes, *, overwrite: bool = True) -> No
     except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
-        if isinstance(exc, OSError):  # a full disk, a read-only or immutable folder
+        if isinstance(exc, OSError) and exc.errno in WRITE_ERRNOS:  # a full disk, a read-only or immutable folder
             raise OutputError(f"{path}: cannot write: {exc.strerror}") from None
         raise
 
@@ -171,6 +173,7 @@ def atomic_dir(out_dir: Path, *, force: bool = False, inputs: Sequence[Path] = (
         raise InputError(f"{out_dir}: cannot create the output folder: {exc.strerror}") from None
     try:
         yield tmp
+        raise_if_interrupted()  # a Ctrl-C swallowed by a library still writes nothing
         if force and out_dir.exists():
             _replace_folder(tmp, out_dir)
         else:
@@ -183,6 +186,15 @@ def atomic_dir(out_dir: Path, *, force: bool = False, inputs: Sequence[Path] = (
                         " (use --force to replace it)"
                     ) from None
                 raise OutputError(f"{out_dir}: cannot create the output folder: {exc.strerror}") from None
+    except OutputError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise OutputError(str(exc).replace(str(tmp), str(out_dir))) from None
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if exc.errno not in WRITE_ERRNOS:
+            raise
+        where = str(exc.filename).replace(str(tmp), str(out_dir)) if exc.filename else str(out_dir)
+        raise OutputError(f"{where}: cannot write: {exc.strerror}") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

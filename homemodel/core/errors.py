@@ -4,6 +4,11 @@ The library raises these and never prints or exits; the CLI turns them into a
 one-line message and exit code 2.
 """
 
+import errno
+
+# What the system says when an output cannot be written: the user's to fix, not a bug.
+WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
+
 
 class HomemodelError(Exception):
     """Base of every error homemodel raises on purpose."""

@@ -27,3 +27,26 @@ def interrupts_deferred() -> Iterator[None]:
     finally:
         signal.signal(signal.SIGINT, handler if handler is not None else signal.default_int_handler)
         signal.pthread_sigmask(signal.SIG_SETMASK, previous_mask)
+
+
+_interrupted = False
+
+
+def _on_interrupt(signum: int, frame: object) -> None:
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
+
+
+def remember_interrupts() -> None:
+    """Make Ctrl-C also set a flag that stays set. Libraries that probe optional imports with
+    `except BaseException` (trimesh does) swallow a KeyboardInterrupt raised inside them; the
+    flag still stops the run at the next `raise_if_interrupted`, before any output is put in
+    place. The command line calls this first; a library user keeps Python's default."""
+    signal.signal(signal.SIGINT, _on_interrupt)
+
+
+def raise_if_interrupted() -> None:
+    """KeyboardInterrupt if a Ctrl-C was pressed (and swallowed) since `remember_interrupts`."""
+    if _interrupted:
+        raise KeyboardInterrupt
