@@ -102,8 +102,11 @@ def test_ctrl_c_early_in_a_build_stops_it_with_nothing_written(tmp_path: Path, k
     time.sleep(after_s)
     build.send_signal(signal.SIGINT)
     _, stderr = build.communicate(timeout=120)
-    assert build.returncode == 130, stderr
-    assert stderr.strip().splitlines()[-1:] == ["interrupted"] and "Traceback" not in stderr, stderr
+    # 130 and one line; or, when Ctrl-C lands while Python itself starts, killed by SIGINT
+    assert build.returncode in (130, -signal.SIGINT), stderr
+    if build.returncode == 130:
+        assert stderr.strip().splitlines()[-1:] == ["interrupted"], stderr
+    assert "Traceback" not in stderr, stderr
     assert not out.exists() and _temporaries(tmp_path) == []
 
 

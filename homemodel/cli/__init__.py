@@ -56,4 +56,7 @@ def main() -> None:
         code = EXIT_INTERRUPTED
     except Exception as exc:  # the last line of defence: a bug, not a user's mistake
         code = report_bug(exc, sys.argv[1:])
+    else:
+        if code == EXIT_INTERRUPTED:  # Typer turns a Ctrl-C while it parses into this code
+            print("interrupted", file=sys.stderr)
     sys.exit(code if isinstance(code, int) else 0)
