@@ -104,3 +104,12 @@ def test_validate_and_map_add_refuse_a_nan_model(box_folder: Path, tmp_path: Pat
     assert result.exit_code == 2
     assert result.output.count("\n") == 1 and "body_body.obj has non-finite" in result.output, result.output
     assert house_file.read_bytes() == before
+
+
+def test_meshes_over_the_triangle_bound_are_never_given_to_the_clients(box_folder: Path, monkeypatch) -> None:
+    monkeypatch.setenv("HOMEMODEL_MAX_TRIANGLES", "10")  # the box has 12
+    result = runner.invoke(app, ["validate", str(box_folder)])
+    assert result.exit_code == 1
+    assert "12 triangles is over the limit of 10 (set HOMEMODEL_MAX_TRIANGLES to raise it)" in result.output
+    for client in ("yourdfpy", "pybullet", "collisions"):
+        assert re.search(rf"FAIL  {client} +not run: .*triangle bound", result.output), result.output

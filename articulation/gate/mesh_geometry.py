@@ -16,6 +16,7 @@ from lxml import etree
 from articulation.gate.report import Check, check_from_problems, count
 from articulation.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
+from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.geometry.mesh_io import load_mesh
 
 # Relative to the squared size of the mesh's bounding box: below this a triangle has no area
@@ -41,6 +42,12 @@ def _geometry_problems(mesh: trimesh.Trimesh, solid: bool) -> list[str]:
         if volume <= VOLUME_TOLERANCE * size**3:
             problems.append("a collision mesh with zero volume (flat or a line)")
     return problems
+
+
+def over_triangle_bound(check: Check) -> bool:
+    """Whether `mesh_geometry_check` found a mesh over the triangle bound, which the clients
+    (yourdfpy, pybullet, the collision sweep) must not be given."""
+    return not check.passed and MESH_TRIANGLES.name in check.detail
 
 
 def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:

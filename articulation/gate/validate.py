@@ -14,7 +14,7 @@ from lxml import etree
 from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
 from articulation.gate.collisions import collisions_check
 from articulation.gate.gltf import gltf_checks
-from articulation.gate.mesh_geometry import mesh_geometry_check
+from articulation.gate.mesh_geometry import mesh_geometry_check, over_triangle_bound
 from articulation.gate.report import Check, ValidationReport
 from articulation.gate.urdf_rules import (
     axes_check,
@@ -50,8 +50,10 @@ def _inputs(path: Path) -> tuple[Path | None, Path | None]:
     raise InputError(f"{path}: expected a model folder, a .urdf or a .glb file")
 
 
-def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path) -> str | None:
+def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, geometry: Check) -> str | None:
     """Why pybullet must not load this URDF in our process, or None."""
+    if over_triangle_bound(geometry):
+        return "its meshes are over the triangle bound (see mesh geometry)"
     if not tree.passed:
         # pybullet 3.2.7 segfaults on several root links, a cycle or duplicate joint names.
         return "pybullet crashes the process on a broken kinematic tree (see kinematic tree)"
@@ -76,11 +78,14 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
     tree = tree_check(robot)
     checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes_check(robot, urdf.parent)]
-    checks.append(mesh_geometry_check(robot, urdf.parent))
-    checks.append(check_urdf_check(urdf))
-    declared_check, declared = yourdfpy_check(urdf)
+    geometry = mesh_geometry_check(robot, urdf.parent)
+    checks += [geometry, check_urdf_check(urdf)]
+    if over_triangle_bound(geometry):  # the clients would read every triangle into memory
+        declared_check, declared = Check("yourdfpy", False, "not run: meshes over the triangle bound"), None
+    else:
+        declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
-    refusal = _pybullet_refusal(tree, robot, urdf.parent)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent, geometry)
     checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(urdf, declared))
     checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(urdf))
     return checks, True
