@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 
 from articulation.export import export_model
 from articulation.gate.mesh_geometry import mesh_geometry_check
+from articulation.gate.urdf_rules import meshes_check
 from homemodel.cli import app
 from homemodel.core.safe_xml import parse_xml_file
 
@@ -42,8 +43,10 @@ def _edited(box_folder: Path, tmp_path: Path, edit) -> Path:
     return folder
 
 
-def _check(folder: Path):
-    return mesh_geometry_check(parse_xml_file(folder / "model.urdf").getroot(), folder)
+def _checks(folder: Path):
+    """The meshes check (present, readable, within bounds) and the mesh geometry check."""
+    robot = parse_xml_file(folder / "model.urdf").getroot()
+    return meshes_check(robot, folder), mesh_geometry_check(robot, folder)
 
 
 def _all_nan(lines, vertices):
@@ -75,22 +78,24 @@ def _one_point(lines, vertices):
 
 
 @pytest.mark.parametrize(
-    "edit, problem",
+    "edit, failing, problem",
     [
-        (_all_nan, "non-finite (NaN or infinite) vertex coordinates"),
-        (_one_nan, "non-finite (NaN or infinite) vertex coordinates"),
-        (_one_inf, "non-finite (NaN or infinite) vertex coordinates"),
-        (_no_faces, "holds no triangles"),
-        (_zero_area_triangle, "1 of 13 triangles have zero area"),
-        (_flat, "collision mesh with zero volume"),
-        (_one_point, "all its vertices are one point"),
+        (_all_nan, 1, "non-finite (NaN or infinite) vertex coordinates"),
+        (_one_nan, 1, "non-finite (NaN or infinite) vertex coordinates"),
+        (_one_inf, 1, "non-finite (NaN or infinite) vertex coordinates"),
+        (_no_faces, 0, "holds no triangles"),
+        (_zero_area_triangle, 1, "1 of 13 triangles have zero area"),
+        (_flat, 1, "collision mesh with zero volume"),
+        (_one_point, 1, "all its vertices are one point"),
     ],
 )
-def test_broken_geometry_fails_the_gate(box_folder: Path, tmp_path: Path, edit, problem: str) -> None:
-    assert _check(box_folder).passed, _check(box_folder).detail
-    check = _check(_edited(box_folder, tmp_path, edit))
-    assert not check.passed
-    assert "link 'body': " in check.detail and BOX_OBJ in check.detail and problem in check.detail, check.detail
+def test_broken_geometry_fails_the_gate(box_folder: Path, tmp_path: Path, edit, failing: int, problem: str) -> None:
+    """Each fault fails exactly one of the two mesh checks: `meshes` (0) or `mesh geometry` (1)."""
+    assert all(check.passed for check in _checks(box_folder)), _checks(box_folder)
+    checks = _checks(_edited(box_folder, tmp_path, edit))
+    assert [check.passed for check in checks] == [i != failing for i in range(2)], checks
+    detail = checks[failing].detail
+    assert "link 'body': " in detail and BOX_OBJ in detail and problem in detail, detail
 
 
 def test_validate_and_map_add_refuse_a_nan_model(box_folder: Path, tmp_path: Path, house_file: Path) -> None:

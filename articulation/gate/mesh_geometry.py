@@ -26,7 +26,9 @@ VOLUME_TOLERANCE = 1e-12
 
 
 def _geometry_problems(mesh: trimesh.Trimesh, solid: bool) -> list[str]:
-    """What is wrong with a mesh that loaded (finite, with triangles); `solid` for collision meshes."""
+    """What is wrong with a mesh that loaded (with triangles); `solid` for collision meshes."""
+    if not np.all(np.isfinite(mesh.vertices)):
+        return ["the mesh has non-finite (NaN or infinite) vertex coordinates"]
     size = float(np.linalg.norm(mesh.extents))
     if size == 0.0:
         return ["all its vertices are one point"]
@@ -44,10 +46,10 @@ def _geometry_problems(mesh: trimesh.Trimesh, solid: bool) -> list[str]:
     return problems
 
 
-def over_triangle_bound(check: Check) -> bool:
-    """Whether `mesh_geometry_check` found a mesh over the triangle bound, which the clients
+def over_triangle_bound(meshes: Check) -> bool:
+    """Whether the meshes check found a mesh over the triangle bound, which the clients
     (yourdfpy, pybullet, the collision sweep) must not be given."""
-    return not check.passed and MESH_TRIANGLES.name in check.detail
+    return not meshes.passed and MESH_TRIANGLES.name in meshes.detail
 
 
 def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:
@@ -68,9 +70,10 @@ def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:
                 key = (path, role == "collision")
                 if key not in checked:
                     try:
-                        checked[key] = _geometry_problems(load_mesh(path), solid=key[1])
-                    except InputError as exc:
-                        checked[key] = [str(exc).removeprefix(f"{path}: ")]
+                        mesh = load_mesh(path, require_finite=False)
+                    except InputError:
+                        continue  # unreadable, or over the bounds: the meshes check reports it
+                    checked[key] = _geometry_problems(mesh, solid=key[1])
                 problems += [f"link {link.get('name')!r}: {role} mesh {filename!r}: {p}" for p in checked[key]]
     detail = f"{count(len({p for p, _ in checked}), 'mesh file')} finite, with area, collision meshes with volume"
     return check_from_problems("mesh geometry", problems, detail if checked else "no mesh files")

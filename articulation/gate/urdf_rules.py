@@ -191,9 +191,10 @@ def mesh_references(robot: etree._Element) -> Iterator[tuple[str | None, str | N
 
 
 def _mesh_problem(path: Path) -> str | None:
-    """Why `path` cannot be read as a mesh (bounded in bytes and triangles), or None."""
+    """Why `path` cannot be read as a mesh (bounded in bytes and triangles), or None; what it
+    holds is the mesh geometry check's."""
     try:
-        load_mesh(path)
+        load_mesh(path, require_finite=False)
     except InputError as exc:
         return str(exc).removeprefix(f"{path}: ")
     return None

@@ -50,10 +50,10 @@ def _inputs(path: Path) -> tuple[Path | None, Path | None]:
     raise InputError(f"{path}: expected a model folder, a .urdf or a .glb file")
 
 
-def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, geometry: Check) -> str | None:
+def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, meshes: Check) -> str | None:
     """Why pybullet must not load this URDF in our process, or None."""
-    if over_triangle_bound(geometry):
-        return "its meshes are over the triangle bound (see mesh geometry)"
+    if over_triangle_bound(meshes):
+        return "its meshes are over the triangle bound (see meshes)"
     if not tree.passed:
         # pybullet 3.2.7 segfaults on several root links, a cycle or duplicate joint names.
         return "pybullet crashes the process on a broken kinematic tree (see kinematic tree)"
@@ -77,15 +77,15 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
         return [Check("safe XML", False, str(exc))], False
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
     tree = tree_check(robot)
-    checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes_check(robot, urdf.parent)]
-    geometry = mesh_geometry_check(robot, urdf.parent)
-    checks += [geometry, check_urdf_check(urdf)]
-    if over_triangle_bound(geometry):  # the clients would read every triangle into memory
+    meshes = meshes_check(robot, urdf.parent)
+    checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
+    checks += [mesh_geometry_check(robot, urdf.parent), check_urdf_check(urdf)]
+    if over_triangle_bound(meshes):  # the clients would read every triangle into memory
         declared_check, declared = Check("yourdfpy", False, "not run: meshes over the triangle bound"), None
     else:
         declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
-    refusal = _pybullet_refusal(tree, robot, urdf.parent, geometry)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes)
     checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(urdf, declared))
     checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(urdf))
     return checks, True

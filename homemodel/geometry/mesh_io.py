@@ -33,9 +33,10 @@ def declared_faces(data: bytes, suffix: str) -> int:
     return 0
 
 
-def load_mesh(path: Path) -> trimesh.Trimesh:
+def load_mesh(path: Path, *, require_finite: bool = True) -> trimesh.Trimesh:
     """All the triangles of a mesh file, or of `model.glb` when `path` is a model folder,
-    in the file's frame (scene nodes' transforms applied); a model folder's in the model's z-up frame."""
+    in the file's frame (scene nodes' transforms applied); a model folder's in the model's z-up
+    frame. `require_finite=False` leaves NaN and infinite vertices for the caller to report."""
     path = Path(path)
     model_folder = path.is_dir()
     if model_folder:
@@ -52,7 +53,7 @@ def load_mesh(path: Path) -> trimesh.Trimesh:
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise InputError(f"{path}: the file holds no triangles")
     MESH_TRIANGLES.check(path, len(loaded.faces))
-    if not np.all(np.isfinite(loaded.vertices)):
+    if require_finite and not np.all(np.isfinite(loaded.vertices)):
         raise InputError(f"{path}: the mesh has non-finite (NaN or infinite) vertex coordinates")
     if model_folder:  # model.glb turns the z-up model into glTF's y-up at its root node: undo it
         loaded.apply_transform(np.linalg.inv(Y_UP_FROM_Z_UP))
