@@ -18,10 +18,9 @@ from articulation.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
 from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.geometry.mesh_io import load_mesh
+from homemodel.geometry.mesh_ops import zero_area_faces
 
-# Relative to the squared size of the mesh's bounding box: below this a triangle has no area
-# and a solid no volume, whatever the units (float rounding of a real triangle stays far above).
-AREA_TOLERANCE = 1e-12
+# Relative to the cubed size of the mesh's bounding box: below this a solid has no volume.
 VOLUME_TOLERANCE = 1e-12
 
 
@@ -33,7 +32,7 @@ def _geometry_problems(mesh: trimesh.Trimesh, solid: bool) -> list[str]:
     if size == 0.0:
         return ["all its vertices are one point"]
     problems = []
-    flat = int(np.count_nonzero(mesh.area_faces <= AREA_TOLERANCE * size**2))
+    flat = int(np.count_nonzero(zero_area_faces(mesh.vertices, mesh.faces)))
     if flat:
         problems.append(f"{flat} of {len(mesh.faces)} triangles have zero area")
     if solid:
