@@ -190,9 +190,11 @@ def test_photo_paths_are_confined_as_spec_paths_are(tmp_path: Path, textured_dir
 @pytest.mark.bpy
 @pytest.mark.slow
 def test_turntable_simulate_reads_homemodels_own_exports(tmp_path: Path) -> None:
+    """Its OBJ (with an MTL), its GLB and its model folder: once a traceback, valid input."""
+    from turntable.simulate import SimulationOptions, simulate_capture
+
     model = export_model(box_model("box", (0.08, 0.06, 0.1)), tmp_path / "box")
+    options = SimulationOptions(frames=2, width_px=64, height_px=48, samples=1)
     for name, mesh in (("obj", model / "meshes" / "body_body.obj"), ("glb", model / "model.glb"), ("folder", model)):
-        run = run_cli("turntable", "simulate", mesh, "--out", tmp_path / name, "--frames", "2", "--width", "64",
-                      "--height", "48", "--samples", "1", timeout_s=300)
-        assert run.returncode == 0, run.stderr
-        assert len(list((tmp_path / name / "color").iterdir())) == 2
+        result = simulate_capture(mesh, tmp_path / name, options)
+        assert result.frames == 2 and len(list((tmp_path / name / "color").iterdir())) == 2
