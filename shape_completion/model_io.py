@@ -168,7 +168,7 @@ def load_model(path: Path, *, library_fingerprint: str | None = None) -> ShapeCo
     arrays = read_npz(path, MODEL_BYTES)
     try:
         meta = json.loads(arrays.pop("meta").tobytes().decode("utf-8"))
-    except (KeyError, UnicodeDecodeError, json.JSONDecodeError):
+    except (KeyError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         raise InputError(f"{path}: not a completion model file") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise InputError(f"{path}: not a completion model file")

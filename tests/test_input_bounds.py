@@ -175,3 +175,12 @@ def test_a_shape_basis_fits_a_library_with_fewer_views_than_features() -> None:
     basis = ShapeBasis(n_components=12, random_state=0).fit(occupancies)
     assert basis.components_.shape == (8, 4096)
     assert basis.codes(occupancies).shape == (8, 8)
+
+
+def test_deeply_nested_json_is_an_input_error(tmp_path: Path) -> None:
+    from turntable.poses_io import read_poses
+
+    poses = tmp_path / "poses.json"
+    poses.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(InputError, match="poses.json: not a poses file: RecursionError"):
+        read_poses(poses)

@@ -327,7 +327,7 @@ def resimulate_depth(
         saved["board_path"] = None if saved["board_path"] is None else Path(saved["board_path"])
         saved["axis_offset_m"] = tuple(saved["axis_offset_m"])
         options = SimulationOptions(**{**saved, "depth_noise_m": depth_noise_m, "random_state": random_state})
-    except (ValueError, TypeError, KeyError) as exc:
+    except (ValueError, TypeError, KeyError, RecursionError) as exc:  # RecursionError: nested deep
         raise InputError(f"{capture_dir / SIMULATION_JSON}: not a simulation record: {exc}") from None
     options.check()
     board = load_board(capture_dir / "board.yaml")
