@@ -332,7 +332,7 @@ def resimulate_depth(
     options.check()
     board = load_board(capture_dir / "board.yaml")
     camera = load_camera(capture_dir / "camera.yaml")
-    placed = trimesh.load(capture_dir / GROUND_TRUTH, force="mesh", process=False)
+    placed = load_mesh(capture_dir / GROUND_TRUTH)  # bounded, finite
     camera_from_tables = read_poses(capture_dir / TRUE_POSES)
     with atomic_dir(Path(out_dir), force=force, inputs=[capture_dir]) as tmp:
         for name in ("camera.yaml", "board.yaml", TRUE_POSES, GROUND_TRUTH):
