@@ -16,6 +16,9 @@ APT_PACKAGES := libusb-1.0-0 libegl1 libgl1 libglx0 libopengl0 libsm6 libice6 li
 	libxext6 libxfixes3 libxi6 libxkbcommon0 libxrender1 libxt6 libxxf86vm1 \
 	libfontconfig1 libfreetype6 libgomp1 \
 	ignition-tools libsdformat-dev
+# Wait for a lock another apt-get holds (apt prints "Waiting for cache lock") instead of failing.
+APT_WAIT := -o DPkg::Lock::Timeout=600
+APT_LOCKS := /var/lib/dpkg/lock-frontend /var/lib/dpkg/lock /var/lib/apt/lists/lock
 
 .PHONY: demo test setup clean addon addon-screenshots
 
@@ -34,7 +37,11 @@ $(APT_STAMP): Makefile
 	if [ -n "$$missing" ]; then \
 		echo "installing Debian packages: $$missing"; \
 		if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
-		$$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+		if command -v fuser >/dev/null && $$SUDO fuser $(APT_LOCKS) >/dev/null 2>&1; then \
+			echo "waiting for another apt-get or dpkg (unattended upgrades on a fresh machine?) to release its lock, up to 10 minutes"; \
+		fi; \
+		$$SUDO apt-get $(APT_WAIT) update -q && \
+		$$SUDO env DEBIAN_FRONTEND=noninteractive apt-get $(APT_WAIT) install -y -q $$missing; \
 	fi
 	@touch $@
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from homemodel.core.errors import HomemodelError, InputError
+from homemodel.core.input_files import confined_path
 from homemodel.core.safe_xml import parse_xml_file
 
 
@@ -53,14 +54,7 @@ def resolve_mesh(filename: str, urdf_dir: Path) -> Path:
         if target is not None:
             return target
         raise InputError("package:// path cannot be resolved inside the model folder or the package holding it")
-    if "://" in filename:
-        raise InputError("URIs are not allowed; use a path relative to the URDF")
-    if Path(filename).is_absolute():
-        raise InputError("absolute paths are not allowed; use a path relative to the URDF")
-    target = (folder / filename).resolve()
-    if not target.is_relative_to(folder):
-        raise InputError(f"resolves to {target}, outside the model folder {folder}")
-    return target
+    return confined_path(folder, filename, folder_role="model folder")
 
 
 def with_package_uris_resolved(urdf: Path, out_dir: Path) -> Path:

@@ -9,22 +9,28 @@ import trimesh
 
 from articulation.model import Material
 from articulation.numbers import fixed
+from homemodel.geometry.mesh_ops import zero_area_faces
 
 
 def obj_text(mesh: trimesh.Trimesh, *, mtl_file: str | None, material: str | None, uv: np.ndarray | None) -> str:
-    """An OBJ of `mesh` with one texture coordinate per vertex when `uv` is given."""
+    """An OBJ of `mesh` with one texture coordinate per vertex when `uv` is given. Triangles
+    with no area at the written precision (marching cubes makes a few slivers that rounding
+    to 1 um flattens) are left out: they carry no surface, and the gate refuses them."""
+    coordinates = [[fixed(c) for c in vertex] for vertex in np.asarray(mesh.vertices)]
+    written = np.array(coordinates, dtype=np.float64).reshape(-1, 3)
+    kept_faces = np.asarray(mesh.faces)[~zero_area_faces(written, mesh.faces)]
     out = io.StringIO()
     out.write("# homemodel\n")
     if mtl_file is not None:
         out.write(f"mtllib {mtl_file}\n")
-    for x, y, z in mesh.vertices:
-        out.write(f"v {fixed(x)} {fixed(y)} {fixed(z)}\n")
+    for x, y, z in coordinates:
+        out.write(f"v {x} {y} {z}\n")
     if uv is not None:
         for u, v in uv:
             out.write(f"vt {fixed(u)} {fixed(v)}\n")
     if material is not None:
         out.write(f"usemtl {material}\n")
-    faces = np.asarray(mesh.faces) + 1
+    faces = kept_faces + 1
     if uv is not None:
         out.writelines(f"f {a}/{a} {b}/{b} {c}/{c}\n" for a, b, c in faces)
     else:

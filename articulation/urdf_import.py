@@ -33,7 +33,10 @@ from articulation.model import (
     Visual,
 )
 from homemodel.core.errors import InputError, ModelError
+from homemodel.core.input_files import read_bounded
+from homemodel.core.limits import MESH_TRIANGLES, URDF_JOINTS, URDF_LINKS
 from homemodel.core.safe_xml import parse_xml_file
+from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
 from homemodel.core.transforms import transform_from_xyz_rpy
 
 _NUMBER_LIST = re.compile(r"\s+")
@@ -77,9 +80,18 @@ class _Context:
         return path
 
 
+def check_robot_size(robot: etree._Element, source: Path) -> None:
+    """Refuse a URDF with more links or joints than the bounds (every later step, the gate's
+    clients among them, grows with them)."""
+    URDF_LINKS.check(source, len(robot.findall("link")))
+    URDF_JOINTS.check(source, len(robot.findall("joint")))
+
+
 def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, trimesh.Trimesh]]:
     """The parts of one mesh file (an OBJ may hold several materials), scaled as the URDF says."""
     path = ctx.mesh_path(element)
+    data = read_bounded(path, MAX_MESH_BYTES)
+    MESH_TRIANGLES.check(path, declared_faces(data, path.suffix.lower()))
     try:
         loaded = trimesh.load(path, process=False, maintain_order=True)
     except Exception as exc:  # trimesh raises many types for corrupt files
@@ -91,6 +103,9 @@ def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, 
     parts = [(name, mesh) for name, mesh in parts if len(mesh.faces) > 0]
     if not parts:
         raise ctx.fail(element, f"mesh {path.name} has no triangles")
+    MESH_TRIANGLES.check(path, sum(len(mesh.faces) for _, mesh in parts))
+    if not all(np.all(np.isfinite(mesh.vertices)) for _, mesh in parts):
+        raise ctx.fail(element, f"mesh {path.name} has non-finite (NaN or infinite) vertex coordinates")
     scale = ctx.floats(element, "scale", 3, "1 1 1")
     if not np.allclose(scale, 1.0):
         for _, mesh in parts:
@@ -300,6 +315,7 @@ def load_urdf(path: Path) -> Model:
     robot = parse_xml_file(path).getroot()
     if robot.tag != "robot":
         raise InputError(f"{path}: root element is <{robot.tag}>, expected <robot>")
+    check_robot_size(robot, path)
     for el in robot.findall("material"):
         colour = el.find("color")
         if el.get("name") and colour is not None:

@@ -1,5 +1,5 @@
 """`python -m homemodel` runs the command line, as the `homemodel` script does."""
 
-from homemodel.cli import main
+from homemodel.launcher import main
 
 main()

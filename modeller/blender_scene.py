@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.geometry.cycles_scene import import_bpy
 
 if TYPE_CHECKING:
     import bpy
@@ -26,7 +27,7 @@ LINK_PROPERTY = "homemodel_link"
 
 def reset_scene() -> None:
     """Start from Blender's factory settings with an empty scene."""
-    import bpy
+    bpy = import_bpy()
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from homemodel.core.atomic import write_json
-from homemodel.core.errors import SpecError
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.input_files import confined_path
 from homemodel.core.yaml_specs import FieldError, read_yaml_mapping, validate_mapping
 from modeller.specs import SPEC_TYPES, Spec
 
@@ -36,7 +37,10 @@ def _with_checked_photos(path: Path, spec: Spec) -> Spec:
 
     photos = []
     for i, photo in enumerate(spec.photos):
-        photo = photo.model_copy(update={"photo": (path.parent / photo.photo).absolute()})
+        try:
+            photo = photo.model_copy(update={"photo": confined_path(path.parent, photo.photo, folder_role="spec's folder")})
+        except InputError as exc:
+            raise SpecError(f"{path}: photos.{i}.photo: {exc}") from None
         try:
             check_photo(photo)
         except FieldError as exc:

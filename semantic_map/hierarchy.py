@@ -86,10 +86,14 @@ class SemanticMap:
         for child in _children(node):
             self._index(child, node.id)
 
-    def _new_id(self, node_id: str) -> str:
+    def check_new_id(self, node_id: str) -> None:
+        """A MapError unless `node_id` is a valid id not yet in the map."""
         check_id(node_id)
         if node_id in self._nodes:
             raise MapError(f"id {node_id!r} is already in the map (a {type(self._nodes[node_id]).__name__})")
+
+    def _new_id(self, node_id: str) -> str:
+        self.check_new_id(node_id)
         return node_id
 
     # Building

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.core.errors import OutputExistsError
+from homemodel.core.errors import MapError, OutputExistsError
+from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import MapObject, ParkingPosition, Relation
 from semantic_map.xml_io import load_map, save_map
 
@@ -29,9 +30,24 @@ class MapEntry:
     graspable: bool | None = None  # default: small objects are, large ones are not
     out_path: Path | None = None  # write the extended map here; None: over `map_path`
 
-    def check(self) -> None:
-        """Load the map and find the parent now, so a bad map or parent fails before any work."""
-        load_map(self.map_path).node(self.parent_id)
+    def check(self, *, force: bool = False) -> None:
+        """Load the map, find the parent and make sure the id is free now, so a bad map, parent
+        or id fails before any work (and before any output is written)."""
+        smap = self.load()
+        out_path = Path(self.out_path or self.map_path)
+        if self.out_path is not None and out_path.exists() and not force:
+            raise OutputExistsError(f"{out_path}: exists (use --force to replace it)")
+        try:
+            smap.node(self.parent_id)
+            smap.check_new_id(self.object_id)
+        except MapError as exc:
+            raise MapError(f"{self.map_path}: {exc}") from None
+
+    def load(self) -> SemanticMap:
+        try:
+            return load_map(self.map_path)
+        except MapError as exc:
+            raise MapError(exc if str(self.map_path) in str(exc) else f"{self.map_path}: {exc}") from None
 
 
 @dataclass(kw_only=True)
@@ -53,20 +69,23 @@ def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -
     from articulation import urdf_import
 
     out_path = Path(entry.out_path or entry.map_path)
-    if entry.out_path is not None and out_path.exists() and not force:
-        raise OutputExistsError(f"{out_path}: exists (use --force to replace it)")
+    entry.check(force=force)
     urdf = urdf_import.find_urdf(Path(model_dir))
-    smap = load_map(entry.map_path)
-    node = smap.register_model(
-        urdf_import.load_urdf(urdf),
-        object_id=entry.object_id,
-        parent_id=entry.parent_id,
-        relation=entry.relation,
-        parent_from_object=entry.parent_from_object,
-        model_ref=Path(os.path.relpath(urdf.resolve(), out_path.resolve().parent)).as_posix(),
-        parking_positions=entry.parking_positions,
-        graspable=entry.graspable,
-        properties=entry.properties,
-    )
+    smap = entry.load()
+    model = urdf_import.load_urdf(urdf)
+    try:
+        node = smap.register_model(
+            model,
+            object_id=entry.object_id,
+            parent_id=entry.parent_id,
+            relation=entry.relation,
+            parent_from_object=entry.parent_from_object,
+            model_ref=Path(os.path.relpath(urdf.resolve(), out_path.resolve().parent)).as_posix(),
+            parking_positions=entry.parking_positions,
+            graspable=entry.graspable,
+            properties=entry.properties,
+        )
+    except MapError as exc:
+        raise MapError(f"{entry.map_path}: {exc}") from None
     save_map(smap, out_path)
     return Registration(node=node, path=smap.path_to(node.id), map_path=out_path)

@@ -9,7 +9,7 @@ from pathlib import Path
 from lxml import etree
 
 from homemodel.core.atomic import write_bytes_atomic
-from homemodel.core.errors import MapError
+from homemodel.core.errors import MapError, OutputError
 from homemodel.core.safe_xml import parse_xml_bytes, parse_xml_file
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.xml_read import apartment_from_tree
@@ -75,5 +75,7 @@ def save_map(smap: SemanticMap, path: Path) -> None:
         raise MapError(f"{path}: not saved: {exc}") from None
     try:
         write_bytes_atomic(path, data)
+    except OutputError as exc:  # a full disk, a read-only folder: already names the file
+        raise MapError(str(exc)) from None
     except OSError as exc:
         raise MapError(f"{path}: cannot write: {exc.strerror or exc}") from None

@@ -32,6 +32,7 @@ from homemodel.core.errors import ModelError
 from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
 from homemodel.geometry.camera import Camera
 from shape_completion.symmetry import Plane, RevolutionAxis
+from shape_completion.tree_arrays import BoosterArrays
 
 LEVEL_STEPS = (0.0, 0.05, 0.1, 0.15)  # raises of the filler's level tried on the finished meshes
 FEATURE_NAMES = (
@@ -311,8 +312,11 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
             random_state=self.random_state,
         )
         with single_threaded():
-            self.booster_ = booster.fit(features, occupied.astype(bool))
-        self.classes_ = self.booster_.classes_
+            booster.fit(features, occupied.astype(bool))
+        if len(booster.classes_) != 2:
+            raise ModelError("the filler's training voxels are all occupied or all free: a richer library is needed")
+        self.trees_ = BoosterArrays.from_sklearn(booster)  # what a model file keeps: arrays, no code
+        self.classes_ = booster.classes_
         self.level_ = 0.5
         return self
 
@@ -328,19 +332,17 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
         return self
 
     def predict_proba(self, features: np.ndarray) -> np.ndarray:
-        with single_threaded():
-            return self.booster_.predict_proba(features)
+        occupied = self.occupancy_probability(features)
+        return np.column_stack([1.0 - occupied, occupied])
 
     def occupancy_probability(self, features: np.ndarray) -> np.ndarray:
-        """P(occupied) per row (0 when training saw no occupied voxel at all)."""
+        """P(occupied) per row."""
         if len(features) == 0:
             return np.zeros(0)
         # A query's grid (10^5 voxels) is predicted on every core: measured 0.88 s on one
         # thread, 0.47 s on two. Small batches stay on one (see `single_threaded`).
         with single_threaded() if len(features) < PARALLEL_PREDICTION_ROWS else nullcontext():
-            proba = self.booster_.predict_proba(features)
-        column = np.nonzero(self.classes_)[0]
-        return proba[:, column[0]] if len(column) else np.zeros(len(features))
+            return self.trees_.probability(features)
 
 
 def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -> trimesh.Trimesh:

@@ -17,6 +17,7 @@ from sklearn.ensemble import RandomForestRegressor
 
 from homemodel.geometry.camera import Camera
 from shape_completion.registration import apply
+from shape_completion.tree_arrays import ForestArrays
 
 
 class ViewForest(BaseEstimator):
@@ -36,20 +37,21 @@ class ViewForest(BaseEstimator):
         self.random_state = random_state
 
     def fit(self, features: np.ndarray, codes: np.ndarray) -> ViewForest:
-        self.forest_ = RandomForestRegressor(
+        forest = RandomForestRegressor(
             n_estimators=self.n_estimators,
             min_samples_leaf=self.min_samples_leaf,
             max_features=self.max_features,
             random_state=self.random_state,
             n_jobs=1,
         ).fit(features, codes)
-        self.train_leaves_ = self.forest_.apply(features)
+        self.trees_ = ForestArrays.from_sklearn(forest)  # what a model file keeps: arrays, no code
+        self.train_leaves_ = forest.apply(features)
         return self
 
     def candidates(self, features: np.ndarray, count: int, exclude: np.ndarray | None = None) -> np.ndarray:
         """Indices of up to `count` training views, most shared leaves first; `exclude` is a
         boolean mask of views that may not be returned (leave-one-out training of the filler)."""
-        leaves = self.forest_.apply(features.reshape(1, -1))[0]
+        leaves = self.trees_.apply(features.reshape(1, -1))[0]
         votes = (self.train_leaves_ == leaves).sum(axis=1).astype(np.float64)
         if exclude is not None:
             votes[exclude] = -1.0

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from articulation.export import write_model_files
 from articulation.scan_model import scan_model
+from homemodel.core.errors import errors_naming
 from homemodel.core.atomic import atomic_dir, prepare_out_dir, write_json
 from homemodel.core.checks import require_positive
 from homemodel.core.progress import Progress, StageClock
@@ -87,7 +88,8 @@ def complete(
         model = load_model(model_path, library_fingerprint=expected)
     depth, pinhole = load_query(depth_png, camera_path, options.mask_path)
     clock.stop()
-    completion = model.complete(depth, pinhole, progress=progress)
+    with errors_naming(depth_png):
+        completion = model.complete(depth, pinhole, progress=progress)
     completion.times_s = {**clock.times_s, **completion.times_s}
     clock.start("export", 1)
     with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:

@@ -1,61 +1,189 @@
-"""Save and load a trained `ShapeCompleter` (joblib) with its format version and fingerprint.
+"""Save and load a trained `ShapeCompleter` as plain arrays (`.npz`), with its format version
+and fingerprint.
 
-A model file is a pickle: load only model files you made or trust.
+Model files are shared between people, so one must not be able to carry code: the file holds
+numeric arrays and one JSON document, read with `homemodel.core.safe_npz` (no pickle), and the
+trees' arrays are checked before prediction walks them (`shape_completion.tree_arrays`).
 """
 
 from __future__ import annotations
 
-import io
+import json
 from pathlib import Path
 
-import joblib
+import numpy as np
+import trimesh
 
-from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import InputError
-from homemodel.core.input_files import read_bounded
+from homemodel.core.limits import MODEL_BYTES
+from homemodel.core.safe_npz import read_npz, write_npz
+from shape_completion.features import PATCH, PixelTests
+from shape_completion.filling import VoxelFiller
 from shape_completion.library import training_fingerprint
-from shape_completion.pipeline import ShapeCompleter
+from shape_completion.matching import ViewForest
+from shape_completion.pipeline import LibraryShape, ShapeCompleter
+from shape_completion.shape_codes import ShapeBasis
+from shape_completion.symmetry import Plane, RevolutionAxis
+from shape_completion.tree_arrays import BoosterArrays, ForestArrays
 
 FORMAT = "homemodel-shape-completion"
-FORMAT_VERSION = 3
-MAX_MODEL_BYTES = 4 * 1024**3
+FORMAT_VERSION = 4  # 4: arrays in .npz; 3 and before were pickles, never loaded
 
 
-def save_model(completer: ShapeCompleter, path: Path) -> None:
-    """Write the fitted completer atomically, with the format version and its fingerprints."""
-    payload = {
+def _text(document: dict) -> np.ndarray:
+    return np.frombuffer(json.dumps(document).encode("utf-8"), dtype=np.uint8)
+
+
+def _model_arrays(completer: ShapeCompleter) -> dict[str, np.ndarray]:
+    shapes = []
+    arrays: dict[str, np.ndarray] = {}
+    for i, shape in enumerate(completer.shapes_):
+        shapes.append({"class_name": shape.class_name, "name": shape.name, "has_axis": shape.axis is not None})
+        arrays |= {
+            f"shape{i}.vertices": np.asarray(shape.mesh.vertices, dtype=np.float64),
+            f"shape{i}.faces": np.asarray(shape.mesh.faces, dtype=np.int64),
+            f"shape{i}.samples": shape.samples,
+            f"shape{i}.normals": shape.normals,
+            f"shape{i}.plane_normals": np.array([p.normal for p in shape.planes], dtype=np.float64).reshape(-1, 3),
+            f"shape{i}.plane_offsets": np.array([p.offset for p in shape.planes], dtype=np.float64),
+        }
+        if shape.axis is not None:
+            arrays[f"shape{i}.axis"] = np.stack([shape.axis.point, shape.axis.direction])
+    forest, filler = completer.forest_, completer.filler_
+    meta = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "fingerprint": completer.fingerprint_,
         "library_fingerprint": completer.library_fingerprint_,
-        "completer": completer,
+        "params": completer.get_params(),
+        "class_names": list(completer.class_names_),
+        "training_seconds": completer.training_seconds_,
+        "shapes": shapes,
+        "forest_params": forest.get_params(),
+        "filler_params": filler.get_params(),
+        "filler_level": filler.level_,
+        "basis_params": {"n_components": completer.shape_basis_.n_components,
+                         "random_state": completer.shape_basis_.random_state},
     }
-    buffer = io.BytesIO()
-    joblib.dump(payload, buffer, compress=3)
-    write_bytes_atomic(Path(path), buffer.getvalue())
+    arrays |= {
+        "meta": _text(meta),
+        "tests.silhouette": completer.tests_.silhouette,
+        "tests.depth_pairs": completer.tests_.depth_pairs,
+        "views.shape": completer.view_shape_,
+        "views.poses": completer.view_poses_,
+        "views.cloud_sizes": np.array([len(c) for c in completer.view_clouds_], dtype=np.int64),
+        "views.clouds": np.concatenate(completer.view_clouds_),
+        "basis.components": completer.shape_basis_.components_,
+        "forest.train_leaves": forest.train_leaves_,
+    }
+    arrays |= {f"forest.{k}": v for k, v in forest.trees_.arrays().items()}
+    arrays |= {f"filler.{k}": v for k, v in filler.trees_.arrays().items()}
+    return arrays
+
+
+def save_model(completer: ShapeCompleter, path: Path, *, force: bool = True) -> None:
+    """Write the fitted completer atomically as an `.npz` of arrays; without `force` never
+    over an existing file (checked in the same step that puts the file in place)."""
+    write_npz(Path(path), _model_arrays(completer), overwrite=force)
+
+
+def _group(arrays: dict[str, np.ndarray], prefix: str) -> dict[str, np.ndarray]:
+    return {k[len(prefix):]: v for k, v in arrays.items() if k.startswith(prefix)}
+
+
+def _check_shapes(arrays: dict[str, np.ndarray]) -> None:
+    """Each array has the shape and kind its use needs (a later IndexError would be a traceback)."""
+    for key, array in arrays.items():
+        field = key.rsplit(".", 1)[-1]
+        width = {"vertices": 3, "faces": 3, "samples": 3, "normals": 3, "plane_normals": 3, "clouds": 3,
+                 "depth_pairs": 2}.get(field)
+        if width is not None and (array.ndim != 2 or array.shape[1] != width):
+            raise ValueError(f"{key} has shape {array.shape}, not (N, {width})")
+        if array.dtype.kind not in "biuf" and key != "filler.nodes":
+            raise ValueError(f"{key} is not numeric")
+    poses = arrays["views.poses"]
+    if poses.ndim != 3 or poses.shape[1:] != (4, 4):
+        raise ValueError(f"views.poses has shape {poses.shape}, not (N, 4, 4)")
+    pixels = PATCH * PATCH
+    for key in ("tests.silhouette", "tests.depth_pairs"):
+        if arrays[key].size and (arrays[key].min() < 0 or arrays[key].max() >= pixels):
+            raise ValueError(f"{key} indexes outside the {PATCH} x {PATCH} patch")
+
+
+def _completer(arrays: dict[str, np.ndarray], meta: dict, name: str) -> ShapeCompleter:
+    """The completer the arrays describe; KeyError, TypeError or ValueError if they do not fit."""
+    _check_shapes(arrays)
+    completer = ShapeCompleter(**meta["params"])
+    completer.fingerprint_ = meta["fingerprint"]
+    completer.library_fingerprint_ = meta["library_fingerprint"]
+    completer.class_names_ = [str(c) for c in meta["class_names"]]
+    completer.training_seconds_ = float(meta["training_seconds"])
+    completer.tests_ = PixelTests(silhouette=arrays["tests.silhouette"], depth_pairs=arrays["tests.depth_pairs"])
+    completer.shapes_ = []
+    for i, entry in enumerate(meta["shapes"]):
+        axis = arrays[f"shape{i}.axis"] if entry["has_axis"] else None
+        completer.shapes_.append(LibraryShape(
+            class_name=str(entry["class_name"]),
+            name=str(entry["name"]),
+            mesh=trimesh.Trimesh(arrays[f"shape{i}.vertices"], arrays[f"shape{i}.faces"], process=False),
+            samples=arrays[f"shape{i}.samples"],
+            normals=arrays[f"shape{i}.normals"],
+            planes=[Plane(normal=n, offset=float(o)) for n, o in
+                    zip(arrays[f"shape{i}.plane_normals"], arrays[f"shape{i}.plane_offsets"], strict=True)],
+            axis=None if axis is None else RevolutionAxis(point=axis[0], direction=axis[1]),
+        ))
+        mesh = completer.shapes_[-1].mesh
+        if len(mesh.faces) and (mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices)):
+            raise ValueError(f"library shape {i}: a face names a vertex it does not have")
+    completer.view_shape_ = arrays["views.shape"]
+    completer.view_poses_ = arrays["views.poses"]
+    sizes = arrays["views.cloud_sizes"]
+    completer.view_clouds_ = np.split(arrays["views.clouds"], np.cumsum(sizes)[:-1])
+    if np.any(completer.view_shape_ < 0) or np.any(completer.view_shape_ >= len(completer.shapes_)):
+        raise ValueError("a view names a library shape the model does not have")
+    if not (len(sizes) == len(completer.view_shape_) == len(completer.view_poses_)):
+        raise ValueError("the views' arrays differ in length")
+    basis = ShapeBasis(**meta["basis_params"])
+    basis.components_ = arrays["basis.components"]
+    completer.shape_basis_ = basis
+    forest = ViewForest(**meta["forest_params"])
+    forest.trees_ = ForestArrays.from_arrays(_group(arrays, "forest."), name)
+    forest.train_leaves_ = arrays["forest.train_leaves"]
+    if forest.train_leaves_.shape != (len(sizes), len(forest.trees_.offsets) - 1):
+        raise ValueError("the forest's training leaves do not fit its views and trees")
+    completer.forest_ = forest
+    filler = VoxelFiller(**meta["filler_params"])
+    filler.trees_ = BoosterArrays.from_arrays(_group(arrays, "filler."), name)
+    filler.classes_ = filler.trees_.classes
+    filler.level_ = float(meta["filler_level"])
+    completer.filler_ = filler
+    return completer
 
 
 def load_model(path: Path, *, library_fingerprint: str | None = None) -> ShapeCompleter:
-    """The completer in `path`; refuses another format version, a payload whose fingerprint does
-    not fit its options, and (when given) a model trained on another library version."""
+    """The completer in `path`; refuses anything but this format's `.npz` before reading it,
+    another format version, a model whose fingerprint does not fit its options, and (when
+    given) a model trained on another library version."""
     path = Path(path)
-    data = read_bounded(path, MAX_MODEL_BYTES)
+    arrays = read_npz(path, MODEL_BYTES)
     try:
-        payload = joblib.load(io.BytesIO(data))
-    except Exception as exc:  # a truncated or foreign file fails in many ways inside pickle
-        raise InputError(f"{path}: not a completion model file ({type(exc).__name__})") from None
-    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        meta = json.loads(arrays.pop("meta").tobytes().decode("utf-8"))
+    except (KeyError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+        raise InputError(f"{path}: not a completion model file") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise InputError(f"{path}: not a completion model file")
-    if payload.get("format_version") != FORMAT_VERSION:
+    if meta.get("format_version") != FORMAT_VERSION:
         raise InputError(
-            f"{path}: model format version {payload.get('format_version')}, this homemodel reads version"
+            f"{path}: model format version {meta.get('format_version')}, this homemodel reads version"
             f" {FORMAT_VERSION}: train it again"
         )
-    completer = payload.get("completer")
-    if not isinstance(completer, ShapeCompleter) or payload.get("fingerprint") != training_fingerprint(
-        payload.get("library_fingerprint", ""), completer.get_params()
-    ):
+    try:
+        completer = _completer(arrays, meta, str(path))
+        consistent = meta["fingerprint"] == training_fingerprint(meta["library_fingerprint"], completer.get_params())
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+        raise InputError(f"{path}: the model's arrays are incomplete or inconsistent ({exc}): train it again") from None
+    if not consistent:
         raise InputError(f"{path}: the model's fingerprint does not match its contents: train it again")
-    if library_fingerprint is not None and payload["library_fingerprint"] != library_fingerprint:
+    if library_fingerprint is not None and meta["library_fingerprint"] != library_fingerprint:
         raise InputError(f"{path}: trained on another version of the library: train it again on this one")
     return completer

@@ -54,7 +54,10 @@ class ShapeBasis:
         self.random_state = random_state
 
     def fit(self, occupancies: np.ndarray) -> ShapeBasis:
-        nmf = NMF(n_components=self.n_components, init="nndsvda", max_iter=200, random_state=self.random_state)
+        # NNDSVD starts from an SVD, which has at most min(views, voxels) components: a small
+        # library (one class of two meshes, few views) asks for more than that.
+        components = min(self.n_components, *occupancies.shape)
+        nmf = NMF(n_components=components, init="nndsvda", max_iter=200, random_state=self.random_state)
         with warnings.catch_warnings():
             # A basis short of full convergence is still a basis: the codes come from NNLS on it.
             warnings.simplefilter("ignore", ConvergenceWarning)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import shutil
 import struct
 from collections.abc import Callable
 from pathlib import Path
@@ -224,8 +225,9 @@ def textured_cupboard(tmp_path_factory: pytest.TempPathFactory, door_photo: tupl
 
     folder = tmp_path_factory.mktemp("cupboard")
     path, corners = door_photo
+    shutil.copy(path, folder / "door.png")  # a spec's photos lie in its folder
     spec_path = cupboard_spec(
-        folder, [{"part": "door_0", "face": "front", "photo": str(path), "corners_px": corners.round(3).tolist()}]
+        folder, [{"part": "door_0", "face": "front", "photo": "door.png", "corners_px": corners.round(3).tolist()}]
     )
     built = build_textured(load_spec(spec_path), "cupboard", spec_path=spec_path)
     export_model(built.model, folder / "model")
@@ -395,11 +397,12 @@ def test_unknown_part_and_missing_face_are_refused_after_building(tmp_path: Path
     from modeller import build_model
 
     path, corners = door_photo
+    shutil.copy(path, tmp_path / "door.png")  # a spec's photos lie in its folder
     for part, extra, field, words in [
         ("door_9", {"face": "front"}, "part", "no part named 'door_9'; this model's parts are body, body.plinth"),
         ("door_0_handle", {"face": "wrap", "wrap_range_m": [5, 6]}, "face", "part 'door_0_handle' has no round side"),
     ]:
-        entry = {"part": part, **extra, "photo": str(path), "corners_px": corners.round(3).tolist()}
+        entry = {"part": part, **extra, "photo": "door.png", "corners_px": corners.round(3).tolist()}
         spec_path = cupboard_spec(tmp_path, [entry])
         with pytest.raises(SpecError) as caught:
             build_model(spec_path)

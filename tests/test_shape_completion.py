@@ -13,6 +13,8 @@ from typer.testing import CliRunner
 from articulation.gate.validate import validate_path
 from homemodel.cli import app
 from homemodel.core.errors import InputError
+from homemodel.core.limits import MODEL_BYTES
+from homemodel.core.safe_npz import read_npz, write_npz
 from homemodel.evaluation import rock_surface_distance, rock_voxel_iou
 from homemodel.geometry.mesh_io import load_mesh
 from homemodel.evaluation.surface import distances_to_surface
@@ -40,10 +42,10 @@ def trained(tmp_path_factory) -> dict:
     )
     assert result.exit_code == 0, result.output
     result = invoke(
-        "completion", "train", root / "library", "--out", root / "model.joblib", "--views", 20, "--filler-queries", 6
+        "completion", "train", root / "library", "--out", root / "model.npz", "--views", 20, "--filler-queries", 6
     )
     assert result.exit_code == 0, result.output
-    return {"root": root, "library": root / "library", "model": root / "model.joblib"}
+    return {"root": root, "library": root / "library", "model": root / "model.npz"}
 
 
 @pytest.fixture(scope="module")
@@ -176,35 +178,34 @@ def test_models_are_refused_for_another_library_or_format(trained, completer, tm
         other,
     )
     assert result.exit_code == 2 and "another version of the library" in result.output
-    assert "model.joblib" in result.output
-    import joblib
-
-    payload = joblib.load(trained["model"])
-    payload["format_version"] = 99
-    joblib.dump(payload, tmp_path / "future.joblib")
-    with pytest.raises(InputError, match="future.joblib: model format version 99"):
-        load_model(tmp_path / "future.joblib")
-    (tmp_path / "junk.joblib").write_bytes(b"not a model")
-    with pytest.raises(InputError, match="junk.joblib: not a completion model"):
-        load_model(tmp_path / "junk.joblib")
+    assert "model.npz" in result.output
+    arrays = read_npz(trained["model"], MODEL_BYTES)
+    meta = json.loads(arrays["meta"].tobytes())
+    arrays["meta"] = np.frombuffer(json.dumps(meta | {"format_version": 99}).encode(), dtype=np.uint8)
+    write_npz(tmp_path / "future.npz", arrays)
+    with pytest.raises(InputError, match="future.npz: model format version 99"):
+        load_model(tmp_path / "future.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a model")
+    with pytest.raises(InputError, match="junk.npz: not an .npz array file"):
+        load_model(tmp_path / "junk.npz")
     completer.set_params(n_views=21)  # options that do not match the fingerprint
     try:
-        save_model(completer, tmp_path / "tampered.joblib")
+        save_model(completer, tmp_path / "tampered.npz")
     finally:
         completer.set_params(n_views=20)
     with pytest.raises(InputError, match="fingerprint does not match"):
-        load_model(tmp_path / "tampered.joblib")
+        load_model(tmp_path / "tampered.npz")
 
 
 def test_library_errors_name_the_folder(tmp_path):
     (tmp_path / "lib" / "cup").mkdir(parents=True)
-    result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.joblib")
+    result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.npz")
     assert result.exit_code == 2 and "no class folders with mesh files" in result.output
     mesh = generate_instances("cup", 1)[0]
     mesh.apply_scale(1000.0)  # millimetres
     mesh.export(tmp_path / "lib" / "cup" / "a.ply")
     mesh.export(tmp_path / "lib" / "cup" / "b.ply")
-    result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.joblib")
+    result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.npz")
     assert result.exit_code == 2 and "a.ply" in result.output and "in metres" in result.output
 
 

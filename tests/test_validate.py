@@ -24,7 +24,7 @@ from articulation.gate.clients import find_check_urdf
 from articulation.gate.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
-RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes"]
+RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes", "mesh geometry"]
 URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions", "physics"]
 GLTF_CHECKS = ["glTF validator", "glTF joints"]
 
@@ -173,7 +173,7 @@ BROKEN = {
     "absolute mesh path": ({"mesh": _absolute_obj}, "meshes", "absolute paths are not allowed"),
     "file URI": ({"mesh": "file:///etc/hostname.obj"}, "meshes", "URIs are not allowed"),
     "unresolvable package URI": ({"mesh": "package://elsewhere/knob.obj"}, "meshes", "cannot be resolved"),
-    "corrupt OBJ": ({"mesh": _corrupt_obj}, "meshes", "trimesh cannot read it"),
+    "corrupt OBJ": ({"mesh": _corrupt_obj}, "meshes", "cannot read the mesh"),
     "mesh is a FIFO": ({"mesh": _fifo}, "meshes", "not a regular file"),
 }
 

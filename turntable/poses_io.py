@@ -51,8 +51,8 @@ def read_poses(path: Path) -> dict[str, np.ndarray]:
     try:
         document = json.loads(read_bounded(path, 64 * 1024 * 1024))
         poses = {str(f["frame"]): np.asarray(f["camera_from_table"], dtype=np.float64) for f in document["frames"]}
-    except (ValueError, KeyError, TypeError) as exc:
-        raise InputError(f"{path}: not a poses file: {exc}") from None
+    except (ValueError, KeyError, TypeError, RecursionError) as exc:  # RecursionError: [[[[... nested deep
+        raise InputError(f"{path}: not a poses file: {type(exc).__name__}: {exc}") from None
     for stem, pose in poses.items():
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise InputError(f"{path}: frame {stem}: camera_from_table is not a finite 4x4 matrix")

@@ -20,7 +20,8 @@ import trimesh
 
 from articulation.naming import check_model_name
 from homemodel.core.checks import check_nested, require_at_least, require_positive
-from homemodel.core.errors import ModelError
+from homemodel.core.atomic import prepare_out_dir
+from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.progress import Progress, StageClock
 from semantic_map import MapEntry, Registration, add_model_folder
 from turntable.capture import Capture, FrameError, load_capture, read_color, read_depth
@@ -286,9 +287,11 @@ def reconstruct(
     not at all. Progress stages: poses, axis, merge, mesh, texture, export."""
     options = options or ReconstructionOptions()
     options.check()
+    prepare_out_dir(Path(out_dir), force=force, inputs=[Path(capture_dir)])  # a full --out fails now too
     if options.map_entry is not None:
-        options.map_entry.check()  # an unknown parent fails now, not after the work
-    result = reconstruct_capture(load_capture(capture_dir), options, progress)
+        options.map_entry.check()  # an unknown parent or a taken id fails now, not after the work
+    with errors_naming(capture_dir):
+        result = reconstruct_capture(load_capture(capture_dir), options, progress)
     write_reconstruction(result, out_dir, options, inputs=[Path(capture_dir)], force=force, progress=progress)
     if options.map_entry is not None:
         result.registration = add_model_folder(out_dir, options.map_entry)

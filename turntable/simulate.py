@@ -31,6 +31,8 @@ import trimesh
 from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
 from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import InputError
+from homemodel.core.limits import RENDER_PIXELS
+from homemodel.geometry.mesh_io import load_mesh
 from homemodel.core.input_files import read_bounded
 from homemodel.core.progress import Progress, no_progress
 from homemodel.core.transforms import world_from_camera_looking_at
@@ -44,6 +46,8 @@ NOISE_REFERENCE_DEPTH_M = 0.7
 TRUE_POSES = "true_poses.json"
 GROUND_TRUTH = "ground_truth.ply"
 SIMULATION_JSON = "simulation.json"
+MAX_FRAMES = 3600  # ten a degree
+MAX_CYCLES_SAMPLES = 4096
 _TABLE_THICKNESS_M = 0.02
 _TABLE_TOP_BELOW_TAGS_M = 5e-5  # the tags' paper lies on the table top
 _FLOOR_BELOW_TABLE_M = 0.7
@@ -77,6 +81,10 @@ class SimulationOptions:
             require_positive(name, getattr(self, name))
         require_between("horizontal_fov_deg", self.horizontal_fov_deg, 1.0, 170.0)
         require_at_least("depth_noise_m", self.depth_noise_m, 0.0)
+        # Each frame is rendered and held in memory: bound its pixels, the frames and Cycles' samples.
+        RENDER_PIXELS.check(f"width_px x height_px = {self.width_px}x{self.height_px}", self.width_px * self.height_px)
+        require_between("frames", self.frames, 1, MAX_FRAMES)
+        require_between("samples", self.samples, 1, MAX_CYCLES_SAMPLES)
 
 
 @dataclass(kw_only=True)
@@ -100,27 +108,31 @@ def camera_for(options: SimulationOptions) -> Camera:
     )
 
 
-def load_object_mesh(path: Path, scale: float) -> tuple[trimesh.Trimesh, np.ndarray]:
-    """The mesh (in metres) and its per-vertex linear RGBA in [0, 1] (light grey when it has none)."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such mesh file")
+def _vertex_rgba(path: Path, vertex_count: int) -> np.ndarray:
+    """Per-vertex linear RGBA in [0, 1] from the file's colours or texture, or light grey when
+    it has none or they do not map one-to-one onto its vertices (an OBJ whose texture is
+    missing, a glTF whose primitives trimesh merges)."""
+    grey = np.full((vertex_count, 4), 0.7)
     try:
-        loaded = trimesh.load(path, force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types for broken files
-        raise InputError(f"{path}: cannot read the mesh: {exc}") from None
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise InputError(f"{path}: holds no triangles")
-    if not np.all(np.isfinite(loaded.vertices)):
-        raise InputError(f"{path}: has non-finite vertex coordinates")
+        loaded = trimesh.load(path, force="mesh", process=False)  # from the path: textures beside it resolve
+        if loaded.visual.kind not in ("vertex", "texture", "face"):
+            return grey
+        visual = loaded.visual.to_color() if loaded.visual.kind == "texture" else loaded.visual
+        colours = np.asarray(visual.vertex_colors, dtype=np.float64)
+    except Exception:  # trimesh's colour conversions fail in many ways on partial materials
+        return grey
+    if colours.shape != (vertex_count, 4) or not np.all(np.isfinite(colours)):
+        return grey
+    return colours / 255.0
+
+
+def load_object_mesh(path: Path, scale: float) -> tuple[trimesh.Trimesh, np.ndarray]:
+    """The mesh (in metres) and its per-vertex linear RGBA in [0, 1] (light grey when it has
+    none). `path` is a mesh file or a model folder (its model.glb, in the model's z-up frame)."""
+    path = Path(path)
+    loaded = load_mesh(path)  # bounded, finite, with triangles
     mesh = trimesh.Trimesh(loaded.vertices * scale, loaded.faces, process=False)
-    rgba = np.full((len(mesh.vertices), 4), 0.7)
-    if loaded.visual.kind in ("vertex", "texture", "face"):
-        colours = (
-            loaded.visual.to_color().vertex_colors if loaded.visual.kind == "texture" else loaded.visual.vertex_colors
-        )
-        rgba = np.asarray(colours, dtype=np.float64)[: len(mesh.vertices)] / 255.0
-    return mesh, rgba
+    return mesh, _vertex_rgba(path / "model.glb" if path.is_dir() else path, len(mesh.vertices))
 
 
 def _place_on_table(mesh: trimesh.Trimesh, axis_table: np.ndarray) -> trimesh.Trimesh:
@@ -315,12 +327,12 @@ def resimulate_depth(
         saved["board_path"] = None if saved["board_path"] is None else Path(saved["board_path"])
         saved["axis_offset_m"] = tuple(saved["axis_offset_m"])
         options = SimulationOptions(**{**saved, "depth_noise_m": depth_noise_m, "random_state": random_state})
-    except (ValueError, TypeError, KeyError) as exc:
+    except (ValueError, TypeError, KeyError, RecursionError) as exc:  # RecursionError: nested deep
         raise InputError(f"{capture_dir / SIMULATION_JSON}: not a simulation record: {exc}") from None
     options.check()
     board = load_board(capture_dir / "board.yaml")
     camera = load_camera(capture_dir / "camera.yaml")
-    placed = trimesh.load(capture_dir / GROUND_TRUTH, force="mesh", process=False)
+    placed = load_mesh(capture_dir / GROUND_TRUTH)  # bounded, finite
     camera_from_tables = read_poses(capture_dir / TRUE_POSES)
     with atomic_dir(Path(out_dir), force=force, inputs=[capture_dir]) as tmp:
         for name in ("camera.yaml", "board.yaml", TRUE_POSES, GROUND_TRUTH):

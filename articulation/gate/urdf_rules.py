@@ -13,12 +13,12 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-import trimesh
 from lxml import etree
 
 from articulation.gate.report import Check, check_from_problems, count
 from articulation.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
+from homemodel.geometry.mesh_io import load_mesh
 
 URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 LIMITED_JOINT_TYPES = ("revolute", "prismatic")
@@ -191,12 +191,12 @@ def mesh_references(robot: etree._Element) -> Iterator[tuple[str | None, str | N
 
 
 def _mesh_problem(path: Path) -> str | None:
+    """Why `path` cannot be read as a mesh (bounded in bytes and triangles), or None; what it
+    holds is the mesh geometry check's."""
     try:
-        mesh = trimesh.load(path, force="mesh")
-    except Exception as exc:  # trimesh raises many kinds of error on a corrupt file
-        return f"trimesh cannot read it ({type(exc).__name__}: {exc})"
-    if len(getattr(mesh, "faces", ())) == 0:
-        return "trimesh reads no triangles from it"
+        load_mesh(path, require_finite=False)
+    except InputError as exc:
+        return str(exc).removeprefix(f"{path}: ")
     return None
 
 

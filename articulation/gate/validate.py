@@ -16,6 +16,7 @@ from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy
 from articulation.gate.collisions import collisions_check
 from articulation.gate.gltf import gltf_checks
 from articulation.gate.physics import physics_check
+from articulation.gate.mesh_geometry import mesh_geometry_check, over_triangle_bound
 from articulation.gate.report import Check, ValidationReport
 from articulation.gate.urdf_rules import (
     axes_check,
@@ -26,7 +27,7 @@ from articulation.gate.urdf_rules import (
     unsafe_mesh_references,
 )
 from articulation.mesh_paths import with_package_uris_resolved
-from articulation.urdf_import import find_urdf
+from articulation.urdf_import import check_robot_size, find_urdf
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.core.safe_xml import parse_xml_file
 
@@ -58,8 +59,10 @@ def _inputs(path: Path) -> tuple[Path | None, Path | None]:
 PYBULLET_MAX_JOINTS = 121
 
 
-def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path) -> str | None:
+def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, meshes: Check) -> str | None:
     """Why pybullet must not load this URDF in our process, or None."""
+    if over_triangle_bound(meshes):
+        return "its meshes are over the triangle bound (see meshes)"
     if not tree.passed:
         # pybullet 3.2.7 segfaults on several root links, a cycle or duplicate joint names.
         return "pybullet crashes the process on a broken kinematic tree (see kinematic tree)"
@@ -80,13 +83,21 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
         return [Check("safe XML", False, str(exc))], False
     if robot.tag != "robot":
         return [Check("safe XML", False, f"{urdf}: the root element is <{robot.tag}>, not <robot>")], False
+    try:
+        check_robot_size(robot, urdf)
+    except InputError as exc:
+        return [Check("safe XML", False, str(exc))], False
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
     tree = tree_check(robot)
-    checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes_check(robot, urdf.parent)]
-    checks.append(check_urdf_check(urdf))
-    declared_check, declared = yourdfpy_check(urdf)
+    meshes = meshes_check(robot, urdf.parent)
+    checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
+    checks += [mesh_geometry_check(robot, urdf.parent), check_urdf_check(urdf)]
+    if over_triangle_bound(meshes):  # the clients would read every triangle into memory
+        declared_check, declared = Check("yourdfpy", False, "not run: meshes over the triangle bound"), None
+    else:
+        declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
-    refusal = _pybullet_refusal(tree, robot, urdf.parent)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes)
     with tempfile.TemporaryDirectory(prefix="homemodel-gate-") as tmp:
         loadable = with_package_uris_resolved(urdf, Path(tmp))
         checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(loadable, declared))

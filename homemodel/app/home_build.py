@@ -27,7 +27,10 @@ from homemodel.app.home_spec import (
     SmallObjectSpec,
 )
 from homemodel.core.atomic import atomic_dir, write_json
-from homemodel.core.errors import SpecError
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.input_files import confined_path
+from homemodel.core.interrupts import raise_if_interrupted
+from homemodel.core.limits import HOME_OBJECTS
 from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
 
@@ -125,9 +128,10 @@ def _placed_run(run: RunSpec, field_path: str, example_dir: Path) -> list[tuple[
 
 
 def _spec_path(example_dir: Path, home_file: Path, field_path: str, spec: str) -> Path:
-    path = (example_dir / spec).resolve()
-    if not path.is_relative_to(example_dir.resolve()):
-        raise SpecError(f"{home_file}: {field_path}.spec: {spec!r} lies outside the example folder")
+    try:
+        path = confined_path(example_dir, spec, folder_role="example folder")
+    except InputError as exc:
+        raise SpecError(f"{home_file}: {field_path}.spec: {exc}") from None
     if not path.is_file():
         raise SpecError(f"{home_file}: {field_path}.spec: no such file {spec!r}")
     return path
@@ -156,6 +160,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
     home_file = example_dir / HOME_FILE
     home = load_home(example_dir)
     placements = list(_placements(home, example_dir))
+    HOME_OBJECTS.check(home_file, len(placements))
     # Every spec is checked before anything is built, so a typo fails in a second, not a minute.
     spec_paths = {}
     for field_path, _, large, small in placements:
@@ -163,6 +168,12 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
         spec_paths[obj.id] = _spec_path(example_dir, home_file, field_path, obj.spec)
         load_spec(spec_paths[obj.id])
 
+    for r, room in enumerate(home.rooms):
+        if room.point_cloud is not None:
+            try:
+                confined_path(example_dir, room.point_cloud, folder_role="example folder")
+            except InputError as exc:
+                raise SpecError(f"{home_file}: rooms.{r}.point_cloud: {exc}") from None
     smap = SemanticMap.new(apartment_id=home.apartment.id, name=home.apartment.name)
     for room in home.rooms:
         smap.add_room(room_id=room.id, name=room.name, point_cloud=room.point_cloud, outline=room.outline)
@@ -172,6 +183,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
     with atomic_dir(Path(out_dir), force=force, inputs=[example_dir]) as tmp:
         for index, (field_path, room, large, small) in enumerate(placements):
             obj: LargeObjectSpec | SmallObjectSpec = small or large
+            raise_if_interrupted()
             if progress:
                 progress(obj.id, index, len(placements))
             if small is not None:

@@ -8,6 +8,7 @@ footprint on the floor, z up), so a cup on a 0.75 m table has z = 0.75.
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Annotated, Literal
 
 import numpy as np
@@ -18,6 +19,9 @@ from semantic_map.nodes import ID_PATTERN
 
 # Every id in the home becomes an id in the semantic map, so it follows the map's rule.
 MapId = Annotated[str, Field(pattern=ID_PATTERN)]
+# Bounds a home cannot exceed: they keep 1e300 from overflowing the transforms.
+Coordinate = Annotated[float, Field(ge=-10_000.0, le=10_000.0)]  # metres
+Degrees = Annotated[float, Field(ge=-3600.0, le=3600.0)]
 
 
 class _Strict(BaseModel):
@@ -25,8 +29,8 @@ class _Strict(BaseModel):
 
 
 class PoseSpec(_Strict):
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    xyz: tuple[Coordinate, Coordinate, Coordinate] = (0.0, 0.0, 0.0)
+    rpy_deg: tuple[Degrees, Degrees, Degrees] = (0.0, 0.0, 0.0)
 
     def matrix(self) -> np.ndarray:
         return transform_from_xyz_rpy(self.xyz, np.radians(self.rpy_deg))
@@ -36,8 +40,8 @@ class ParkingSpec(_Strict):
     """Where the robot's base stands (on the floor) to observe or reach the object."""
 
     name: str = Field(min_length=1)
-    xy: tuple[float, float]
-    yaw_deg: float = 0.0
+    xy: tuple[Coordinate, Coordinate]
+    yaw_deg: Degrees = 0.0
     default: bool = False
 
     def matrix(self) -> np.ndarray:
@@ -129,7 +133,7 @@ class HomeSpec(_Strict):
             for large in [*room.objects, *runs]:
                 ids.append(large.id)
                 ids.extend(small.id for small in large.objects)
-        dupes = sorted({i for i in ids if ids.count(i) > 1})
+        dupes = sorted(i for i, n in Counter(ids).items() if n > 1)  # linear: a home file may be large
         if dupes:
             raise ValueError(f"ids must be unique in the home, repeated: {dupes}")
         return self

@@ -7,12 +7,14 @@ so `homemodel --help` stays fast.
 from __future__ import annotations
 
 import logging
+import sys
 
 import typer
 
 from homemodel.cli.addon_commands import addon_app
 from homemodel.cli.build_command import build
 from homemodel.cli.completion_commands import completion_app
+from homemodel.cli.errors import EXIT_INTERRUPTED, report_bug
 from homemodel.cli.eval_commands import eval_app
 from homemodel.cli.export_command import export
 from homemodel.cli.map_commands import map_app
@@ -20,6 +22,11 @@ from homemodel.cli.photogrammetry_commands import photogrammetry_app
 from homemodel.cli.render_command import render
 from homemodel.cli.turntable_commands import turntable_app
 from homemodel.cli.validate_command import validate
+
+try:  # Typer 0.29 vends its own click; its usage errors derive from this
+    from typer._click.exceptions import ClickException
+except ImportError:
+    from click import ClickException
 
 app = typer.Typer(
     name="homemodel",
@@ -41,5 +48,19 @@ app.add_typer(eval_app, name="eval", help="Compare a reconstruction with ground 
 
 
 def main() -> None:
+    """Run the command; whatever happens, end with one line on stderr and an exit code."""
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    app()
+    try:
+        code = app(standalone_mode=False)  # so exceptions reach the handlers below
+    except ClickException as exc:  # usage errors: click's own message, exit 2
+        exc.show()
+        code = exc.exit_code
+    except (typer.Abort, KeyboardInterrupt):
+        print("interrupted", file=sys.stderr)
+        code = EXIT_INTERRUPTED
+    except Exception as exc:  # the last line of defence: a bug, not a user's mistake
+        code = report_bug(exc, sys.argv[1:])
+    else:
+        if code == EXIT_INTERRUPTED:  # Typer turns a Ctrl-C while it parses into this code
+            print("interrupted", file=sys.stderr)
+    sys.exit(code if isinstance(code, int) else 0)

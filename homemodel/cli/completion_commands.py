@@ -34,7 +34,7 @@ def library_command(
 @completion_app.command("train")
 def train_command(
     library_dir: Path = typer.Argument(..., help="LIBRARY/<class>/<mesh files>, metres, z up"),
-    out: Path = typer.Option(..., "--out", help="model file to write (joblib)"),
+    out: Path = typer.Option(..., "--out", help="model file to write (.npz of arrays: it carries no code)"),
     views: int = typer.Option(40, "--views", min=4, max=500, help="depth views per mesh on a sphere"),
     filler_queries: int = typer.Option(
         20, "--filler-queries", min=1, max=1000, help="completions per class the filler learns from"
@@ -57,7 +57,7 @@ def train_command(
             completer = ShapeCompleter(n_views=views, filler_queries_per_class=filler_queries, random_state=seed).fit(
                 library, progress=progress
             )
-        save_model(completer, out)
+        save_model(completer, out, force=force)
     console.print(
         figures_table(
             f"homemodel completion train {library_dir}",

@@ -54,9 +54,9 @@ def voxel_iou_command(
 def surface_distance_command(
     pred: Path = typer.Argument(..., help=PRED_HELP),
     gt: Path = typer.Argument(..., help=GT_HELP),
-    samples: int = typer.Option(100_000, "--samples", min=1000, help="points sampled on each surface"),
+    samples: int = typer.Option(100_000, "--samples", help="points sampled on each surface"),
     threshold_fraction: float = typer.Option(
-        0.01, "--f-threshold", min=1e-6, help="F-score distance threshold as a fraction of gt's bounding-box diagonal"
+        0.01, "--f-threshold", help="F-score distance threshold as a fraction of gt's bounding-box diagonal"
     ),
     seed: int = typer.Option(0, "--seed", help="seed of the surface sampling"),
     as_json: bool = typer.Option(False, "--json", help="print the figures as one JSON object"),
@@ -67,9 +67,12 @@ def surface_distance_command(
         mean_surface_distance_m,
         rock_surface_distance,
     )
+    from homemodel.evaluation.surface import check_sample_count, check_threshold_fraction
     from homemodel.geometry.mesh_io import load_mesh
 
     with exit_on_error():
+        check_sample_count(samples)  # before the meshes are read: a bad option fails at once
+        check_threshold_fraction(threshold_fraction)
         pred_mesh, gt_mesh = load_mesh(pred), load_mesh(gt)
         figures = {
             "rock_surface_distance": rock_surface_distance(pred_mesh, gt_mesh, n_samples=samples, seed=seed),

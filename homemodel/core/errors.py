@@ -4,6 +4,14 @@ The library raises these and never prints or exits; the CLI turns them into a
 one-line message and exit code 2.
 """
 
+import contextlib
+import errno
+from collections.abc import Iterator
+from pathlib import Path
+
+# What the system says when an output cannot be written: the user's to fix, not a bug.
+WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
+
 
 class HomemodelError(Exception):
     """Base of every error homemodel raises on purpose."""
@@ -31,3 +39,19 @@ class ModelError(HomemodelError):
 
 class OutputExistsError(HomemodelError):
     """An output folder is not empty and --force was not given."""
+
+
+class OutputError(HomemodelError):
+    """An output cannot be written: a full disk, a read-only or immutable folder."""
+
+
+@contextlib.contextmanager
+def errors_naming(source: Path | str) -> Iterator[None]:
+    """Prefix `source` to a HomemodelError raised in the block that does not name it yet, so a
+    message deep in a pipeline ("no depth point fell inside ...") still says which input."""
+    try:
+        yield
+    except HomemodelError as exc:
+        if str(source) in str(exc):
+            raise
+        raise type(exc)(f"{source}: {exc}") from None

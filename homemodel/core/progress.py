@@ -6,6 +6,8 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+from homemodel.core.interrupts import raise_if_interrupted
+
 Progress = Callable[[str, int, int | None], None]
 """`progress(stage, done, total)`: `done` of `total` steps of `stage`; `total` is None while
 the stage cannot say how far it is. Only the command line draws it (homemodel/cli/progress.py)."""
@@ -29,6 +31,7 @@ class StageClock:
         self._start = 0.0
 
     def start(self, stage: str, total: int | None = None) -> None:
+        raise_if_interrupted()  # each stage is a point where a swallowed Ctrl-C stops the run
         self.stop()
         self._stage, self._start = stage, time.perf_counter()
         self.progress(stage, 0, total)

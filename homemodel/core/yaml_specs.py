@@ -10,6 +10,7 @@ import yaml
 
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import read_bounded
+from homemodel.core.limits import YAML_DEPTH, YAML_NODES
 
 MAX_SPEC_BYTES = 4 * 1024 * 1024
 SpecT = TypeVar("SpecT", bound=pydantic.BaseModel)
@@ -24,6 +25,37 @@ class FieldError(ValueError):
         self.loc = loc
 
 
+def check_yaml_size(path: Path, text: str) -> None:
+    """Refuse YAML that nests deeper than YAML_DEPTH or holds more than YAML_NODES nodes once
+    its aliases are expanded (a few KB of aliases can stand for millions of objects, which
+    every later step would copy). One pass over the parser's events, no recursion: PyYAML's
+    composer recurses once per level, so this must run before it."""
+    open_counts: list[int] = [0]  # nodes so far in each open collection, the document at the bottom
+    open_anchors: list[str | None] = []
+    anchored: dict[str, int] = {}
+    depth_limit, node_limit = YAML_DEPTH.value, YAML_NODES.value
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, yaml.CollectionStartEvent):
+            if len(open_anchors) + 1 > depth_limit:
+                YAML_DEPTH.check(path, len(open_anchors) + 1)
+            open_counts.append(1)
+            open_anchors.append(event.anchor)
+        elif isinstance(event, yaml.CollectionEndEvent):
+            count = open_counts.pop()
+            anchor = open_anchors.pop()
+            if anchor is not None:
+                anchored[anchor] = count
+            open_counts[-1] += count
+        elif isinstance(event, yaml.ScalarEvent):
+            open_counts[-1] += 1
+            if event.anchor is not None:
+                anchored[event.anchor] = 1
+        elif isinstance(event, yaml.AliasEvent):
+            open_counts[-1] += anchored.get(event.anchor, 1)
+        if open_counts[-1] > node_limit:
+            YAML_NODES.check(path, sum(open_counts))
+
+
 def read_yaml_mapping(path: Path) -> dict:
     """The top-level mapping of a YAML file (safe loader, size-bounded)."""
     path = Path(path)
@@ -34,6 +66,7 @@ def read_yaml_mapping(path: Path) -> dict:
     except UnicodeDecodeError as exc:
         raise SpecError(f"{path}: not UTF-8 text: {exc.reason}") from None
     try:
+        check_yaml_size(path, text)
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)

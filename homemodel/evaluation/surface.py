@@ -5,14 +5,29 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from homemodel.core.checks import require_between
+from homemodel.core.errors import InputError
+from homemodel.core.limits import SURFACE_SAMPLES
 from homemodel.evaluation.meshes import checked_mesh
 from homemodel.geometry.raycast import RayCaster
+
+MAX_THRESHOLD_FRACTION = 10.0  # of gt's diagonal: beyond it every point is within
+
+
+def check_sample_count(n_samples: int) -> None:
+    """An InputError unless 1 <= n_samples <= the SURFACE_SAMPLES bound (memory grows with it)."""
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1:
+        raise InputError(f"n_samples: must be a whole number of at least 1, got {n_samples!r}")
+    SURFACE_SAMPLES.check("n_samples", int(n_samples))
+
+
+def check_threshold_fraction(threshold_fraction: float) -> None:
+    require_between("threshold_fraction", threshold_fraction, 1e-9, MAX_THRESHOLD_FRACTION)
 
 
 def sample_surface_points(mesh: trimesh.Trimesh, n_samples: int, seed: int) -> np.ndarray:
     """`n_samples` points uniformly by area on `mesh`, reproducible with `seed`."""
-    if n_samples < 1:
-        raise ValueError(f"{n_samples=} but expected at least 1")
+    check_sample_count(n_samples)
     points, _ = trimesh.sample.sample_surface(mesh, n_samples, seed=seed)
     return np.asarray(points, dtype=np.float64)
 
@@ -59,8 +74,7 @@ def f_score(
     Precision: the share of pred's samples within the threshold of gt's surface; recall: the
     share of gt's samples within it of pred's surface; F = 2PR / (P + R), 0 when both are 0.
     """
-    if not (np.isfinite(threshold_fraction) and threshold_fraction > 0):
-        raise ValueError(f"{threshold_fraction=} but expected a positive number")
+    check_threshold_fraction(threshold_fraction)
     gt = checked_mesh(gt, "gt")
     threshold = threshold_fraction * float(np.linalg.norm(gt.bounds[1] - gt.bounds[0]))
     pred_to_gt, gt_to_pred = two_way_distances(pred, gt, n_samples=n_samples, seed=seed)

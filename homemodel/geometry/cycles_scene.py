@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 
 from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.core.interrupts import interrupts_deferred
 
 OPENCV_FROM_BLENDER = np.diag([1.0, -1.0, -1.0, 1.0])
 VERTEX_COLOURS = "Col"  # the colour attribute add_mesh writes; a `colour` for matte_material
@@ -37,11 +38,19 @@ def rendering_code_digest(*scene_modules: str | Path) -> str:
     return digest.hexdigest()[:16]
 
 
+def import_bpy():  # noqa: ANN201 (the bpy module)
+    """bpy, imported with Ctrl-C held until it has started (see `interrupts_deferred`). Every
+    Blender scene starts here, so the first import in a process is always this one."""
+    with interrupts_deferred():
+        import bpy
+    return bpy
+
+
 @contextmanager
 def empty_scene() -> Iterator[None]:
     """Blender's factory settings with an empty scene for the block; reset again after it, which
     frees the meshes, images and Cycles' render data."""
-    import bpy
+    bpy = import_bpy()
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     try:

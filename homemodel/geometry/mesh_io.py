@@ -10,15 +10,33 @@ import trimesh
 
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
+from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.core.transforms import Y_UP_FROM_Z_UP
 
-MAX_MESH_BYTES = 1024 * 1024 * 1024
+MAX_MESH_BYTES = 512 * 1024 * 1024
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
 
 
-def load_mesh(path: Path) -> trimesh.Trimesh:
+def declared_faces(data: bytes, suffix: str) -> int:
+    """The face count a mesh file declares or plainly holds, read before parsing it (which
+    takes many times the file's size in memory); 0 where the format does not say cheaply."""
+    if suffix == ".obj":
+        return data.count(b"\nf ") + data.startswith(b"f ")
+    if suffix == ".stl" and not data[:5].lower().startswith(b"solid") and len(data) >= 84:
+        return int.from_bytes(data[80:84], "little")  # binary STL: the count follows the header
+    if suffix == ".ply":
+        header = data[: data.find(b"end_header")] if b"end_header" in data[:65536] else b""
+        for line in header.splitlines():
+            words = line.split()
+            if len(words) == 3 and words[:2] == [b"element", b"face"] and words[2].isdigit():
+                return int(words[2])
+    return 0
+
+
+def load_mesh(path: Path, *, require_finite: bool = True) -> trimesh.Trimesh:
     """All the triangles of a mesh file, or of `model.glb` when `path` is a model folder,
-    in the file's frame (scene nodes' transforms applied); a model folder's in the model's z-up frame."""
+    in the file's frame (scene nodes' transforms applied); a model folder's in the model's z-up
+    frame. `require_finite=False` leaves NaN and infinite vertices for the caller to report."""
     path = Path(path)
     model_folder = path.is_dir()
     if model_folder:
@@ -27,12 +45,16 @@ def load_mesh(path: Path) -> trimesh.Trimesh:
     if suffix not in MESH_SUFFIXES:
         raise InputError(f"{path}: not a mesh file (expected one of {', '.join(MESH_SUFFIXES)} or a model folder)")
     data = read_bounded(path, MAX_MESH_BYTES)
+    MESH_TRIANGLES.check(path, declared_faces(data, suffix))
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=suffix[1:], force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types on corrupt files
         raise InputError(f"{path}: cannot read the mesh: {type(exc).__name__}: {exc}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise InputError(f"{path}: the file holds no triangles")
+    MESH_TRIANGLES.check(path, len(loaded.faces))
+    if require_finite and not np.all(np.isfinite(loaded.vertices)):
+        raise InputError(f"{path}: the mesh has non-finite (NaN or infinite) vertex coordinates")
     if model_folder:  # model.glb turns the z-up model into glTF's y-up at its root node: undo it
         loaded.apply_transform(np.linalg.inv(Y_UP_FROM_Z_UP))
     return loaded

@@ -208,3 +208,20 @@ def decimate_closed(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
 def watertight_finish(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
     """`repair_surface`, then `decimate_closed` to `max_faces`."""
     return decimate_closed(repair_surface(mesh), max_faces)
+
+
+# Relative to the squared size of a mesh's bounding box: below this a triangle has no area,
+# whatever the units (float rounding of a real triangle stays far above).
+ZERO_AREA_TOLERANCE = 1e-12
+
+
+def zero_area_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Boolean mask of the triangles with no area (collinear or repeated corners), relative
+    to the mesh's size: the validation gate refuses them, the OBJ writer leaves them out."""
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    if len(faces) == 0:
+        return np.zeros(0, dtype=bool)
+    size = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    corners = vertices[faces]
+    doubled = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    return 0.5 * doubled <= ZERO_AREA_TOLERANCE * size**2

@@ -26,8 +26,12 @@ from modeller.specs.photos import FacePhoto
 # Below this, two lengths count as equal (floating point noise in YAML values).
 _EPS_M = 1e-9
 
-Length = Annotated[float, Field(gt=0)]
-Offset = Annotated[float, Field(ge=0)]
+# No object in a home is larger: a bound keeps 1e300 from overflowing every later step.
+MAX_LENGTH_M = 100.0
+Length = Annotated[float, Field(gt=0, le=MAX_LENGTH_M)]
+Offset = Annotated[float, Field(ge=0, le=MAX_LENGTH_M)]
+Density = Annotated[float, Field(gt=0, le=100_000.0)]  # kg/m^3: osmium is 22,590
+Mass = Annotated[float, Field(gt=0, le=10_000.0)]  # kg
 _Unit = Annotated[float, Field(ge=0, le=1)]
 
 NAMED_COLOURS: dict[str, tuple[float, float, float]] = {
@@ -84,8 +88,8 @@ class ObjectSpec(_Spec):
     default_density_kg_m3: ClassVar[float]
 
     name: str | None = Field(None, description="model name; default: the spec file's name without .yaml")
-    density_kg_m3: Length | None = None
-    mass_kg: Length | None = Field(None, description="total mass, spread uniformly over the volume")
+    density_kg_m3: Density | None = None
+    mass_kg: Mass | None = Field(None, description="total mass, spread uniformly over the volume")
     photos: list[FacePhoto] = Field(
         [], description="photos put on faces of the built parts (see modeller.specs.photos); without, a colour per part"
     )

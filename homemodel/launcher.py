@@ -1,0 +1,18 @@
+"""The first code the `homemodel` command runs: a Ctrl-C while the command line's modules are
+still being imported ends quietly too (exit code 130), as it does once a command runs."""
+
+from __future__ import annotations
+
+import sys
+
+
+def main() -> None:
+    from homemodel.core.interrupts import remember_interrupts
+
+    remember_interrupts()
+    try:
+        from homemodel.cli import main as run_command_line
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+    run_command_line()

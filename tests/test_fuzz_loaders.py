@@ -1,0 +1,137 @@
+"""Property-based fuzzing of the three loaders a stranger's file reaches first: the spec
+loader, the home loader and the URDF importer. Inputs are the valid examples, mutated; every
+result must be a model or an InputError (one line for the command line), never another
+exception, and no YAML tag may run code.
+
+About 30 s by default (a fixed seed, so CI is repeatable); `HOMEMODEL_FUZZ=long` runs a
+longer, random profile (`HOMEMODEL_FUZZ_EXAMPLES` sets its size)."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from sample_house import cupboard_model
+
+from articulation.export import export_model
+from articulation.urdf_import import load_urdf
+from homemodel.app.home_build import load_home
+from homemodel.core.errors import InputError
+from modeller import load_spec
+
+REPO = Path(__file__).resolve().parents[1]
+LONG = os.environ.get("HOMEMODEL_FUZZ") == "long"
+EXAMPLES = int(os.environ.get("HOMEMODEL_FUZZ_EXAMPLES", 5000 if LONG else 150))
+FUZZ = settings(
+    max_examples=EXAMPLES, deadline=None, derandomize=not LONG, database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+MARKER = Path("/tmp/homemodel-fuzz-ran-code")
+
+SPECIAL_SCALARS = [
+    "nan", ".nan", ".inf", "-.inf", "1e300", "-1e300", "1e-320", "0", "-1", "101", "[]", "{}", "null", "~", "''",
+    "yes", "on", "0x1F", "1_000", "2001-12-14", "*anchor", "&anchor 1", "!!binary AAAA", "!!set {a}",
+    f"!!python/object/apply:os.mkdir ['{MARKER}']", "!!python/name:os.system", "[[[[[[[[[[1]]]]]]]]]]",
+    "'" + "x" * 5000 + "'", "/etc/passwd", "../../outside.yaml", "file:///etc/hostname", "\"\\u0000\"",
+]
+SPECIAL_XML = [
+    "nan", "inf", "-inf", "1e300", "-1e300", "", " ", "1 2", "1 2 3 4", "a b c", "0 0 0", "-1",
+    "../../../etc/passwd", "/dev/zero", "file:///etc/hostname", "package://x/meshes/body.obj", "meshes",
+    "revolute", "continuous", "prismatic", "floating", "planar", "fixed", "&amp;", "\u00e9", "1e-320",
+]
+YAML_NOISE = st.text(alphabet=list(":-[]{}&*!|>'\"#,\n 0123456789.e+naif?%@`\t\\"), max_size=24)
+XML_NOISE = st.text(alphabet=list("<>/=\"' abcdefghijklmnopqrstuvwxyz0123456789.-\n&;!?[]"), max_size=24)
+
+
+@st.composite
+def mutated(draw, text: str, specials: list[str], noise, value_pattern: str) -> str:
+    """`text` after 1 to 4 edits: a value swapped for a special one, a span replaced by noise,
+    a line deleted or repeated, an element or mapping nested, or a cut at a random point."""
+    for _ in range(draw(st.integers(1, 4))):
+        lines = text.splitlines(keepends=True)
+        kind = draw(st.sampled_from(["value", "value", "noise", "delete", "repeat", "cut", "nest"]))
+        if kind == "value":
+            values = list(re.finditer(value_pattern, text))
+            if values:
+                match = draw(st.sampled_from(values))
+                text = text[: match.start(1)] + draw(st.sampled_from(specials)) + text[match.end(1):]
+        elif kind == "noise":
+            start = draw(st.integers(0, len(text)))
+            end = draw(st.integers(start, min(len(text), start + 20)))
+            text = text[:start] + draw(noise) + text[end:]
+        elif kind in ("delete", "repeat") and lines:
+            i = draw(st.integers(0, len(lines) - 1))
+            lines[i:i + 1] = [] if kind == "delete" else [lines[i]] * draw(st.integers(2, 50))
+            text = "".join(lines)
+        elif kind == "cut":
+            text = text[: draw(st.integers(0, len(text)))]
+        else:
+            depth = draw(st.integers(1, 200))
+            start = draw(st.integers(0, len(text)))
+            text = text[:start] + ("[" * depth + "]" * depth if "<" not in text else "<a>" * depth + "</a>" * depth) + text[start:]
+    return text
+
+
+def _expect_model_or_input_error(load, path: Path) -> None:
+    try:
+        load(path)
+    except InputError:
+        pass
+    assert not MARKER.exists(), f"a YAML tag ran code: {path.read_text()[:2000]}"
+
+
+YAML_VALUE = r":[ \t]+([^\s#\[\]{},][^\n#\[\]{},]*)"
+SPECS = sorted((REPO / "examples" / "catalogue").glob("*.yaml")) + sorted((REPO / "examples" / "textured").glob("*.yaml"))
+
+
+@pytest.fixture(scope="module")
+def spec_folder(tmp_path_factory) -> Path:
+    """The catalogue and textured examples (with their photos), copied to be overwritten."""
+    folder = tmp_path_factory.mktemp("specs")
+    shutil.copytree(REPO / "examples" / "textured" / "photos", folder / "photos")
+    return folder
+
+
+@FUZZ
+@given(data=st.data())
+def test_the_spec_loader_returns_a_spec_or_an_input_error(spec_folder: Path, data) -> None:
+    source = data.draw(st.sampled_from(SPECS))
+    path = spec_folder / "spec.yaml"
+    path.write_text(data.draw(mutated(source.read_text(), SPECIAL_SCALARS, YAML_NOISE, YAML_VALUE)))
+    _expect_model_or_input_error(load_spec, path)
+
+
+@pytest.fixture(scope="module")
+def home_folder(tmp_path_factory, kitchen_dir: Path) -> Path:
+    folder = tmp_path_factory.mktemp("home") / "kitchen"
+    shutil.copytree(kitchen_dir, folder)
+    return folder
+
+
+@FUZZ
+@given(data=st.data())
+def test_the_home_loader_returns_a_home_or_an_input_error(home_folder: Path, kitchen_dir: Path, data) -> None:
+    text = (kitchen_dir / "home.yaml").read_text()
+    (home_folder / "home.yaml").write_text(data.draw(mutated(text, SPECIAL_SCALARS, YAML_NOISE, YAML_VALUE)))
+    _expect_model_or_input_error(load_home, home_folder)
+
+
+@pytest.fixture(scope="module")
+def urdf_folder(tmp_path_factory) -> tuple[Path, str]:
+    """An exported cupboard (links, a hinge, a knob, meshes) and its URDF's text."""
+    folder = export_model(cupboard_model(), tmp_path_factory.mktemp("urdf") / "cupboard")
+    return folder, (folder / "model.urdf").read_text()
+
+
+@FUZZ
+@given(data=st.data())
+def test_the_urdf_importer_returns_a_model_or_an_input_error(urdf_folder: tuple[Path, str], data) -> None:
+    folder, text = urdf_folder
+    path = folder / "fuzzed.urdf"
+    path.write_text(data.draw(mutated(text, SPECIAL_XML, XML_NOISE, r'="([^"]*)"')))
+    _expect_model_or_input_error(load_urdf, path)
