@@ -101,7 +101,7 @@ def test_broken_geometry_fails_the_gate(box_folder: Path, tmp_path: Path, edit, 
 def test_validate_and_map_add_refuse_a_nan_model(box_folder: Path, tmp_path: Path, house_file: Path) -> None:
     folder = _edited(box_folder, tmp_path, _all_nan)
     result = runner.invoke(app, ["validate", str(folder)])
-    assert result.exit_code == 1
+    assert result.exit_code == 1, result.output
     assert re.search(r"FAIL  mesh geometry +link 'body': visual mesh 'meshes/body_body.obj': the mesh has non-finite",
                      result.output), result.output
     before = house_file.read_bytes()

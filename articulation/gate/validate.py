@@ -59,10 +59,12 @@ def _inputs(path: Path) -> tuple[Path | None, Path | None]:
 PYBULLET_MAX_JOINTS = 121
 
 
-def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, meshes: Check) -> str | None:
+def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, meshes: Check, geometry: Check) -> str | None:
     """Why pybullet must not load this URDF in our process, or None."""
     if over_triangle_bound(meshes):
         return "its meshes are over the triangle bound (see meshes)"
+    if not geometry.passed:
+        return "a simulation of broken meshes means nothing (see mesh geometry)"
     if not tree.passed:
         # pybullet 3.2.7 segfaults on several root links, a cycle or duplicate joint names.
         return "pybullet crashes the process on a broken kinematic tree (see kinematic tree)"
@@ -91,13 +93,14 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     tree = tree_check(robot)
     meshes = meshes_check(robot, urdf.parent)
     checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
-    checks += [mesh_geometry_check(robot, urdf.parent), check_urdf_check(urdf)]
+    geometry = mesh_geometry_check(robot, urdf.parent)
+    checks += [geometry, check_urdf_check(urdf)]
     if over_triangle_bound(meshes):  # the clients would read every triangle into memory
         declared_check, declared = Check("yourdfpy", False, "not run: meshes over the triangle bound"), None
     else:
         declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
-    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes, geometry)
     with tempfile.TemporaryDirectory(prefix="homemodel-gate-") as tmp:
         loadable = with_package_uris_resolved(urdf, Path(tmp))
         checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(loadable, declared))
