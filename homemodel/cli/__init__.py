@@ -12,6 +12,7 @@ import typer
 
 from homemodel.cli.build_command import build
 from homemodel.cli.completion_commands import completion_app
+from homemodel.cli.db_commands import db_app
 from homemodel.cli.eval_commands import eval_app
 from homemodel.cli.map_commands import map_app
 from homemodel.cli.photogrammetry_commands import photogrammetry_app
@@ -33,6 +34,7 @@ app.add_typer(map_app, name="map", help="Show, query, extend and validate a hier
 app.add_typer(turntable_app, name="turntable", help="AprilTag turntable: print a board, simulate a capture, reconstruct a mesh.")
 app.add_typer(photogrammetry_app, name="photogrammetry", help="Photos to a textured, metric mesh through COLMAP.")
 app.add_typer(completion_app, name="completion", help="A full mesh of a new object from one depth image.")
+app.add_typer(db_app, name="db", help="The model database: batch builds from a manifest on Dask, queries, a web page.")
 app.add_typer(eval_app, name="eval", help="Compare a reconstruction with ground truth: VoxelIOU, surface distance, F-score.")
 
 

@@ -71,7 +71,7 @@ BuildStarts = Callable[[int, int, str | None], None]
 
 
 @contextlib.contextmanager
-def _build_lock(db_dir: Path) -> Iterator[None]:
+def build_lock(db_dir: Path) -> Iterator[None]:
     db_dir.mkdir(parents=True, exist_ok=True)
     with open(db_dir / LOCK_FILE, "w") as lock:
         try:
@@ -119,6 +119,7 @@ def _client(options: DatabaseBuildOptions) -> Iterator:
         threads_per_worker=1,  # bpy is not thread-safe
         processes=True,
         dashboard_address=dashboard,
+        silence_logs=logging.ERROR,  # Dask's own INFO lines would bury the build's
     ) as cluster, Client(cluster) as client:
         yield client
 
@@ -145,8 +146,10 @@ def plan(jobs: list[Job], repair: RepairSpec | None, index: ModelIndex, retry_fa
     stored = index.keys()
     todo, cached = [], []
     for job in jobs:
-        key, status = stored.get(job.id, (None, None))
-        current = key == keys[job.id] and not (retry_failed and status == "failed")
+        key, status, folder = stored.get(job.id, (None, None, None))
+        # A stored build is current if its key matches and its folder is still there.
+        present = folder is None or (index.db_dir / folder / "model.urdf").is_file()
+        current = key == keys[job.id] and present and not (retry_failed and status == "failed")
         (cached if current else todo).append(job)
     return keys, todo, cached
 
@@ -167,7 +170,7 @@ def build_database(
     jobs, repair_spec = load_manifest(manifest_path)
     repair = repair_spec if options.repair else None
     result = DatabaseBuild(db_dir=db_dir)
-    with _build_lock(db_dir), ModelIndex(db_dir, create=True) as index:
+    with build_lock(db_dir), ModelIndex(db_dir, create=True) as index:
         _remove_leftovers(db_dir)
         keys, todo, cached = plan(jobs, repair, index, options.retry_failed)
         for job in cached:

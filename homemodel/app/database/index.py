@@ -128,9 +128,9 @@ class ModelIndex:
             raise InputError(f"{self.db_dir}: no entry {entry_id!r} in the database")
         return row
 
-    def keys(self) -> dict[str, tuple[str, str]]:
-        """id -> (content key, status) of every entry."""
-        return {i: (k, s) for i, k, s in self._conn.execute("SELECT id, key, status FROM models")}
+    def keys(self) -> dict[str, tuple[str, str, str | None]]:
+        """id -> (content key, status, model folder) of every entry."""
+        return {i: (k, s, p) for i, k, s, p in self._conn.execute("SELECT id, key, status, path FROM models")}
 
     def find(self, *, category: str | None = None, properties: dict[str, str] | None = None) -> list[EntryRow]:
         where, params = [], []
