@@ -188,6 +188,7 @@ def build_database(
                     on_entry(index.require(job.id), True)
             if todo:
                 _run(client, todo, keys, db_dir, repair, index, result, on_entry)
+                _remove_leftovers(db_dir)  # of a worker killed during this build
     result.seconds = time.perf_counter() - start
     return result
 
