@@ -41,8 +41,8 @@ def _cup_manifest(folder: Path, entries: int) -> Path:
     spec = folder / "cup.yaml"
     spec.write_text(CUP.read_text())
     per_side = 20
-    heights = [round(0.06 + 0.002 * i, 4) for i in range(per_side)]
-    diameters = [round(0.07 + 0.003 * i, 4) for i in range(entries // per_side)]
+    heights = [round(0.075 + 0.002 * i, 4) for i in range(per_side)]
+    diameters = [round(0.08 + 0.002 * i, 4) for i in range(entries // per_side)]
     manifest = folder / "manifest.yaml"
     sweep = {"height_m": heights, "outer_diameter_m": diameters}
     manifest.write_text(yaml.safe_dump({"entries": [{"id": "cup", "source": "spec", "path": "cup.yaml", "sweep": sweep}]}))
