@@ -24,6 +24,7 @@ from homemodel.app.database.index import MODELS_DIR, EntryRow
 from homemodel.app.database.manifest import Job, RepairSpec
 from homemodel.app.database.thumbnail import write_thumbnail
 from homemodel.core.atomic import atomic_dir, write_json
+from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.errors import HomemodelError, InputError, SpecError
 from homemodel.core.yaml_specs import read_yaml_mapping
 
@@ -208,7 +209,10 @@ def build_entry(request: BuildRequest) -> EntryRow:
     final = Path(request.db_dir) / MODELS_DIR / job.id
     try:
         with atomic_dir(final, force=True) as tmp:
-            built = _run_source(request, tmp)
+            # COLMAP, Blender and pybullet print from C; in a worker that would bury the build's lines.
+            with captured_c_output() as said:
+                built = _run_source(request, tmp)
+            log.debug("entry %s printed:\n%s", job.id, "\n".join(said[-50:]))
             row.checks = [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in built.report.checks]
             row.repairs = built.repairs
             row.times_s = {stage: round(s, 4) for stage, s in built.times_s.items()}
