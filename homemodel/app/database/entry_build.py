@@ -213,6 +213,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
             with captured_c_output() as said:
                 built = _run_source(request, tmp)
             log.debug("entry %s printed:\n%s", job.id, "\n".join(said[-50:]))
+            built.report.path = final  # where the model will be, not the temporary folder
             row.checks = [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in built.report.checks]
             row.repairs = built.repairs
             row.times_s = {stage: round(s, 4) for stage, s in built.times_s.items()}
