@@ -61,6 +61,9 @@ def write_manifest(folder: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory) -> tuple[Path, Path, object]:
+    # The full suite has imported bpy before: the workers this process starts must still import it.
+    import bpy  # noqa: F401
+
     root = tmp_path_factory.mktemp("db")
     manifest = write_manifest(root / "inputs")
     result = run("db", "build", manifest, "--db", root / "db", "--workers", "2")

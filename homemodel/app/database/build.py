@@ -19,6 +19,7 @@ import importlib.util
 import logging
 import os
 import shutil
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -101,6 +102,25 @@ def _settle(index: ModelIndex, row: EntryRow) -> None:
 
 
 @contextlib.contextmanager
+def _without_blender_paths() -> Iterator[None]:
+    """sys.path without the folders importing bpy added (Blender's scripts). Worker processes
+    start with the parent's sys.path; with those folders first they would import Blender's
+    Python `bpy` package instead of the bpy module, and fail ("No module named '_bpy'")."""
+    bpy = sys.modules.get("bpy")
+    saved = list(sys.path)
+    if bpy is not None and getattr(bpy, "__file__", None):
+        wheel = next((p for p in reversed(Path(bpy.__file__).parents) if p.name == "bpy"), None)
+        sys.path[:] = [
+            p for p in saved
+            if not ((wheel is not None and Path(p).is_relative_to(wheel)) or f"{os.sep}blender{os.sep}" in p)
+        ]  # fmt: skip
+    try:
+        yield
+    finally:
+        sys.path[:] = saved
+
+
+@contextlib.contextmanager
 def _client(options: DatabaseBuildOptions) -> Iterator:
     """A Dask client: of the scheduler given, or of a LocalCluster of this machine's cores."""
     from distributed import Client, LocalCluster
@@ -114,7 +134,7 @@ def _client(options: DatabaseBuildOptions) -> Iterator:
             yield client
         return
     dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
-    with LocalCluster(
+    with _without_blender_paths(), LocalCluster(
         n_workers=options.workers or os.cpu_count() or 1,
         threads_per_worker=1,  # bpy is not thread-safe
         processes=True,
