@@ -49,6 +49,7 @@ class _Built:
     report: ValidationReport
     times_s: dict[str, float]
     repairs: list[str]
+    model: Model | None = None  # in memory when the pipeline hands it over (else read back from the URDF)
 
 
 def _options(cls: type, job: Job, **fixed: Any) -> Any:
@@ -97,7 +98,7 @@ def _build_spec(job: Job, out: Path) -> _Built:
             raise SpecError(said) from None
         if job.overrides:
             (out / "spec.yaml").write_bytes(Path(spec).read_bytes())  # what was built, for the record
-    return _Built(report=built.validation, times_s=dict(built.times_s), repairs=[])
+    return _Built(report=built.validation, times_s=dict(built.times_s), repairs=[], model=built.model)
 
 
 def _gated(out: Path, times_s: dict[str, float], repairs: list[str] | None = None) -> _Built:
@@ -221,7 +222,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
                 # The gate refused the asset as given (an import without --repair): nothing to store.
                 row.status = "invalid"
                 raise _NothingToStore
-            model = load_urdf(tmp / "model.urdf")
+            model = built.model or load_urdf(tmp / "model.urdf")
             row.category = job.category or model.category
             row.properties = {**model.properties, **job.properties}
             for name, value in _counts(model).items():
