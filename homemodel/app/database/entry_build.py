@@ -18,7 +18,7 @@ from typing import Any
 
 import yaml
 
-from articulation.gate.report import ValidationReport
+from articulation.gate.report import Check, ValidationReport
 from articulation.model import Model
 from homemodel.app.database.index import MODELS_DIR, EntryRow
 from homemodel.app.database.manifest import Job, RepairSpec
@@ -147,7 +147,7 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
     if gaps and repair is None:
         # The asset as given fails the gate for want of what it needs: say so, and how to repair.
         report = validate_path(urdf)
-        report.checks.insert(0, _check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair)"))
+        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair)"))
         return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
     model: Model = import_partnet(source).model if source.is_dir() and is_partnet_folder(source) else load_urdf(urdf)
     model.name = job.id
@@ -156,12 +156,6 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
         model, repairs = repaired(model, gaps, RepairOptions(**repair.model_dump()))
     write_model_files(model, out)
     return _gated(out, {"import": time.perf_counter() - start}, repairs)
-
-
-def _check(name: str, passed: bool, detail: str):  # noqa: ANN202 (the gate's Check)
-    from articulation.gate.report import Check
-
-    return Check(name, passed, detail)
 
 
 def _run_source(request: BuildRequest, out: Path) -> _Built:
