@@ -12,7 +12,7 @@ mixed manifest of every source.
    built or recorded as failed, and the time per source. Needs its inputs:
    `python examples/database/make_inputs.py build/db_inputs`.
 
-Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--skip-mixed]
+Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--skip-mixed | --only-mixed]
 """
 
 from __future__ import annotations
@@ -131,9 +131,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--entries", type=int, default=200, help="generated spec entries (a multiple of 20)")
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
+    parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
     args = parser.parse_args()
     console = Console(width=120)
-    throughput(args.entries, console)
+    if not args.only_mixed:
+        throughput(args.entries, console)
     if not args.skip_mixed:
         mixed(console)
 
