@@ -6,7 +6,7 @@ PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-NODE_TOOLS := tools/node_modules/gltf-validator/package.json
+NODE_TOOLS := tools/node_modules/gltf-validator/package.json tools/node_modules/three/package.json
 APT_STAMP := .venv-apt.stamp
 
 # Shared libraries that open3d (libusb), bpy, vtk/pyvista and MuJoCo's renderer (X11, GL, EGL)
@@ -19,6 +19,8 @@ APT_PACKAGES := libusb-1.0-0 libegl1 libgl1 libglx0 libopengl0 libsm6 libice6 li
 # Wait for a lock another apt-get holds (apt prints "Waiting for cache lock") instead of failing.
 APT_WAIT := -o DPkg::Lock::Timeout=600
 APT_LOCKS := /var/lib/dpkg/lock-frontend /var/lib/dpkg/lock /var/lib/apt/lists/lock
+# The database page's browser test drives Debian's chromium through its chromedriver.
+APT_PACKAGES += chromium chromium-driver
 
 .PHONY: demo test setup clean addon addon-screenshots
 
@@ -51,9 +53,9 @@ $(STAMP): setup.cfg pyproject.toml
 	$(PY) -m pip install -q -e '.[dev]'
 	@touch $@
 
-$(NODE_TOOLS): tools/package.json
+$(NODE_TOOLS) &: tools/package.json
 	npm install --prefix tools --no-audit --no-fund --silent
-	@touch $@
+	@touch $(NODE_TOOLS)
 
 # The Blender extension: blender_addons/ zipped by Blender's own extension tool (it ships
 # inside the bpy wheel, so no Blender is needed) and checked by its validator.

@@ -8,17 +8,23 @@ Output layout (all written atomically: the folder appears whole or not at all):
     OUT/models/<id>/model.blend       the Blender scene, for an installer to refine
     OUT/models/<id>/summary.json      that object's figures and validation report
 
-Each object is built by the modeller's entry, `modeller.build`.
+Each object is built by the modeller's entry, `modeller.build`. A rebuild over an earlier
+output (`--force`) reuses each object whose content key (the model database's: its spec's
+bytes, its name and the code that builds it) is unchanged, as `homemodel db build` does.
 """
 
 from __future__ import annotations
 
+import json
 import logging
+import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from homemodel.app.database.content_key import content_key
+from homemodel.app.database.manifest import Job
 from homemodel.app.home_spec import (
     HomeSpec,
     LargeObjectSpec,
@@ -26,7 +32,7 @@ from homemodel.app.home_spec import (
     RunSpec,
     SmallObjectSpec,
 )
-from homemodel.core.atomic import atomic_dir, write_json
+from homemodel.core.atomic import atomic_dir, write_json, write_text_atomic
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import confined_path
 from homemodel.core.interrupts import raise_if_interrupted
@@ -39,6 +45,7 @@ log = logging.getLogger(__name__)
 HOME_FILE = "home.yaml"
 # A small object "on" a surface must stand on it: its base within this of the parent's top.
 ON_SURFACE_TOLERANCE_M = 0.005
+KEY_FILE = "content_key.txt"
 
 
 @dataclass(kw_only=True)
@@ -54,6 +61,7 @@ class ObjectRow:
     valid: bool
     times_s: dict[str, float]  # build, export, validate
     failed_checks: list[str] = field(default_factory=list)
+    cached: bool = False  # reused from the earlier output: its spec and the code are unchanged
 
 
 @dataclass(kw_only=True)
@@ -151,6 +159,22 @@ def _parking_positions(large: LargeObjectSpec, parking_type: type) -> list:
     return [parking_type(name=p.name, world_from_base=p.matrix(), default=p.name == default) for p in large.parking]
 
 
+def _object_key(object_id: str, spec_path: Path) -> str:
+    job = Job(id=object_id, source="spec", inputs={"path": spec_path}, options={"name": object_id})
+    return content_key(job, "", lambda *_: None, lambda *_: None)
+
+
+def _cached_object(previous: Path, key: str, folder: Path):  # noqa: ANN202 (a Model and its summary, or None)
+    """The earlier output's model of this object, copied into `folder`, if its key matches."""
+    from articulation.urdf_import import load_urdf
+
+    key_file = previous / KEY_FILE
+    if not (key_file.is_file() and key_file.read_text() == key and (previous / "summary.json").is_file()):
+        return None
+    shutil.copytree(previous, folder)
+    return load_urdf(folder / "model.urdf"), json.loads((folder / "summary.json").read_text())
+
+
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
     from modeller import BuildOptions, build, load_spec
@@ -188,8 +212,14 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 progress(obj.id, index, len(placements))
             if small is not None:
                 _check_on_surface(home_file, field_path, small, tops[large.id])
-            built = build(spec_paths[obj.id], tmp / "models" / obj.id, BuildOptions(name=obj.id))
-            model = built.model
+            key = _object_key(obj.id, spec_paths[obj.id])
+            cached = _cached_object(Path(out_dir) / "models" / obj.id, key, tmp / "models" / obj.id)
+            if cached is None:
+                built = build(spec_paths[obj.id], tmp / "models" / obj.id, BuildOptions(name=obj.id))
+                write_text_atomic(tmp / "models" / obj.id / KEY_FILE, key)
+                model, summary = built.model, built.summary
+            else:
+                model, summary = cached
             if small is None:
                 tops[large.id] = float(model.world_mesh().bounds[1][2])
                 smap.register_model(
@@ -219,10 +249,11 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 links=len(model.links),
                 joints=len(model.movable_joints),
                 grasp_points=len(model.grasp_points),
-                triangles=built.summary["triangles"],
-                valid=built.valid,
-                times_s={stage: round(seconds, 3) for stage, seconds in built.times_s.items()},
-                failed_checks=built.failed_checks,
+                triangles=summary["triangles"],
+                valid=summary["valid"],
+                times_s={stage: round(seconds, 3) for stage, seconds in summary["times_s"].items()},
+                failed_checks=summary["failed_checks"],
+                cached=cached is not None,
             )
             rows.append(row)
             log.info("built %s in %.2f s, valid=%s", obj.id, sum(row.times_s.values()), row.valid)

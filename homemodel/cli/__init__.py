@@ -14,6 +14,7 @@ import typer
 from homemodel.cli.addon_commands import addon_app
 from homemodel.cli.build_command import build
 from homemodel.cli.completion_commands import completion_app
+from homemodel.cli.db_commands import db_app
 from homemodel.cli.errors import EXIT_INTERRUPTED, report_bug
 from homemodel.cli.eval_commands import eval_app
 from homemodel.cli.export_command import export
@@ -44,6 +45,7 @@ app.add_typer(turntable_app, name="turntable", help="AprilTag turntable: print a
 app.add_typer(photogrammetry_app, name="photogrammetry", help="Photos to a textured, metric mesh through COLMAP.")
 app.add_typer(completion_app, name="completion", help="A full mesh of a new object from one depth image.")
 app.add_typer(addon_app, name="addon", help="Files for the Blender extension: spec forms, model and home documents.")
+app.add_typer(db_app, name="db", help="The model database: batch builds from a manifest on Dask, queries, a web page.")
 app.add_typer(eval_app, name="eval", help="Compare a reconstruction with ground truth: VoxelIOU, surface distance, F-score.")
 
 

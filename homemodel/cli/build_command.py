@@ -65,6 +65,9 @@ def build(
     for row in result.rows:
         for failure in row.failed_checks:
             console.print(f"[red]{row.id}[/]: {failure}")
+    cached = [row.id for row in result.rows if row.cached]
+    if cached:
+        console.print(f"reused unchanged from the earlier output: {', '.join(cached)}")
     console.print(f"models: {result.out_dir / 'models'}\nmap:    {result.map_path}")
     if not result.ok:
         raise typer.Exit(1)

@@ -49,7 +49,7 @@ def map_entry_from_flags(
     )
 
 
-def _key_values(items: list[str], option: str) -> dict[str, str]:
+def key_values(items: list[str], option: str) -> dict[str, str]:
     pairs = {}
     for item in items:
         key, sep, value = item.partition("=")
@@ -153,7 +153,7 @@ def find(
     """Find objects by type and properties; print the path to each, its parent and where to park."""
     from semantic_map import load_map
 
-    wanted = _key_values(properties, "--property")
+    wanted = key_values(properties, "--property")
     with exit_on_error():
         smap = load_map(map_path)
         matches = smap.find(type=object_type, properties=wanted)
@@ -170,7 +170,7 @@ def find(
 @map_app.command()
 def add(
     map_path: Path = MAP_ARGUMENT,
-    model_dir: Path = typer.Argument(..., metavar="MODEL", help="model folder (model.urdf or mobility.urdf) or a .urdf file"),
+    model_dir: Path = typer.Argument(..., metavar="MODEL", help="model folder (model.urdf or mobility.urdf), a .urdf file, or db:ID with --db"),
     object_id: str = typer.Option(..., "--id", help="id of the new object"),
     parent_id: str = typer.Option(..., "--parent", help="a room (large object) or a large object (small object)"),
     relation: RelationChoice | None = typer.Option(None, "--relation", help="small objects: on, in or under (default: on)"),
@@ -183,12 +183,15 @@ def add(
     graspable: bool | None = typer.Option(None, "--graspable/--not-graspable", help="graspable or not (default: small objects are, large ones are not)"),
     out: Path | None = typer.Option(None, "--out", help="write the extended map here instead of over MAP.xml"),
     force: bool = typer.Option(False, "--force", help="replace an existing --out file"),
+    db: Path | None = typer.Option(None, "--db", help="the model database a db:ID model refers to"),
 ) -> None:
     """Register the model MODEL under PARENT_ID and save the map atomically."""
+    from homemodel.app.database.queries import resolve_model_ref
     from homemodel.core.transforms import transform_from_xyz_rpy
     from semantic_map import MapEntry, add_model_folder
 
     with exit_on_error():
+        model_dir = resolve_model_ref(model_dir, db)
         entry = MapEntry(
             map_path=map_path,
             object_id=object_id,
@@ -196,7 +199,7 @@ def add(
             relation=relation.value if relation else None,
             parent_from_object=transform_from_xyz_rpy(xyz, rpy),
             parking_positions=_parking_list(parking),
-            properties=_key_values(properties, "--property") or None,
+            properties=key_values(properties, "--property") or None,
             graspable=graspable,
             out_path=out,
         )

@@ -1,0 +1,239 @@
+"""`homemodel db build`: every entry of a manifest through its pipeline, on Dask.
+
+The build runs on Dask's `distributed` scheduler: by default an in-process `LocalCluster`
+with one worker process per core and one thread each (bpy is not thread-safe); given a
+scheduler address, on an existing cluster whose workers see the database folder (a shared
+file system) and run the same homemodel. Workers build and store model folders; this process
+alone writes the index, one committed row per finished entry.
+
+Only entries whose content key changed are built. A killed worker's entries are rebuilt by
+Dask elsewhere; an interrupted build leaves whole folders and whole rows, and the next build
+picks up what is missing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import importlib.util
+import logging
+import os
+import shutil
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from homemodel.app.database.content_key import content_key
+from homemodel.app.database.entry_build import BuildRequest, build_entry
+from homemodel.app.database.index import MODELS_DIR, EntryRow, ModelIndex
+from homemodel.app.database.manifest import Job, RepairSpec, load_manifest
+from homemodel.core.checks import require_at_least
+from homemodel.core.errors import InputError
+
+log = logging.getLogger(__name__)
+
+LOCK_FILE = ".build.lock"
+
+
+@dataclass(kw_only=True)
+class DatabaseBuildOptions:
+    workers: int | None = None  # local worker processes; None: one per core
+    scheduler: str | None = None  # an existing Dask scheduler, e.g. tcp://host:8786
+    repair: bool = False  # repair imported assets that lack only what the gate needs
+    retry_failed: bool = False  # build failed entries again even when their key is unchanged
+
+    def check(self) -> None:
+        if self.workers is not None:
+            require_at_least("workers", self.workers, 1)
+        if self.workers is not None and self.scheduler is not None:
+            raise InputError("workers: give either a number of local workers or a scheduler, not both")
+        if self.scheduler is not None and "://" not in self.scheduler:
+            raise InputError(f"scheduler: {self.scheduler!r} is not an address like tcp://host:8786")
+
+
+@dataclass(kw_only=True)
+class DatabaseBuild:
+    db_dir: Path
+    built: list[EntryRow] = field(default_factory=list)  # this run's rows (valid, invalid or failed)
+    cached: list[str] = field(default_factory=list)  # ids whose key had not changed
+    dashboard: str | None = None
+    seconds: float = 0.0
+
+    def count(self, status: str) -> int:
+        return sum(row.status == status for row in self.built)
+
+
+# Called as each entry finishes (built now, or found cached).
+EntryDone = Callable[[EntryRow, bool], None]
+# Called once the jobs are known: (entries to build, entries cached, dashboard link or None).
+BuildStarts = Callable[[int, int, str | None], None]
+
+
+@contextlib.contextmanager
+def build_lock(db_dir: Path) -> Iterator[None]:
+    db_dir.mkdir(parents=True, exist_ok=True)
+    with open(db_dir / LOCK_FILE, "w") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{db_dir}: another `homemodel db build` is running on this database") from None
+        yield
+
+
+def _remove_leftovers(db_dir: Path) -> None:
+    """Temporary folders of builds that were killed (atomic writes clean up after themselves
+    unless the process dies): safe to remove while this build holds the lock."""
+    models = db_dir / MODELS_DIR
+    if models.is_dir():
+        for path in models.iterdir():
+            if path.name.startswith(".") and path.name.endswith((".tmp", ".old")):
+                shutil.rmtree(path, ignore_errors=True)
+
+
+def _settle(index: ModelIndex, row: EntryRow) -> None:
+    """Record a finished entry; a failed one keeps no folder of an earlier build."""
+    index.put(row)
+    if row.path is None:
+        folder = index.db_dir / MODELS_DIR / row.id
+        if folder.exists():
+            shutil.rmtree(folder)
+
+
+@contextlib.contextmanager
+def _without_blender_paths() -> Iterator[None]:
+    """sys.path without the folders importing bpy added (Blender's scripts). Worker processes
+    start with the parent's sys.path; with those folders first they would import Blender's
+    Python `bpy` package instead of the bpy module, and fail ("No module named '_bpy'")."""
+    bpy = sys.modules.get("bpy")
+    saved = list(sys.path)
+    if bpy is not None and getattr(bpy, "__file__", None):
+        wheel = next((p for p in reversed(Path(bpy.__file__).parents) if p.name == "bpy"), None)
+        sys.path[:] = [
+            p for p in saved
+            if not ((wheel is not None and Path(p).is_relative_to(wheel)) or f"{os.sep}blender{os.sep}" in p)
+        ]  # fmt: skip
+    try:
+        yield
+    finally:
+        sys.path[:] = saved
+
+
+@contextlib.contextmanager
+def _client(options: DatabaseBuildOptions) -> Iterator:
+    """A Dask client: of the scheduler given, or of a LocalCluster of this machine's cores."""
+    from distributed import Client, LocalCluster
+
+    if options.scheduler is not None:
+        try:
+            client = Client(options.scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"scheduler: cannot reach {options.scheduler}: {exc}") from None
+        with client:
+            yield client
+        return
+    dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
+    with _without_blender_paths(), LocalCluster(
+        n_workers=options.workers or os.cpu_count() or 1,
+        threads_per_worker=1,  # bpy is not thread-safe
+        processes=True,
+        dashboard_address=dashboard,
+        silence_logs=logging.ERROR,  # Dask's own INFO lines would bury the build's
+    ) as cluster, Client(cluster) as client:
+        yield client
+
+
+def _dashboard(client) -> str | None:  # noqa: ANN001 (distributed.Client)
+    services = client.scheduler_info().get("services", {})
+    return client.dashboard_link if "dashboard" in services else None
+
+
+def _worker_lost(job: Job, key: str, exc: BaseException) -> EntryRow:
+    """An entry whose task killed every worker that tried it (a crash in C, say)."""
+    return EntryRow(
+        id=job.id, category=job.category or "", source=job.source, key=key, status="failed",
+        error=f"{type(exc).__name__}: {' '.join(str(exc).split())}", inputs={r: str(p) for r, p in job.inputs.items()},
+        properties=dict(job.properties),
+    )  # fmt: skip
+
+
+def plan(jobs: list[Job], repair: RepairSpec | None, index: ModelIndex, retry_failed: bool) -> tuple[dict[str, str], list[Job], list[Job]]:
+    """Every job's key, the jobs to build and the jobs whose stored build is still current."""
+    repair_settings = repair.model_dump_json() if repair is not None else ""
+    keys = {job.id: content_key(job, repair_settings, index.cached_hash, index.store_hash) for job in jobs}
+    index.commit()
+    stored = index.keys()
+    todo, cached = [], []
+    for job in jobs:
+        key, status, folder = stored.get(job.id, (None, None, None))
+        # A stored build is current if its key matches and its folder is still there.
+        present = folder is None or (index.db_dir / folder / "model.urdf").is_file()
+        current = key == keys[job.id] and present and not (retry_failed and status == "failed")
+        (cached if current else todo).append(job)
+    return keys, todo, cached
+
+
+def build_database(
+    manifest_path: Path,
+    db_dir: Path,
+    options: DatabaseBuildOptions | None = None,
+    *,
+    on_start: BuildStarts | None = None,
+    on_entry: EntryDone | None = None,
+) -> DatabaseBuild:
+    """Build every entry of the manifest whose key changed into the database at `db_dir`."""
+    options = options or DatabaseBuildOptions()
+    options.check()
+    start = time.perf_counter()
+    db_dir = Path(db_dir)
+    jobs, repair_spec = load_manifest(manifest_path)
+    repair = repair_spec if options.repair else None
+    result = DatabaseBuild(db_dir=db_dir)
+    with build_lock(db_dir), ModelIndex(db_dir, create=True) as index:
+        _remove_leftovers(db_dir)
+        keys, todo, cached = plan(jobs, repair, index, options.retry_failed)
+        for job in cached:
+            row = index.require(job.id)
+            category, properties = job.category or row.category, {**row.properties, **job.properties}
+            if (category, properties) != (row.category, row.properties):
+                index.set_labels(job.id, category, properties)
+            result.cached.append(job.id)
+        with _client(options) if todo else contextlib.nullcontext() as client:
+            result.dashboard = _dashboard(client) if todo else None
+            if on_start:
+                on_start(len(todo), len(cached), result.dashboard)
+            if on_entry:
+                for job in cached:
+                    on_entry(index.require(job.id), True)
+            if todo:
+                _run(client, todo, keys, db_dir, repair, index, result, on_entry)
+                _remove_leftovers(db_dir)  # of a worker killed during this build
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repair: RepairSpec | None,  # noqa: ANN001
+         index: ModelIndex, result: DatabaseBuild, on_entry: EntryDone | None) -> None:  # fmt: skip
+    from distributed import as_completed
+
+    futures = {}
+    for job in todo:
+        request = BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repair)
+        # The task's name carries the key: a rerun after a change never reuses an old result.
+        future = client.submit(build_entry, request, key=f"homemodel-db-{job.id}-{keys[job.id][:16]}")
+        futures[future.key] = (future, job)
+    try:
+        for future in as_completed([f for f, _ in futures.values()]):
+            job = futures[future.key][1]
+            try:
+                row = future.result()
+            except Exception as exc:  # noqa: BLE001 (KilledWorker and the like: recorded, the build goes on)
+                row = _worker_lost(job, keys[job.id], exc)
+            _settle(index, row)
+            result.built.append(row)
+            if on_entry:
+                on_entry(row, False)
+    finally:
+        # On Ctrl-C: nothing more is started; finished entries are already in the index.
+        client.cancel([f for f, _ in futures.values()])

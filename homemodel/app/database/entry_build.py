@@ -1,0 +1,248 @@
+"""Build one database entry, in a worker: its pipeline (through the pipeline's entry
+function), the validation gate and a thumbnail, stored whole under `DIR/models/<id>/` or not
+at all. Any failure is caught and returned as a "failed" row: one bad entry never stops a build.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import tempfile
+import time
+import traceback
+from dataclasses import asdict, dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from articulation.gate.report import Check, ValidationReport
+from articulation.model import Model
+from homemodel.app.database.index import MODELS_DIR, EntryRow
+from homemodel.app.database.manifest import Job, RepairSpec
+from homemodel.app.database.thumbnail import write_thumbnail
+from homemodel.core.atomic import atomic_dir, write_json
+from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.core.errors import HomemodelError, InputError, SpecError
+from homemodel.core.yaml_specs import read_yaml_mapping
+
+log = logging.getLogger(__name__)
+
+ENTRY_FILE = "entry.json"
+THUMBNAIL_FILE = "thumbnail.png"
+
+
+@dataclass(kw_only=True)
+class BuildRequest:
+    """What a worker needs: the job, its key, where the database lives, how to repair."""
+
+    job: Job
+    key: str
+    db_dir: Path
+    repair: RepairSpec | None  # None: imported assets are not repaired
+
+
+@dataclass(kw_only=True)
+class _Built:
+    report: ValidationReport
+    times_s: dict[str, float]
+    repairs: list[str]
+    model: Model | None = None  # in memory when the pipeline hands it over (else read back from the URDF)
+
+
+def _options(cls: type, job: Job, **fixed: Any) -> Any:
+    """The source's options dataclass from the manifest's `options` (top-level fields only)."""
+    try:
+        options = cls(**{**job.options, **fixed})
+    except TypeError as exc:
+        raise InputError(f"entry {job.id!r}: options: {exc}") from None
+    return options
+
+
+def _swept_spec(job: Job, folder: Path) -> Path:
+    """The spec with the sweep's values set, written into `folder` (photo paths made absolute)."""
+    spec_path = job.inputs["path"]
+    data = read_yaml_mapping(spec_path)
+    for name in job.overrides:
+        if name not in data and name not in _spec_fields(spec_path):
+            raise SpecError(f"{spec_path}: sweep field {name!r} is not a field of this spec")
+    data.update(job.overrides)
+    for photo in data.get("photos") or []:
+        if isinstance(photo, dict) and "photo" in photo:
+            photo["photo"] = str((spec_path.parent / photo["photo"]).resolve())
+    path = folder / f"{job.id}.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def _spec_fields(spec_path: Path) -> set[str]:
+    from modeller import load_spec
+
+    return set(type(load_spec(spec_path)).model_fields)
+
+
+def _build_spec(job: Job, out: Path) -> _Built:
+    from modeller import BuildOptions, build
+
+    with tempfile.TemporaryDirectory(prefix="homemodel-sweep-") as work:
+        spec = _swept_spec(job, Path(work)) if job.overrides else job.inputs["path"]
+        try:
+            built = build(spec, out, _options(BuildOptions, job, name=job.id), force=True)
+        except SpecError as exc:
+            if not job.overrides:
+                raise
+            # Name the user's spec and the swept values, not the temporary file.
+            said = str(exc).replace(str(spec), f"{job.inputs['path']} with {job.overrides}")
+            raise SpecError(said) from None
+        if job.overrides:
+            (out / "spec.yaml").write_bytes(Path(spec).read_bytes())  # what was built, for the record
+    return _Built(report=built.validation, times_s=dict(built.times_s), repairs=[], model=built.model)
+
+
+def _gated(out: Path, times_s: dict[str, float], repairs: list[str] | None = None) -> _Built:
+    from articulation.gate import validate_path
+
+    start = time.perf_counter()
+    report = validate_path(out)
+    return _Built(report=report, times_s={**times_s, "validate": time.perf_counter() - start}, repairs=repairs or [])
+
+
+def _build_turntable(job: Job, out: Path) -> _Built:
+    from turntable import ReconstructionOptions, reconstruct
+
+    result = reconstruct(job.inputs["path"], out, _options(ReconstructionOptions, job, name=job.id, workers=1), force=True)
+    return _gated(out, result.times_s)
+
+
+def _build_photos(job: Job, out: Path) -> _Built:
+    from photogrammetry import ReconstructOptions, reconstruct
+
+    options = _options(ReconstructOptions, job, name=job.id, marker_size_m=job.marker_size_m)
+    result = reconstruct(job.inputs["path"], out, options, force=True)
+    return _gated(out, result.summary["times_s"])
+
+
+def _build_completion(job: Job, out: Path) -> _Built:
+    from shape_completion import CompletionOptions, complete
+
+    options = _options(CompletionOptions, job, name=job.id, camera_path=job.inputs["camera"])
+    result = complete(job.inputs["completion_model"], job.inputs["path"], out, options, force=True)
+    return _gated(out, result.times_s)
+
+
+def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
+    from articulation.export import write_model_files
+    from articulation.gate import validate_path
+    from articulation.partnet import import_partnet, is_partnet_folder
+    from articulation.repair import RepairOptions, find_gaps
+    from articulation.repair import repair as repaired
+    from articulation.urdf_import import find_urdf, load_urdf
+
+    start = time.perf_counter()
+    source = job.inputs["path"]
+    urdf = find_urdf(source)
+    gaps = find_gaps(urdf)
+    if gaps and repair is None:
+        # The asset as given fails the gate for want of what it needs: say so, and how to repair.
+        report = validate_path(urdf)
+        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair)"))
+        return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
+    model: Model = import_partnet(source).model if source.is_dir() and is_partnet_folder(source) else load_urdf(urdf)
+    model.name = job.id
+    repairs: list[str] = []
+    if gaps and repair is not None:
+        model, repairs = repaired(model, gaps, RepairOptions(**repair.model_dump()))
+    write_model_files(model, out)
+    return _gated(out, {"import": time.perf_counter() - start}, repairs)
+
+
+def _run_source(request: BuildRequest, out: Path) -> _Built:
+    job = request.job
+    if job.source == "spec":
+        return _build_spec(job, out)
+    if job.source == "turntable":
+        return _build_turntable(job, out)
+    if job.source == "photos":
+        return _build_photos(job, out)
+    if job.source == "completion":
+        return _build_completion(job, out)
+    return _build_import(job, out, request.repair)
+
+
+def _counts(model: Model) -> dict[str, int]:
+    return {
+        "links": len(model.links),
+        "joints": len(model.movable_joints),
+        "grasp_points": len(model.grasp_points),
+        "triangles": sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
+    }
+
+
+def _worker_name() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def build_entry(request: BuildRequest) -> EntryRow:
+    """Build `request.job` into `db_dir/models/<id>/` (replacing what was there only when the
+    new folder is whole) and return its index row; never raises for a bad entry."""
+    from articulation.urdf_import import load_urdf
+
+    job = request.job
+    start = time.perf_counter()
+    row = EntryRow(
+        id=job.id,
+        category=job.category or "",
+        source=job.source,
+        key=request.key,
+        status="failed",
+        inputs={role: str(path) for role, path in job.inputs.items()},
+        properties=dict(job.properties),
+        worker=_worker_name(),
+    )
+    final = Path(request.db_dir) / MODELS_DIR / job.id
+    try:
+        with atomic_dir(final, force=True) as tmp:
+            # COLMAP, Blender and pybullet print from C; in a worker that would bury the build's lines.
+            with captured_c_output() as said:
+                built = _run_source(request, tmp)
+            log.debug("entry %s printed:\n%s", job.id, "\n".join(said[-50:]))
+            built.report.path = final  # where the model will be, not the temporary folder
+            row.checks = [{"name": c.name, "passed": c.passed, "detail": c.detail} for c in built.report.checks]
+            row.repairs = built.repairs
+            row.times_s = {stage: round(s, 4) for stage, s in built.times_s.items()}
+            if not (tmp / "model.urdf").is_file():
+                # The gate refused the asset as given (an import without --repair): nothing to store.
+                row.status = "invalid"
+                raise _NothingToStore
+            model = built.model or load_urdf(tmp / "model.urdf")
+            row.category = job.category or model.category
+            row.properties = {**model.properties, **job.properties}
+            for name, value in _counts(model).items():
+                setattr(row, name, value)
+            thumb_start = time.perf_counter()
+            write_thumbnail(model, tmp / THUMBNAIL_FILE)
+            row.times_s["thumbnail"] = round(time.perf_counter() - thumb_start, 4)
+            row.status = "valid" if built.report.ok else "invalid"
+            row.path = f"{MODELS_DIR}/{job.id}"
+            row.thumbnail = f"{MODELS_DIR}/{job.id}/{THUMBNAIL_FILE}"
+            row.build_s = round(time.perf_counter() - start, 4)
+            row.built_at = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            write_json(tmp / ENTRY_FILE, {**asdict(row), "validation": built.report.format()})
+    except _NothingToStore:
+        row.error = "; ".join(row.failed_checks) or "not stored"
+    except Exception as exc:  # noqa: BLE001 (a bad entry is recorded, whatever it raised)
+        log.debug("entry %s failed:\n%s", job.id, traceback.format_exc())
+        row.status = "failed"
+        # Our own errors say what is wrong; anything else is named by its type too.
+        said = " ".join(str(exc).split())
+        row.error = said if isinstance(exc, HomemodelError) else f"{type(exc).__name__}: {said}"
+        row.path = row.thumbnail = None
+    row.build_s = round(time.perf_counter() - start, 4)
+    row.built_at = row.built_at or datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return row
+
+
+class _NothingToStore(Exception):
+    """Leaves the atomic folder without storing it (its contents are not a model)."""

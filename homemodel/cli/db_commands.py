@@ -1,0 +1,196 @@
+"""`homemodel db build|list|show|find|remove|export|serve`: the model database."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import typer
+from rich.markup import escape
+
+from homemodel.cli.errors import exit_on_error
+from homemodel.cli.map_commands import key_values
+from homemodel.cli.progress import Column, fitted_table, make_console
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from homemodel.app.database import EntryRow
+
+db_app = typer.Typer(no_args_is_help=True)
+
+DB_OPTION = typer.Option(..., "--db", help="the database folder (models/, index.sqlite)")
+STATUS_STYLE = {"valid": "[green]valid[/]", "invalid": "[yellow]invalid[/]", "failed": "[red]failed[/]"}
+COLUMNS = [Column("id", keep=True), Column("category", keep=True), Column("source"), Column("status", keep=True)] + [
+    Column(h, justify="right") for h in ("links", "joints", "grasps", "triangles", "build s")
+]
+DROPPED_FIRST = ("links", "triangles", "grasps", "source")
+
+
+def _number(value: int | None) -> str:
+    return "-" if value is None else str(value)
+
+
+def rows_table(console: Console, title: str, rows: list[EntryRow]):  # noqa: ANN201 (rich Table)
+    cells = [
+        [r.id, r.category or "-", r.source, STATUS_STYLE.get(r.status, r.status), _number(r.links), _number(r.joints),
+         _number(r.grasp_points), _number(r.triangles), f"{r.build_s:.2f}"]
+        for r in rows
+    ]  # fmt: skip
+    return fitted_table(console, title, COLUMNS, cells, DROPPED_FIRST)
+
+
+def _entry_line(row: EntryRow, cached: bool) -> str:
+    said = "cached" if cached else f"{row.build_s:6.2f} s"
+    line = f"{STATUS_STYLE.get(row.status, row.status):<22} {escape(row.id)} ({row.source}, {said})"
+    if row.status != "valid" and not cached:
+        line += f": {escape(row.error or '; '.join(row.failed_checks))}"
+    for repair in row.repairs if not cached else []:
+        line += f"\n    repaired {escape(repair)}"
+    return line
+
+
+@db_app.command()
+def build(
+    manifest: Path = typer.Argument(..., help="the manifest: entries, their sources, options, categories"),
+    db: Path = DB_OPTION,
+    workers: int | None = typer.Option(None, "--workers", help="local worker processes (default: one per core)"),
+    scheduler: str | None = typer.Option(None, "--scheduler", help="an existing Dask scheduler, e.g. tcp://host:8786"),
+    repair: bool = typer.Option(False, "--repair", help="repair imported assets that lack only inertials or limit effort/velocity"),
+    retry_failed: bool = typer.Option(False, "--retry-failed", help="build failed entries again even if unchanged"),
+    strict: bool = typer.Option(False, "--strict", help="exit 1 when an entry failed or is invalid"),
+) -> None:
+    """Build every entry of MANIFEST whose inputs, options or code changed; record failures."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from homemodel.app.database import DatabaseBuildOptions, build_database
+
+    import distributed  # noqa: F401 (its import sets its loggers' levels, which are then lowered)
+
+    # Dask logs every worker's start and stop at INFO; the build prints its own lines.
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    console = make_console()
+    options = DatabaseBuildOptions(workers=workers, scheduler=scheduler, repair=repair, retry_failed=retry_failed)
+    with exit_on_error(), Progress(
+        TextColumn("[bold]db build[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), console=console, transient=True
+    ) as bar:
+        task = bar.add_task("entries", total=None)
+
+        def on_start(todo: int, cached: int, dashboard: str | None) -> None:
+            bar.update(task, total=todo)
+            if dashboard:
+                console.print(f"Dask dashboard: {dashboard}")
+            console.print(f"{todo} to build, {cached} cached")
+
+        def on_entry(row: EntryRow, cached: bool) -> None:
+            if not cached:
+                console.print(_entry_line(row, cached))
+                bar.advance(task)
+
+        result = build_database(manifest, db, options, on_start=on_start, on_entry=on_entry)
+    counts = {s: result.count(s) for s in ("valid", "invalid", "failed")}
+    console.print(
+        f"built {len(result.built)} ({counts['valid']} valid, {counts['invalid']} invalid, {counts['failed']} failed), "
+        f"cached {len(result.cached)}, in {result.seconds:.1f} s; index: {db / 'index.sqlite'}"
+    )
+    if strict and (counts["invalid"] or counts["failed"]):
+        raise typer.Exit(1)
+
+
+@db_app.command("list")
+def list_entries(db: Path = DB_OPTION) -> None:
+    """Every entry: category, source, gate status, counts, build time."""
+    from homemodel.app.database import ModelIndex
+
+    console = make_console()
+    with exit_on_error(), ModelIndex(db) as index:
+        rows = index.rows()
+    console.print(rows_table(console, f"{db}: {len(rows)} entries", rows))
+
+
+@db_app.command()
+def show(entry_id: str = typer.Argument(..., metavar="ID"), db: Path = DB_OPTION) -> None:
+    """One entry: its figures, the gate's checks, repairs, error and files."""
+    from homemodel.app.database import ModelIndex
+
+    with exit_on_error(), ModelIndex(db) as index:
+        row = index.require(entry_id)
+    typer.echo(f"{row.id}: {row.category} from {row.source}, {row.status}, built {row.built_at} in {row.build_s:.2f} s on {row.worker}")
+    typer.echo(f"  key        {row.key[:16]}")
+    for role, path in row.inputs.items():
+        typer.echo(f"  {role:<10} {path}")
+    typer.echo(f"  folder     {db / row.path if row.path else '(not stored)'}")
+    typer.echo(f"  counts     links {_number(row.links)}, joints {_number(row.joints)}, grasp points {_number(row.grasp_points)}, triangles {_number(row.triangles)}")
+    typer.echo("  times      " + ", ".join(f"{k} {v:.2f} s" for k, v in row.times_s.items()))
+    if row.properties:
+        typer.echo("  properties " + ", ".join(f"{k}={v}" for k, v in sorted(row.properties.items())))
+    for repair in row.repairs:
+        typer.echo(f"  repaired   {repair}")
+    if row.error:
+        typer.echo(f"  error      {row.error}")
+    for check in row.checks:
+        typer.echo(f"  {'PASS' if check['passed'] else 'FAIL'}  {check['name']}: {check['detail']}")
+
+
+@db_app.command()
+def find(
+    db: Path = DB_OPTION,
+    category: str | None = typer.Option(None, "--category", help="e.g. cup"),
+    properties: list[str] = typer.Option([], "--property", help="key=value the entry's properties must hold (repeatable)"),
+) -> None:
+    """Entries of a category and with given properties."""
+    from homemodel.app.database import ModelIndex
+
+    console = make_console()
+    wanted = key_values(properties, "--property")
+    with exit_on_error(), ModelIndex(db) as index:
+        rows = index.find(category=category, properties=wanted)
+    console.print(rows_table(console, f"{len(rows)} found", rows))
+
+
+@db_app.command()
+def remove(entry_id: str = typer.Argument(..., metavar="ID"), db: Path = DB_OPTION) -> None:
+    """Remove an entry's row and model folder."""
+    from homemodel.app.database.queries import remove_entry
+
+    with exit_on_error():
+        row = remove_entry(db, entry_id)
+    typer.echo(f"removed {row.id} ({row.category}, {row.status})")
+
+
+@db_app.command()
+def export(
+    entry_id: str = typer.Argument(..., metavar="ID"),
+    db: Path = DB_OPTION,
+    out: Path = typer.Option(..., "--out", help="where to copy the model folder"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Copy an entry's model folder (model.urdf, model.glb, meshes/, ...) out of the database."""
+    from homemodel.app.database.queries import export_entry
+
+    with exit_on_error():
+        export_entry(db, entry_id, out, force=force)
+    typer.echo(f"exported {entry_id} to {out}")
+
+
+@db_app.command()
+def serve(
+    db: Path = DB_OPTION,
+    map_path: Path | None = typer.Option(None, "--map", help="a home's semantic map to show as a tree"),
+    host: str = typer.Option("127.0.0.1", "--host", help="address to listen on"),
+    port: int = typer.Option(8765, "--port", help="port (0: any free one)"),
+) -> None:
+    """Serve a page to browse the database: a table, a 3D view with joint sliders, the gate's
+    report, and a home's semantic map. Ctrl-C stops it."""
+    from homemodel.app.database.server import make_server
+
+    with exit_on_error():
+        server = make_server(db, host=host, port=port, map_path=map_path)
+    typer.echo(f"serving {db} at http://{host}:{server.server_address[1]}/ (Ctrl-C to stop)")
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.server_close()
