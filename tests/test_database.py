@@ -45,14 +45,14 @@ def write_manifest(folder: Path) -> Path:
     (folder / "query").mkdir()
     (folder / "query" / "depth.png").write_bytes(b"not a png")
     (folder / "query" / "camera.yaml").write_text("width: 4\nheight: 4\nfx: 1\nfy: 1\ncx: 2\ncy: 2\n")
-    (folder / "completer.joblib").write_bytes(b"not a model")
+    (folder / "completer.npz").write_bytes(b"not a model")
     entries = [
         {"id": "cup", "source": "spec", "path": "cup.yaml", "properties": {"colour": "white"}},
         {"id": "tall", "source": "spec", "path": "cup.yaml", "sweep": {"height_m": [0.11, -0.02]}},
         {"id": "cabinet", "source": "urdf", "path": "cabinet", "properties": {"room": "kitchen"}},
         {"id": "frog", "source": "photos", "path": "photos", "marker_size_m": 0.05},
         {"id": "scan", "source": "turntable", "path": "capture"},
-        {"id": "guess", "source": "completion", "path": "query/depth.png", "completion_model": "completer.joblib"},
+        {"id": "guess", "source": "completion", "path": "query/depth.png", "completion_model": "completer.npz"},
     ]
     path = folder / "manifest.yaml"
     path.write_text(yaml.safe_dump({"entries": entries, "repair": {"density_kg_m3": 650.0}}))

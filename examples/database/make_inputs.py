@@ -39,7 +39,7 @@ def make_capture(out: Path) -> None:
 def make_completion(out: Path) -> None:
     write_procedural_library(out / "library", classes=["bowl", "cup", "glass"], per_class=6, seed=0)
     completer = ShapeCompleter(n_views=16, filler_queries_per_class=6, random_state=0).fit(load_library(out / "library"))
-    save_model(completer, out / "completer.joblib")
+    save_model(completer, out / "completer.npz")
     unseen = generate_instances("cup", 1, seed=99)[0]
     camera_from_object = random_query_pose(unseen, np.random.default_rng(3))
     unseen.apply_transform(camera_from_object)  # the query's frame is the camera's

@@ -11,7 +11,7 @@ entries:
   - {id: mug_scan, source: turntable, path: captures/mug, options: {texture_size_px: 512}}
   - {id: kermit, source: photos, path: /data/kermit, marker_size_m: 0.05}
   - {id: cup_query, source: completion, path: query/depth.png, camera: query/camera.yaml,
-     completion_model: completer.joblib}
+     completion_model: completer.npz}
   - {id: cabinet_46037, source: urdf, path: partnet/46037}   # a model folder or a .urdf
 ```
 
