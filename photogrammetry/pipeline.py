@@ -9,7 +9,9 @@ registers it into a semantic map when asked.
 
 from __future__ import annotations
 
+import os
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -101,14 +103,19 @@ def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOp
 
 
 def _markers(sparse: SparseModel, options: ReconstructOptions, clock: StageClock):
-    """Markers seen in the undistorted views, triangulated in the SfM frame."""
+    """Markers seen in the undistorted views, triangulated in the SfM frame; the views are
+    searched on all cores (OpenCV's decoding and detection release the GIL)."""
     import cv2
 
+    def detect(view: View):
+        return detect_markers(read_image(view.image_path, cv2.IMREAD_GRAYSCALE), view.name, options.dictionary)
+
     sightings = []
-    for index, view in enumerate(sparse.views):
-        gray = read_image(view.image_path, cv2.IMREAD_GRAYSCALE)
-        sightings += detect_markers(gray, view.name, options.dictionary)
-        clock.tick(index + 1, len(sparse.views))
+    threads = options.sfm.num_threads if options.sfm.num_threads > 0 else len(os.sched_getaffinity(0))
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for index, found in enumerate(pool.map(detect, sparse.views)):
+            sightings += found
+            clock.tick(index + 1, len(sparse.views))
     projections = {v.name: v.camera.matrix @ v.camera_from_world[:3, :] for v in sparse.views}
     return triangulate_markers(sightings, projections)
 
@@ -189,6 +196,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "photos": len(photos),
         "registered": len(sparse.views),
         "unregistered": sparse.unregistered,
+        "matching": sparse.matching,
+        "cameras": sparse.cameras,
         "sparse_points": len(sparse.points_world),
         "reprojection_error_px": round(sparse.mean_reprojection_error_px, 4),
         "dense_method": dense_method,

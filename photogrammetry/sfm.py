@@ -7,22 +7,33 @@ The result is a set of pinhole views (undistorted photos with their cameras and
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
+from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.checks import require_at_least, require_choice
 from homemodel.core.errors import ModelError
-from homemodel.core.images import read_image_size
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
+from photogrammetry import pairing
+from photogrammetry.photo_cameras import (
+    PhotoCamera,
+    group_by_camera,
+    read_photo_camera,
+    upright_photo_folder,
+)
+from photogrammetry.undistortion import undistort_photos
 
 log = logging.getLogger(__name__)
 
 MIN_REGISTERED_IMAGES = 3
-UPSAMPLE_BELOW_PX = 1200
+# Groups that share fewer verified matches than this show unrelated scenes.
+MIN_BRIDGE_INLIERS = 30
 
 
 class RegistrationError(ModelError):
@@ -35,20 +46,23 @@ class SfmOptions:
 
     max_image_size_px: int = 1600  # features are found on photos shrunk to this longer side
     max_num_features: int = 4096
-    # "auto": exhaustive up to `exhaustive_max_images` photos, sequential (by file name) beyond.
-    # A vocabulary tree would need a tree file that cannot be downloaded here.
-    matching: Literal["auto", "exhaustive", "sequential"] = "auto"
-    exhaustive_max_images: int = 60
-    sequential_overlap: int = 12
+    first_octave: int = -1  # -1: SIFT on the photo upsampled twice (COLMAP's default), 0: as it is
+    # "auto": exhaustive up to `exhaustive_max_images` photos (any order, any number of rings),
+    # image retrieval with a vocabulary tree learnt from the photos beyond.
+    matching: Literal["auto", "exhaustive", "retrieval"] = "auto"
+    exhaustive_max_images: int = 250
+    retrieval_neighbours: int = 40
     num_threads: int = -1
     random_state: int = 0
+    verbose: bool = False  # let COLMAP log (glog) and C libraries print
 
     def check(self) -> None:
         require_at_least("max_image_size_px", self.max_image_size_px, 200)
         require_at_least("max_num_features", self.max_num_features, 256)
-        require_choice("matching", self.matching, ("auto", "exhaustive", "sequential"))
+        require_choice("first_octave", self.first_octave, (-1, 0))
+        require_choice("matching", self.matching, ("auto", "exhaustive", "retrieval"))
         require_at_least("exhaustive_max_images", self.exhaustive_max_images, 2)
-        require_at_least("sequential_overlap", self.sequential_overlap, 1)
+        require_at_least("retrieval_neighbours", self.retrieval_neighbours, 2)
         if self.num_threads != -1:
             require_at_least("num_threads", self.num_threads, 1)
 
@@ -82,51 +96,133 @@ class SparseModel:
     mean_reprojection_error_px: float
     unregistered: list[str]
     times_s: dict[str, float] = field(default_factory=dict)
+    matching: str = ""  # how pairs were chosen, and whether groups had to be bridged
+    cameras: int = 1  # camera models (one per camera and zoom)
 
 
-def _camera_mode(photos: list[Path]):
+@contextmanager
+def quiet_colmap(verbose: bool) -> Iterator[None]:
+    """COLMAP's glog lines and what C libraries (libpng, libjpeg) print go to the debug log,
+    not the terminal, unless `verbose`."""
     import pycolmap
 
-    sizes = {read_image_size(p) for p in photos}
-    # One size: one camera shared by all photos (a better calibration); else per photo.
-    return pycolmap.CameraMode.SINGLE if len(sizes) == 1 else pycolmap.CameraMode.PER_IMAGE
+    if verbose:
+        yield
+        return
+    level = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = 2  # errors only
+    try:
+        with captured_c_output() as lines:
+            yield
+    finally:
+        pycolmap.logging.minloglevel = level
+    for line in lines:
+        log.debug("colmap: %s", line)
 
 
-def _match(database: Path, n_images: int, options: SfmOptions) -> str:
+def _extract_features(database: Path, image_dir: Path, cameras: dict[str, PhotoCamera], options: SfmOptions) -> int:
+    """SIFT features of every photo, one camera model per camera (EXIF focal length as its prior)."""
     import pycolmap
 
-    matching = pycolmap.FeatureMatchingOptions(num_threads=options.num_threads)
+    extraction = pycolmap.FeatureExtractionOptions(
+        max_image_size=options.max_image_size_px, num_threads=options.num_threads
+    )
+    extraction.sift.max_num_features = options.max_num_features
+    extraction.sift.first_octave = options.first_octave
+    groups = group_by_camera(cameras)
+    for names in groups:
+        camera = cameras[names[0]]
+        reader = pycolmap.ImageReaderOptions()
+        if camera.focal_px is not None:
+            # Given parameters are COLMAP's focal length prior (SIMPLE_RADIAL: f, cx, cy, k).
+            reader.camera_params = f"{camera.focal_px},{camera.width / 2},{camera.height / 2},0"
+        pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
+                                  reader_options=reader, extraction_options=extraction)  # fmt: skip
+    return len(groups)
+
+
+def _match(database: Path, n_images: int, work_dir: Path, options: SfmOptions) -> str:
     method = options.matching
     if method == "auto":
-        method = "exhaustive" if n_images <= options.exhaustive_max_images else "sequential"
+        method = "exhaustive" if n_images <= options.exhaustive_max_images else "retrieval"
     if method == "exhaustive":
-        pycolmap.match_exhaustive(database, matching_options=matching)
+        pairing.match_exhaustive(database, options.num_threads)
     else:
-        pairing = pycolmap.SequentialPairingOptions(overlap=options.sequential_overlap, quadratic_overlap=True)
-        pycolmap.match_sequential(database, matching_options=matching, pairing_options=pairing)
+        tree = pairing.build_vocabulary_tree(
+            database, work_dir / "vocabulary_tree.bin", num_threads=options.num_threads, seed=options.random_state
+        )
+        pairing.match_by_retrieval(
+            database, tree, neighbours=options.retrieval_neighbours, num_threads=options.num_threads
+        )
     return method
 
 
-def _check_registration(photos_dir: Path, names: list[str], reconstructions: dict) -> object:
-    """The one reconstruction the photos make, or a RegistrationError that says why not."""
-    sizes = sorted(((r.num_reg_images(), k) for k, r in reconstructions.items()), reverse=True)
-    if not sizes or sizes[0][0] < MIN_REGISTERED_IMAGES:
-        registered = sizes[0][0] if sizes else 0
+def _mapping_options(options: SfmOptions, *, relaxed: bool):
+    import pycolmap
+
+    mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads)
+    mapping.random_seed = options.random_state
+    if relaxed:
+        # The second pass, continuing from the largest model: photos with fewer, or fewer
+        # clean, matches may join (each one still checked by its reprojection errors).
+        mapping.min_num_matches = 10
+        mapping.mapper.abs_pose_min_num_inliers = 15
+        mapping.mapper.abs_pose_min_inlier_ratio = 0.1
+        mapping.mapper.max_reg_trials = 6
+    return mapping
+
+
+def _groups(names: list[str], reconstructions: dict) -> list[list[str]]:
+    """The photos of each model, largest first, then each unregistered photo alone."""
+    models = sorted((sorted(im.name for im in r.images.values()) for r in reconstructions.values()), key=len,
+                    reverse=True)  # fmt: skip
+    placed = {n for g in models for n in g}
+    return models + [[n] for n in names if n not in placed]
+
+
+def _map(database: Path, image_dir: Path, names: list[str], work_dir: Path, options: SfmOptions):
+    """The largest model the photos make, after a second pass when some were left out:
+    pairs across the groups are matched, and mapping continues from the largest model with
+    relaxed thresholds. Raises RegistrationError only when the photos really do not connect."""
+    import pycolmap
+
+    first = work_dir / "sparse_first"
+    first.mkdir(exist_ok=True)
+    reconstructions = pycolmap.incremental_mapping(database, image_dir, first, options=_mapping_options(options, relaxed=False))
+    groups = _groups(names, reconstructions)
+    note = ""
+    if reconstructions and len(groups) > 1:
+        bridged = pairing.bridge_groups(database, groups, work_dir, num_threads=options.num_threads)
+        largest = max(reconstructions.values(), key=lambda r: r.num_reg_images())
+        seed_dir = work_dir / "sparse_seed"
+        seed_dir.mkdir(exist_ok=True)
+        largest.write(seed_dir)
+        second = work_dir / "sparse_second"
+        second.mkdir(exist_ok=True)
+        continued = pycolmap.incremental_mapping(database, image_dir, second, options=_mapping_options(options, relaxed=True),
+                                                 input_path=seed_dir)  # fmt: skip
+        if continued and max(r.num_reg_images() for r in continued.values()) > largest.num_reg_images():
+            reconstructions = continued
+        note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them, mapped again"
+        log.info("SfM: %d groups after the first pass%s", len(groups), note)
+    return _check_registration(database, image_dir, names, reconstructions), note
+
+
+def _check_registration(database: Path, photos_dir: Path, names: list[str], reconstructions: dict):
+    """The largest reconstruction, or a RegistrationError that says why there is none worth having."""
+    groups = _groups(names, reconstructions)
+    registered = len(groups[0]) if reconstructions else 0
+    if registered < MIN_REGISTERED_IMAGES:
         raise RegistrationError(
             f"{photos_dir}: only {registered} of {len(names)} photos registered (at least {MIN_REGISTERED_IMAGES} "
             "are needed): the photos overlap too little or have too little texture"
         )
-    if len(sizes) > 1 and sizes[1][0] >= MIN_REGISTERED_IMAGES:
-        groups = [sorted(im.name for im in reconstructions[k].images.values()) for _, k in sizes]
-        listing = "; ".join(f"{len(g)} photos ({g[0]} ...)" for g in groups)
+    best = max(reconstructions.values(), key=lambda r: r.num_reg_images())
+    if 2 * registered < len(names) and pairing.cross_group_inliers(database, groups) < MIN_BRIDGE_INLIERS:
+        listing = "; ".join(f"{len(g)} photos ({g[0]} ...)" for g in groups[:4])
         raise RegistrationError(
-            f"{photos_dir}: the photos show unrelated scenes: they form {len(groups)} groups: {listing}"
-        )
-    best = reconstructions[sizes[0][1]]
-    if 2 * best.num_reg_images() < len(names):
-        raise RegistrationError(
-            f"{photos_dir}: only {best.num_reg_images()} of {len(names)} photos registered together: "
-            "most photos do not show the same scene"
+            f"{photos_dir}: the photos show unrelated scenes: only {registered} of {len(names)} register together, "
+            f"and the {len(groups)} groups they form share no geometry: {listing}"
         )
     return best
 
@@ -137,82 +233,58 @@ def run_sfm(
     options: SfmOptions | None = None,
     progress: Progress | None = None,
 ) -> SparseModel:
-    """Register `photos` (all in one folder) and undistort them into `work_dir`; progress
-    stages features, matching, mapping, undistortion."""
+    """Register `photos` (all in one folder, already checked by `list_photos`) and undistort
+    them into `work_dir`; progress stages features, matching, mapping, undistortion."""
     import pycolmap
 
     options = options or SfmOptions()
-    photos_dir = photos[0].parent
     names = [p.name for p in photos]
     work_dir.mkdir(parents=True, exist_ok=True)
     database = work_dir / "database.db"
     clock = StageClock(progress)
     pycolmap.set_random_seed(options.random_state)
 
-    clock.start("features")
-    extraction = pycolmap.FeatureExtractionOptions(
-        max_image_size=options.max_image_size_px, num_threads=options.num_threads
-    )
-    extraction.sift.max_num_features = options.max_num_features
-    # SIFT's upsampled first octave finds the many small features small photos need; on large
-    # photos it costs four times the pixels for little gain.
-    longest_px = min(max(max(read_image_size(p)) for p in photos), options.max_image_size_px)
-    extraction.sift.first_octave = -1 if longest_px < UPSAMPLE_BELOW_PX else 0
-    pycolmap.extract_features(
-        database, photos_dir, image_names=names, camera_mode=_camera_mode(photos), extraction_options=extraction
-    )
+    with quiet_colmap(options.verbose):
+        clock.start("features")
+        cameras = {p.name: read_photo_camera(p) for p in photos}
+        image_dir = upright_photo_folder(photos, cameras, work_dir)
+        n_cameras = _extract_features(database, image_dir, cameras, options)
 
-    clock.start("matching")
-    method = _match(database, len(photos), options)
+        clock.start("matching")
+        method = _match(database, len(photos), work_dir, options)
 
-    clock.start("mapping")
-    mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads)
-    mapping.random_seed = options.random_state
-    sparse_raw = work_dir / "sparse_raw"
-    sparse_raw.mkdir(exist_ok=True)
-    reconstructions = pycolmap.incremental_mapping(database, photos_dir, sparse_raw, options=mapping)
-    best = _check_registration(photos_dir, names, reconstructions)
+        clock.start("mapping")
+        best, note = _map(database, image_dir, names, work_dir, options)
 
-    clock.start("undistortion")
-    best.write(sparse_raw)
-    undistorted = work_dir / "undistorted"
-    pycolmap.undistort_images(undistorted, sparse_raw, photos_dir)
-    model = _load_undistorted(undistorted, photos_dir, names)
+        clock.start("undistortion")
+        model = _undistort(best, image_dir, work_dir, names, options)
     clock.stop()
     model.mean_reprojection_error_px = float(best.compute_mean_reprojection_error())
     model.times_s = clock.times_s
-    log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), method)
+    model.matching = method + note
+    model.cameras = n_cameras
+    log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), model.matching)
     return model
 
 
-def _load_undistorted(undistorted: Path, photos_dir: Path, names: list[str]) -> SparseModel:
-    import pycolmap
-
-    sparse_dir = undistorted / "sparse"
-    reconstruction = pycolmap.Reconstruction(sparse_dir)
-    images = sorted(reconstruction.images.values(), key=lambda im: im.name)
+def _undistort(best, image_dir: Path, work_dir: Path, names: list[str], options: SfmOptions) -> SparseModel:
+    """The registered photos as pinhole views (written undistorted into work_dir/undistorted),
+    with the sparse points."""
+    written = undistort_photos(best, image_dir, work_dir / "undistorted", num_threads=options.num_threads)
+    images = sorted(best.images.values(), key=lambda im: im.name)
     views, index_of = [], {}
     for image in images:
-        camera = image.camera
         camera_from_world = np.eye(4)
         camera_from_world[:3, :] = image.cam_from_world().matrix()
         index_of[image.image_id] = len(views)
-        views.append(
-            View(
-                name=image.name,
-                image_path=undistorted / "images" / image.name,
-                camera=Camera.from_matrix(
-                    camera.calibration_matrix(), width=int(camera.width), height=int(camera.height)
-                ),
-                camera_from_world=camera_from_world,
-            )
-        )
+        path, camera = written[image.name]
+        views.append(View(name=image.name, image_path=path, camera=camera, camera_from_world=camera_from_world))
     points, point_views = [], []
-    for point in reconstruction.points3D.values():
+    for point in best.points3D.values():
         points.append(point.xyz)
         point_views.append(np.unique([index_of[e.image_id] for e in point.track.elements]))
     if not points:
-        raise RegistrationError(f"{photos_dir}: the reconstruction has no 3D points")
+        raise RegistrationError(f"{image_dir}: the reconstruction has no 3D points")
     registered = {v.name for v in views}
     return SparseModel(
         views=views,
