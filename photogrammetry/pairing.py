@@ -5,7 +5,7 @@ two cores affordable up to a few hundred photos at 4,096 features. Beyond that, 
 is matched with the photos most like it by image retrieval, with a vocabulary tree built from
 the photos' own features (none can be downloaded here). When mapping leaves the photos in
 several groups, `bridge_groups` matches every pair across the groups that was not tried yet,
-and `cross_group_inliers` says whether the groups share geometry at all (one scene) or not.
+and `shared_inliers` says whether two groups share geometry at all (one scene) or not.
 """
 
 from __future__ import annotations
@@ -92,20 +92,21 @@ def bridge_groups(database: Path, groups: list[list[str]], work_dir: Path, *, nu
     return len(pairs)
 
 
-def cross_group_inliers(database: Path, groups: list[list[str]]) -> int:
-    """The most geometrically verified matches any photo of one group shares with a photo of
-    another: near zero when the groups show unrelated scenes."""
+def shared_inliers(database: Path, names_a: list[str], names_b: list[str]) -> int:
+    """The most geometrically verified matches a photo of `names_a` shares with one of
+    `names_b`: near zero when the two groups show unrelated scenes."""
     import pycolmap
 
     db = pycolmap.Database.open(database)
     try:
-        group_of = {im.image_id: i for i, names in enumerate(groups) for im in map(db.read_image_with_name, names)}
+        side = {db.read_image_with_name(n).image_id: 0 for n in names_a}
+        side |= {db.read_image_with_name(n).image_id: 1 for n in names_b}
         pair_ids, counts = db.read_two_view_geometry_num_inliers()
     finally:
         db.close()
     best = 0
     for pair_id, count in zip(pair_ids, counts):
         a, b = pycolmap.pair_id_to_image_pair(int(pair_id))
-        if a in group_of and b in group_of and group_of[a] != group_of[b]:
+        if a in side and b in side and side[a] != side[b]:
             best = max(best, int(count))
     return best

@@ -20,6 +20,7 @@ _EXIF_IFD = 0x8769
 _MAKE, _MODEL, _ORIENTATION = 0x010F, 0x0110, 0x0112
 _FOCAL_35MM = 0xA405
 _FOCAL_MM, _PLANE_X_RES, _PLANE_RES_UNIT = 0x920A, 0xA20E, 0xA210
+_PIXEL_X, _PIXEL_Y = 0xA002, 0xA003  # the size the camera wrote
 _MM_PER_RES_UNIT = {2: 25.4, 3: 10.0, 4: 1.0}  # inch, cm, mm
 FULL_FRAME_WIDTH_MM = 36.0
 
@@ -50,8 +51,9 @@ def _focal_px(exif, longest_px: int) -> float | None:
         return float(f35) / FULL_FRAME_WIDTH_MM * longest_px
     focal_mm, x_res, unit = details.get(_FOCAL_MM), details.get(_PLANE_X_RES), details.get(_PLANE_RES_UNIT, 2)
     if focal_mm and x_res and unit in _MM_PER_RES_UNIT:
-        # The resolution is given for the sensor's full readout: only right when not resized.
-        return float(focal_mm) * float(x_res) / _MM_PER_RES_UNIT[unit]
+        focal = float(focal_mm) * float(x_res) / _MM_PER_RES_UNIT[unit]  # at the size the camera wrote
+        written = max(int(details.get(_PIXEL_X, 0) or 0), int(details.get(_PIXEL_Y, 0) or 0))
+        return focal * longest_px / written if written else focal  # a resized photo: its focal resized too
     return None
 
 

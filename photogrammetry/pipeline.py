@@ -31,6 +31,7 @@ from photogrammetry.cleaning import (
     mesh_object,
     segment_object,
 )
+from photogrammetry.convergence import in_frame_share
 from photogrammetry.markers import DICTIONARIES, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
@@ -134,7 +135,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     if len(points) < 1000:
         raise ModelError(f"{photos_dir}: dense matching found only {len(points)} points: too little texture or overlap")
 
-    clock.start("markers")
+    clock.start("fusion")
     centres = np.array([v.centre_world for v in sparse.views])
     focus = focus_point(centres, np.array([v.optical_axis_world for v in sparse.views]))
     scene_scale = float(np.median(np.linalg.norm(centres - focus, axis=1)))
@@ -142,8 +143,11 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     points, colours, to_camera = downsample(points, colours, to_camera, voxel)
     # The object lies where the cameras look, well inside the ring of cameras: far-off walls
     # and furniture are cut away before any plane or piece is looked for.
-    near_focus = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
-    points, colours, to_camera = points[near_focus], colours[near_focus], to_camera[near_focus]
+    keep = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
+    if options.marker_size_m is None:
+        # Nothing printed marks the object out: it is what (nearly) every photo keeps in frame.
+        keep &= in_frame_share(points, sparse.views) >= options.cleaning.min_in_frame_share
+    points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
     camera_up = -np.mean([v.camera_from_world[1, :3] for v in sparse.views], axis=0)
     plane = find_support_plane(
         points,
@@ -152,6 +156,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         seed=options.sfm.random_state,
         threshold=options.cleaning.plane_clearance_fraction * scene_scale / 2,
     )
+    if options.marker_size_m is not None:
+        clock.start("markers")
     markers = _markers(sparse, options, clock) if options.marker_size_m is not None else []
     if options.marker_size_m is not None and not markers:
         raise ModelError(
@@ -164,6 +170,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         marker_size_m=options.marker_size_m,
         object_centre_sfm=focus,
         x_hint_sfm=sparse.views[0].camera_from_world[0, :3],
+        up_hint_sfm=camera_up,
     )
 
     clock.start("cleaning")
@@ -236,7 +243,7 @@ def reconstruct(
     (model.urdf, model.glb, meshes/, cameras.json, summary.json; cameras.png on request),
     registered into `options.map_entry` when given. Refuses a non-empty `out_dir` unless
     `force`; the folder appears whole or not at all. Progress stages: features, matching,
-    mapping, undistortion, dense, markers, cleaning, meshing, texturing, export."""
+    mapping, undistortion, dense, fusion, markers (with markers), cleaning, meshing, texturing, export."""
     options = options or ReconstructOptions()
     options.check()
     if options.map_entry is not None:

@@ -1,0 +1,161 @@
+"""photogrammetry registration: real photo sets in any order register whole with the default
+command; photo metadata (EXIF turn, focal length, camera) is honoured; undistortion matches
+COLMAP's; the convergence region; camera poses against reference cameras."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import trimesh
+from typer.testing import CliRunner
+
+from homemodel.cli import app
+from photogrammetry.convergence import in_frame_share
+from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, upright_photo_folder
+from photogrammetry.pose_agreement import pose_agreement, similarity_from_points
+from photogrammetry.sfm import SfmOptions, View, run_sfm
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
+KERMIT = DATA / "kermit"
+BUDDHA = DATA / "buddha"
+RINGS_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "photogrammetry_rings"
+
+runner = CliRunner()
+
+
+def _reconstruct(*args: str):
+    return runner.invoke(app, ["photogrammetry", "reconstruct", *args], catch_exceptions=False)
+
+
+def _cameras(model: Path) -> dict[str, np.ndarray]:
+    return {c["name"]: np.array(c["camera_from_model"]) for c in json.loads((model / "cameras.json").read_text())}
+
+
+# ---------------------------------------------------------------- small pieces, no SfM
+
+
+def test_similarity_from_points_recovers_a_known_similarity() -> None:
+    rng = np.random.default_rng(1)
+    source = rng.normal(size=(20, 3))
+    rotation = trimesh.transformations.random_rotation_matrix(rng.random(3))[:3, :3]
+    target = 2.5 * source @ rotation.T + [1.0, -2.0, 0.5]
+    scale, found, translation = similarity_from_points(source, target)
+    assert scale == pytest.approx(2.5) and np.allclose(found, rotation) and np.allclose(translation, [1, -2, 0.5])
+
+
+def test_pose_agreement_is_zero_for_a_similar_copy_and_sees_a_moved_camera() -> None:
+    rng = np.random.default_rng(2)
+    reference = {}
+    for i in range(8):
+        pose = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        pose[:3, 3] = rng.normal(size=3)
+        reference[f"{i}.jpg"] = pose
+    world_from_other = trimesh.transformations.random_rotation_matrix(rng.random(3))
+    world_from_other[:3, 3] = [3.0, 1.0, -1.0]
+    scaled = {}
+    for name, pose in reference.items():  # the same cameras in another frame, three times larger
+        other = pose @ world_from_other
+        other[:3, 3] *= 3.0
+        scaled[name] = other
+    agreement = pose_agreement(scaled, reference)
+    assert agreement.views == 8 and agreement.max_centre_error < 1e-9 and agreement.max_rotation_error_deg < 1e-6
+    scaled["0.jpg"] = trimesh.transformations.rotation_matrix(0.1, [0, 0, 1]) @ scaled["0.jpg"]  # turned in place
+    assert pose_agreement(scaled, reference).max_rotation_error_deg == pytest.approx(np.degrees(0.1), abs=1e-6)
+
+
+def _jpeg_with_exif(path: Path, image: np.ndarray, **tags: int) -> None:
+    from PIL import Image
+
+    exif = Image.Exif()
+    exif[0x010F], exif[0x0110] = "Maker", tags.pop("model", "A")
+    if "orientation" in tags:
+        exif[0x0112] = tags["orientation"]
+    if "focal_35mm" in tags:
+        exif.get_ifd(0x8769)[0xA405] = tags["focal_35mm"]
+    Image.fromarray(image[..., ::-1]).save(path, exif=exif, quality=95)
+
+
+def test_exif_turn_focal_and_camera_are_read_and_turned_photos_written_upright(tmp_path: Path) -> None:
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    image = np.zeros((40, 120, 3), np.uint8)
+    image[:, :20] = 255  # a white band on the left of the stored pixels
+    _jpeg_with_exif(photos / "a.jpg", image, orientation=6, focal_35mm=28)  # "turn 90 degrees clockwise"
+    _jpeg_with_exif(photos / "b.jpg", image, focal_35mm=28)
+    _jpeg_with_exif(photos / "c.jpg", image, model="B")
+    cameras = {p.name: read_photo_camera(p) for p in sorted(photos.iterdir())}
+    assert (cameras["a.jpg"].width, cameras["a.jpg"].height, cameras["a.jpg"].turned) == (40, 120, True)
+    assert cameras["a.jpg"].focal_px == pytest.approx(28 / 36 * 120)
+    assert cameras["c.jpg"].focal_px is None and not cameras["b.jpg"].turned
+    assert group_by_camera(cameras) == [["a.jpg"], ["b.jpg"], ["c.jpg"]]  # turned, upright, another camera
+    folder = upright_photo_folder(sorted(photos.iterdir()), cameras, tmp_path / "work")
+    upright = cv2.imread(str(folder / "a.jpg"), cv2.IMREAD_IGNORE_ORIENTATION | cv2.IMREAD_COLOR)
+    assert upright.shape[:2] == (120, 40)
+    assert upright[:20].mean() > 200 and upright[30:].mean() < 40  # the band is now on top
+    assert (folder / "b.jpg").resolve() == (photos / "b.jpg").resolve()
+
+
+def test_undistortion_matches_colmaps_own() -> None:
+    import pycolmap
+
+    from photogrammetry.undistortion import _lookup, pinhole_camera
+
+    camera = pycolmap.Camera.create_from_model_name(1, "SIMPLE_RADIAL", 500.0, 320, 240)
+    camera.params = [500.0, 161.0, 119.0, -0.08]
+    rng = np.random.default_rng(3)
+    photo = cv2.GaussianBlur(rng.integers(0, 256, (240, 320), dtype=np.uint8), (0, 0), 2)
+    theirs, their_camera = pycolmap.undistort_image(
+        pycolmap.UndistortCameraOptions(), pycolmap.Bitmap.from_array(photo), camera
+    )
+    pinhole = pinhole_camera(camera)
+    assert (pinhole.width, pinhole.height) == (their_camera.width, their_camera.height)
+    map_x, map_y = _lookup(camera, pinhole)
+    ours = cv2.remap(photo, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT).astype(float)
+    theirs = np.asarray(theirs.to_array(), float).reshape(ours.shape)
+    inner = (slice(8, -8), slice(8, -8))
+    assert np.abs(ours[inner] - theirs[inner]).mean() < 1.0  # grey levels: the same picture, not shifted
+
+
+def test_in_frame_share_is_one_where_every_camera_looks_and_falls_off_beside() -> None:
+    from homemodel.core.transforms import world_from_camera_looking_at
+    from homemodel.geometry.camera import Camera
+
+    camera = Camera(fx=300.0, fy=300.0, cx=160.0, cy=120.0, width=320, height=240)
+    views = []
+    for azimuth in np.linspace(0, 2 * np.pi, 12, endpoint=False):
+        centre = [np.cos(azimuth), np.sin(azimuth), 0.5]
+        camera_from_world = np.linalg.inv(world_from_camera_looking_at(np.array(centre), np.zeros(3)))
+        views.append(View(name=f"{azimuth}", image_path=Path("x"), camera=camera, camera_from_world=camera_from_world))
+    share = in_frame_share(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.1], [0.8, 0.0, 0.0], [0.0, 0.0, 5.0]]), views)
+    assert share[0] == 1.0 and share[1] == 1.0
+    assert share[2] < 0.6 and share[3] == 0.0  # beside the object, and above every camera's frame
+
+
+# ---------------------------------------------------------------- real photos, default command
+
+
+def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: Path) -> None:
+    """Three Kermit photos stored lying on their side with an EXIF turn (as phones store
+    portrait photos) register with the rest, and matching by image retrieval with a
+    vocabulary tree built from the photos themselves, with few neighbours, registers all."""
+    photos = tmp_path / "photos"
+    shutil.copytree(KERMIT, photos)
+    from PIL import Image
+
+    for name in ("kermit002.jpg", "kermit005.jpg", "kermit008.jpg"):
+        with Image.open(KERMIT / name) as original:
+            exif = original.getexif()  # the camera's own tags: the same camera as the others
+            stored = original.transpose(Image.Transpose.ROTATE_90)  # lying on its side ...
+        exif[0x0112] = 6  # ... with "turn 90 degrees clockwise" to view it
+        stored.save(photos / name, exif=exif, quality=95)
+    from photogrammetry.photos import list_photos
+
+    model = run_sfm(list_photos(photos), tmp_path / "work", SfmOptions(matching="retrieval", retrieval_neighbours=4))
+    assert len(model.views) == 11 and model.unregistered == []
+    assert model.matching.startswith("retrieval") and model.cameras == 1  # turned photos share the camera
+    assert all((v.camera.width, v.camera.height) == (640, 480) for v in model.views)
