@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 from homemodel.cli import app
 from photogrammetry.convergence import in_frame_share
 from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, upright_photo_folder
-from photogrammetry.pose_agreement import pose_agreement, similarity_from_points
+from photogrammetry.pose_agreement import load_reference_cameras, pose_agreement, similarity_from_points
 from photogrammetry.sfm import SfmOptions, View, run_sfm
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
@@ -159,3 +159,70 @@ def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: 
     assert len(model.views) == 11 and model.unregistered == []
     assert model.matching.startswith("retrieval") and model.cameras == 1  # turned photos share the camera
     assert all((v.camera.width, v.camera.height) == (640, 480) for v in model.views)
+
+
+def _assert_object_without_background(model: Path, max_size_share: float) -> dict:
+    """The mesh is the object the cameras circle, not the room: its bounding box is small
+    beside the cameras' distance to it, and the texture is a photo's, not a flat colour."""
+    summary = json.loads((model / "summary.json").read_text())
+    mesh = trimesh.load(model / "meshes" / "body_body.obj", force="mesh")
+    centres = np.array([-p[:3, :3].T @ p[:3, 3] for p in _cameras(model).values()])
+    distance = float(np.median(np.linalg.norm(centres - mesh.bounding_box.centroid, axis=1)))
+    assert np.linalg.norm(mesh.extents) < max_size_share * distance, (mesh.extents, distance)
+    texture = cv2.imread(str(model / "meshes" / "object_material_texture.png"))
+    assert texture.std() > 20 and summary["texture_covered_share"] > 0.3
+    return summary
+
+
+@pytest.fixture(scope="module")
+def buddha_subset(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("buddha13") / "model"
+    result = _reconstruct(str(BUDDHA / "color_subset_13"), "--out", str(out))
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_subset: Path) -> None:
+    """13 real colour photos of the Buddha set, default command: every photo registers, and
+    the cameras agree with the source's reference cameras up to a similarity."""
+    summary = json.loads((buddha_subset / "summary.json").read_text())
+    assert summary["registered"] == summary["photos"] == 13 and summary["unregistered"] == []
+    agreement = pose_agreement(_cameras(buddha_subset), load_reference_cameras(BUDDHA / "reference_cameras_P.json"))
+    assert agreement.views == 13
+    assert agreement.max_centre_error < 0.02 and agreement.max_rotation_error_deg < 1.0, agreement
+
+
+def test_buddha_subset_mesh_is_the_head_without_the_room(buddha_subset: Path) -> None:
+    summary = _assert_object_without_background(buddha_subset, max_size_share=0.9)
+    assert summary["scaled"] is False and summary["faces"] > 5000
+
+
+@pytest.mark.slow
+def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_path: Path) -> None:
+    out = tmp_path / "model"
+    result = _reconstruct(str(BUDDHA / "images"), "--out", str(out))
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["registered"] == summary["photos"] == 67 and summary["unregistered"] == []
+    agreement = pose_agreement(_cameras(out), load_reference_cameras(BUDDHA / "reference_cameras_P.json"))
+    assert agreement.views == 67
+    assert agreement.median_centre_error < 0.01 and agreement.max_centre_error < 0.03, agreement
+    assert agreement.max_rotation_error_deg < 1.0, agreement
+    _assert_object_without_background(out, max_size_share=0.9)
+
+
+@pytest.mark.bpy
+@pytest.mark.slow
+def test_shuffled_three_ring_rendered_set_registers_whole_with_defaults(tmp_path: Path) -> None:
+    """36 rendered photos on three rings, their file names shuffled: every photo registers with
+    the default options, at the true camera poses up to a similarity."""
+    from photogrammetry.photos import list_photos
+    from photogrammetry.synthetic_scene import SceneOptions, render_scene
+
+    scene = render_scene(
+        RINGS_CACHE, SceneOptions(n_views=36, rings=3, shuffled=True, width_px=640, height_px=480, samples=4)
+    )
+    model = run_sfm(list_photos(scene.image_paths[0].parent), tmp_path / "work")
+    assert len(model.views) == 36 and model.unregistered == []
+    agreement = pose_agreement({v.name: v.camera_from_world for v in model.views}, scene.camera_from_world)
+    assert agreement.max_centre_error < 0.01 and agreement.max_rotation_error_deg < 0.5, agreement
