@@ -35,7 +35,7 @@ from photogrammetry.convergence import in_frame_share
 from photogrammetry.markers import DICTIONARIES, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
-from photogrammetry.sfm import SfmOptions, SparseModel, View, run_sfm
+from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_to_points
 from photogrammetry.support_plane import find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
@@ -125,7 +125,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
                        progress: Progress | None = None, *, work_dir: Path) -> Reconstruction:  # fmt: skip
     """Run every stage on the photos in `photos_dir`, with intermediate files in `work_dir`."""
     options = options or ReconstructOptions()
-    photos = list_photos(Path(photos_dir))
+    with quiet_c_libraries(options.sfm.verbose):  # libpng's warnings on odd PNG headers
+        photos = list_photos(Path(photos_dir))
     sparse = run_sfm(photos, work_dir, options.sfm, progress=progress)
     clock = StageClock(progress)
     clock.start("dense")

@@ -108,7 +108,7 @@ class SparseModel:
 
 
 @contextmanager
-def quiet_colmap(verbose: bool) -> Iterator[None]:
+def quiet_c_libraries(verbose: bool) -> Iterator[None]:
     """COLMAP's glog lines and what C libraries (libpng, libjpeg) print go to the debug log,
     not the terminal, unless `verbose`."""
     import pycolmap
@@ -119,7 +119,7 @@ def quiet_colmap(verbose: bool) -> Iterator[None]:
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = 2  # errors only
     try:
-        with captured_c_output() as lines:
+        with captured_c_output(fds=(2,)) as lines:  # glog and libpng write to stderr; progress bars to stdout
             yield
     finally:
         pycolmap.logging.minloglevel = level
@@ -265,7 +265,7 @@ def run_sfm(
     clock = StageClock(progress)
     pycolmap.set_random_seed(options.random_state)
 
-    with quiet_colmap(options.verbose):
+    with quiet_c_libraries(options.verbose):
         clock.start("features")
         cameras = {p.name: read_photo_camera(p) for p in photos}
         image_dir = upright_photo_folder(photos, cameras, work_dir)
