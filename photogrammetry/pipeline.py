@@ -147,7 +147,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     keep = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
     if options.marker_size_m is None:
         # Nothing printed marks the object out: it is what (nearly) every photo keeps in frame.
-        keep &= in_frame_share(points, sparse.views) >= options.cleaning.min_in_frame_share
+        share = in_frame_share(points, sparse.views, margin=options.cleaning.in_frame_margin)
+        keep &= share >= options.cleaning.min_in_frame_share
     points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
     camera_up = -np.mean([v.camera_from_world[1, :3] for v in sparse.views], axis=0)
     plane = find_support_plane(
