@@ -173,7 +173,8 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
     if args.reference:
         from photogrammetry.pose_agreement import load_reference_cameras, pose_agreement
 
-        agreement = pose_agreement({v.name: v.camera_from_world for v in result.views}, load_reference_cameras(args.reference))
+        poses = {v.name: v.camera_from_world for v in result.views}
+        agreement = pose_agreement(poses, load_reference_cameras(args.reference))
         figures["pose_agreement"] = vars(agreement)
         console.print(f"poses against the reference cameras, up to a similarity: {agreement}")
     out = ROOT / "build" / "bench_photogrammetry.json"

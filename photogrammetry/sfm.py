@@ -192,7 +192,7 @@ def _groups(names: list[str], reconstructions: dict) -> list[list[str]]:
     return models + [[n] for n in names if n not in placed]
 
 
-def _map(database: Path, image_dir: Path, names: list[str], work_dir: Path, options: SfmOptions):
+def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], work_dir: Path, options: SfmOptions):
     """The largest model the photos make, after a second pass when some were left out:
     pairs across the groups are matched, and mapping continues from the largest model with
     relaxed thresholds. Raises RegistrationError only when the photos really do not connect."""
@@ -200,7 +200,9 @@ def _map(database: Path, image_dir: Path, names: list[str], work_dir: Path, opti
 
     first = work_dir / "sparse_first"
     first.mkdir(exist_ok=True)
-    reconstructions = pycolmap.incremental_mapping(database, image_dir, first, options=_mapping_options(options, relaxed=False))
+    reconstructions = pycolmap.incremental_mapping(
+        database, image_dir, first, options=_mapping_options(options, relaxed=False)
+    )
     groups = _groups(names, reconstructions)
     note = ""
     if reconstructions and len(groups) > 1:
@@ -211,13 +213,14 @@ def _map(database: Path, image_dir: Path, names: list[str], work_dir: Path, opti
         largest.write(seed_dir)
         second = work_dir / "sparse_second"
         second.mkdir(exist_ok=True)
-        continued = pycolmap.incremental_mapping(database, image_dir, second, options=_mapping_options(options, relaxed=True),
-                                                 input_path=seed_dir)  # fmt: skip
+        continued = pycolmap.incremental_mapping(
+            database, image_dir, second, options=_mapping_options(options, relaxed=True), input_path=seed_dir
+        )
         if continued and max(r.num_reg_images() for r in continued.values()) > largest.num_reg_images():
             reconstructions = continued
         note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them, mapped again"
         log.info("SfM: %d groups after the first pass%s", len(groups), note)
-    return _check_registration(database, image_dir, names, reconstructions), note
+    return _check_registration(database, photos_dir, names, reconstructions), note
 
 
 def _check_registration(database: Path, photos_dir: Path, names: list[str], reconstructions: dict):
@@ -275,7 +278,7 @@ def run_sfm(
         method = _match(database, len(photos), work_dir, options)
 
         clock.start("mapping")
-        best, note = _map(database, image_dir, names, work_dir, options)
+        best, note = _map(database, image_dir, photos[0].parent, names, work_dir, options)
 
         clock.start("undistortion")
         model = _undistort(best, image_dir, work_dir, names, options)

@@ -42,7 +42,9 @@ def _lookup(camera, pinhole: Camera) -> tuple[np.ndarray, np.ndarray]:
     )
 
 
-def undistort_photos(reconstruction, image_dir: Path, out_dir: Path, *, num_threads: int) -> dict[str, tuple[Path, Camera]]:
+def undistort_photos(
+    reconstruction, image_dir: Path, out_dir: Path, *, num_threads: int
+) -> dict[str, tuple[Path, Camera]]:
     """Write every registered photo of `reconstruction` undistorted into `out_dir`; by image
     name, the written file and its pinhole camera."""
     import cv2
