@@ -165,8 +165,9 @@ def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: 
 
 
 def _assert_object_without_background(model: Path, max_size_share: float) -> dict:
-    """The mesh is the object the cameras circle, not the room: its bounding box is small
-    beside the cameras' distance to it, and the texture is a photo's, not a flat colour."""
+    """The mesh is the object the cameras circle, not the room: its bounding-box diagonal is
+    under `max_size_share` of the cameras' median distance to it (the room reaches past the
+    cameras), and the texture is a photo's, not a flat colour."""
     summary = json.loads((model / "summary.json").read_text())
     mesh = trimesh.load(model / "meshes" / "body_body.obj", force="mesh")
     centres = np.array([-p[:3, :3].T @ p[:3, 3] for p in _cameras(model).values()])
@@ -196,7 +197,7 @@ def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_sub
 
 
 def test_buddha_subset_mesh_is_the_head_without_the_room(buddha_subset: Path) -> None:
-    summary = _assert_object_without_background(buddha_subset, max_size_share=0.9)
+    summary = _assert_object_without_background(buddha_subset, max_size_share=1.3)
     assert summary["scaled"] is False and summary["faces"] > 5000
 
 
@@ -211,7 +212,7 @@ def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_
     assert agreement.views == 67
     assert agreement.median_centre_error < 0.01 and agreement.max_centre_error < 0.03, agreement
     assert agreement.max_rotation_error_deg < 1.0, agreement
-    _assert_object_without_background(out, max_size_share=0.9)
+    _assert_object_without_background(out, max_size_share=1.3)
 
 
 @pytest.mark.bpy
