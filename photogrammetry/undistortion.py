@@ -55,17 +55,21 @@ def undistort_photos(
         pinhole = pinhole_camera(camera)
         lookups[camera_id] = (pinhole, *_lookup(camera, pinhole))
 
-    def one(image) -> tuple[str, tuple[Path, Camera]]:
-        pinhole, map_x, map_y = lookups[image.camera_id]
-        photo = read_image(image_dir / image.name)
-        if photo.shape[:2] != (image.camera.height, image.camera.width):
-            raise ModelError(f"{image_dir / image.name}: its size changed during the reconstruction")
+    # Plain values for the worker threads: pycolmap's objects stay on this thread.
+    jobs = [(im.name, im.camera_id, (im.camera.height, im.camera.width)) for im in reconstruction.images.values()]
+
+    def one(job: tuple[str, int, tuple[int, int]]) -> tuple[str, tuple[Path, Camera]]:
+        name, camera_id, size = job
+        pinhole, map_x, map_y = lookups[camera_id]
+        photo = read_image(image_dir / name)
+        if photo.shape[:2] != size:
+            raise ModelError(f"{image_dir / name}: its size changed during the reconstruction")
         warped = cv2.remap(photo, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-        path = out_dir / (Path(image.name).stem + ".png")
+        path = out_dir / (Path(name).stem + ".png")
         if not cv2.imwrite(str(path), warped, [cv2.IMWRITE_PNG_COMPRESSION, PNG_FAST]):
             raise ModelError(f"{path}: cannot write the undistorted photo")
-        return image.name, (path, pinhole)
+        return name, (path, pinhole)
 
     workers = num_threads if num_threads > 0 else len(os.sched_getaffinity(0))
     with ThreadPoolExecutor(max_workers=workers) as pool:  # OpenCV's decode, remap and encode release the GIL
-        return dict(pool.map(one, reconstruction.images.values()))
+        return dict(pool.map(one, jobs))
