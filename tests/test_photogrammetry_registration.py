@@ -186,6 +186,7 @@ def buddha_subset(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.timeout(1800)  # the fixture's run: features twice (the upsampled retry), dense, texture
 def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_subset: Path) -> None:
     """13 real colour photos of the Buddha set, default command: every photo registers, and
     the cameras agree with the source's reference cameras up to a similarity."""
@@ -202,6 +203,7 @@ def test_buddha_subset_mesh_is_the_head_without_the_room(buddha_subset: Path) ->
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(3600)  # about 10 minutes on two idle cores; much more when they are shared
 def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_path: Path) -> None:
     out = tmp_path / "model"
     result = _reconstruct(str(BUDDHA / "images"), "--out", str(out))
@@ -217,6 +219,7 @@ def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_
 
 @pytest.mark.bpy
 @pytest.mark.slow
+@pytest.mark.timeout(2400)  # rendering 36 views with Cycles the first time, then SfM
 def test_shuffled_three_ring_rendered_set_registers_whole_with_defaults(tmp_path: Path) -> None:
     """36 rendered photos on three rings, their file names shuffled: every photo registers with
     the default options, at the true camera poses up to a similarity."""
