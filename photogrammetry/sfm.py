@@ -41,10 +41,6 @@ class RegistrationError(ModelError):
     """The photos do not make one reconstruction (too few register, or unrelated scenes)."""
 
 
-class UnrelatedScenesError(RegistrationError):
-    """Groups of photos that share no geometry: trying harder would not join them."""
-
-
 @dataclass(kw_only=True)
 class SfmOptions:
     """Options of the structure-from-motion stage."""
@@ -54,8 +50,7 @@ class SfmOptions:
     # None: SIFT's upsampled first octave (-1) on photos under UPSAMPLE_BELOW_PX, where small
     # features need it; above, the photo as it is (0: a quarter of the pixels) with a lower
     # contrast threshold than COLMAP's 0.0067, which on the 1600 px Buddha photos finds ~2,800
-    # features instead of ~1,500 (the upsampled octave finds ~4,100 at four times the cost),
-    # and the upsampled octave only when photos are left out.
+    # features instead of ~1,500 (the upsampled octave finds ~4,100 at four times the cost).
     first_octave: int | None = None
     peak_threshold: float = 0.003
     # "auto": exhaustive up to `exhaustive_max_images` photos (any order, any number of rings),
@@ -132,16 +127,7 @@ def quiet_c_libraries(verbose: bool) -> Iterator[None]:
         log.debug("colmap: %s", line)
 
 
-def _first_octave(cameras: dict[str, PhotoCamera], options: SfmOptions) -> int:
-    if options.first_octave is not None:
-        return options.first_octave
-    longest_px = min(max(max(c.width, c.height) for c in cameras.values()), options.max_image_size_px)
-    return -1 if longest_px < UPSAMPLE_BELOW_PX else 0
-
-
-def _extract_features(
-    database: Path, image_dir: Path, cameras: dict[str, PhotoCamera], options: SfmOptions, octave: int
-) -> int:
+def _extract_features(database: Path, image_dir: Path, cameras: dict[str, PhotoCamera], options: SfmOptions) -> int:
     """SIFT features of every photo, one camera model per camera (EXIF focal length as its prior)."""
     import pycolmap
 
@@ -149,6 +135,10 @@ def _extract_features(
         max_image_size=options.max_image_size_px, num_threads=options.num_threads
     )
     extraction.sift.max_num_features = options.max_num_features
+    longest_px = min(max(max(c.width, c.height) for c in cameras.values()), options.max_image_size_px)
+    octave = options.first_octave
+    if octave is None:
+        octave = -1 if longest_px < UPSAMPLE_BELOW_PX else 0
     extraction.sift.first_octave = octave
     extraction.sift.peak_threshold = options.peak_threshold
     groups = group_by_camera(cameras)
@@ -229,7 +219,7 @@ def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], wo
         if continued and max(r.num_reg_images() for r in continued.values()) > largest.num_reg_images():
             reconstructions = continued
         note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them, mapped again"
-        log.info("SfM%s", note)
+        log.info("SfM: %d groups after the first pass%s", len(groups), note)
     return _check_registration(database, photos_dir, names, reconstructions), note
 
 
@@ -249,7 +239,7 @@ def _check_registration(database: Path, photos_dir: Path, names: list[str], reco
     unrelated = [g for g in others if pairing.shared_inliers(database, groups[0], g) < MIN_BRIDGE_INLIERS]
     if unrelated:
         listing = "; ".join(f"{len(g)} photos ({g[0]} ...)" for g in [groups[0], *unrelated][:4])
-        raise UnrelatedScenesError(
+        raise RegistrationError(
             f"{photos_dir}: the photos show unrelated scenes: they form {1 + len(unrelated)} groups that share no "
             f"geometry: {listing}"
         )
@@ -274,57 +264,31 @@ def run_sfm(
     options = options or SfmOptions()
     names = [p.name for p in photos]
     work_dir.mkdir(parents=True, exist_ok=True)
+    database = work_dir / "database.db"
     clock = StageClock(progress)
     pycolmap.set_random_seed(options.random_state)
 
     with quiet_c_libraries(options.verbose):
+        clock.start("features")
         cameras = {p.name: read_photo_camera(p) for p in photos}
         image_dir = upright_photo_folder(photos, cameras, work_dir)
-        octave = _first_octave(cameras, options)
-        try:
-            attempt = _register(photos, image_dir, cameras, work_dir, options, octave, clock)
-        except UnrelatedScenesError:
-            raise
-        except RegistrationError as error:
-            attempt, failure = None, error
-        left_out = attempt is None or attempt[0].num_reg_images() < len(names)
-        if left_out and octave == 0 and options.first_octave is None:
-            # Photos left out: try harder, with SIFT's upsampled octave (four times the pixels,
-            # half as many features again), and keep whichever registers more.
-            log.info("SfM: photos left out; again with SIFT's upsampled first octave")
-            try:
-                retry = _register(photos, image_dir, cameras, work_dir / "upsampled", options, -1, clock)
-                if attempt is None or retry[0].num_reg_images() > attempt[0].num_reg_images():
-                    attempt = (retry[0], retry[1] + "; features again with the upsampled octave", retry[2])
-            except RegistrationError as error:
-                failure = error if attempt is None else None
-        if attempt is None:
-            raise failure
-        best, method, n_cameras = attempt
+        n_cameras = _extract_features(database, image_dir, cameras, options)
+
+        clock.start("matching")
+        method = _match(database, len(photos), work_dir, options)
+
+        clock.start("mapping")
+        best, note = _map(database, image_dir, photos[0].parent, names, work_dir, options)
+
         clock.start("undistortion")
         model = _undistort(best, image_dir, work_dir, names, options)
     clock.stop()
     model.mean_reprojection_error_px = float(best.compute_mean_reprojection_error())
     model.times_s = clock.times_s
-    model.matching = method
+    model.matching = method + note
     model.cameras = n_cameras
     log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), model.matching)
     return model
-
-
-def _register(photos: list[Path], image_dir: Path, cameras: dict[str, PhotoCamera], work_dir: Path,
-              options: SfmOptions, octave: int, clock: StageClock):  # fmt: skip
-    """Features, matching and mapping in a database of their own in `work_dir`: the largest
-    model, how pairs were matched, and the number of camera models."""
-    work_dir.mkdir(parents=True, exist_ok=True)
-    database = work_dir / "database.db"
-    clock.start("features")
-    n_cameras = _extract_features(database, image_dir, cameras, options, octave)
-    clock.start("matching")
-    method = _match(database, len(photos), work_dir, options)
-    clock.start("mapping")
-    best, note = _map(database, image_dir, photos[0].parent, [p.name for p in photos], work_dir, options)
-    return best, method + note, n_cameras
 
 
 def _undistort(best, image_dir: Path, work_dir: Path, names: list[str], options: SfmOptions) -> SparseModel:
