@@ -219,7 +219,7 @@ def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], wo
         if continued and max(r.num_reg_images() for r in continued.values()) > largest.num_reg_images():
             reconstructions = continued
         note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them, mapped again"
-        log.info("SfM: %d groups after the first pass%s", len(groups), note)
+        log.info("SfM%s", note)
     return _check_registration(database, photos_dir, names, reconstructions), note
 
 
