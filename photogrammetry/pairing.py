@@ -1,7 +1,7 @@
 """Which photos are matched with which: the least matching that still registers every photo.
 
 Exhaustive matching tries every pair: sure, whatever order the photos were taken in, and on
-two cores affordable up to a few hundred photos at 4,096 features. Beyond that, each photo
+two cores affordable up to about a hundred photos (its cost grows with their square). Beyond that, each photo
 is matched with the photos most like it by image retrieval, with a vocabulary tree built from
 the photos' own features (none can be downloaded here). When mapping leaves the photos in
 several groups, `bridge_groups` matches every pair across the groups that was not tried yet,

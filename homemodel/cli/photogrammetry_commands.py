@@ -68,7 +68,7 @@ def reconstruct(
     matching: MatchingChoice = typer.Option(
         MatchingChoice.auto,
         "--matching",
-        help="auto: every pair up to 250 photos (any order), image retrieval (a vocabulary tree of the photos) beyond",
+        help="auto: every pair up to 120 photos (any order), image retrieval (a vocabulary tree of the photos) beyond",
     ),
     max_features: int = typer.Option(4096, "--max-features", help="SIFT features per photo"),
     sfm_image_px: int = typer.Option(1600, "--sfm-image-px", help="longer side photos are shrunk to for SfM"),
