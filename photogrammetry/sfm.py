@@ -56,8 +56,8 @@ class SfmOptions:
     # "auto": exhaustive up to `exhaustive_max_images` photos (any order, any number of rings),
     # image retrieval with a vocabulary tree learnt from the photos beyond.
     matching: Literal["auto", "exhaustive", "retrieval"] = "auto"
-    # Every pair costs ~0.1 s at ~2,800 features on two cores (0.34 s under a load of 15:
-    # Buddha's 67 photos took 13 minutes): 120 photos are 7,140 pairs, retrieval 40 a photo.
+    # A pair cost 0.34 s at ~2,800 features on two cores under a load of 15 (Buddha's 67 photos:
+    # 13 minutes), 0.06 s at ~1,500 features under a load of 5: 120 photos are 7,140 pairs.
     exhaustive_max_images: int = 120
     retrieval_neighbours: int = 40
     num_threads: int = -1
