@@ -23,6 +23,10 @@ class CleaningOptions:
     """Lengths are fractions of the scene scale (the median camera distance to the focus point)."""
 
     roi_fraction: float = 0.6  # only points this near the focus point (where the cameras look) count
+    # Without markers, only points that this share of the views have in the middle of their
+    # frame (less `in_frame_margin` of its size at each border) count (convergence.py).
+    min_in_frame_share: float = 0.8
+    in_frame_margin: float = 0.1
     voxel_fraction: float = 0.002  # points are averaged into voxels of this size
     plane_clearance_fraction: float = 0.006  # points lower than this above the plane are the plane
     cluster_gap_fraction: float = 0.012  # points further apart than this are separate pieces
@@ -33,6 +37,8 @@ class CleaningOptions:
         for name in ("roi_fraction", "voxel_fraction", "plane_clearance_fraction", "cluster_gap_fraction"):
             require_positive(name, getattr(self, name))
         require_between("min_piece_share", self.min_piece_share, 0.0, 1.0)
+        require_between("min_in_frame_share", self.min_in_frame_share, 0.0, 1.0)
+        require_between("in_frame_margin", self.in_frame_margin, 0.0, 0.45)
         require_positive("poisson_cell_voxels", self.poisson_cell_voxels)
 
 

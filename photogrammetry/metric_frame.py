@@ -71,6 +71,7 @@ def metric_frame(
     marker_size_m: float | None,
     object_centre_sfm: np.ndarray,
     x_hint_sfm: np.ndarray,
+    up_hint_sfm: np.ndarray | None = None,
 ) -> ModelFrame:
     """The frame of the model from what was found: markers (scale, origin, x) and the plane (z)."""
     if markers and marker_size_m is not None:
@@ -98,7 +99,8 @@ def metric_frame(
             marker_edge_spread=spread,
         )
     if plane is None:
-        rows = _rotation_rows(np.array([0.0, 0.0, 1.0]), x_hint_sfm)
+        # Nothing to level by: z is the cameras' mean up (photos are taken upright), or SfM's z.
+        rows = _rotation_rows(np.array([0.0, 0.0, 1.0]) if up_hint_sfm is None else up_hint_sfm, x_hint_sfm)
         return ModelFrame(
             model_from_sfm=_similarity(1.0, rows, object_centre_sfm), scale=1.0, scaled=False, levelled=False
         )

@@ -9,7 +9,9 @@ registers it into a semantic map when asked.
 
 from __future__ import annotations
 
+import os
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,10 +31,11 @@ from photogrammetry.cleaning import (
     mesh_object,
     segment_object,
 )
+from photogrammetry.convergence import in_frame_share
 from photogrammetry.markers import DICTIONARIES, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
-from photogrammetry.sfm import SfmOptions, SparseModel, View, run_sfm
+from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_to_points
 from photogrammetry.support_plane import find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
@@ -101,14 +104,19 @@ def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOp
 
 
 def _markers(sparse: SparseModel, options: ReconstructOptions, clock: StageClock):
-    """Markers seen in the undistorted views, triangulated in the SfM frame."""
+    """Markers seen in the undistorted views, triangulated in the SfM frame; the views are
+    searched on all cores (OpenCV's decoding and detection release the GIL)."""
     import cv2
 
+    def detect(view: View):
+        return detect_markers(read_image(view.image_path, cv2.IMREAD_GRAYSCALE), view.name, options.dictionary)
+
     sightings = []
-    for index, view in enumerate(sparse.views):
-        gray = read_image(view.image_path, cv2.IMREAD_GRAYSCALE)
-        sightings += detect_markers(gray, view.name, options.dictionary)
-        clock.tick(index + 1, len(sparse.views))
+    threads = options.sfm.num_threads if options.sfm.num_threads > 0 else len(os.sched_getaffinity(0))
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for index, found in enumerate(pool.map(detect, sparse.views)):
+            sightings += found
+            clock.tick(index + 1, len(sparse.views))
     projections = {v.name: v.camera.matrix @ v.camera_from_world[:3, :] for v in sparse.views}
     return triangulate_markers(sightings, projections)
 
@@ -117,7 +125,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
                        progress: Progress | None = None, *, work_dir: Path) -> Reconstruction:  # fmt: skip
     """Run every stage on the photos in `photos_dir`, with intermediate files in `work_dir`."""
     options = options or ReconstructOptions()
-    photos = list_photos(Path(photos_dir))
+    with quiet_c_libraries(options.sfm.verbose):  # libpng's warnings on odd PNG headers
+        photos = list_photos(Path(photos_dir))
     sparse = run_sfm(photos, work_dir, options.sfm, progress=progress)
     clock = StageClock(progress)
     clock.start("dense")
@@ -127,7 +136,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     if len(points) < 1000:
         raise ModelError(f"{photos_dir}: dense matching found only {len(points)} points: too little texture or overlap")
 
-    clock.start("markers")
+    clock.start("fusion")
     centres = np.array([v.centre_world for v in sparse.views])
     focus = focus_point(centres, np.array([v.optical_axis_world for v in sparse.views]))
     scene_scale = float(np.median(np.linalg.norm(centres - focus, axis=1)))
@@ -135,8 +144,12 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     points, colours, to_camera = downsample(points, colours, to_camera, voxel)
     # The object lies where the cameras look, well inside the ring of cameras: far-off walls
     # and furniture are cut away before any plane or piece is looked for.
-    near_focus = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
-    points, colours, to_camera = points[near_focus], colours[near_focus], to_camera[near_focus]
+    keep = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
+    if options.marker_size_m is None:
+        # Nothing printed marks the object out: it is what (nearly) every photo keeps in frame.
+        share = in_frame_share(points, sparse.views, margin=options.cleaning.in_frame_margin)
+        keep &= share >= options.cleaning.min_in_frame_share
+    points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
     camera_up = -np.mean([v.camera_from_world[1, :3] for v in sparse.views], axis=0)
     plane = find_support_plane(
         points,
@@ -145,6 +158,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         seed=options.sfm.random_state,
         threshold=options.cleaning.plane_clearance_fraction * scene_scale / 2,
     )
+    if options.marker_size_m is not None:
+        clock.start("markers")
     markers = _markers(sparse, options, clock) if options.marker_size_m is not None else []
     if options.marker_size_m is not None and not markers:
         raise ModelError(
@@ -157,6 +172,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         marker_size_m=options.marker_size_m,
         object_centre_sfm=focus,
         x_hint_sfm=sparse.views[0].camera_from_world[0, :3],
+        up_hint_sfm=camera_up,
     )
 
     clock.start("cleaning")
@@ -189,6 +205,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "photos": len(photos),
         "registered": len(sparse.views),
         "unregistered": sparse.unregistered,
+        "matching": sparse.matching,
+        "cameras": sparse.cameras,
         "sparse_points": len(sparse.points_world),
         "reprojection_error_px": round(sparse.mean_reprojection_error_px, 4),
         "dense_method": dense_method,
@@ -227,7 +245,7 @@ def reconstruct(
     (model.urdf, model.glb, meshes/, cameras.json, summary.json; cameras.png on request),
     registered into `options.map_entry` when given. Refuses a non-empty `out_dir` unless
     `force`; the folder appears whole or not at all. Progress stages: features, matching,
-    mapping, undistortion, dense, markers, cleaning, meshing, texturing, export."""
+    mapping, undistortion, dense, fusion, markers (with markers), cleaning, meshing, texturing, export."""
     options = options or ReconstructOptions()
     options.check()
     if options.map_entry is not None:

@@ -7,22 +7,35 @@ The result is a set of pinhole views (undistorted photos with their cameras and
 from __future__ import annotations
 
 import logging
+import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
-from homemodel.core.checks import require_at_least, require_choice
+from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.core.checks import require_at_least, require_between, require_choice
 from homemodel.core.errors import ModelError
-from homemodel.core.images import read_image_size
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
+from photogrammetry import pairing
+from photogrammetry.photo_cameras import (
+    PhotoCamera,
+    group_by_camera,
+    read_photo_camera,
+    upright_photo_folder,
+)
+from photogrammetry.undistortion import undistort_photos
 
 log = logging.getLogger(__name__)
 
 MIN_REGISTERED_IMAGES = 3
 UPSAMPLE_BELOW_PX = 1200
+# Groups that share fewer verified matches than this show unrelated scenes.
+MIN_BRIDGE_INLIERS = 30
 
 
 class RegistrationError(ModelError):
@@ -35,20 +48,31 @@ class SfmOptions:
 
     max_image_size_px: int = 1600  # features are found on photos shrunk to this longer side
     max_num_features: int = 4096
-    # "auto": exhaustive up to `exhaustive_max_images` photos, sequential (by file name) beyond.
-    # A vocabulary tree would need a tree file that cannot be downloaded here.
-    matching: Literal["auto", "exhaustive", "sequential"] = "auto"
-    exhaustive_max_images: int = 60
-    sequential_overlap: int = 12
+    # None: SIFT's upsampled first octave (-1) on photos under UPSAMPLE_BELOW_PX, where small
+    # features need it; above, the photo as it is (0: a quarter of the pixels) with a lower
+    # contrast threshold than COLMAP's 0.0067, which on the 1600 px Buddha photos finds ~2,800
+    # features instead of ~1,500 (the upsampled octave finds ~4,100 at four times the cost).
+    first_octave: int | None = None
+    peak_threshold: float = 0.003
+    # "auto": exhaustive up to `exhaustive_max_images` photos (any order, any number of rings),
+    # image retrieval with a vocabulary tree learnt from the photos beyond.
+    matching: Literal["auto", "exhaustive", "retrieval"] = "auto"
+    # A pair cost 0.34 s at ~2,800 features on two cores under a load of 15 (Buddha's 67 photos:
+    # 13 minutes), 0.06 s at ~1,500 features under a load of 5: 120 photos are 7,140 pairs.
+    exhaustive_max_images: int = 120
+    retrieval_neighbours: int = 40
     num_threads: int = -1
     random_state: int = 0
+    verbose: bool = False  # let COLMAP log (glog) and C libraries print
 
     def check(self) -> None:
         require_at_least("max_image_size_px", self.max_image_size_px, 200)
         require_at_least("max_num_features", self.max_num_features, 256)
-        require_choice("matching", self.matching, ("auto", "exhaustive", "sequential"))
+        require_choice("first_octave", self.first_octave, (None, -1, 0))
+        require_between("peak_threshold", self.peak_threshold, 1e-4, 0.1)
+        require_choice("matching", self.matching, ("auto", "exhaustive", "retrieval"))
         require_at_least("exhaustive_max_images", self.exhaustive_max_images, 2)
-        require_at_least("sequential_overlap", self.sequential_overlap, 1)
+        require_at_least("retrieval_neighbours", self.retrieval_neighbours, 2)
         if self.num_threads != -1:
             require_at_least("num_threads", self.num_threads, 1)
 
@@ -82,53 +106,171 @@ class SparseModel:
     mean_reprojection_error_px: float
     unregistered: list[str]
     times_s: dict[str, float] = field(default_factory=dict)
+    matching: str = ""  # how pairs were chosen, and whether groups had to be bridged
+    cameras: int = 1  # camera models (one per camera and zoom)
 
 
-def _camera_mode(photos: list[Path]):
+@contextmanager
+def quiet_c_libraries(verbose: bool) -> Iterator[None]:
+    """COLMAP's glog lines and what C libraries (libpng, libjpeg) print go to the debug log,
+    not the terminal, unless `verbose`."""
     import pycolmap
 
-    sizes = {read_image_size(p) for p in photos}
-    # One size: one camera shared by all photos (a better calibration); else per photo.
-    return pycolmap.CameraMode.SINGLE if len(sizes) == 1 else pycolmap.CameraMode.PER_IMAGE
+    if verbose:
+        yield
+        return
+    level = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = 2  # errors only
+    try:
+        with captured_c_output(fds=(2,)) as lines:  # glog and libpng write to stderr; progress bars to stdout
+            yield
+    finally:
+        pycolmap.logging.minloglevel = level
+    for line in lines:
+        log.debug("colmap: %s", line)
 
 
-def _match(database: Path, n_images: int, options: SfmOptions) -> str:
+def _extract_features(database: Path, image_dir: Path, cameras: dict[str, PhotoCamera], options: SfmOptions) -> int:
+    """SIFT features of every photo, one camera model per camera (EXIF focal length as its prior)."""
     import pycolmap
 
-    matching = pycolmap.FeatureMatchingOptions(num_threads=options.num_threads)
+    extraction = pycolmap.FeatureExtractionOptions(
+        max_image_size=options.max_image_size_px, num_threads=options.num_threads
+    )
+    extraction.sift.max_num_features = options.max_num_features
+    longest_px = min(max(max(c.width, c.height) for c in cameras.values()), options.max_image_size_px)
+    octave = options.first_octave
+    if octave is None:
+        octave = -1 if longest_px < UPSAMPLE_BELOW_PX else 0
+    extraction.sift.first_octave = octave
+    extraction.sift.peak_threshold = options.peak_threshold
+    groups = group_by_camera(cameras)
+    for names in groups:
+        camera = cameras[names[0]]
+        reader = pycolmap.ImageReaderOptions()
+        if camera.focal_px is not None:
+            # Given parameters are COLMAP's focal length prior (SIMPLE_RADIAL: f, cx, cy, k).
+            reader.camera_params = f"{camera.focal_px},{camera.width / 2},{camera.height / 2},0"
+        pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
+                                  reader_options=reader, extraction_options=extraction)  # fmt: skip
+    return len(groups)
+
+
+def _match(database: Path, n_images: int, work_dir: Path, options: SfmOptions) -> str:
     method = options.matching
     if method == "auto":
-        method = "exhaustive" if n_images <= options.exhaustive_max_images else "sequential"
+        method = "exhaustive" if n_images <= options.exhaustive_max_images else "retrieval"
     if method == "exhaustive":
-        pycolmap.match_exhaustive(database, matching_options=matching)
+        pairing.match_exhaustive(database, options.num_threads)
     else:
-        pairing = pycolmap.SequentialPairingOptions(overlap=options.sequential_overlap, quadratic_overlap=True)
-        pycolmap.match_sequential(database, matching_options=matching, pairing_options=pairing)
+        tree = pairing.build_vocabulary_tree(
+            database, work_dir / "vocabulary_tree.bin", num_threads=options.num_threads, seed=options.random_state
+        )
+        pairing.match_by_retrieval(
+            database, tree, neighbours=options.retrieval_neighbours, num_threads=options.num_threads
+        )
     return method
 
 
-def _check_registration(photos_dir: Path, names: list[str], reconstructions: dict) -> object:
-    """The one reconstruction the photos make, or a RegistrationError that says why not."""
-    sizes = sorted(((r.num_reg_images(), k) for k, r in reconstructions.items()), reverse=True)
-    if not sizes or sizes[0][0] < MIN_REGISTERED_IMAGES:
-        registered = sizes[0][0] if sizes else 0
+def _mapping_options(options: SfmOptions, *, relaxed: bool):
+    import pycolmap
+
+    mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads)
+    mapping.random_seed = options.random_state
+    if relaxed:
+        # The second pass, continuing from the largest model: photos with fewer, or fewer
+        # clean, matches may join (each one still checked by its reprojection errors).
+        mapping.min_num_matches = 10
+        mapping.mapper.abs_pose_min_num_inliers = 15
+        mapping.mapper.abs_pose_min_inlier_ratio = 0.1
+        mapping.mapper.max_reg_trials = 6
+    return mapping
+
+
+def _most_registered(reconstructions: dict) -> int:
+    return max((r.num_reg_images() for r in reconstructions.values()), default=0)
+
+
+def _groups(names: list[str], reconstructions: dict) -> list[list[str]]:
+    """The photos of each model, largest first, then each unregistered photo alone."""
+    models = sorted((sorted(im.name for im in r.images.values()) for r in reconstructions.values()), key=len,
+                    reverse=True)  # fmt: skip
+    placed = {n for g in models for n in g}
+    return models + [[n] for n in names if n not in placed]
+
+
+def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], work_dir: Path, options: SfmOptions):
+    """The largest model the photos make, after a second pass when some were left out:
+    pairs across the groups are matched, and mapping continues from the largest model with
+    relaxed thresholds. Raises RegistrationError only when the photos really do not connect."""
+    import pycolmap
+
+    first = work_dir / "sparse_first"
+    first.mkdir(exist_ok=True)
+    reconstructions = pycolmap.incremental_mapping(
+        database, image_dir, first, options=_mapping_options(options, relaxed=False)
+    )
+    groups = _groups(names, reconstructions)
+    note = ""
+    if reconstructions and len(groups) > 1:
+        bridged = pairing.bridge_groups(database, groups, work_dir, num_threads=options.num_threads)
+        largest = max(reconstructions.values(), key=lambda r: r.num_reg_images())
+        seed_dir = work_dir / "sparse_seed"
+        seed_dir.mkdir(exist_ok=True)
+        largest.write(seed_dir)
+        second = work_dir / "sparse_second"
+        second.mkdir(exist_ok=True)
+        continued = pycolmap.incremental_mapping(
+            database, image_dir, second, options=_mapping_options(options, relaxed=True), input_path=seed_dir
+        )
+        if continued and max(r.num_reg_images() for r in continued.values()) > largest.num_reg_images():
+            reconstructions = continued
+        note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them, mapped again"
+        if _most_registered(reconstructions) < len(names):
+            # Still photos left out: COLMAP's global mapper (GLOMAP) solves all rotations and
+            # positions at once and registered 29 of 30 sparse Buddha photos where the
+            # incremental one stopped at 24; the model with more photos is kept.
+            shutil.copyfile(database, work_dir / "global.db")
+            glob_dir = work_dir / "sparse_global"
+            glob_dir.mkdir(exist_ok=True)
+            mapping = pycolmap.GlobalPipelineOptions(
+                min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads
+            )
+            mapping.random_seed = options.random_state
+            solved = pycolmap.global_mapping(work_dir / "global.db", image_dir, glob_dir, options=mapping)
+            if _most_registered(solved) > _most_registered(reconstructions):
+                reconstructions = solved
+                note += ", then the global mapper"
+        log.info("SfM%s", note)
+    return _check_registration(database, photos_dir, names, reconstructions), note
+
+
+def _check_registration(database: Path, photos_dir: Path, names: list[str], reconstructions: dict):
+    """The largest reconstruction, or a RegistrationError when there is none worth having: too
+    few photos register, or another group of photos shares no geometry with it (unrelated
+    scenes). Groups that do share geometry but would not merge are not refused: their photos
+    are reported unregistered."""
+    groups = _groups(names, reconstructions)
+    registered = len(groups[0]) if reconstructions else 0
+    if registered < MIN_REGISTERED_IMAGES:
         raise RegistrationError(
             f"{photos_dir}: only {registered} of {len(names)} photos registered (at least {MIN_REGISTERED_IMAGES} "
             "are needed): the photos overlap too little or have too little texture"
         )
-    if len(sizes) > 1 and sizes[1][0] >= MIN_REGISTERED_IMAGES:
-        groups = [sorted(im.name for im in reconstructions[k].images.values()) for _, k in sizes]
-        listing = "; ".join(f"{len(g)} photos ({g[0]} ...)" for g in groups)
+    others = [g for g in groups[1:] if len(g) >= MIN_REGISTERED_IMAGES]
+    unrelated = [g for g in others if pairing.shared_inliers(database, groups[0], g) < MIN_BRIDGE_INLIERS]
+    if unrelated:
+        listing = "; ".join(f"{len(g)} photos ({g[0]} ...)" for g in [groups[0], *unrelated][:4])
         raise RegistrationError(
-            f"{photos_dir}: the photos show unrelated scenes: they form {len(groups)} groups: {listing}"
+            f"{photos_dir}: the photos show unrelated scenes: they form {1 + len(unrelated)} groups that share no "
+            f"geometry: {listing}"
         )
-    best = reconstructions[sizes[0][1]]
-    if 2 * best.num_reg_images() < len(names):
+    if 2 * registered < len(names):
         raise RegistrationError(
-            f"{photos_dir}: only {best.num_reg_images()} of {len(names)} photos registered together: "
-            "most photos do not show the same scene"
+            f"{photos_dir}: only {registered} of {len(names)} photos registered together: "
+            "most photos do not overlap the others enough, or have too little texture"
         )
-    return best
+    return max(reconstructions.values(), key=lambda r: r.num_reg_images())
 
 
 def run_sfm(
@@ -137,82 +279,58 @@ def run_sfm(
     options: SfmOptions | None = None,
     progress: Progress | None = None,
 ) -> SparseModel:
-    """Register `photos` (all in one folder) and undistort them into `work_dir`; progress
-    stages features, matching, mapping, undistortion."""
+    """Register `photos` (all in one folder, already checked by `list_photos`) and undistort
+    them into `work_dir`; progress stages features, matching, mapping, undistortion."""
     import pycolmap
 
     options = options or SfmOptions()
-    photos_dir = photos[0].parent
     names = [p.name for p in photos]
     work_dir.mkdir(parents=True, exist_ok=True)
     database = work_dir / "database.db"
     clock = StageClock(progress)
     pycolmap.set_random_seed(options.random_state)
 
-    clock.start("features")
-    extraction = pycolmap.FeatureExtractionOptions(
-        max_image_size=options.max_image_size_px, num_threads=options.num_threads
-    )
-    extraction.sift.max_num_features = options.max_num_features
-    # SIFT's upsampled first octave finds the many small features small photos need; on large
-    # photos it costs four times the pixels for little gain.
-    longest_px = min(max(max(read_image_size(p)) for p in photos), options.max_image_size_px)
-    extraction.sift.first_octave = -1 if longest_px < UPSAMPLE_BELOW_PX else 0
-    pycolmap.extract_features(
-        database, photos_dir, image_names=names, camera_mode=_camera_mode(photos), extraction_options=extraction
-    )
+    with quiet_c_libraries(options.verbose):
+        clock.start("features")
+        cameras = {p.name: read_photo_camera(p) for p in photos}
+        image_dir = upright_photo_folder(photos, cameras, work_dir)
+        n_cameras = _extract_features(database, image_dir, cameras, options)
 
-    clock.start("matching")
-    method = _match(database, len(photos), options)
+        clock.start("matching")
+        method = _match(database, len(photos), work_dir, options)
 
-    clock.start("mapping")
-    mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads)
-    mapping.random_seed = options.random_state
-    sparse_raw = work_dir / "sparse_raw"
-    sparse_raw.mkdir(exist_ok=True)
-    reconstructions = pycolmap.incremental_mapping(database, photos_dir, sparse_raw, options=mapping)
-    best = _check_registration(photos_dir, names, reconstructions)
+        clock.start("mapping")
+        best, note = _map(database, image_dir, photos[0].parent, names, work_dir, options)
 
-    clock.start("undistortion")
-    best.write(sparse_raw)
-    undistorted = work_dir / "undistorted"
-    pycolmap.undistort_images(undistorted, sparse_raw, photos_dir)
-    model = _load_undistorted(undistorted, photos_dir, names)
+        clock.start("undistortion")
+        model = _undistort(best, image_dir, work_dir, names, options)
     clock.stop()
     model.mean_reprojection_error_px = float(best.compute_mean_reprojection_error())
     model.times_s = clock.times_s
-    log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), method)
+    model.matching = method + note
+    model.cameras = n_cameras
+    log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), model.matching)
     return model
 
 
-def _load_undistorted(undistorted: Path, photos_dir: Path, names: list[str]) -> SparseModel:
-    import pycolmap
-
-    sparse_dir = undistorted / "sparse"
-    reconstruction = pycolmap.Reconstruction(sparse_dir)
-    images = sorted(reconstruction.images.values(), key=lambda im: im.name)
+def _undistort(best, image_dir: Path, work_dir: Path, names: list[str], options: SfmOptions) -> SparseModel:
+    """The registered photos as pinhole views (written undistorted into work_dir/undistorted),
+    with the sparse points."""
+    written = undistort_photos(best, image_dir, work_dir / "undistorted", num_threads=options.num_threads)
+    images = sorted(best.images.values(), key=lambda im: im.name)
     views, index_of = [], {}
     for image in images:
-        camera = image.camera
         camera_from_world = np.eye(4)
         camera_from_world[:3, :] = image.cam_from_world().matrix()
         index_of[image.image_id] = len(views)
-        views.append(
-            View(
-                name=image.name,
-                image_path=undistorted / "images" / image.name,
-                camera=Camera.from_matrix(
-                    camera.calibration_matrix(), width=int(camera.width), height=int(camera.height)
-                ),
-                camera_from_world=camera_from_world,
-            )
-        )
+        path, camera = written[image.name]
+        views.append(View(name=image.name, image_path=path, camera=camera, camera_from_world=camera_from_world))
     points, point_views = [], []
-    for point in reconstruction.points3D.values():
+    for point in best.points3D.values():
         points.append(point.xyz)
         point_views.append(np.unique([index_of[e.image_id] for e in point.track.elements]))
     if not points:
-        raise RegistrationError(f"{photos_dir}: the reconstruction has no 3D points")
+        raise RegistrationError(f"{image_dir}: the reconstruction has no 3D points")
     registered = {v.name for v in views}
     return SparseModel(
         views=views,

@@ -1,7 +1,8 @@
 """A synthetic photo set with ground truth, rendered with Blender (bpy, Cycles on the CPU).
 
 A textured vase-like object stands on a textured table, ringed by ArUco/AprilTag markers of
-known size, photographed from `n_views` cameras on two rings: the set-up of D3.1 Figure 16
+known size, photographed from `n_views` cameras on two (or one, or three) rings, their file
+names in the order taken or shuffled: the set-up of D3.1 Figure 16
 with every camera, the true mesh and the scale known. The world frame is marker 0's frame
 (x along its top edge, y up its left edge, z up out of the table), the frame a reconstruction
 with markers is expressed in, so a result can be compared with the truth without alignment.
@@ -24,12 +25,13 @@ from typing import Literal
 import numpy as np
 import trimesh
 
-from homemodel.core.checks import require_at_least, require_positive
+from homemodel.core.checks import require_at_least, require_choice, require_positive
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry import cycles_scene
 
 SCENE_FILE = "scene.json"
+RING_ELEVATIONS_DEG = {1: (40.0,), 2: (28.0, 52.0), 3: (16.0, 36.0, 58.0)}
 TRUTH_MESH_FILE = "object_truth.ply"
 
 
@@ -43,10 +45,13 @@ class SceneOptions:
     samples: int = 16
     marker_size_m: float = 0.04
     dictionary: str = "apriltag_36h11"
+    rings: int = 2  # camera rings, from low to high (RING_ELEVATIONS_DEG)
+    shuffled: bool = False  # photo file names in random order, not in the order they were taken
     random_state: int = 0
 
     def check(self) -> None:
         require_at_least("n_views", self.n_views, 2)
+        require_choice("rings", self.rings, tuple(RING_ELEVATIONS_DEG))
         for name in ("width_px", "height_px", "lens_mm", "sensor_width_mm", "samples", "marker_size_m"):
             require_positive(name, getattr(self, name))
 
@@ -155,17 +160,17 @@ def _marker_image(dictionary: str, marker_id: int, px_per_cell: int = 16) -> np.
     return cv2.copyMakeBorder(tag, margin, margin, margin, margin, cv2.BORDER_CONSTANT, value=255)
 
 
-def _camera_centres(n_views: int, rng: np.random.Generator) -> np.ndarray:
-    """Two rings around the object, lower and higher, with a little jitter."""
+def _camera_centres(n_views: int, rings: int, rng: np.random.Generator) -> np.ndarray:
+    """Rings around the object, from low to high, each walked round, with a little jitter."""
     cx, cy = _OBJECT_CENTRE_XY_M
-    low = n_views // 2
+    ring_of = np.arange(n_views) * rings // n_views  # equal shares of the views, in order
     centres = []
     for i in range(n_views):
-        ring = 0 if i < low else 1
-        count = low if ring == 0 else n_views - low
-        k = i if ring == 0 else i - low
+        ring = ring_of[i]
+        count = int((ring_of == ring).sum())
+        k = i - int(np.argmax(ring_of == ring))
         azimuth = 2 * np.pi * (k + 0.5 * ring) / count + rng.normal(0, 0.03)
-        elevation = np.deg2rad(28 if ring == 0 else 52) + rng.normal(0, 0.03)
+        elevation = np.deg2rad(RING_ELEVATIONS_DEG[rings][ring]) + rng.normal(0, 0.03)
         distance = 0.42 + rng.normal(0, 0.015)
         centres.append(
             [
@@ -210,9 +215,13 @@ def render_scene(folder: Path, options: SceneOptions | None = None) -> Synthetic
     target = np.array([*_OBJECT_CENTRE_XY_M, 0.06])
     fx = options.lens_mm / options.sensor_width_mm * options.width_px
     views = []
-    for i, centre in enumerate(_camera_centres(options.n_views, rng)):
+    centres = _camera_centres(options.n_views, options.rings, rng)
+    numbers = np.arange(len(centres))
+    if options.shuffled:  # as when photos are copied off several cameras, or renamed
+        numbers = np.random.default_rng(options.random_state + 1).permutation(numbers)
+    for number, centre in zip(numbers, centres):
         world_from_camera = world_from_camera_looking_at(centre, target + rng.normal(0, 0.01, 3))
-        views.append({"name": f"view_{i:03d}.png", "world_from_camera": world_from_camera.tolist()})
+        views.append({"name": f"view_{number:03d}.png", "world_from_camera": world_from_camera.tolist()})
     spec = {
         "options": wanted,
         "renderer": renderer,

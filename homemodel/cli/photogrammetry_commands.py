@@ -18,7 +18,7 @@ photogrammetry_app = typer.Typer(no_args_is_help=True)
 class MatchingChoice(str, enum.Enum):
     auto = "auto"
     exhaustive = "exhaustive"
-    sequential = "sequential"
+    retrieval = "retrieval"
 
 
 class DictionaryChoice(str, enum.Enum):
@@ -37,6 +37,7 @@ def _summary_rows(summary: dict) -> list[tuple[str, str]]:
     factor = 1000 if scaled else 1
     rows = [
         ("photos registered", f"{summary['registered']} of {summary['photos']}"),
+        ("matching", f"{summary['matching']}, {summary['cameras']} camera model(s)"),
         ("sparse points", str(summary["sparse_points"])),
         ("reprojection error", f"{summary['reprojection_error_px']:.3f} px"),
         ("dense method", summary["dense_method"]),
@@ -65,7 +66,9 @@ def reconstruct(
     name: str = typer.Option("object", "--name", help="model name"),
     density_kg_m3: float = typer.Option(500.0, "--density-kg-m3", help="density for the inertial (kg/m^3)"),
     matching: MatchingChoice = typer.Option(
-        MatchingChoice.auto, "--matching", help="auto: exhaustive up to 60 photos, sequential (by name) beyond"
+        MatchingChoice.auto,
+        "--matching",
+        help="auto: every pair up to 120 photos (any order), image retrieval (a vocabulary tree of the photos) beyond",
     ),
     max_features: int = typer.Option(4096, "--max-features", help="SIFT features per photo"),
     sfm_image_px: int = typer.Option(1600, "--sfm-image-px", help="longer side photos are shrunk to for SfM"),
@@ -80,6 +83,7 @@ def reconstruct(
         (0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent (m)"
     ),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+    verbose: bool = typer.Option(False, "--verbose", help="show COLMAP's log and the image libraries' warnings"),
 ) -> None:
     """Reconstruct a textured, cleaned mesh from photos; metric and levelled when markers are seen."""
     from photogrammetry import ReconstructOptions
@@ -92,7 +96,8 @@ def reconstruct(
     with exit_on_error():
         map_entry = map_entry_from_flags(map_path, parent, object_id or name, xyz)
         options = ReconstructOptions(
-            sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value),
+            sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value,
+                          verbose=verbose),  # fmt: skip
             dense=DenseOptions(max_image_size_px=depth_image_px),
             texture=TextureBakingOptions(size_px=texture_px),
             marker_size_m=marker_size_m,

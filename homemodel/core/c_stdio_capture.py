@@ -19,8 +19,9 @@ def _flush_c_stdio() -> None:
 
 
 @contextmanager
-def captured_c_output() -> Iterator[list[str]]:
-    """Collect what C code writes to fds 1 and 2 into the yielded list, not the terminal.
+def captured_c_output(fds: tuple[int, ...] = (1, 2)) -> Iterator[list[str]]:
+    """Collect what C code writes to `fds` (stdout and stderr) into the yielded list, not the
+    terminal. Capture only fd 2 to leave a progress display on stdout drawing.
 
     pybullet prints from C, which replacing sys.stdout cannot catch: its build time to
     stderr on import, warnings and errors to stdout while loading. The redirection is
@@ -30,7 +31,7 @@ def captured_c_output() -> Iterator[list[str]]:
     sys.stdout.flush()
     sys.stderr.flush()
     _flush_c_stdio()
-    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    saved = {fd: os.dup(fd) for fd in fds}
     with tempfile.TemporaryFile() as sink:
         try:
             for fd in saved:

@@ -1,0 +1,75 @@
+"""Registered photos to pinhole views: each photo read once, remapped, written once.
+
+COLMAP's own undistorter wrote every photo back with its default (slow) compression and took
+tens of seconds for 50 photos. Here the lookup from pinhole pixels to the photo's distorted
+pixels comes from COLMAP's camera model (so every model COLMAP fits is handled), the warp is
+OpenCV's remap, the write a fast lossless PNG, and the photos are spread over the cores.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from homemodel.core.errors import ModelError
+from homemodel.core.images import read_image
+from homemodel.geometry.camera import Camera
+
+PNG_FAST = 1  # zlib level: a third of the default's time for a few percent more bytes
+
+
+def pinhole_camera(camera) -> Camera:
+    """The pinhole camera COLMAP's undistorter gives a (distorted) pycolmap camera, in
+    OpenCV's pixel convention (COLMAP puts pixel centres at +0.5, OpenCV at whole numbers)."""
+    import pycolmap
+
+    pinhole = pycolmap.undistort_camera(pycolmap.UndistortCameraOptions(), camera)
+    matrix = pinhole.calibration_matrix().copy()
+    matrix[:2, 2] -= 0.5
+    return Camera.from_matrix(matrix, width=int(pinhole.width), height=int(pinhole.height))
+
+
+def _lookup(camera, pinhole: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """For every pinhole pixel, where it lies in the distorted photo (float32 maps for remap)."""
+    rays = pinhole.pixel_rays()
+    pixels = camera.img_from_cam(rays, check_cheirality=False) - 0.5  # to OpenCV's convention
+    return (
+        pixels[:, 0].reshape(pinhole.height, pinhole.width).astype(np.float32),
+        pixels[:, 1].reshape(pinhole.height, pinhole.width).astype(np.float32),
+    )
+
+
+def undistort_photos(
+    reconstruction, image_dir: Path, out_dir: Path, *, num_threads: int
+) -> dict[str, tuple[Path, Camera]]:
+    """Write every registered photo of `reconstruction` undistorted into `out_dir`; by image
+    name, the written file and its pinhole camera."""
+    import cv2
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    lookups = {}
+    for camera_id, camera in reconstruction.cameras.items():
+        pinhole = pinhole_camera(camera)
+        lookups[camera_id] = (pinhole, *_lookup(camera, pinhole))
+
+    # Plain values for the worker threads: pycolmap's objects stay on this thread.
+    jobs = [(im.name, im.camera_id, (im.camera.height, im.camera.width)) for im in reconstruction.images.values()]
+
+    def one(job: tuple[str, int, tuple[int, int]]) -> tuple[str, tuple[Path, Camera]]:
+        name, camera_id, size = job
+        pinhole, map_x, map_y = lookups[camera_id]
+        photo = read_image(image_dir / name)
+        if photo.shape[:2] != size:
+            raise ModelError(f"{image_dir / name}: its size changed during the reconstruction")
+        warped = cv2.remap(photo, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+        path = out_dir / (Path(name).stem + ".png")
+        if not cv2.imwrite(str(path), warped, [cv2.IMWRITE_PNG_COMPRESSION, PNG_FAST]):
+            raise ModelError(f"{path}: cannot write the undistorted photo")
+        return name, (path, pinhole)
+
+    workers = num_threads if num_threads > 0 else len(os.sched_getaffinity(0))
+    with ThreadPoolExecutor(max_workers=workers) as pool:  # OpenCV's decode, remap and encode release the GIL
+        return dict(pool.map(one, jobs))
