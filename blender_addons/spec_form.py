@@ -106,8 +106,8 @@ def rows_for(schema: dict, values: dict, *, root: dict | None = None, prefix: st
     root = root or schema
     rows: list[dict] = []
     for name, field in _resolve(schema, root)["properties"].items():
-        if name == "kind":
-            continue
+        if name == "kind" and not prefix:
+            continue  # the spec's kind is the form's, chosen above it; a nested `kind` is a field
         path = f"{prefix}{name}"
         value = values[name] if name in values else default_of(field, root)
         # A field the spec leaves out stays out unless edited: some checks ask what was given.
