@@ -146,7 +146,10 @@ def resting_drift_m(pb: Any, client: int, urdf: Path) -> float | None:
     below = float(bounds[0, 2]) - _FLOOR_PROBE_M
     shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=client)
     floor = pb.createMultiBody(0.0, shape, basePosition=(0.0, 0.0, below), physicsClientId=client)
-    lowest = below + min(p[8] for p in pb.getClosestPoints(body, floor, 2 * _FLOOR_PROBE_M, physicsClientId=client))
+    closest = pb.getClosestPoints(body, floor, 2 * _FLOOR_PROBE_M, physicsClientId=client)
+    if not closest:  # no collision geometry: nothing can rest on the floor
+        return None
+    lowest = below + min(p[8] for p in closest)
     if abs(lowest) > STANDING_TOLERANCE_M:
         return None
     pb.resetBasePositionAndOrientation(floor, (0.0, 0.0, lowest), (0, 0, 0, 1), physicsClientId=client)
