@@ -192,6 +192,12 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     keep[candidates[in_free_space]] = False
     obj = segment_object(model_points[keep], colours[keep], to_camera[keep] @ frame.model_from_sfm[:3, :3].T / frame.scale,
                          model_focus, model_scale, options.cleaning)  # fmt: skip
+    if plane is None and not markers:
+        # The object stands where its own lowest point is, not the scene's (a stray point far
+        # below would otherwise put the flat bottom Poisson closes on far under the object).
+        lift = obj.points[:, 2].min() - 2 * clearance
+        obj.points[:, 2] -= lift
+        frame.model_from_sfm[2, 3] -= lift
 
     clock.start("meshing")
     mesh = watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
