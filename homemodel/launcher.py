@@ -7,11 +7,13 @@ import sys
 
 
 def main() -> None:
-    from homemodel.core.interrupts import remember_interrupts
+    from homemodel.core.interrupts import raise_if_interrupted, remember_interrupts
 
     remember_interrupts()
     try:
         from homemodel.cli import main as run_command_line
+
+        raise_if_interrupted()
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         sys.exit(130)

@@ -17,19 +17,11 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from homemodel.core.c_stdio_capture import captured_c_output
-from homemodel.geometry.cycles_scene import import_bpy
 
 if TYPE_CHECKING:
     import bpy
 
 LINK_PROPERTY = "homemodel_link"
-
-
-def reset_scene() -> None:
-    """Start from Blender's factory settings with an empty scene."""
-    bpy = import_bpy()
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
 def box_mesh(name: str, size_m: Sequence[float], centre_m: Sequence[float] = (0, 0, 0)) -> bpy.types.Mesh:

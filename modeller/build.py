@@ -15,7 +15,8 @@ from homemodel.core.checks import check_nested
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.progress import Progress, StageClock
 from homemodel.core.yaml_specs import FieldError
-from modeller.blender_scene import reset_scene, save_blend
+from homemodel.geometry.cycles_scene import reset_to_empty_scene
+from modeller.blender_scene import save_blend
 from modeller.blender_textures import PhotoPlacement, apply_photos
 from modeller.blender_to_model import Assembly, model_from_scene
 from modeller.builders.appliances import (
@@ -100,7 +101,7 @@ def build_textured(
     After the builder, the spec's photos are rectified and put on their faces; their
     texture images live in a folder of this process (removed at exit) until exported.
     """
-    reset_scene()
+    reset_to_empty_scene()
     assembly = _BUILDERS[spec.kind](spec, name)
     placements = []
     if spec.photos:

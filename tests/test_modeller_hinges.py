@@ -241,15 +241,15 @@ def test_tape_round_trip_rebuilds_the_axis_and_the_open_door(tmp_path: Path) -> 
 def test_spec_door_matches_a_door_built_by_hand_in_blender(tmp_path: Path) -> None:
     import bpy
 
+    from homemodel.geometry.cycles_scene import reset_to_empty_scene
     from modeller import build_model
-    from modeller.blender_scene import reset_scene
 
     # A 0.396 x 0.766 x 0.018 m door hinged on its left, its axis 22 mm behind its outer face
     # and 5 mm in from its edge, opened 75 degrees: a cube scaled to the door, parented to an
     # empty standing on the true pivot, the empty turned.
     width, height, thick, behind, inward, angle = 0.396, 0.766, 0.018, 0.022, 0.005, math.radians(75)
     face_x, edge_y, bottom = 0.28 + 0.002 + thick, -0.3 + 0.002, 0.102
-    reset_scene()
+    reset_to_empty_scene()
     pivot = bpy.data.objects.new("pivot", None)
     bpy.context.scene.collection.objects.link(pivot)
     pivot.location = (face_x - behind, edge_y + inward, bottom)
@@ -338,7 +338,12 @@ def test_doors_without_the_new_fields_keep_their_hinge_on_the_outer_edge(name: s
 
 @pytest.mark.bpy
 def test_comparison_render_draws_the_solved_hinge_line(catalogue) -> None:
-    from modeller.comparison_picture import PictureOptions, hinge_line_segments, render_model, three_quarter_camera
+    from modeller.comparison_picture import (
+        PictureOptions,
+        hinge_line_segments,
+        render_model,
+        three_quarter_camera,
+    )
 
     spec, model, _ = catalogue["cupboard_face_frame"]
     door = spec.doors[0]

@@ -330,10 +330,11 @@ def test_blender_reads_the_textured_glb_back_with_its_texture(textured_cupboard)
     import bpy
 
     from homemodel.core.c_stdio_capture import captured_c_output
-    from modeller.blender_scene import material_texture_path, reset_scene
+    from homemodel.geometry.cycles_scene import reset_to_empty_scene
+    from modeller.blender_scene import material_texture_path
 
     _, folder = textured_cupboard
-    reset_scene()
+    reset_to_empty_scene()
     with captured_c_output():
         bpy.ops.import_scene.gltf(filepath=str(folder / "model.glb"))
     textured = [

@@ -46,17 +46,24 @@ def import_bpy():  # noqa: ANN201 (the bpy module)
     return bpy
 
 
+def reset_to_empty_scene() -> None:
+    """Blender's factory settings with an empty scene. The reset registers Blender's add-ons
+    again, in Python called from C: Ctrl-C is held meanwhile, as for the import, since an
+    interrupt inside it is printed as a traceback and swallowed."""
+    bpy = import_bpy()
+    with interrupts_deferred():
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
 @contextmanager
 def empty_scene() -> Iterator[None]:
-    """Blender's factory settings with an empty scene for the block; reset again after it, which
-    frees the meshes, images and Cycles' render data."""
-    bpy = import_bpy()
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    """An empty scene for the block; reset again after it, which frees the meshes, images and
+    Cycles' render data."""
+    reset_to_empty_scene()
     try:
         yield
     finally:
-        bpy.ops.wm.read_factory_settings(use_empty=True)
+        reset_to_empty_scene()
 
 
 @dataclass(kw_only=True)
