@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import bpy
 from mathutils import Matrix, Vector
@@ -67,24 +68,56 @@ def rigid(matrix: Matrix) -> Matrix:
     return rigid
 
 
-def _material(name: str, rgba) -> bpy.types.Material:
+def _material(name: str, rgba, texture: str | None = None) -> bpy.types.Material:
     material = bpy.data.materials.get(name)
-    if material is None or tuple(round(c, 4) for c in material.diffuse_color) != tuple(round(float(c), 4) for c in rgba):
-        material = bpy.data.materials.new(name)
-        material.diffuse_color = [float(c) for c in rgba]
-        tree = material.node_tree
-        principled = tree.nodes.get("Principled BSDF") if tree is not None else None
-        if principled is not None:  # what Blender's glTF exporter and renderer read
-            principled.inputs["Base Color"].default_value = [float(c) for c in rgba]
-            principled.inputs["Alpha"].default_value = float(rgba[3])
+    if material is not None and _same_colour(material.diffuse_color, rgba) and _texture_path(material) == texture:
+        return material
+    material = bpy.data.materials.new(name)
+    material.diffuse_color = [float(c) for c in rgba]
+    if texture is not None and material.node_tree is None:
+        material.use_nodes = True  # Blender 3.x and 4.x; 5.0's materials always have nodes
+    tree = material.node_tree
+    principled = tree.nodes.get("Principled BSDF") if tree is not None else None
+    if principled is not None:  # what Blender's glTF exporter and renderer read
+        principled.inputs["Base Color"].default_value = [float(c) for c in rgba]
+        principled.inputs["Alpha"].default_value = float(rgba[3])
+        if texture is not None:
+            image = tree.nodes.new("ShaderNodeTexImage")
+            image.image = bpy.data.images.load(texture, check_existing=True)
+            tree.links.new(image.outputs["Color"], principled.inputs["Base Color"])
     return material
+
+
+def _same_colour(a, b) -> bool:
+    return tuple(round(float(c), 4) for c in a) == tuple(round(float(c), 4) for c in b)
+
+
+def _texture_path(material: bpy.types.Material | None) -> str | None:
+    """The image file the material's base colour reads, if it is one on disk (a packed or
+    painted image is not: the model keeps the flat colour)."""
+    tree = material.node_tree if material is not None else None
+    principled = tree.nodes.get("Principled BSDF") if tree is not None else None
+    if principled is None:
+        return None
+    for link in principled.inputs["Base Color"].links:
+        node = link.from_node
+        if node.type == "TEX_IMAGE" and node.image is not None and node.image.source == "FILE" and not node.image.packed_file:
+            path = bpy.path.abspath(node.image.filepath)
+            return path if os.path.isfile(path) else None
+    return None
 
 
 def _mesh_object(name: str, visual: dict, collection: bpy.types.Collection) -> bpy.types.Object:
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([tuple(v) for v in visual["vertices"]], [], [tuple(f) for f in visual["faces"]])
+    texture = visual.get("texture")
+    if texture is not None:  # the document's UVs are per vertex; Blender's per face corner
+        uv = visual["uv"]
+        corners = [0] * len(mesh.loops)
+        mesh.loops.foreach_get("vertex_index", corners)
+        mesh.uv_layers.new(name="UVMap").data.foreach_set("uv", [c for i in corners for c in uv[i]])
     mesh.update()
-    mesh.materials.append(_material(visual.get("material") or visual["name"], visual.get("rgba", (0.8, 0.8, 0.8, 1.0))))
+    mesh.materials.append(_material(visual.get("material") or visual["name"], visual.get("rgba", (0.8, 0.8, 0.8, 1.0)), texture))
     obj = bpy.data.objects.new(name, mesh)
     collection.objects.link(obj)
     return obj
@@ -338,26 +371,44 @@ def _visuals(link: bpy.types.Object, depsgraph) -> list[dict]:
         visual_from_object = link_from_visual.inverted() @ link_from_object  # the scale, if any
         mesh = obj.evaluated_get(depsgraph).to_mesh()
         mesh.calc_loop_triangles()
-        vertices = [list(visual_from_object @ v.co) for v in mesh.vertices]
-        by_material: dict[int, list[list[int]]] = {}
+        by_material: dict[int, list] = {}
         for triangle in mesh.loop_triangles:
-            by_material.setdefault(triangle.material_index, []).append(list(triangle.vertices))
-        for index, faces in sorted(by_material.items()):
+            by_material.setdefault(triangle.material_index, []).append(triangle)
+        for index, triangles in sorted(by_material.items()):
             material = obj.material_slots[index].material if index < len(obj.material_slots) else None
-            used = sorted({i for face in faces for i in face})
-            new_index = {old: new for new, old in enumerate(used)}
-            visuals.append(
-                {
-                    "name": obj.get("hm_visual", obj.name.split(":")[-1]) + (f"_{index}" if len(by_material) > 1 else ""),
-                    "material": material.name if material else "default",
-                    "rgba": list(material.diffuse_color) if material else [0.8, 0.8, 0.8, 1.0],
-                    "link_from_visual": rows_of(link_from_visual),
-                    "vertices": [vertices[i] for i in used],
-                    "faces": [[new_index[i] for i in face] for face in faces],
-                }
-            )
+            texture = _texture_path(material) if mesh.uv_layers.active is not None else None
+            visual = {
+                "name": obj.get("hm_visual", obj.name.split(":")[-1]) + (f"_{index}" if len(by_material) > 1 else ""),
+                "material": material.name if material else "default",
+                "rgba": list(material.diffuse_color) if material else [0.8, 0.8, 0.8, 1.0],
+                "link_from_visual": rows_of(link_from_visual),
+            }
+            visual.update(_corners(mesh, triangles, visual_from_object, textured=texture is not None))
+            if texture is not None:
+                visual["texture"] = texture
+            visuals.append(visual)
         obj.evaluated_get(depsgraph).to_mesh_clear()
     return visuals
+
+
+def _corners(mesh: bpy.types.Mesh, triangles, visual_from_object: Matrix, *, textured: bool) -> dict:
+    """Vertices, faces and (when `textured`) one UV per vertex of `triangles`. A vertex whose
+    face corners carry different UVs (on a texture seam) becomes one vertex per UV."""
+    uv_data = mesh.uv_layers.active.data if textured else None
+    index: dict[tuple, int] = {}
+    vertices, uvs, faces = [], [], []
+    for triangle in triangles:
+        face = []
+        for vertex, loop in zip(triangle.vertices, triangle.loops):
+            uv = tuple(round(c, 7) for c in uv_data[loop].uv) if textured else ()
+            key = (vertex, uv)
+            if key not in index:
+                index[key] = len(vertices)
+                vertices.append(list(visual_from_object @ mesh.vertices[vertex].co))
+                uvs.append(list(uv))
+            face.append(index[key])
+        faces.append(face)
+    return {"vertices": vertices, "faces": faces, **({"uv": uvs} if textured else {})}
 
 
 def model_document(root: bpy.types.Object, depsgraph) -> dict:

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from PIL import Image
 from scipy.spatial import cKDTree
 
 from articulation.model import Model
@@ -309,6 +310,50 @@ def test_import_then_export_with_no_edits_gives_the_same_model(scene, cupboard_d
     assert GATE_REPORT[-1].startswith("OK: all")
     _same_model(load_urdf(cupboard_dir / "model.urdf"), load_urdf(tmp_path / "out" / "model.urdf"))
     assert homemodel("validate", str(tmp_path / "out")).returncode == 0
+
+
+def _colour_per_triangle(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """Each textured triangle's centre (in its link) and the texture colour at its centre's UV."""
+    centres, colours = [], []
+    for link in model.links:
+        for visual in link.visuals:
+            if visual.material.texture is None:
+                continue
+            image = np.asarray(Image.open(visual.material.texture).convert("RGB"), dtype=np.float64)
+            uv = visual.uv[visual.mesh.faces].mean(axis=1)
+            rows = np.clip(((1 - uv[:, 1]) * image.shape[0]).astype(int), 0, image.shape[0] - 1)
+            cols = np.clip((uv[:, 0] * image.shape[1]).astype(int), 0, image.shape[1] - 1)
+            centres.append(trimesh.transform_points(visual.mesh.triangles_center, visual.link_from_visual))
+            colours.append(image[rows, cols])
+    return np.vstack(centres), np.vstack(colours)
+
+
+@pytest.mark.slow
+def test_photo_textures_survive_import_and_export(scene, tmp_path: Path) -> None:
+    """The photo-textured packet, imported and exported with no edits: the same colour shows on
+    every triangle, read through the exported UVs from the exported image."""
+    import bpy
+
+    from blender_addons.model_operators import GATE_REPORT
+
+    packet = tmp_path / "packet"
+    built = homemodel("addon", "build", str(REPO / "examples" / "textured" / "packet.yaml"), "--out", str(packet))
+    assert built.returncode == 0, built.stderr
+    source = load_urdf(packet / "model.urdf")
+    photos = {v.material.texture.name for link in source.links for v in link.visuals if v.material.texture}
+    bpy.ops.homemodel.import_model(filepath=str(packet / "model.urdf"))
+    images = [i for i in bpy.data.images if i.source == "FILE"]
+    assert sorted(i.name for i in images) == sorted(photos) and len(photos) == 3  # front, side, top
+    assert all(i.size[0] > 0 for i in images)  # loaded in Blender
+    assert bpy.ops.homemodel.export_model(directory=str(tmp_path / "out")) == {"FINISHED"}
+    assert GATE_REPORT[-1].startswith("OK: all")
+    centres, colours = _colour_per_triangle(source)
+    centres_out, colours_out = _colour_per_triangle(load_urdf(tmp_path / "out" / "model.urdf"))
+    assert len(centres_out) == len(centres) > 0
+    gap, match = cKDTree(centres_out).query(centres)
+    assert gap.max() < 1e-5
+    assert np.abs(colours_out[match] - colours).max() <= 2.0  # the same pixel, not merely a similar one
+    assert np.ptp(colours, axis=0).max() > 50  # the texture is a photo, not a flat colour
 
 
 def _partnet_folder(folder: Path) -> Path:
@@ -682,4 +727,31 @@ def test_a_bad_model_document_is_one_line_naming_the_field_and_nothing_is_writte
     result = CliRunner().invoke(app, ["addon", "export", str(tmp_path / "model.json"), "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
     assert result.output.strip() == f"error: {tmp_path / 'model.json'}: links.0.visuals.0.faces: an index outside the 8 vertices"
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("texture", "problem"),
+    [
+        ("missing.png", "missing.png: no such file"),
+        ("notes.txt", "notes.txt is not a PNG or JPEG image"),
+        ("fake.png", "fake.png: not a readable image"),
+    ],
+)
+def test_a_document_with_a_bad_texture_is_one_line_naming_it(tmp_path: Path, texture: str, problem: str) -> None:
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    (tmp_path / "notes.txt").write_text("not an image")
+    (tmp_path / "fake.png").write_text("not an image either")
+    box = trimesh.creation.box()
+    doc = {"format": "homemodel.blender-model/1", "name": "box", "links": [{"name": "body", "visuals": [{
+        "name": "v", "vertices": box.vertices.tolist(), "faces": box.faces.tolist(),
+        "texture": str(tmp_path / texture), "uv": [[0.0, 0.0]] * len(box.vertices)}]}]}
+    (tmp_path / "model.json").write_text(json.dumps(doc))
+    result = CliRunner().invoke(app, ["addon", "export", str(tmp_path / "model.json"), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert result.output.startswith(f"error: {tmp_path / 'model.json'}: links.0.visuals.0.texture: ")
+    assert problem in result.output, result.output
     assert not (tmp_path / "out").exists()

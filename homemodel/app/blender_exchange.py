@@ -2,10 +2,11 @@
 
 The extension never imports the toolkit (it runs in Blender's Python, with Blender's numpy);
 it calls `homemodel addon ...` and reads or writes these documents. A model document holds
-everything an `articulation.Model` holds except textures: links with their visual meshes
-(vertices in the visual's frame, triangles, an RGBA colour), collisions, inertials, joints
-with origin, axis, limits, dynamics and named states, and grasp points. Transforms are 4x4
-row-major lists, lengths in metres, angles in radians.
+everything an `articulation.Model` holds: links with their visual meshes (vertices in the
+visual's frame, triangles, an RGBA colour and, for a photo-textured visual, the image's
+absolute path and one UV per vertex), collisions, inertials, joints with origin, axis,
+limits, dynamics and named states, and grasp points. Transforms are 4x4 row-major lists,
+lengths in metres, angles in radians.
 """
 
 from __future__ import annotations
@@ -36,12 +37,14 @@ from articulation.model import (
     Visual,
 )
 from homemodel.core.errors import InputError
+from homemodel.core.images import read_image_size
 from homemodel.core.input_files import read_bounded
 
 MODEL_FORMAT = "homemodel.blender-model/1"
 # What a link made by hand in Blender says instead of an inertial; it gets this density.
 FROM_MESHES = "from_meshes"
 HAND_MADE_DENSITY_KG_M3 = 500.0
+TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg")
 # A kitchen's largest model is a few MB as JSON; this bounds a hostile file.
 MAX_DOCUMENT_BYTES = 512 * 1024 * 1024
 
@@ -85,6 +88,19 @@ def _joint_document(joint: Joint) -> dict[str, Any]:
     return doc
 
 
+def _visual_document(visual: Visual) -> dict[str, Any]:
+    doc: dict[str, Any] = {
+        "name": visual.name,
+        "material": visual.material.name,
+        "rgba": list(visual.material.rgba),
+        "link_from_visual": matrix_list(visual.link_from_visual),
+        **_mesh(visual.mesh),
+    }
+    if visual.material.texture is not None and visual.uv is not None:
+        doc.update(texture=str(Path(visual.material.texture).resolve()), uv=visual.uv.tolist())
+    return doc
+
+
 def model_document(model: Model, *, spec: dict | None = None) -> dict[str, Any]:
     """The JSON-ready document of `model`; `spec` is the measurement spec it was built from."""
     links = []
@@ -92,16 +108,7 @@ def model_document(model: Model, *, spec: dict | None = None) -> dict[str, Any]:
         links.append(
             {
                 "name": link.name,
-                "visuals": [
-                    {
-                        "name": v.name,
-                        "material": v.material.name,
-                        "rgba": list(v.material.rgba),
-                        "link_from_visual": matrix_list(v.link_from_visual),
-                        **_mesh(v.mesh),
-                    }
-                    for v in link.visuals
-                ],
+                "visuals": [_visual_document(v) for v in link.visuals],
                 "collisions": [_collision_document(c) for c in link.collisions],
                 "inertial": None
                 if link.inertial is None
@@ -185,17 +192,34 @@ class _Reader:
             raise self.fail(f"{where}.type", f"{kind!r} is not box, cylinder, sphere or mesh")
         return Collision(name=str(doc.get("name", "collision")), geometry=geometry, link_from_collision=link_from)
 
+    def texture(self, doc: dict, vertex_count: int, where: str) -> tuple[Path | None, np.ndarray | None]:
+        """The visual's texture image and per-vertex UVs, or (None, None) for a plain colour."""
+        if doc.get("texture") is None:
+            return None, None
+        image = Path(str(doc["texture"]))
+        if image.suffix.lower() not in TEXTURE_SUFFIXES:
+            raise self.fail(f"{where}.texture", f"{image} is not a PNG or JPEG image")
+        try:
+            read_image_size(image)  # a readable image of a bounded size, before it is copied
+        except InputError as error:  # missing, unreadable, not an image, too many pixels
+            raise self.fail(f"{where}.texture", str(error)) from None
+        uv = self.array(self.field(doc, "uv", where), (vertex_count, 2), f"{where}.uv")
+        return image, uv
+
     def link(self, doc: dict, where: str) -> Link:
         visuals = []
         for i, v in enumerate(doc.get("visuals", [])):
             at = f"{where}.visuals.{i}"
             rgba = tuple(float(c) for c in self.array(v.get("rgba", (0.8, 0.8, 0.8, 1.0)), (4,), f"{at}.rgba"))
+            mesh = self.mesh(v, at)
+            texture, uv = self.texture(v, len(mesh.vertices), at)
             visuals.append(
                 Visual(
                     name=str(self.field(v, "name", at)),
-                    mesh=self.mesh(v, at),
-                    material=Material(name=str(v.get("material") or v["name"]), rgba=rgba),
+                    mesh=mesh,
+                    material=Material(name=str(v.get("material") or v["name"]), rgba=rgba, texture=texture),
                     link_from_visual=self.array(v.get("link_from_visual", np.eye(4)), (4, 4), f"{at}.link_from_visual"),
+                    uv=uv,
                 )
             )
         inertial = doc.get("inertial")

@@ -48,6 +48,7 @@ def build(
     force: bool = FORCE,
 ) -> None:
     """Build the spec into a model folder, with `blender.json`, the model document, beside it."""
+    from articulation.urdf_import import find_urdf, load_urdf
     from homemodel.app.blender_exchange import model_document
     from homemodel.core.atomic import write_json
     from homemodel.core.yaml_specs import read_yaml_mapping
@@ -56,7 +57,8 @@ def build(
 
     with exit_on_error():
         built = build_spec(spec, out, BuildOptions(name=name), force=force)
-        write_json(out / "blender.json", model_document(built.model, spec=read_yaml_mapping(spec)))
+        # Read back from the folder: its textures are where the document must point.
+        write_json(out / "blender.json", model_document(load_urdf(find_urdf(out)), spec=read_yaml_mapping(spec)))
     typer.echo(built.validation.format())
     raise typer.Exit(0 if built.valid else 1)
 
