@@ -20,10 +20,12 @@ class Atlas:
     source_vertex: np.ndarray  # (V,) the input vertex each vertex of `mesh` copies
 
 
-def uv_atlas(mesh: trimesh.Trimesh, *, size_px: int, padding_px: int, charts: int | None = None) -> Atlas:
+def uv_atlas(mesh: trimesh.Trimesh, *, size_px: int, padding_px: int, charts: int | None = 300) -> Atlas:
     """Charts of `mesh` packed for a `size_px` square texture with `padding_px` texels between
-    them. `charts`: no chart larger than the mesh's area over this (xatlas is fast with many
-    small charts, slow with a few large ones); None: xatlas's own chart sizes."""
+    them. `charts`: no chart larger than the mesh's area over this; None: xatlas's own chart
+    sizes. xatlas is fast with many small charts and slow with a few large ones: a turntable
+    box of 12k triangles took 8.0 s with its own charts, 0.6 s with 300 (its charts then cover
+    20% fewer texels of a 1024 px texture: enough for colours baked from its vertices)."""
     import xatlas
 
     chart_options = xatlas.ChartOptions()
