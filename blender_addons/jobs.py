@@ -10,6 +10,7 @@ tests run the same steps without a timer (the operator's `execute` waits for the
 from __future__ import annotations
 
 import json
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -68,11 +69,16 @@ class Job:
         return self.process.poll() is not None
 
     def cancel(self) -> None:
+        """Stop the child and remove its work folder (a finished job's stays: the model's
+        textures are read from it)."""
         self.process.terminate()
         self.process.wait()
+        shutil.rmtree(self.work, ignore_errors=True)
 
     def document(self) -> dict:
         """The finished model's document; ToolkitError with the toolkit's message if it failed."""
+        if not self.work.exists():
+            raise toolkit.ToolkitError("the job was cancelled")
         if self.process.returncode != 0:
             lines = [line for line in self.log.read_text(encoding="utf-8").splitlines() if line.strip()]
             raise toolkit.ToolkitError(next((l for l in reversed(lines) if l.startswith("error:")), lines[-1] if lines else "the job failed"))

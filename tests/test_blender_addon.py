@@ -13,6 +13,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -657,9 +658,9 @@ def test_a_photo_job_reports_progress_and_cancels(scene, shared_data: Path) -> N
     assert 0.0 <= job.fraction <= 1.0
     job.cancel()
     assert job.poll() and job.process.returncode != 0
-    with pytest.raises(toolkit.ToolkitError):
+    with pytest.raises(toolkit.ToolkitError, match="the job was cancelled"):
         job.document()
-    assert not home.model_roots(scene) and not (job.out / "model.urdf").exists()
+    assert not home.model_roots(scene) and not job.work.exists()  # nothing of it is left
 
 
 def test_render_the_selected_model_to_a_picture(scene, kitchen: Path, tmp_path: Path) -> None:
@@ -679,23 +680,31 @@ def test_render_the_selected_model_to_a_picture(scene, kitchen: Path, tmp_path: 
 # A real Blender window
 
 
-@pytest.mark.slow
-@pytest.mark.skipif(
+needs_a_window = pytest.mark.skipif(
     not (shutil.which("blender") and shutil.which("xvfb-run")),
     reason="needs Debian's blender and xvfb (make addon-screenshots installs them)",
 )
-def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path) -> None:
-    from homemodel.core.images import read_image
 
+
+def _in_a_blender_window(tmp_path: Path, script: Path, *args: str) -> subprocess.CompletedProcess:
+    """Run `script` in Debian's Blender with a window on xvfb, on an empty scene."""
     empty = tmp_path / "empty.blend"
     subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
                     f"import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); bpy.ops.wm.save_as_mainfile(filepath={str(empty)!r})"], capture_output=True, check=True)
     env = {**ENV, "HOMEMODEL_COMMAND": f"{sys.executable} -m homemodel"}
-    run = subprocess.run(
+    return subprocess.run(
         ["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", "blender", "--factory-startup", "--enable-event-simulate",
-         str(empty), "--python", str(REPO / "tools" / "addon_screenshots.py"), "--", str(REPO), str(kitchen / "map.xml"), str(tmp_path / "shots")],
+         str(empty), "--python", str(script), "--", str(REPO), *args],
         capture_output=True, text=True, env=env, timeout=600,
     )
+
+
+@pytest.mark.slow
+@needs_a_window
+def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path) -> None:
+    from homemodel.core.images import read_image
+
+    run = _in_a_blender_window(tmp_path, REPO / "tools" / "addon_screenshots.py", str(kitchen / "map.xml"), str(tmp_path / "shots"))
     output = run.stdout + run.stderr
     assert "Traceback" not in output and "Error" not in output and "FAILED" not in output, output
     drew = json.loads((tmp_path / "shots" / "screenshots.json").read_text())
@@ -711,6 +720,35 @@ def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path)
         # The sidebar holds text and widgets (many tones), the viewport the kitchen.
         assert len(np.unique(sidebar.reshape(-1, sidebar.shape[-1]), axis=0)) > 50, name
         assert sidebar.std() > 10 and viewport.std() > 10, name
+
+
+@pytest.mark.slow
+@needs_a_window
+def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_next(tmp_path: Path) -> None:
+    """The modal path an installer uses: the job's timer polls the child, the panel's status and
+    progress move, the model lands at the 3D cursor; Esc stops a second job and its child."""
+    trimesh.creation.box((0.1, 0.08, 0.12)).export(tmp_path / "box.ply")
+    capture = tmp_path / "capture"
+    simulated = homemodel("turntable", "simulate", str(tmp_path / "box.ply"), "--out", str(capture), "--frames", "12",
+                          "--width", "320", "--height", "240", "--samples", "2",
+                          "--camera-distance-m", "0.3", "--camera-height-m", "0.55", "--tag-size-m", "0.04")
+    assert simulated.returncode == 0, simulated.stderr
+    work_folders = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*"))
+    run = _in_a_blender_window(tmp_path, REPO / "tests" / "blender_window_job.py", str(capture), str(tmp_path / "seen.json"))
+    [kept] = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*")) - work_folders  # the cancelled one is gone
+    assert (kept / "model" / "model.urdf").exists()  # the landed model's, whose textures Blender reads
+    seen = json.loads((tmp_path / "seen.json").read_text())
+    assert seen["error"] is None, seen["error"] + run.stderr[-2000:]
+    assert seen["modal_results"] == [["RUNNING_MODAL"], ["RUNNING_MODAL"]]
+    first = [status.removeprefix("Reconstruct turntable capture: ") for status in seen["first_statuses"]]
+    assert first[0] == "starting" and first[-1] == "done", first
+    assert {"mesh", "texture", "export"} <= set(first), first  # the toolkit's stages, as they came
+    [landed] = seen["landed"]
+    assert landed["name"] == "turntable_object" and landed["meshes"] >= 1
+    assert landed["location"] == pytest.approx(seen["cursor"])
+    assert seen["statuses"][-1] == "Reconstruct turntable capture: cancelled"
+    left = subprocess.run(["pgrep", "-f", f"turntable reconstruct {capture}"], capture_output=True, text=True)
+    assert left.stdout == "", "the cancelled job's toolkit process is still running"
 
 
 def test_a_bad_model_document_is_one_line_naming_the_field_and_nothing_is_written(tmp_path: Path) -> None:
