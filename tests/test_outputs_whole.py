@@ -45,6 +45,22 @@ def test_a_run_never_replaces_an_output_that_appeared_while_it_ran(tmp_path: Pat
     assert [p.name for p in empty.iterdir()] == ["b.txt"] and _temporaries(tmp_path) == []
 
 
+def test_runs_racing_for_one_output_leave_one_whole_result(tmp_path: Path) -> None:
+    """Four processes write the same folder at once: one wins; each other one is refused in one
+    line (the folder exists, or another run wrote it meanwhile); no temporaries are left."""
+    out = tmp_path / "board"
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    runs = [subprocess.Popen([sys.executable, "-m", "homemodel", "turntable", "board", "--out", str(out)],
+                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(4)]
+    results = [(run.wait(timeout=120), run.communicate()[1]) for run in runs]
+    assert sorted(code for code, _ in results) == [0, 2, 2, 2], results
+    for code, stderr in results:
+        if code == 2:
+            assert len(stderr.strip().splitlines()) == 1 and str(out) in stderr, stderr
+            assert "exists" in stderr or "another run wrote this folder meanwhile" in stderr, stderr
+    assert sorted(p.name for p in out.iterdir()) == ["board.pdf", "board.yaml"] and _temporaries(tmp_path) == []
+
+
 def _dead_pid() -> int:
     child = subprocess.Popen([sys.executable, "-c", "pass"])
     child.wait()
