@@ -41,7 +41,7 @@ LOCK_FILE = ".build.lock"
 class DatabaseBuildOptions:
     workers: int | None = None  # local worker processes; None: one per core
     scheduler: str | None = None  # an existing Dask scheduler, e.g. tcp://host:8786
-    repair: bool = False  # repair imported assets that lack only what the gate needs
+    repair: bool = False  # repair every imported asset that lacks only what the gate needs (else: entries with `repair: true`)
     retry_failed: bool = False  # build failed entries again even when their key is unchanged
 
     def check(self) -> None:
@@ -158,10 +158,18 @@ def _worker_lost(job: Job, key: str, exc: BaseException) -> EntryRow:
     )  # fmt: skip
 
 
-def plan(jobs: list[Job], repair: RepairSpec | None, index: ModelIndex, retry_failed: bool) -> tuple[dict[str, str], list[Job], list[Job]]:
+def repair_for(job: Job, repair_spec: RepairSpec, repair_all: bool) -> RepairSpec | None:
+    """The repair settings an entry is built with: None unless `--repair` or its manifest entry
+    (`repair: true`) asks for repairs."""
+    return repair_spec if job.source == "urdf" and (repair_all or job.repair) else None
+
+
+def plan(jobs: list[Job], repairs: dict[str, RepairSpec | None], index: ModelIndex, retry_failed: bool) -> tuple[dict[str, str], list[Job], list[Job]]:
     """Every job's key, the jobs to build and the jobs whose stored build is still current."""
-    repair_settings = repair.model_dump_json() if repair is not None else ""
-    keys = {job.id: content_key(job, repair_settings, index.cached_hash, index.store_hash) for job in jobs}
+    keys = {}
+    for job in jobs:
+        repair = repairs[job.id]
+        keys[job.id] = content_key(job, repair.model_dump_json() if repair is not None else "", index.cached_hash, index.store_hash)
     index.commit()
     stored = index.keys()
     todo, cached = [], []
@@ -188,11 +196,11 @@ def build_database(
     start = time.perf_counter()
     db_dir = Path(db_dir)
     jobs, repair_spec = load_manifest(manifest_path)
-    repair = repair_spec if options.repair else None
+    repairs = {job.id: repair_for(job, repair_spec, options.repair) for job in jobs}
     result = DatabaseBuild(db_dir=db_dir)
     with build_lock(db_dir), ModelIndex(db_dir, create=True) as index:
         _remove_leftovers(db_dir)
-        keys, todo, cached = plan(jobs, repair, index, options.retry_failed)
+        keys, todo, cached = plan(jobs, repairs, index, options.retry_failed)
         for job in cached:
             row = index.require(job.id)
             category, properties = job.category or row.category, {**row.properties, **job.properties}
@@ -207,19 +215,19 @@ def build_database(
                 for job in cached:
                     on_entry(index.require(job.id), True)
             if todo:
-                _run(client, todo, keys, db_dir, repair, index, result, on_entry)
+                _run(client, todo, keys, db_dir, repairs, index, result, on_entry)
                 _remove_leftovers(db_dir)  # of a worker killed during this build
     result.seconds = time.perf_counter() - start
     return result
 
 
-def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repair: RepairSpec | None,  # noqa: ANN001
+def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repairs: dict[str, RepairSpec | None],  # noqa: ANN001
          index: ModelIndex, result: DatabaseBuild, on_entry: EntryDone | None) -> None:  # fmt: skip
     from distributed import as_completed
 
     futures = {}
     for job in todo:
-        request = BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repair)
+        request = BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id])
         # The task's name carries the key: a rerun after a change never reuses an old result.
         future = client.submit(build_entry, request, key=f"homemodel-db-{job.id}-{keys[job.id][:16]}")
         futures[future.key] = (future, job)

@@ -147,7 +147,7 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
     if gaps and repair is None:
         # The asset as given fails the gate for want of what it needs: say so, and how to repair.
         report = validate_path(urdf)
-        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair)"))
+        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"))
         return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
     model: Model = import_partnet(source).model if source.is_dir() and is_partnet_folder(source) else load_urdf(urdf)
     model.name = job.id
