@@ -225,6 +225,10 @@ def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repairs: d
          index: ModelIndex, result: DatabaseBuild, on_entry: EntryDone | None) -> None:  # fmt: skip
     from distributed import as_completed
 
+    from homemodel.app.database.worker_setup import PLUGIN_NAME, DatabaseWorker
+
+    # Each worker imports what these sources need before its first entry, and ends cleanly.
+    client.register_plugin(DatabaseWorker(tuple(job.source for job in todo)), name=PLUGIN_NAME)
     futures = {}
     for job in todo:
         request = BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id])

@@ -188,6 +188,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
     """Build `request.job` into `db_dir/models/<id>/` (replacing what was there only when the
     new folder is whole) and return its index row; never raises for a bad entry."""
     from articulation.urdf_import import load_urdf
+    from homemodel.app.database.worker_setup import note_blender_thread  # imports distributed: only in workers
 
     job = request.job
     start = time.perf_counter()
@@ -239,6 +240,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
         said = " ".join(str(exc).split())
         row.error = said if isinstance(exc, HomemodelError) else f"{type(exc).__name__}: {said}"
         row.path = row.thumbnail = None
+    note_blender_thread()  # a worker that ran bpy must end without Python's module teardown
     row.build_s = round(time.perf_counter() - start, 4)
     row.built_at = row.built_at or datetime.now(timezone.utc).isoformat(timespec="seconds")
     return row
