@@ -5,6 +5,8 @@ at all. Any failure is caught and returned as a "failed" row: one bad entry neve
 
 from __future__ import annotations
 
+import copy
+import functools
 import logging
 import os
 import socket
@@ -61,10 +63,18 @@ def _options(cls: type, job: Job, **fixed: Any) -> Any:
     return options
 
 
+@functools.lru_cache(maxsize=64)
+def _spec_mapping(spec_path: Path, size: int, mtime_ns: int) -> dict:
+    """A swept spec's file, parsed once per worker while it is unchanged (a sweep's entries
+    share it; parsing it again was a good part of what an entry cost beyond its build)."""
+    return read_yaml_mapping(spec_path)
+
+
 def _swept_spec(job: Job, folder: Path) -> Path:
     """The spec with the sweep's values set, written into `folder` (photo paths made absolute)."""
     spec_path = job.inputs["path"]
-    data = read_yaml_mapping(spec_path)
+    stat = spec_path.stat()
+    data = copy.deepcopy(_spec_mapping(spec_path, stat.st_size, stat.st_mtime_ns))
     for name in job.overrides:
         if name not in data and name not in _spec_fields(spec_path):
             raise SpecError(f"{spec_path}: sweep field {name!r} is not a field of this spec")

@@ -6,9 +6,10 @@ bpy copes with that as long as it stays on that one thread, but its module teard
 interpreter finalises on the main thread, runs Blender's exit (WM_exit), which frees the
 screens set up on the other thread and segfaults (bpy 5.0.1; pycolmap's glog handler prints
 the crash as a stack trace, else the worker just dies by SIGSEGV). So a worker that used bpy
-off the main thread ends, once Dask has closed it and Python's exit handlers have run, with
-`os._exit(0)`, skipping the module teardown; it first removes Blender's session folder in
-/tmp, the one thing of Blender's exit that outlives the process.
+off the main thread, once Dask has closed it, ends from an exit handler with `os._exit(0)`,
+skipping the module teardown (and the exit handlers registered before it: logging's is run
+by hand); it first removes Blender's session folder in /tmp, the one thing of Blender's exit
+that outlives the process.
 """
 
 from __future__ import annotations
