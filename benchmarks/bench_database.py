@@ -1,18 +1,23 @@
 """Benchmark: `homemodel db build` on Dask against a plain serial loop, cached rebuilds, and a
 mixed manifest of every source.
 
-1. Throughput: N generated spec entries (a cup swept over heights and diameters) built by
-   `homemodel db build --workers 2`, against the same entries built one after the other by a
-   plain loop of `modeller.build` (the swept spec written, then built: the pipeline, its export
-   and the validation gate, as each database entry does), in the same run. Both are timed the
-   same way: the wall time of a fresh `python` process, from its start to its exit, so each pays
-   its own interpreter start and imports (bpy, open3d: once in the loop, once in each worker).
-   The overhead per entry is (workers x db time - serial time) / N: what the database adds per
-   entry beyond perfect parallelism on the workers. It includes, spread over the N entries, the
-   cluster's start-up; and per entry, the thumbnail, the entry record (entry.json), the atomic
-   store, Dask's scheduling and the index row. The table splits it, from the index's times, into
-   the workers' time outside any entry (start-up, imports, idling, Dask) and the time inside the
-   entries beyond the pipeline's own stages (thumbnail, record, store).
+1. Throughput: N generated spec entries (a cup swept over heights and diameters) built by the
+   database on 2 local Dask workers (`build_database`, as `homemodel db build --workers 2`
+   calls it), against the same entries built one after the other by a plain loop of
+   `modeller.build` (the swept spec written, then built: the pipeline, its export and the
+   validation gate, the work each database entry does before its own), in the same run.
+   Each side runs in a fresh `python` process and is timed from its start to its exit, so
+   each pays its interpreter start and its imports (bpy, open3d, the gate's clients: once in
+   the loop, once in each worker, in parallel), and the database its cluster's start.
+   What the database adds per entry ("overhead") is given two ways:
+   - after start-up: a worker's time per entry (workers x the time from the first entry's
+     start to the last one's end, / N) minus the loop's time per entry (its loop, / N).
+     This is the thumbnail, the entry record, the atomic store, Dask's dispatch, the index
+     row and the two workers' contention for the machine; the part spent inside the entries
+     beyond the pipeline's stages is listed too (from the index's times);
+   - all in: (workers x database wall time - serial wall time) / N, which also spreads the
+     database's start-up (the client's imports, the cluster, the workers' imports in
+     parallel) over the N entries.
 2. A rebuild with nothing changed, and after one spec file changed (only that entry built),
    both by the same command.
 3. The mixed manifest of examples/database (specs, a sweep, a simulated turntable capture, the
@@ -25,6 +30,8 @@ Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--skip-mixed
 from __future__ import annotations
 
 import argparse
+import importlib
+import json
 import os
 import statistics
 import subprocess
@@ -40,6 +47,7 @@ from rich.table import Table
 
 from homemodel.app.database import DatabaseBuildOptions, ModelIndex, build_database
 from homemodel.app.database.manifest import load_manifest
+from homemodel.app.database.worker_setup import SHARED_MODULES, WARM_MODULES
 
 ROOT = Path(__file__).resolve().parent.parent
 CUP = ROOT / "examples" / "catalogue" / "cup.yaml"
@@ -61,10 +69,18 @@ def _cup_manifest(folder: Path, entries: int) -> Path:
     return manifest
 
 
-def serial_loop(manifest: Path, out: Path) -> None:
-    """The same entries, one after the other, in this process: write the swept spec, build it."""
+def _since(t0: float) -> float:
+    return time.time() - t0
+
+
+def serial_loop(manifest: Path, out: Path, t0: float) -> dict:
+    """The same entries, one after the other, in this process: write the swept spec, build it.
+    Returns when its imports were done and the time of the loop itself (seconds)."""
     from modeller import BuildOptions, build
 
+    for name in WARM_MODULES["spec"] + SHARED_MODULES:  # what a database worker imports first
+        importlib.import_module(name)
+    ready_s = _since(t0)
     jobs, _ = load_manifest(manifest)
     base = yaml.safe_load(jobs[0].inputs["path"].read_text())
     out.mkdir(parents=True, exist_ok=True)
@@ -72,6 +88,16 @@ def serial_loop(manifest: Path, out: Path) -> None:
         spec = out / f"{job.id}.yaml"
         spec.write_text(yaml.safe_dump({**base, **job.overrides}))
         build(spec, out / job.id, BuildOptions(name=job.id))
+    return {"startup_s": ready_s, "entries_s": _since(t0) - ready_s}
+
+
+def database_build(manifest: Path, db: Path, t0: float) -> dict:
+    """`build_database` as `homemodel db build --workers 2` calls it (without its progress bar).
+    Returns when the first entry started and the time from then to the last entry's end."""
+    ends: list[tuple[float, float]] = []
+    build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS), on_entry=lambda row, _: ends.append((_since(t0), row.build_s)))
+    first_start = min(end - build_s for end, build_s in ends)
+    return {"startup_s": first_start, "entries_s": max(end for end, _ in ends) - first_start}
 
 
 def _run_timed(*args: str | Path) -> tuple[float, str]:
@@ -83,6 +109,12 @@ def _run_timed(*args: str | Path) -> tuple[float, str]:
     if done.returncode != 0:
         raise RuntimeError(f"{args} exited {done.returncode}:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}")
     return seconds, done.stdout + done.stderr
+
+
+def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
+    """Wall seconds of this script's `mode` in a fresh process, and the timings it reports."""
+    seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}")
+    return seconds, json.loads(said.strip().splitlines()[-1])
 
 
 def _db_build(manifest: Path, db: Path) -> tuple[float, str]:
@@ -98,17 +130,16 @@ def throughput(entries: int, console: Console) -> None:
         folder = Path(tmp)
         manifest = _cup_manifest(folder, entries)
         load_before = _load()
-        serial_s, _ = _run_timed(__file__, "--serial-loop", manifest, folder / "serial")
+        serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
         db = folder / "db"
-        db_s, said = _db_build(manifest, db)
+        db_s, built = _run_child("--db-build", manifest, db)
         load_after = _load()
         with ModelIndex(db) as index:
             rows = index.rows()
         problems = [f"{r.id}: {r.status}: {r.error or '; '.join(r.failed_checks)}" for r in rows if r.status != "valid"]
-        in_workers_s = sum(r.build_s for r in rows)
         # An entry's time beyond its pipeline's stages: the thumbnail, the record, the atomic store.
         pipeline_s = sum(s for r in rows for stage, s in r.times_s.items() if stage not in DATABASE_STAGES)
-        database_s = in_workers_s - pipeline_s
+        in_entries_s = sum(r.build_s for r in rows) - pipeline_s
         nothing_s, nothing = _db_build(manifest, db)
         # One more entry with a spec file of its own, built once; then only its file changes.
         single = folder / "single.yaml"
@@ -120,18 +151,23 @@ def throughput(entries: int, console: Console) -> None:
         single.write_text(CUP.read_text().replace("colour: white", "colour: red"))
         one_s, one = _db_build(manifest, db)
 
-    table = Table(title=f"{entries} cup entries: `db build --workers {WORKERS}` vs a serial loop (load {load_before} -> {load_after})")
+    serial_entry_s = serial["entries_s"] / entries
+    db_entry_s = WORKERS * built["entries_s"] / entries  # a worker's time per entry
+    table = Table(title=f"{entries} cup entries: the database on {WORKERS} Dask workers vs a serial loop (load {load_before} -> {load_after})")
     table.add_column("figure")
-    table.add_column("value", justify="right")
-    table.add_row("serial loop of modeller.build (fresh process)", f"{serial_s:.1f} s  ({1000 * serial_s / entries:.0f} ms/entry)")
-    table.add_row(f"db build, {WORKERS} workers (fresh process, start-up included)", f"{db_s:.1f} s  ({1000 * db_s / entries:.0f} ms/entry)")
-    table.add_row("entries valid / built", f"{entries - len(problems)} / {len(rows)}")
-    table.add_row("speed-up (serial / db)", f"{serial_s / db_s:.2f}x")
-    table.add_row("overhead per entry (workers x db - serial) / N", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
-    table.add_row("  of it: workers' time outside the entries, / N", f"{1000 * (WORKERS * db_s - in_workers_s) / entries:.0f} ms")
-    table.add_row("  of it: in the entries beyond the pipeline, / N", f"{1000 * database_s / entries:.0f} ms")
-    table.add_row("rebuild, nothing changed", f"{nothing_s:.2f} s  ({_summary(nothing)})")
-    table.add_row("rebuild, one spec changed", f"{one_s:.1f} s  ({_summary(one)})")
+    table.add_column("serial loop", justify="right")
+    table.add_column("database", justify="right")
+    table.add_row("wall time, fresh process to exit", f"{serial_s:.1f} s", f"{db_s:.1f} s")
+    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{serial['startup_s']:.1f} s", f"{built['startup_s']:.1f} s")
+    table.add_row("  the entries (first start to last end)", f"{serial['entries_s']:.1f} s", f"{built['entries_s']:.1f} s")
+    table.add_row("time per entry (database: x workers)", f"{1000 * serial_entry_s:.0f} ms", f"{1000 * db_entry_s:.0f} ms")
+    table.add_row("entries valid / built", "", f"{entries - len(problems)} / {len(rows)}")
+    table.add_row("[bold]speed-up, wall time (serial / database)", "", f"[bold]{serial_s / db_s:.2f}x")
+    table.add_row("[bold]overhead per entry, after start-up", "", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
+    table.add_row("  of it: in the entries, beyond the pipeline", "", f"{1000 * in_entries_s / entries:.0f} ms")
+    table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
+    table.add_row("rebuild, nothing changed (homemodel db build)", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
+    table.add_row("rebuild, one spec changed (homemodel db build)", "", f"{one_s:.1f} s  ({_summary(one)})")
     console.print(table)
     for problem in problems[:10]:
         console.print(problem)
@@ -167,11 +203,14 @@ def main() -> None:
     parser.add_argument("--entries", type=int, default=200, help="generated spec entries (a multiple of 20)")
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
-    parser.add_argument("--serial-loop", nargs=2, type=Path, metavar=("MANIFEST", "OUT"), help=argparse.SUPPRESS)
+    # The two sides of the throughput figure, each run by throughput() in a fresh process.
+    parser.add_argument("--serial-loop", nargs=3, metavar=("MANIFEST", "OUT", "T0"), help=argparse.SUPPRESS)
+    parser.add_argument("--db-build", nargs=3, metavar=("MANIFEST", "DB", "T0"), help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.serial_loop:
-        serial_loop(*args.serial_loop)  # the baseline, run by throughput() in a fresh process
-        return
+    for child, given in ((serial_loop, args.serial_loop), (database_build, args.db_build)):
+        if given:
+            print(json.dumps(child(Path(given[0]), Path(given[1]), float(given[2]))))
+            return
     console = Console(width=120)
     if not args.only_mixed:
         throughput(args.entries, console)

@@ -66,10 +66,6 @@ def build(
 
     from homemodel.app.database import DatabaseBuildOptions, build_database
 
-    import distributed  # noqa: F401 (its import sets its loggers' levels, which are then lowered)
-
-    # Dask logs every worker's start and stop at INFO; the build prints its own lines.
-    logging.getLogger("distributed").setLevel(logging.ERROR)
     console = make_console()
     options = DatabaseBuildOptions(workers=workers, scheduler=scheduler, repair=repair, retry_failed=retry_failed)
     with exit_on_error(), Progress(
@@ -78,6 +74,9 @@ def build(
         task = bar.add_task("entries", total=None)
 
         def on_start(todo: int, cached: int, dashboard: str | None) -> None:
+            # Dask logs every worker's start and stop at INFO; the build prints its own lines.
+            # (Set here: importing distributed, only when there is something to build, sets it.)
+            logging.getLogger("distributed").setLevel(logging.ERROR)
             bar.update(task, total=todo)
             if dashboard:
                 console.print(f"Dask dashboard: {dashboard}")

@@ -26,7 +26,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from homemodel.app.database.content_key import content_key
-from homemodel.app.database.entry_build import BuildRequest, build_entry
 from homemodel.app.database.index import MODELS_DIR, EntryRow, ModelIndex
 from homemodel.app.database.manifest import Job, RepairSpec, load_manifest
 from homemodel.core.checks import require_at_least
@@ -227,6 +226,8 @@ def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repairs: d
          index: ModelIndex, result: DatabaseBuild, on_entry: EntryDone | None) -> None:  # fmt: skip
     from distributed import as_completed
 
+    # Imported only when there is something to build: a rerun with nothing changed stays quick.
+    from homemodel.app.database.entry_build import BuildRequest, build_entry
     from homemodel.app.database.worker_setup import PLUGIN_NAME, DatabaseWorker
 
     # Each worker imports what these sources need before its first entry, and ends cleanly.
