@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -66,6 +67,11 @@ def build(
 
     from homemodel.app.database import DatabaseBuildOptions, build_database
 
+    # Dask logs every worker's start and stop at INFO; the build prints its own lines. Set
+    # through Dask's configuration, which it reads when (and only if) the build imports it,
+    # and on its logger in case it was imported already.
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
+    logging.getLogger("distributed").setLevel(logging.ERROR)
     console = make_console()
     options = DatabaseBuildOptions(workers=workers, scheduler=scheduler, repair=repair, retry_failed=retry_failed)
     with exit_on_error(), Progress(
@@ -74,9 +80,6 @@ def build(
         task = bar.add_task("entries", total=None)
 
         def on_start(todo: int, cached: int, dashboard: str | None) -> None:
-            # Dask logs every worker's start and stop at INFO; the build prints its own lines.
-            # (Set here: importing distributed, only when there is something to build, sets it.)
-            logging.getLogger("distributed").setLevel(logging.ERROR)
             bar.update(task, total=todo)
             if dashboard:
                 console.print(f"Dask dashboard: {dashboard}")

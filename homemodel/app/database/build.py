@@ -258,3 +258,6 @@ def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repairs: d
         # On Ctrl-C: nothing more is started; finished entries are committed.
         index.commit()
         client.cancel([f for f, _ in futures.values()])
+        # A shared cluster's later workers need not warm up for this build.
+        with contextlib.suppress(OSError, TimeoutError, ValueError):
+            client.unregister_worker_plugin(PLUGIN_NAME)
