@@ -21,6 +21,7 @@ import os
 import shutil
 import sys
 import threading
+from concurrent.futures import Future
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
@@ -38,7 +39,7 @@ WARM_MODULES = {
 }
 SHARED_MODULES = ("articulation.gate.validate", "homemodel.app.database.thumbnail", "open3d")
 
-_bpy_off_main_thread: list[bool] = []  # [True] once bpy ran on a thread other than the main one
+_bpy_off_main_thread = False  # whether bpy ran on a thread other than the main one
 
 
 def warm_up(sources: tuple[str, ...]) -> None:
@@ -48,10 +49,17 @@ def warm_up(sources: tuple[str, ...]) -> None:
     note_blender_thread()
 
 
+def _report_failed_warm_up(done: Future) -> None:
+    # The entries then fail with their own error; the worker's log says why it was not warm.
+    if done.exception() is not None:
+        log.warning("warming up failed: %s", done.exception())
+
+
 def note_blender_thread() -> None:
     """Note whether bpy is loaded and this is not the main thread."""
-    if "bpy" in sys.modules and threading.current_thread() is not threading.main_thread() and not _bpy_off_main_thread:
-        _bpy_off_main_thread.append(True)
+    global _bpy_off_main_thread
+    if "bpy" in sys.modules and threading.current_thread() is not threading.main_thread():
+        _bpy_off_main_thread = True
 
 
 def _end_without_teardown() -> None:
@@ -72,7 +80,7 @@ class DatabaseWorker(WorkerPlugin):
 
     def setup(self, worker) -> None:  # noqa: ANN001 (distributed.Worker)
         # Queued on the executor's thread (one per worker), ahead of the entries.
-        worker.executor.submit(warm_up, self.sources)
+        worker.executor.submit(warm_up, self.sources).add_done_callback(_report_failed_warm_up)
 
     def teardown(self, worker) -> None:  # noqa: ANN001
         if _bpy_off_main_thread:
