@@ -22,6 +22,10 @@ mixed manifest of every source.
      counted (the client, Dask's workers, the gate's tools). Unlike the wall-time figures it
      barely moves when other jobs share the machine: it is what the database costs, not
      what it was given.
+   The same figures are given for 2 plain loops started side by side, each a fresh process
+   building half the entries: no Dask, no database, just two processes, so their speed-up
+   is what this machine gives two processes at best (on a shared or hyperthreaded machine
+   well under 2x), the ceiling to judge the database's against.
 2. A rebuild with nothing changed, and after one spec file changed (only that entry built),
    both by the same command.
 3. The mixed manifest of examples/database (specs, a sweep, a simulated turntable capture, the
@@ -76,15 +80,17 @@ def _since(t0: float) -> float:
     return time.time() - t0
 
 
-def serial_loop(manifest: Path, out: Path, t0: float) -> dict:
-    """The same entries, one after the other, in this process: write the swept spec, build it.
-    Returns when its imports were done and the time of the loop itself (seconds)."""
+def serial_loop(manifest: Path, out: Path, t0: float, part: str = "0/1") -> dict:
+    """The same entries, one after the other, in this process: write the swept spec, build it
+    (with `part` "i/n", only every n-th entry from the i-th). Returns when its imports were
+    done and the time of the loop itself (seconds)."""
     from modeller import BuildOptions, build
 
     for name in WARM_MODULES["spec"] + SHARED_MODULES:  # what a database worker imports first
         importlib.import_module(name)
     ready_s = _since(t0)
-    jobs, _ = load_manifest(manifest)
+    first, step = map(int, part.split("/"))
+    jobs = load_manifest(manifest)[0][first::step]
     base = yaml.safe_load(jobs[0].inputs["path"].read_text())
     out.mkdir(parents=True, exist_ok=True)
     for job in jobs:
@@ -128,6 +134,23 @@ def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
     return seconds, {**json.loads(said.strip().splitlines()[-1]), "cpu_s": _children_cpu_s() - cpu_before}
 
 
+def _loops_side_by_side(manifest: Path, out: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of WORKERS plain loops started together, each a fresh process
+    building its share of the entries: what this machine gives WORKERS processes at best."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cpu_before, start = _children_cpu_s(), time.perf_counter()
+    loops = [
+        subprocess.Popen([sys.executable, __file__, "--serial-loop", manifest, out / str(i), f"{time.time():.6f}", f"{i}/{WORKERS}"],
+                         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        for i in range(WORKERS)
+    ]  # fmt: skip
+    for loop in loops:
+        _, said = loop.communicate()
+        if loop.returncode != 0:
+            raise RuntimeError(f"a side-by-side loop exited {loop.returncode}:\n{said[-2000:]}")
+    return time.perf_counter() - start, _children_cpu_s() - cpu_before
+
+
 def _db_build(manifest: Path, db: Path) -> tuple[float, str]:
     return _run_timed("-m", "homemodel", "db", "build", manifest, "--db", db, "--workers", WORKERS)
 
@@ -142,6 +165,7 @@ def throughput(entries: int, console: Console) -> None:
         manifest = _cup_manifest(folder, entries)
         load_before = _load()
         serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
+        side_s, side_cpu_s = _loops_side_by_side(manifest, folder / "side")
         db = folder / "db"
         db_s, built = _run_child("--db-build", manifest, db)
         load_after = _load()
@@ -165,24 +189,25 @@ def throughput(entries: int, console: Console) -> None:
 
     serial_entry_s = serial["entries_s"] / entries
     db_entry_s = WORKERS * built["entries_s"] / entries  # a worker's time per entry
-    table = Table(title=f"{entries} cup entries: the database on {WORKERS} Dask workers vs a serial loop (load {load_before} -> {load_after})")
+    table = Table(title=f"{entries} cup entries: the database on {WORKERS} Dask workers vs plain loops (load {load_before} -> {load_after})")
     table.add_column("figure")
     table.add_column("serial loop", justify="right")
+    table.add_column(f"{WORKERS} loops side by side", justify="right")
     table.add_column("database", justify="right")
-    table.add_row("wall time, fresh process to exit", f"{serial_s:.1f} s", f"{db_s:.1f} s")
-    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{serial['startup_s']:.1f} s", f"{built['startup_s']:.1f} s")
-    table.add_row("  the entries (first start to last end)", f"{serial['entries_s']:.1f} s", f"{built['entries_s']:.1f} s")
-    table.add_row("time per entry (database: x workers)", f"{1000 * serial_entry_s:.0f} ms", f"{1000 * db_entry_s:.0f} ms")
-    table.add_row("CPU time, every process (user + system)", f"{serial['cpu_s']:.1f} s", f"{built['cpu_s']:.1f} s")
-    table.add_row("entries valid / built", "", f"{entries - len(problems)} / {len(rows)}")
-    table.add_row("[bold]speed-up, wall time (serial / database)", "", f"[bold]{serial_s / db_s:.2f}x")
-    table.add_row("[bold]overhead per entry, after start-up", "", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
-    table.add_row("  in the entries: the thumbnail", "", f"{1000 * thumbnail_s / entries:.0f} ms")
-    table.add_row("  in the entries: outside the stages' clocks", "", f"{1000 * untimed_s / entries:.0f} ms")
-    table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
-    table.add_row("overhead per entry in CPU time, all in: (CPU db - CPU serial) / N", "", f"{1000 * (built['cpu_s'] - serial['cpu_s']) / entries:.0f} ms")
-    table.add_row("rebuild, nothing changed (homemodel db build)", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
-    table.add_row("rebuild, one spec changed (homemodel db build)", "", f"{one_s:.1f} s  ({_summary(one)})")
+    table.add_row("wall time, fresh processes to exit", f"{serial_s:.1f} s", f"{side_s:.1f} s", f"{db_s:.1f} s")
+    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{serial['startup_s']:.1f} s", "", f"{built['startup_s']:.1f} s")
+    table.add_row("  the entries (first start to last end)", f"{serial['entries_s']:.1f} s", "", f"{built['entries_s']:.1f} s")
+    table.add_row("time per entry (database: x workers)", f"{1000 * serial_entry_s:.0f} ms", "", f"{1000 * db_entry_s:.0f} ms")
+    table.add_row("CPU time, every process (user + system)", f"{serial['cpu_s']:.1f} s", f"{side_cpu_s:.1f} s", f"{built['cpu_s']:.1f} s")
+    table.add_row("entries valid / built", "", "", f"{entries - len(problems)} / {len(rows)}")
+    table.add_row("[bold]speed-up, wall time (serial / this)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
+    table.add_row("[bold]overhead per entry, after start-up", "", "", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
+    table.add_row("  in the entries: the thumbnail", "", "", f"{1000 * thumbnail_s / entries:.0f} ms")
+    table.add_row("  in the entries: outside the stages' clocks", "", "", f"{1000 * untimed_s / entries:.0f} ms")
+    table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * side_s - serial_s) / entries:.0f} ms", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
+    table.add_row("overhead per entry in CPU time, all in: (CPU - CPU serial) / N", "", f"{1000 * (side_cpu_s - serial['cpu_s']) / entries:.0f} ms", f"{1000 * (built['cpu_s'] - serial['cpu_s']) / entries:.0f} ms")
+    table.add_row("rebuild, nothing changed (homemodel db build)", "", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
+    table.add_row("rebuild, one spec changed (homemodel db build)", "", "", f"{one_s:.1f} s  ({_summary(one)})")
     console.print(table)
     for problem in problems[:10]:
         console.print(problem)
@@ -219,12 +244,12 @@ def main() -> None:
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
     # The two sides of the throughput figure, each run by throughput() in a fresh process.
-    parser.add_argument("--serial-loop", nargs=3, metavar=("MANIFEST", "OUT", "T0"), help=argparse.SUPPRESS)
+    parser.add_argument("--serial-loop", nargs="+", metavar="MANIFEST OUT T0 [PART]", help=argparse.SUPPRESS)
     parser.add_argument("--db-build", nargs=3, metavar=("MANIFEST", "DB", "T0"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     for child, given in ((serial_loop, args.serial_loop), (database_build, args.db_build)):
         if given:
-            print(json.dumps(child(Path(given[0]), Path(given[1]), float(given[2]))))
+            print(json.dumps(child(Path(given[0]), Path(given[1]), float(given[2]), *given[3:])))
             return
     console = Console(width=120)
     if not args.only_mixed:

@@ -14,6 +14,7 @@ that outlives the process.
 
 from __future__ import annotations
 
+import asyncio
 import atexit
 import importlib
 import logging
@@ -21,7 +22,6 @@ import os
 import shutil
 import sys
 import threading
-from concurrent.futures import Future
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
@@ -37,7 +37,7 @@ WARM_MODULES = {
     "completion": ("shape_completion",),
     "urdf": ("articulation.urdf_import",),
 }
-SHARED_MODULES = ("articulation.gate.validate", "homemodel.app.database.thumbnail", "open3d")
+SHARED_MODULES = ("articulation.gate.validate", "homemodel.app.database.entry_build", "open3d")
 
 _bpy_off_main_thread = False  # whether bpy ran on a thread other than the main one
 
@@ -47,12 +47,6 @@ def warm_up(sources: tuple[str, ...]) -> None:
     for name in (*(m for s in sources for m in WARM_MODULES[s]), *SHARED_MODULES):
         importlib.import_module(name)
     note_blender_thread()
-
-
-def _report_failed_warm_up(done: Future) -> None:
-    # The entries then fail with their own error; the worker's log says why it was not warm.
-    if done.exception() is not None:
-        log.warning("warming up failed: %s", done.exception())
 
 
 def note_blender_thread() -> None:
@@ -78,9 +72,14 @@ class DatabaseWorker(WorkerPlugin):
     def __init__(self, sources: tuple[str, ...]) -> None:
         self.sources = tuple(sorted(set(sources)))
 
-    def setup(self, worker) -> None:  # noqa: ANN001 (distributed.Worker)
-        # Queued on the executor's thread (one per worker), ahead of the entries.
-        worker.executor.submit(warm_up, self.sources).add_done_callback(_report_failed_warm_up)
+    async def setup(self, worker) -> None:  # noqa: ANN001 (distributed.Worker)
+        # On the executor's thread (one per worker), and awaited: the worker takes its first
+        # entry, which its event loop unpickles, only once these imports are done (imports of
+        # the same modules on two threads at once are what a stalled build was suspected of).
+        try:
+            await asyncio.wrap_future(worker.executor.submit(warm_up, self.sources))
+        except Exception as exc:  # noqa: BLE001 (the entries then fail with their own error)
+            log.warning("warming up failed: %s", exc)
 
     def teardown(self, worker) -> None:  # noqa: ANN001
         if _bpy_off_main_thread:
