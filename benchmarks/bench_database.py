@@ -2,15 +2,35 @@
 mixed manifest of every source.
 
 1. Throughput: N generated spec entries (a cup swept over heights and diameters) built by the
-   database with 2 local workers, against the same entries in a plain serial loop of
-   `modeller.build` (the sweep's spec written, then built), in the same run. The overhead per
-   entry is (workers x database time - serial time) / N: what the database adds per entry
-   (the scheduler, the thumbnail, the entry record, the index) beyond perfect parallelism.
-2. A rebuild with nothing changed, and after one spec file changed (only that entry built).
+   database on 2 local Dask workers (`build_database`, as `homemodel db build --workers 2`
+   calls it), against the same entries built one after the other by a plain loop of
+   `modeller.build` (the swept spec written, then built: the pipeline, its export and the
+   validation gate, the work each database entry does before its own), in the same run.
+   Each side runs in a fresh `python` process and is timed from its start to its exit, so
+   each pays its interpreter start and its imports (bpy, open3d, the gate's clients: once in
+   the loop, once in each worker, in parallel), and the database its cluster's start.
+   What the database adds per entry ("overhead") is given two ways:
+   - after start-up: a worker's time per entry (workers x the time from the first entry's
+     start to the last one's end, / N) minus the loop's time per entry (its loop, / N).
+     This is the thumbnail, the entry record, the atomic store, Dask's dispatch, the index
+     row and the two workers' contention for the machine; the thumbnail's share and the
+     entries' time outside their stages' clocks are listed too (from the index's times);
+   - all in: (workers x database wall time - serial wall time) / N, which also spreads the
+     database's start-up (the client's imports, the cluster, the workers' imports in
+     parallel) over the N entries;
+   - in CPU time, all in: (the database's CPU seconds - the loop's) / N, every process
+     counted (the client, Dask's workers, the gate's tools). Unlike the wall-time figures it
+     barely moves when other jobs share the machine: it is what the database costs, not
+     what it was given.
+   The same figures are given for 2 plain loops started side by side, each a fresh process
+   building half the entries: no Dask, no database, just two processes, so their speed-up
+   is what this machine gives two processes at best (on a shared or hyperthreaded machine
+   well under 2x), the ceiling to judge the database's against.
+2. A rebuild with nothing changed, and after one spec file changed (only that entry built),
+   both by the same command.
 3. The mixed manifest of examples/database (specs, a sweep, a simulated turntable capture, the
    shared Kermit photos, a completion query, an imported PartNet-style URDF): every entry
-   built or recorded as failed, and the time per source. Needs its inputs:
-   `python examples/database/make_inputs.py build/db_inputs`.
+   built or recorded as failed, and the time per source.
 
 Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--skip-mixed | --only-mixed]
 """
@@ -18,7 +38,13 @@ Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--skip-mixed
 from __future__ import annotations
 
 import argparse
+import importlib
+import json
+import os
+import resource
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from collections import defaultdict
@@ -28,8 +54,9 @@ import yaml
 from rich.console import Console
 from rich.table import Table
 
-from homemodel.app.database import DatabaseBuildOptions, build_database
+from homemodel.app.database import DatabaseBuildOptions, ModelIndex, build_database
 from homemodel.app.database.manifest import load_manifest
+from homemodel.app.database.worker_setup import SHARED_MODULES, WARM_MODULES
 
 ROOT = Path(__file__).resolve().parent.parent
 CUP = ROOT / "examples" / "catalogue" / "cup.yaml"
@@ -49,68 +76,152 @@ def _cup_manifest(folder: Path, entries: int) -> Path:
     return manifest
 
 
-def _serial_loop(manifest: Path, out: Path) -> float:
-    """The same entries, one after the other, in this process: write the swept spec, build it."""
+def _since(t0: float) -> float:
+    return time.time() - t0
+
+
+def serial_loop(manifest: Path, out: Path, t0: float, part: str = "0/1") -> dict:
+    """The same entries, one after the other, in this process: write the swept spec, build it
+    (with `part` "i/n", only every n-th entry from the i-th). Returns when its imports were
+    done and the time of the loop itself (seconds)."""
     from modeller import BuildOptions, build
 
-    jobs, _ = load_manifest(manifest)
+    for name in WARM_MODULES["spec"] + SHARED_MODULES:  # what a database worker imports first
+        importlib.import_module(name)
+    ready_s = _since(t0)
+    first, step = map(int, part.split("/"))
+    jobs = load_manifest(manifest)[0][first::step]
     base = yaml.safe_load(jobs[0].inputs["path"].read_text())
-    start = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
     for job in jobs:
         spec = out / f"{job.id}.yaml"
         spec.write_text(yaml.safe_dump({**base, **job.overrides}))
         build(spec, out / job.id, BuildOptions(name=job.id))
-    return time.perf_counter() - start
+    return {"startup_s": ready_s, "entries_s": _since(t0) - ready_s}
 
 
-def _warm_bpy() -> None:
-    """Import bpy and build once, as each Dask worker does before its first entry."""
-    from modeller import BuildOptions, build
+def database_build(manifest: Path, db: Path, t0: float) -> dict:
+    """`build_database` as `homemodel db build --workers 2` calls it (without its progress bar).
+    Returns when the first entry started and the time from then to the last entry's end."""
+    ends: list[tuple[float, float]] = []
+    build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS), on_entry=lambda row, _: ends.append((_since(t0), row.build_s)))
+    first_start = min(end - build_s for end, build_s in ends)
+    return {"startup_s": first_start, "entries_s": max(end for end, _ in ends) - first_start}
 
-    with tempfile.TemporaryDirectory() as tmp:
-        build(CUP, Path(tmp) / "warm", BuildOptions(name="warm"))
+
+def _children_cpu_s() -> float:
+    """CPU seconds (user + system) of the child processes waited for so far, and of theirs."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _run_timed(*args: str | Path) -> tuple[float, str]:
+    """Wall seconds of a fresh `python ARGS...` of this worktree's code, and what it printed."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "COLUMNS": "200"}
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, *map(str, args)], env=env, capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - start
+    if done.returncode != 0:
+        raise RuntimeError(f"{args} exited {done.returncode}:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}")
+    return seconds, done.stdout + done.stderr
+
+
+def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
+    """Wall seconds of this script's `mode` in a fresh process, and the timings it reports,
+    with the CPU seconds of the process and all of its own (Dask's workers, the gate's tools)."""
+    cpu_before = _children_cpu_s()
+    seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}")
+    return seconds, {**json.loads(said.strip().splitlines()[-1]), "cpu_s": _children_cpu_s() - cpu_before}
+
+
+def _loops_side_by_side(manifest: Path, out: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of WORKERS plain loops started together, each a fresh process
+    building its share of the entries: what this machine gives WORKERS processes at best."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cpu_before, start = _children_cpu_s(), time.perf_counter()
+    loops = [
+        subprocess.Popen([sys.executable, __file__, "--serial-loop", manifest, out / str(i), f"{time.time():.6f}", f"{i}/{WORKERS}"],
+                         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        for i in range(WORKERS)
+    ]  # fmt: skip
+    for loop in loops:
+        _, said = loop.communicate()
+        if loop.returncode != 0:
+            raise RuntimeError(f"a side-by-side loop exited {loop.returncode}:\n{said[-2000:]}")
+    return time.perf_counter() - start, _children_cpu_s() - cpu_before
+
+
+def _db_build(manifest: Path, db: Path) -> tuple[float, str]:
+    return _run_timed("-m", "homemodel", "db", "build", manifest, "--db", db, "--workers", WORKERS)
+
+
+def _load() -> str:
+    return " ".join(f"{v:.2f}" for v in os.getloadavg())
 
 
 def throughput(entries: int, console: Console) -> None:
     with tempfile.TemporaryDirectory(prefix="bench-db-") as tmp:
         folder = Path(tmp)
         manifest = _cup_manifest(folder, entries)
-        _warm_bpy()
-        (folder / "serial").mkdir()
-        serial_s = _serial_loop(manifest, folder / "serial")
+        load_before = _load()
+        serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
+        side_s, side_cpu_s = _loops_side_by_side(manifest, folder / "side")
         db = folder / "db"
-        result = build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS))
-        db_s = result.seconds
-        problems = [f"{r.id}: {r.status}: {r.error or '; '.join(r.failed_checks)}" for r in result.built if r.status != "valid"]
-        nothing = build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS))
+        db_s, built = _run_child("--db-build", manifest, db)
+        load_after = _load()
+        with ModelIndex(db) as index:
+            rows = index.rows()
+        problems = [f"{r.id}: {r.status}: {r.error or '; '.join(r.failed_checks)}" for r in rows if r.status != "valid"]
+        thumbnail_s = sum(r.times_s["thumbnail"] for r in rows)
+        # An entry's time outside its stages' clocks: the swept spec, the record, the atomic
+        # store (and the modeller's own steps outside its clock, which the loop does too).
+        untimed_s = sum(r.build_s - sum(r.times_s.values()) for r in rows)
+        nothing_s, nothing = _db_build(manifest, db)
         # One more entry with a spec file of its own, built once; then only its file changes.
         single = folder / "single.yaml"
         single.write_text(CUP.read_text())
         data = yaml.safe_load(manifest.read_text())
         data["entries"].append({"id": "lonely", "source": "spec", "path": "single.yaml"})
         manifest.write_text(yaml.safe_dump(data))
-        build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS))
+        _db_build(manifest, db)
         single.write_text(CUP.read_text().replace("colour: white", "colour: red"))
-        one = build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS))
+        one_s, one = _db_build(manifest, db)
 
-    table = Table(title=f"{entries} cup entries: database on {WORKERS} Dask workers vs a serial loop")
+    serial_entry_s = serial["entries_s"] / entries
+    db_entry_s = WORKERS * built["entries_s"] / entries  # a worker's time per entry
+    table = Table(title=f"{entries} cup entries: the database on {WORKERS} Dask workers vs plain loops (load {load_before} -> {load_after})")
     table.add_column("figure")
-    table.add_column("value", justify="right")
-    table.add_row("serial loop (modeller.build)", f"{serial_s:.1f} s  ({1000 * serial_s / entries:.0f} ms/entry)")
-    table.add_row(f"db build, {WORKERS} workers (with start-up)", f"{db_s:.1f} s  ({1000 * db_s / entries:.0f} ms/entry)")
-    table.add_row("entries valid / built", f"{entries - len(problems)} / {len(result.built)}")
-    table.add_row("speed-up (serial / db)", f"{serial_s / db_s:.2f}x")
-    table.add_row("overhead per entry (workers x db - serial) / N", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
-    table.add_row("rebuild, nothing changed", f"{nothing.seconds:.2f} s  (built {len(nothing.built)}, cached {len(nothing.cached)})")
-    table.add_row("rebuild, one spec changed", f"{one.seconds:.1f} s  (built {[r.id for r in one.built]}, cached {len(one.cached)})")
+    table.add_column("serial loop", justify="right")
+    table.add_column(f"{WORKERS} loops side by side", justify="right")
+    table.add_column("database", justify="right")
+    table.add_row("wall time, fresh processes to exit", f"{serial_s:.1f} s", f"{side_s:.1f} s", f"{db_s:.1f} s")
+    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{serial['startup_s']:.1f} s", "", f"{built['startup_s']:.1f} s")
+    table.add_row("  the entries (first start to last end)", f"{serial['entries_s']:.1f} s", "", f"{built['entries_s']:.1f} s")
+    table.add_row("time per entry (database: x workers)", f"{1000 * serial_entry_s:.0f} ms", "", f"{1000 * db_entry_s:.0f} ms")
+    table.add_row("CPU time, every process (user + system)", f"{serial['cpu_s']:.1f} s", f"{side_cpu_s:.1f} s", f"{built['cpu_s']:.1f} s")
+    table.add_row("entries valid / built", "", "", f"{entries - len(problems)} / {len(rows)}")
+    table.add_row("[bold]speed-up, wall time (serial / this)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
+    table.add_row("[bold]overhead per entry, after start-up", "", "", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
+    table.add_row("  in the entries: the thumbnail", "", "", f"{1000 * thumbnail_s / entries:.0f} ms")
+    table.add_row("  in the entries: outside the stages' clocks", "", "", f"{1000 * untimed_s / entries:.0f} ms")
+    table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * side_s - serial_s) / entries:.0f} ms", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
+    table.add_row("overhead per entry in CPU time, all in: (CPU - CPU serial) / N", "", f"{1000 * (side_cpu_s - serial['cpu_s']) / entries:.0f} ms", f"{1000 * (built['cpu_s'] - serial['cpu_s']) / entries:.0f} ms")
+    table.add_row("rebuild, nothing changed (homemodel db build)", "", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
+    table.add_row("rebuild, one spec changed (homemodel db build)", "", "", f"{one_s:.1f} s  ({_summary(one)})")
     console.print(table)
     for problem in problems[:10]:
         console.print(problem)
 
 
+def _summary(said: str) -> str:
+    """The build's last line, without the index path."""
+    last = [line for line in said.splitlines() if line.startswith("built ")][-1]
+    return last.split(", in ")[0]
+
+
 def mixed(console: Console) -> None:
     with tempfile.TemporaryDirectory(prefix="bench-db-mixed-") as tmp:
-        result = build_database(MIXED, Path(tmp) / "db", DatabaseBuildOptions(workers=WORKERS, repair=True))
+        result = build_database(MIXED, Path(tmp) / "db", DatabaseBuildOptions(workers=WORKERS))
     by_source: dict[str, list] = defaultdict(list)
     for row in result.built:
         by_source[row.source].append(row)
@@ -132,7 +243,14 @@ def main() -> None:
     parser.add_argument("--entries", type=int, default=200, help="generated spec entries (a multiple of 20)")
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
+    # The two sides of the throughput figure, each run by throughput() in a fresh process.
+    parser.add_argument("--serial-loop", nargs="+", metavar="MANIFEST OUT T0 [PART]", help=argparse.SUPPRESS)
+    parser.add_argument("--db-build", nargs=3, metavar=("MANIFEST", "DB", "T0"), help=argparse.SUPPRESS)
     args = parser.parse_args()
+    for child, given in ((serial_loop, args.serial_loop), (database_build, args.db_build)):
+        if given:
+            print(json.dumps(child(Path(given[0]), Path(given[1]), float(given[2]), *given[3:])))
+            return
     console = Console(width=120)
     if not args.only_mixed:
         throughput(args.entries, console)

@@ -1,16 +1,20 @@
-"""Make the inputs of examples/database/manifest.yaml that are too large to keep in the
-repository: a simulated turntable capture of a cup (Blender, Cycles on the CPU), and a small
-shape-completion model with one depth-image query of a cup it has never seen.
+"""How the generated inputs of examples/database/manifest.yaml were made (they are kept in the
+repository, under inputs/, so the example builds on a fresh clone with no prior step): a
+simulated turntable capture of a cup (Blender, Cycles on the CPU), and a small shape-completion
+model with one depth-image query of a cup it has never seen.
 
-    python examples/database/make_inputs.py build/db_inputs      # about 2 minutes, once
+    python examples/database/make_inputs.py                 # rewrites examples/database/inputs/
 
-The PartNet-Mobility-style cabinet is kept in the repository (partnet_cabinet/, written by
-tests/partnet_sample.py); the photos are the shared Kermit set.
+Both are kept small (12 frames of 320x240; a forest trained on 12 procedural shapes) so the
+repository stays light; make your own larger ones with `homemodel turntable simulate` and
+`homemodel completion train`. The PartNet-Mobility-style cabinet is kept in the repository too
+(partnet_cabinet/, written by tests/partnet_sample.py); the photos are the shared Kermit set.
 """
 
 from __future__ import annotations
 
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -25,21 +29,23 @@ from shape_completion.procedural import generate_instances
 from shape_completion.queries import random_query_pose
 from turntable.simulate import SimulationOptions, simulate_capture
 
+INPUTS = Path(__file__).resolve().parent / "inputs"
 QUERY_CAMERA = Camera(width=320, height=240, fx=290.0, fy=290.0, cx=159.5, cy=119.5, depth_scale_m=0.0001)
 
 
-def make_capture(out: Path) -> None:
+def make_capture(out: Path, work: Path) -> None:
     cup = generate_instances("cup", 1, seed=7)[0]
-    mesh_path = out / "cup_for_turntable.ply"
-    mesh_path.parent.mkdir(parents=True, exist_ok=True)
+    mesh_path = work / "cup_for_turntable.ply"
     cup.export(mesh_path)
-    simulate_capture(mesh_path, out / "capture", SimulationOptions(frames=24, width_px=480, height_px=360, samples=8), force=True)
+    options = SimulationOptions(frames=12, width_px=320, height_px=240, horizontal_fov_deg=45.0, samples=8)
+    simulate_capture(mesh_path, out / "capture", options, force=True)
+    (out / "capture" / "ground_truth.ply").unlink()  # the truth's mesh is not an input (and is large)
 
 
-def make_completion(out: Path) -> None:
-    write_procedural_library(out / "library", classes=["bowl", "cup", "glass"], per_class=6, seed=0)
-    completer = ShapeCompleter(n_views=16, filler_queries_per_class=6, random_state=0).fit(load_library(out / "library"))
-    save_model(completer, out / "completer.npz")
+def make_completion(out: Path, work: Path) -> None:
+    write_procedural_library(work / "library", classes=["bowl", "cup", "glass"], per_class=4, seed=0)
+    completer = ShapeCompleter(n_views=8, n_trees=20, filler_queries_per_class=4, random_state=0)
+    save_model(completer.fit(load_library(work / "library")), out / "completer.npz")
     unseen = generate_instances("cup", 1, seed=99)[0]
     camera_from_object = random_query_pose(unseen, np.random.default_rng(3))
     unseen.apply_transform(camera_from_object)  # the query's frame is the camera's
@@ -50,7 +56,9 @@ def make_completion(out: Path) -> None:
 
 
 if __name__ == "__main__":
-    target = Path(sys.argv[1] if len(sys.argv) > 1 else "build/db_inputs")
-    make_completion(target)
-    make_capture(target)
+    target = Path(sys.argv[1]) if len(sys.argv) > 1 else INPUTS
+    target.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="db-inputs-") as tmp:
+        make_completion(target, Path(tmp))
+        make_capture(target, Path(tmp))
     print(f"inputs written to {target}")

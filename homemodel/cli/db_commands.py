@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -66,9 +67,10 @@ def build(
 
     from homemodel.app.database import DatabaseBuildOptions, build_database
 
-    import distributed  # noqa: F401 (its import sets its loggers' levels, which are then lowered)
-
-    # Dask logs every worker's start and stop at INFO; the build prints its own lines.
+    # Dask logs every worker's start and stop at INFO; the build prints its own lines. Set
+    # through Dask's configuration, which it reads when (and only if) the build imports it,
+    # and on its logger in case it was imported already.
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
     logging.getLogger("distributed").setLevel(logging.ERROR)
     console = make_console()
     options = DatabaseBuildOptions(workers=workers, scheduler=scheduler, repair=repair, retry_failed=retry_failed)

@@ -5,6 +5,8 @@ at all. Any failure is caught and returned as a "failed" row: one bad entry neve
 
 from __future__ import annotations
 
+import copy
+import functools
 import logging
 import os
 import socket
@@ -61,10 +63,18 @@ def _options(cls: type, job: Job, **fixed: Any) -> Any:
     return options
 
 
+@functools.lru_cache(maxsize=64)
+def _spec_mapping(spec_path: Path, size: int, mtime_ns: int) -> dict:
+    """A swept spec's file, parsed once per worker while it is unchanged (a sweep's entries
+    share it; parsing it again was a good part of what an entry cost beyond its build)."""
+    return read_yaml_mapping(spec_path)
+
+
 def _swept_spec(job: Job, folder: Path) -> Path:
     """The spec with the sweep's values set, written into `folder` (photo paths made absolute)."""
     spec_path = job.inputs["path"]
-    data = read_yaml_mapping(spec_path)
+    stat = spec_path.stat()
+    data = copy.deepcopy(_spec_mapping(spec_path, stat.st_size, stat.st_mtime_ns))
     for name in job.overrides:
         if name not in data and name not in _spec_fields(spec_path):
             raise SpecError(f"{spec_path}: sweep field {name!r} is not a field of this spec")
@@ -147,7 +157,7 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
     if gaps and repair is None:
         # The asset as given fails the gate for want of what it needs: say so, and how to repair.
         report = validate_path(urdf)
-        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair)"))
+        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"))
         return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
     model: Model = import_partnet(source).model if source.is_dir() and is_partnet_folder(source) else load_urdf(urdf)
     model.name = job.id
@@ -188,6 +198,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
     """Build `request.job` into `db_dir/models/<id>/` (replacing what was there only when the
     new folder is whole) and return its index row; never raises for a bad entry."""
     from articulation.urdf_import import load_urdf
+    from homemodel.app.database.worker_setup import note_blender_thread  # imports distributed: only in workers
 
     job = request.job
     start = time.perf_counter()
@@ -239,6 +250,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
         said = " ".join(str(exc).split())
         row.error = said if isinstance(exc, HomemodelError) else f"{type(exc).__name__}: {said}"
         row.path = row.thumbnail = None
+    note_blender_thread()  # a worker that ran bpy must end without Python's module teardown
     row.build_s = round(time.perf_counter() - start, 4)
     row.built_at = row.built_at or datetime.now(timezone.utc).isoformat(timespec="seconds")
     return row

@@ -1,10 +1,11 @@
 """The database's index, `DIR/index.sqlite`: one row per entry (id, category, source, content
 key, status, the gate's checks, counts, times, error, paths) and the file-hash cache.
 
-Only the process that runs a build writes it (workers return their results to it), one
-committed transaction per finished entry, so a kill leaves every row whole. A row is written
-after its model folder is in place and removed before the folder is, so no row ever points
-to a missing or half-written folder.
+Only the process that runs a build writes it (workers return their results to it), in
+transactions of the entries finished in the last half second, so a kill leaves every row
+whole and loses at most those rows (their folders, already in place, are built again). A row
+is written after its model folder is in place and removed (committed) before the folder is,
+so no row ever points to a missing or half-written folder.
 """
 
 from __future__ import annotations
@@ -142,16 +143,18 @@ class ModelIndex:
             params += [f"$.{json.dumps(name)}", value]
         return list(self._select(("WHERE " + " AND ".join(where)) if where else "", tuple(params)))
 
-    def put(self, row: EntryRow) -> None:
+    def put(self, row: EntryRow, *, commit: bool = True) -> None:
+        """Insert or replace `row`; with `commit=False` it waits for the next `commit()`."""
         data = asdict(row)
         for column in JSON_COLUMNS:
             data[column] = json.dumps(data[column])
         names = list(data)
-        with self._conn:
-            self._conn.execute(
-                f"INSERT OR REPLACE INTO models ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
-                [data[n] for n in names],
-            )
+        self._conn.execute(
+            f"INSERT OR REPLACE INTO models ({', '.join(names)}) VALUES ({', '.join('?' * len(names))})",
+            [data[n] for n in names],
+        )
+        if commit:
+            self._conn.commit()
 
     def set_labels(self, entry_id: str, category: str, properties: dict[str, str]) -> None:
         """Update what the manifest says of an entry without rebuilding it."""

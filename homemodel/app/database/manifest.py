@@ -13,6 +13,7 @@ entries:
   - {id: cup_query, source: completion, path: query/depth.png, camera: query/camera.yaml,
      completion_model: completer.npz}
   - {id: cabinet_46037, source: urdf, path: partnet/46037}   # a model folder or a .urdf
+  - {id: cabinet_7128, source: urdf, path: partnet/7128, repair: true}   # see RepairSpec
 ```
 
 Paths are relative to the manifest's folder. `options` sets top-level fields of the source's
@@ -53,6 +54,7 @@ class EntrySpec(_Strict):
     camera: str | None = None  # completion: the query's camera.yaml (default: beside the depth image)
     completion_model: str | None = None  # completion: a model file from `homemodel completion train`
     marker_size_m: float | None = Field(default=None, gt=0)  # photos: the markers' black-square edge
+    repair: bool = False  # urdf: fill in what the gate needs (the manifest's `repair` settings), as --repair does
     options: dict[str, Any] = Field(default_factory=dict)
     sweep: dict[str, list[Any]] = Field(default_factory=dict)
     category: str | None = None  # over the model's own
@@ -66,6 +68,8 @@ class EntrySpec(_Strict):
             raise ValueError("camera and completion_model belong to completion entries")
         if self.source != "photos" and self.marker_size_m is not None:
             raise ValueError("marker_size_m belongs to photos entries")
+        if self.repair and self.source != "urdf":
+            raise ValueError("repair belongs to urdf entries (imported assets)")
         if self.sweep and self.source != "spec":
             raise ValueError("only spec entries can sweep values")
         if any(not values for values in self.sweep.values()):
@@ -96,6 +100,7 @@ class Job:
     options: dict[str, Any] = field(default_factory=dict)
     overrides: dict[str, Any] = field(default_factory=dict)  # spec fields a sweep sets
     marker_size_m: float | None = None
+    repair: bool = False  # the manifest asks to repair this imported asset
     category: str | None = None
     properties: dict[str, str] = field(default_factory=dict)
 
@@ -154,6 +159,7 @@ def load_manifest(path: Path) -> tuple[list[Job], RepairSpec]:
                     options=dict(entry.options),
                     overrides=overrides,
                     marker_size_m=entry.marker_size_m,
+                    repair=entry.repair,
                     category=entry.category,
                     properties={**entry.properties, **{k: _property_text(v) for k, v in overrides.items()}},
                 )
