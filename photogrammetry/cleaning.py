@@ -32,6 +32,8 @@ class CleaningOptions:
     cluster_gap_fraction: float = 0.012  # points further apart than this are separate pieces
     min_piece_share: float = 0.02  # pieces with fewer points than this share of the object are dropped
     poisson_cell_voxels: float = 3.0  # the finest Poisson cells, in voxels: finer only adds noise and time
+    # Poisson surface farther than this from every point is invented, not filled in: cut away.
+    max_fill_fraction: float = 0.024
 
     def check(self) -> None:
         for name in ("roi_fraction", "voxel_fraction", "plane_clearance_fraction", "cluster_gap_fraction"):
@@ -40,6 +42,7 @@ class CleaningOptions:
         require_between("min_in_frame_share", self.min_in_frame_share, 0.0, 1.0)
         require_between("in_frame_margin", self.in_frame_margin, 0.0, 0.45)
         require_positive("poisson_cell_voxels", self.poisson_cell_voxels)
+        require_positive("max_fill_fraction", self.max_fill_fraction)
 
 
 @dataclass(kw_only=True)
@@ -155,15 +158,29 @@ def floor_points(points: np.ndarray, *, spacing: float, base_share: float = 0.1)
     return np.column_stack([inside, np.zeros(len(inside))])
 
 
+def near_samples(surface: trimesh.Trimesh, samples: np.ndarray, distance: float) -> trimesh.Trimesh:
+    """The faces of `surface` whose corners all lie within `distance` of a sample point."""
+    from scipy.spatial import cKDTree
+
+    gap, _ = cKDTree(samples).query(surface.vertices, distance_upper_bound=distance, workers=-1)
+    supported = np.isfinite(gap)
+    return trimesh.Trimesh(surface.vertices, surface.faces[supported[surface.faces].all(axis=1)], process=True)
+
+
 def mesh_object(obj: ObjectPoints, scene_scale: float, options: CleaningOptions) -> trimesh.Trimesh:
     """Poisson surface of the object's points, cut at the support plane and closed at the bottom."""
     voxel = options.voxel_fraction * scene_scale
     floor = floor_points(obj.points, spacing=voxel)
+    samples = np.vstack([obj.points, floor])
     normals = np.vstack([obj.normals, np.tile([0.0, 0.0, -1.0], (len(floor), 1))])
-    surface, _ = poisson_surface(
-        np.vstack([obj.points, floor]), normals, width_m=options.poisson_cell_voxels * voxel, scale=1.1
-    )
-    mesh = trimesh.Trimesh(surface.vertices, surface.faces, process=True)
+    surface, _ = poisson_surface(samples, normals, width_m=options.poisson_cell_voxels * voxel, scale=1.1)
+    # Poisson pins its surface down only near the points. Where the photos saw one side (Kermit:
+    # an arrangement seen from the front) the surface runs on to the faces of the octree's cube,
+    # whose size doubles when the points' extent crosses a power of two of the cell width: the
+    # same scene came out closed and room-sized in one run, half as large in the next.
+    mesh = near_samples(surface, samples, options.max_fill_fraction * scene_scale)
+    if len(mesh.faces) == 0:
+        raise ModelError("the Poisson surface lies nowhere near the object's points")
     # Poisson closes the surface below the object, where no photo saw it, with a smooth bulge
     # through the support plane: cut it at the plane and close the cut with a flat cap.
     mesh = mesh.slice_plane(np.zeros(3), np.array([0.0, 0.0, 1.0]), cap=True)
