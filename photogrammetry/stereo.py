@@ -9,7 +9,6 @@ the consistency filter across views that removes occlusions and mismatches.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -147,15 +146,23 @@ def _pair_depth(
 
 
 def _agreeing_depth(candidates: np.ndarray, options: DenseOptions) -> np.ndarray:
-    """Per pixel, the mean of the pair depths that agree with their median, where enough do."""
-    stack = np.where(candidates > 0, candidates, np.nan)
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN pixels: no pair matched there
-        median = np.nanmedian(stack, axis=0)
-        agree = np.abs(stack - median) <= options.depth_tolerance * median
-        count = agree.sum(axis=0)
-        mean = np.nansum(np.where(agree, stack, 0), axis=0) / np.maximum(count, 1)
-    return np.where(count >= options.min_agreeing_pairs, mean, 0).astype(np.float32)
+    """Per pixel, the mean of the pair depths (0: none) that agree with their median, where
+    enough do. The few depths of each pixel are sorted by a network of element-wise minima and
+    maxima, a tenth of np.sort's time (numpy's nanmedian took over a second a view)."""
+    found = candidates > 0
+    count = found.sum(axis=0)
+    layers = list(np.where(found, candidates, np.inf))  # the found depths sort first
+    for end in range(len(layers) - 1, 0, -1):
+        for i in range(end):
+            layers[i], layers[i + 1] = np.minimum(layers[i], layers[i + 1]), np.maximum(layers[i], layers[i + 1])
+    ordered = np.array(layers)
+    low = np.take_along_axis(ordered, np.maximum(count - 1, 0)[None] // 2, axis=0)[0]
+    high = np.take_along_axis(ordered, np.minimum(count // 2, len(candidates) - 1)[None], axis=0)[0]
+    median = np.where(count > 0, (low + high) / 2, 0)
+    agree = found & (np.abs(candidates - median) <= options.depth_tolerance * median)
+    agreeing = agree.sum(axis=0)
+    mean = np.where(agree, candidates, 0).sum(axis=0) / np.maximum(agreeing, 1)
+    return np.where(agreeing >= options.min_agreeing_pairs, mean, 0).astype(np.float32)
 
 
 def compute_depth_maps(
