@@ -129,18 +129,17 @@ def _pair_depth(
     if vertical:
         disparity = disparity.T
     disparity[disparity <= d_min] = 0  # SGBM's "no match" is d_min - 1
-    # Each reference pixel's ray in the rectified frame, where the disparity is looked up.
-    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    rays = camera_ref.rays(np.column_stack([u.ravel(), v.ravel()])).reshape(h, w, 3)
-    rect_rays = rays @ r1.T
-    rect_px = rect_rays @ p1[:3, :3].T
-    map_x = (rect_px[..., 0] / rect_px[..., 2]).astype(np.float32)
-    map_y = (rect_px[..., 1] / rect_px[..., 2]).astype(np.float32)
-    sampled = cv2.remap(disparity, map_x, map_y, cv2.INTER_NEAREST, borderValue=0)
+    # The disparity is looked up where each reference pixel's ray meets the rectified image:
+    # reference pixels map to rectified ones by the homography P1 R1 K^-1 (pinhole views).
+    rect_from_ref = r1 @ np.linalg.inv(k_ref)
+    sampled = cv2.warpPerspective(disparity, p1[:3, :3] @ rect_from_ref, (w, h),
+                                  flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderValue=0)  # fmt: skip
     valid = sampled > 0
     rect_depth = np.where(valid, abs(baseline_px) / np.where(valid, sampled, 1), 0)  # depth along rectified z
-    # A point on the ray at rectified depth Z has reference depth Z * ray_z / rect_ray_z (ray_z = 1).
-    depth = rect_depth / rect_rays[..., 2]
+    # A point on the ray at rectified depth Z has reference depth Z * ray_z / rect_ray_z (ray_z = 1),
+    # and rect_ray_z is linear in the pixel's coordinates.
+    u, v = np.arange(w, dtype=np.float64)[None, :], np.arange(h, dtype=np.float64)[:, None]
+    depth = rect_depth / (rect_from_ref[2, 0] * u + rect_from_ref[2, 1] * v + rect_from_ref[2, 2])
     depth[(depth < near) | (depth > far)] = 0
     return depth.astype(np.float32)
 
