@@ -23,7 +23,6 @@ from photogrammetry.sfm import SfmOptions, View, run_sfm
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
 KERMIT = DATA / "kermit"
 BUDDHA = DATA / "buddha"
-RINGS_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "photogrammetry_rings"
 
 runner = CliRunner()
 
@@ -286,12 +285,11 @@ def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_
 def test_shuffled_three_ring_rendered_set_registers_whole_with_defaults(tmp_path: Path) -> None:
     """36 rendered photos on three rings, their file names shuffled: every photo registers with
     the default options, at the true camera poses up to a similarity."""
-    from photogrammetry.photos import list_photos
-    from photogrammetry.synthetic_scene import SceneOptions, render_scene
+    from rendered_photo_set import rendered_photo_set
 
-    scene = render_scene(
-        RINGS_CACHE, SceneOptions(n_views=36, rings=3, shuffled=True, width_px=640, height_px=480, samples=4)
-    )
+    from photogrammetry.photos import list_photos
+
+    scene = rendered_photo_set()  # shared with test_photogrammetry_pipeline's metric tests
     model = run_sfm(list_photos(scene.image_paths[0].parent), tmp_path / "work")
     assert len(model.views) == 36 and model.unregistered == []
     agreement = pose_agreement({v.name: v.camera_from_world for v in model.views}, scene.camera_from_world)
