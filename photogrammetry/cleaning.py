@@ -180,11 +180,17 @@ def floor_points(points: np.ndarray, *, spacing: float, base_share: float = 0.1)
     return np.column_stack([inside, np.zeros(len(inside))])
 
 
-def near_samples(surface: trimesh.Trimesh, samples: np.ndarray, distance: float) -> trimesh.Trimesh:
-    """The faces of `surface` whose corners all lie within `distance` of a sample point."""
+def near_samples(
+    surface: trimesh.Trimesh, samples: np.ndarray, distance: float, *, band_top: float
+) -> trimesh.Trimesh:
+    """The faces of `surface` whose corners all lie within `distance` of a sample point. Below
+    `band_top` (the object's lowest point: nothing was kept between it and the floor at z = 0)
+    a corner is judged as if raised to it, by how far it is across, not up."""
     from scipy.spatial import cKDTree
 
-    gap, _ = cKDTree(samples).query(surface.vertices, distance_upper_bound=distance, workers=-1)
+    corners = surface.vertices.copy()
+    corners[:, 2] = np.maximum(corners[:, 2], band_top)
+    gap, _ = cKDTree(samples).query(corners, distance_upper_bound=distance, workers=-1)
     supported = np.isfinite(gap)
     return trimesh.Trimesh(surface.vertices, surface.faces[supported[surface.faces].all(axis=1)], process=True)
 
@@ -200,7 +206,8 @@ def mesh_object(obj: ObjectPoints, scene_scale: float, options: CleaningOptions)
     # an arrangement seen from the front) the surface runs on to the faces of the octree's cube,
     # whose size doubles when the points' extent crosses a power of two of the cell width: the
     # same scene came out closed and room-sized in one run, half as large in the next.
-    mesh = near_samples(surface, samples, options.max_fill_fraction * scene_scale)
+    reach = options.max_fill_fraction * scene_scale
+    mesh = near_samples(surface, samples, reach, band_top=obj.points[:, 2].min())
     if len(mesh.faces) == 0:
         raise ModelError("the Poisson surface lies nowhere near the object's points")
     # Poisson closes the surface below the object, where no photo saw it, with a smooth bulge
