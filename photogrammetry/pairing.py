@@ -29,10 +29,22 @@ def matching_options(num_threads: int):
     return pycolmap.FeatureMatchingOptions(num_threads=num_threads)
 
 
-def match_exhaustive(database: Path, num_threads: int) -> None:
+def verification_options(seed: int):
+    """Geometric verification with its RANSAC seeded per pair: unseeded, each matching thread
+    draws from its own generator, and which pairs a thread gets changes from run to run."""
     import pycolmap
 
-    pycolmap.match_exhaustive(database, matching_options=matching_options(num_threads))
+    options = pycolmap.TwoViewGeometryOptions()
+    options.ransac.random_seed = seed
+    return options
+
+
+def match_exhaustive(database: Path, *, num_threads: int, seed: int) -> None:
+    import pycolmap
+
+    pycolmap.match_exhaustive(
+        database, matching_options=matching_options(num_threads), verification_options=verification_options(seed)
+    )
 
 
 def build_vocabulary_tree(database: Path, tree_path: Path, *, num_threads: int, seed: int) -> Path:
@@ -58,17 +70,18 @@ def build_vocabulary_tree(database: Path, tree_path: Path, *, num_threads: int, 
     return tree_path
 
 
-def match_by_retrieval(database: Path, tree_path: Path, *, neighbours: int, num_threads: int) -> None:
+def match_by_retrieval(database: Path, tree_path: Path, *, neighbours: int, num_threads: int, seed: int) -> None:
     """Match each photo with its `neighbours` most similar photos by the vocabulary tree."""
     import pycolmap
 
     pairing = pycolmap.VocabTreePairingOptions(
         num_images=neighbours, vocab_tree_path=str(tree_path), num_threads=num_threads
     )
-    pycolmap.match_vocabtree(database, matching_options=matching_options(num_threads), pairing_options=pairing)
+    pycolmap.match_vocabtree(database, matching_options=matching_options(num_threads), pairing_options=pairing,
+                             verification_options=verification_options(seed))  # fmt: skip
 
 
-def bridge_groups(database: Path, groups: list[list[str]], work_dir: Path, *, num_threads: int) -> int:
+def bridge_groups(database: Path, groups: list[list[str]], work_dir: Path, *, num_threads: int, seed: int) -> int:
     """Match every not yet matched pair of photos that lie in different `groups` (lists of
     names; unregistered photos make groups of one). Returns the number of pairs newly matched."""
     import pycolmap
@@ -93,6 +106,7 @@ def bridge_groups(database: Path, groups: list[list[str]], work_dir: Path, *, nu
         database,
         matching_options=matching_options(num_threads),
         pairing_options=pycolmap.ImportedPairingOptions(match_list_path=str(match_list)),
+        verification_options=verification_options(seed),
     )
     return len(pairs)
 

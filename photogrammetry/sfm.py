@@ -22,6 +22,7 @@ from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
 from photogrammetry import pairing
+from photogrammetry.image_numbering import number_images_by_name
 from photogrammetry.photo_cameras import (
     PhotoCamera,
     group_by_camera,
@@ -153,6 +154,7 @@ def _extract_features(database: Path, image_dir: Path, cameras: dict[str, PhotoC
             reader.camera_params = f"{camera.focal_px},{camera.width / 2},{camera.height / 2},0"
         pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
                                   reader_options=reader, extraction_options=extraction)  # fmt: skip
+    number_images_by_name(database)
     return len(groups)
 
 
@@ -161,13 +163,14 @@ def _match(database: Path, n_images: int, work_dir: Path, options: SfmOptions) -
     if method == "auto":
         method = "exhaustive" if n_images <= options.exhaustive_max_images else "retrieval"
     if method == "exhaustive":
-        pairing.match_exhaustive(database, options.num_threads)
+        pairing.match_exhaustive(database, num_threads=options.num_threads, seed=options.random_state)
     else:
         tree = pairing.build_vocabulary_tree(
             database, work_dir / "vocabulary_tree.bin", num_threads=options.num_threads, seed=options.random_state
         )
         pairing.match_by_retrieval(
-            database, tree, neighbours=options.retrieval_neighbours, num_threads=options.num_threads
+            database, tree, neighbours=options.retrieval_neighbours, num_threads=options.num_threads,
+            seed=options.random_state,
         )
     return method
 
@@ -175,7 +178,9 @@ def _match(database: Path, n_images: int, work_dir: Path, options: SfmOptions) -
 def _mapping_options(options: SfmOptions, *, relaxed: bool):
     import pycolmap
 
-    mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=options.num_threads)
+    # One thread: with two, the same matches gave slightly different poses from run to run
+    # (and on Kermit one more or one fewer point), so nothing downstream repeated itself.
+    mapping = pycolmap.IncrementalPipelineOptions(min_model_size=MIN_REGISTERED_IMAGES, num_threads=1)
     mapping.random_seed = options.random_state
     if relaxed:
         # The second pass, continuing from the largest model: photos with fewer, or fewer
@@ -213,7 +218,9 @@ def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], wo
     groups = _groups(names, reconstructions)
     note = ""
     if reconstructions and len(groups) > 1:
-        bridged = pairing.bridge_groups(database, groups, work_dir, num_threads=options.num_threads)
+        bridged = pairing.bridge_groups(
+            database, groups, work_dir, num_threads=options.num_threads, seed=options.random_state
+        )
         largest = max(reconstructions.values(), key=lambda r: r.num_reg_images())
         seed_dir = work_dir / "sparse_seed"
         seed_dir.mkdir(exist_ok=True)

@@ -9,7 +9,6 @@ the consistency filter across views that removes occlusions and mismatches.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,32 +129,39 @@ def _pair_depth(
     if vertical:
         disparity = disparity.T
     disparity[disparity <= d_min] = 0  # SGBM's "no match" is d_min - 1
-    # Each reference pixel's ray in the rectified frame, where the disparity is looked up.
-    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    rays = camera_ref.rays(np.column_stack([u.ravel(), v.ravel()])).reshape(h, w, 3)
-    rect_rays = rays @ r1.T
-    rect_px = rect_rays @ p1[:3, :3].T
-    map_x = (rect_px[..., 0] / rect_px[..., 2]).astype(np.float32)
-    map_y = (rect_px[..., 1] / rect_px[..., 2]).astype(np.float32)
-    sampled = cv2.remap(disparity, map_x, map_y, cv2.INTER_NEAREST, borderValue=0)
+    # The disparity is looked up where each reference pixel's ray meets the rectified image:
+    # reference pixels map to rectified ones by the homography P1 R1 K^-1 (pinhole views).
+    rect_from_ref = r1 @ np.linalg.inv(k_ref)
+    sampled = cv2.warpPerspective(disparity, p1[:3, :3] @ rect_from_ref, (w, h),
+                                  flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderValue=0)  # fmt: skip
     valid = sampled > 0
     rect_depth = np.where(valid, abs(baseline_px) / np.where(valid, sampled, 1), 0)  # depth along rectified z
-    # A point on the ray at rectified depth Z has reference depth Z * ray_z / rect_ray_z (ray_z = 1).
-    depth = rect_depth / rect_rays[..., 2]
+    # A point on the ray at rectified depth Z has reference depth Z * ray_z / rect_ray_z (ray_z = 1),
+    # and rect_ray_z is linear in the pixel's coordinates.
+    u, v = np.arange(w, dtype=np.float64)[None, :], np.arange(h, dtype=np.float64)[:, None]
+    depth = rect_depth / (rect_from_ref[2, 0] * u + rect_from_ref[2, 1] * v + rect_from_ref[2, 2])
     depth[(depth < near) | (depth > far)] = 0
     return depth.astype(np.float32)
 
 
 def _agreeing_depth(candidates: np.ndarray, options: DenseOptions) -> np.ndarray:
-    """Per pixel, the mean of the pair depths that agree with their median, where enough do."""
-    stack = np.where(candidates > 0, candidates, np.nan)
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN pixels: no pair matched there
-        median = np.nanmedian(stack, axis=0)
-        agree = np.abs(stack - median) <= options.depth_tolerance * median
-        count = agree.sum(axis=0)
-        mean = np.nansum(np.where(agree, stack, 0), axis=0) / np.maximum(count, 1)
-    return np.where(count >= options.min_agreeing_pairs, mean, 0).astype(np.float32)
+    """Per pixel, the mean of the pair depths (0: none) that agree with their median, where
+    enough do. The few depths of each pixel are sorted by a network of element-wise minima and
+    maxima, a tenth of np.sort's time (numpy's nanmedian took over a second a view)."""
+    found = candidates > 0
+    count = found.sum(axis=0)
+    layers = list(np.where(found, candidates, np.inf))  # the found depths sort first
+    for end in range(len(layers) - 1, 0, -1):
+        for i in range(end):
+            layers[i], layers[i + 1] = np.minimum(layers[i], layers[i + 1]), np.maximum(layers[i], layers[i + 1])
+    ordered = np.array(layers)
+    low = np.take_along_axis(ordered, np.maximum(count - 1, 0)[None] // 2, axis=0)[0]
+    high = np.take_along_axis(ordered, np.minimum(count // 2, len(candidates) - 1)[None], axis=0)[0]
+    median = np.where(count > 0, (low + high) / 2, 0)
+    agree = found & (np.abs(candidates - median) <= options.depth_tolerance * median)
+    agreeing = agree.sum(axis=0)
+    mean = np.where(agree, candidates, 0).sum(axis=0) / np.maximum(agreeing, 1)
+    return np.where(agreeing >= options.min_agreeing_pairs, mean, 0).astype(np.float32)
 
 
 def compute_depth_maps(

@@ -8,7 +8,9 @@ import numpy as np
 
 # A support plane must hold at least this share of the scene's points to count as one.
 MIN_PLANE_SHARE = 0.08
-MAX_RANSAC_POINTS = 100_000
+# RANSAC runs on a random sample this large: 100,000 took 8.5 s a try on Kermit, 20,000 took 1.2 s
+# and found the same plane (holding 11.0 % of the points against 10.8 %).
+MAX_RANSAC_POINTS = 20_000
 MIN_UP_COSINE = 0.5  # a support plane's normal is within 60 degrees of the cameras' up
 
 

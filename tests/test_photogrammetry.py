@@ -207,3 +207,64 @@ def test_support_plane_found_and_removed_object_kept(tmp_path: Path) -> None:
     assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-6)  # cut at the support plane ...
     assert mean_surface_distance_m(centred, truth) < 0.0025  # ... with the bottom closed like the truth's
     assert abs(mesh.extents[2] - 0.15) < 0.003
+
+
+def _front_of_an_arrangement(width: float, rng: np.random.Generator):
+    """Points of a bumpy sheet standing on z = 0, seen from one side only (normals towards -y):
+    what the Kermit photos see of the arrangement on the chair."""
+    from photogrammetry.cleaning import ObjectPoints
+
+    x, z = rng.uniform(-width / 2, width / 2, 60_000), rng.uniform(0.05, 0.7 * width, 60_000)
+    points = np.column_stack([x, 0.05 * width * np.sin(6 * x / width) * np.cos(5 * z / width), z])
+    normals = np.tile([0.0, -1.0, 0.0], (len(points), 1))
+    return ObjectPoints(points=points, normals=normals, colours=np.zeros_like(points), removed_plane_points=0,
+                        dropped_pieces=0)  # fmt: skip
+
+
+@pytest.mark.parametrize("width", [4.7, 5.0])
+def test_a_scan_seen_from_one_side_meshes_to_its_own_size(width: float) -> None:
+    """Poisson's surface of a one-sided scan runs on to the faces of its octree's cube, which
+    doubles in size between these two widths (finest cells 0.042 wide: 128 or 256 of them).
+    The mesh keeps to where the points are (it measured 5.43 wide for 4.7 and 10.86 for 5.0
+    before the cut)."""
+    scene_scale = 7.07  # Kermit's: the cells are 3 voxels of 0.2 % of it
+    options = CleaningOptions()
+    mesh = mesh_object(_front_of_an_arrangement(width, np.random.default_rng(0)), scene_scale, options)
+    reach = options.max_fill_fraction * scene_scale
+    assert mesh.extents[0] < width + 2 * reach and mesh.extents[2] < 0.7 * width + 2 * reach
+    assert mesh.extents[1] < 0.1 * width + 2 * reach
+    assert mesh.extents[0] > width - reach  # the sheet itself is all there
+
+
+@pytest.mark.parametrize("apart", [0.9, 1.1])
+def test_pieces_join_across_gaps_shorter_than_the_gap_only(apart: float) -> None:
+    """Two sheets `apart` gaps from each other (and a lone stray point far off): one piece
+    when nearer than the gap, two when further, the stray in none."""
+    from photogrammetry.cleaning import piece_labels
+
+    rng = np.random.default_rng(1)
+    gap = 0.05
+    sheet = np.column_stack([rng.uniform(0, 1, 20_000), rng.uniform(0, 1, 20_000), np.zeros(20_000)])
+    points = np.vstack([sheet, sheet + [1 + apart * gap, 0, 0], [[5.0, 5.0, 5.0]]])
+    labels = piece_labels(points, gap)
+    assert labels[-1] == -1
+    assert len(np.unique(labels[:-1])) == (1 if apart < 1 else 2)
+    assert len(np.unique(labels[:20_000])) == 1 and len(np.unique(labels[20_000:-1])) == 1
+
+
+@pytest.mark.parametrize("pairs", [1, 2, 3, 4, 5])
+def test_agreeing_depth_is_the_mean_of_the_depths_near_their_median(pairs: int) -> None:
+    from photogrammetry.stereo import DenseOptions, _agreeing_depth
+
+    rng = np.random.default_rng(pairs)
+    candidates = rng.uniform(1.0, 1.03, (pairs, 30, 40)).astype(np.float32)
+    candidates[rng.random(candidates.shape) < 0.3] = 0  # no match in that pair
+    options = DenseOptions()
+    expected = np.zeros((30, 40), np.float32)
+    for row, col in np.ndindex(30, 40):
+        found = candidates[:, row, col][candidates[:, row, col] > 0]
+        if len(found):
+            agree = found[np.abs(found - np.median(found)) <= options.depth_tolerance * np.median(found)]
+            expected[row, col] = agree.mean() if len(agree) >= options.min_agreeing_pairs else 0
+    assert np.allclose(_agreeing_depth(candidates, options), expected, rtol=1e-6, atol=0)
+    assert (expected > 0).any() == (pairs >= options.min_agreeing_pairs)

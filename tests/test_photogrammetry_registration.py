@@ -23,7 +23,6 @@ from photogrammetry.sfm import SfmOptions, View, run_sfm
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
 KERMIT = DATA / "kermit"
 BUDDHA = DATA / "buddha"
-RINGS_CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "photogrammetry_rings"
 
 runner = CliRunner()
 
@@ -164,6 +163,57 @@ def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: 
     assert "feature_extraction" not in captured.err + captured.out and "Elapsed time" not in captured.err
 
 
+def test_image_ids_follow_the_names_whatever_order_the_features_were_found_in(tmp_path: Path) -> None:
+    """Features found in the reverse order of the names (as a busy extraction thread may
+    finish them) are renumbered by name with their frames, pose priors and keypoints, and
+    COLMAP still matches and maps the database."""
+    import pycolmap
+
+    from photogrammetry.image_numbering import number_images_by_name
+
+    names = [f"kermit00{i}.jpg" for i in range(4)]
+    database = tmp_path / "database.db"
+    for name in reversed(names):
+        pycolmap.extract_features(database, KERMIT, image_names=[name], camera_mode=pycolmap.CameraMode.SINGLE)
+    db = pycolmap.Database.open(database)
+    before = {im.name: (im.image_id, db.read_keypoints(im.image_id)) for im in db.read_all_images()}
+    db.close()
+    assert [before[n][0] for n in names] == [4, 3, 2, 1]
+
+    number_images_by_name(database)
+    db = pycolmap.Database.open(database)
+    try:
+        images = {im.name: im for im in db.read_all_images()}
+        assert [images[n].image_id for n in names] == [1, 2, 3, 4]
+        for name, image in images.items():
+            assert np.array_equal(db.read_keypoints(image.image_id), before[name][1])
+            frame = db.read_frame(image.frame_id)
+            assert image.frame_id == image.image_id and [d.id for d in frame.data_ids] == [image.image_id]
+        assert sorted(p.corr_data_id.id for p in db.read_all_pose_priors()) == [1, 2, 3, 4]
+    finally:
+        db.close()
+    pycolmap.match_exhaustive(database)
+    models = pycolmap.incremental_mapping(database, KERMIT, tmp_path, options=pycolmap.IncrementalPipelineOptions(
+        min_model_size=3))  # fmt: skip
+    assert max(m.num_reg_images() for m in models.values()) == 4
+
+
+def test_structure_from_motion_repeats_itself(tmp_path: Path) -> None:
+    """Two runs on the same photos give the very same cameras and points (run to run, the
+    extraction threads numbered the photos differently, the matching threads drew RANSAC
+    samples from their own generators and the mapping threads added up in another order)."""
+    from photogrammetry.photos import list_photos
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for path in sorted(KERMIT.glob("*.jpg"))[:7]:
+        shutil.copy(path, photos)
+    first, second = (run_sfm(list_photos(photos), tmp_path / f"work{i}") for i in range(2))
+    assert [v.name for v in first.views] == [v.name for v in second.views] and len(first.views) == 7
+    assert all(np.array_equal(a.camera_from_world, b.camera_from_world) for a, b in zip(first.views, second.views))
+    assert np.array_equal(first.points_world, second.points_world)
+
+
 def _assert_object_without_background(model: Path, max_size_share: float) -> dict:
     """The mesh is the object the cameras circle, not the room: its bounding-box diagonal is
     under `max_size_share` of the cameras' median distance to it (the room reaches past the
@@ -235,12 +285,11 @@ def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_
 def test_shuffled_three_ring_rendered_set_registers_whole_with_defaults(tmp_path: Path) -> None:
     """36 rendered photos on three rings, their file names shuffled: every photo registers with
     the default options, at the true camera poses up to a similarity."""
-    from photogrammetry.photos import list_photos
-    from photogrammetry.synthetic_scene import SceneOptions, render_scene
+    from rendered_photo_set import rendered_photo_set
 
-    scene = render_scene(
-        RINGS_CACHE, SceneOptions(n_views=36, rings=3, shuffled=True, width_px=640, height_px=480, samples=4)
-    )
+    from photogrammetry.photos import list_photos
+
+    scene = rendered_photo_set()  # shared with test_photogrammetry_pipeline's metric tests
     model = run_sfm(list_photos(scene.image_paths[0].parent), tmp_path / "work")
     assert len(model.views) == 36 and model.unregistered == []
     agreement = pose_agreement({v.name: v.camera_from_world for v in model.views}, scene.camera_from_world)
