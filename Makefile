@@ -21,6 +21,9 @@ APT_WAIT := -o DPkg::Lock::Timeout=600
 APT_LOCKS := /var/lib/dpkg/lock-frontend /var/lib/dpkg/lock /var/lib/apt/lists/lock
 # The database page's browser test drives Debian's chromium through its chromedriver.
 APT_PACKAGES += chromium chromium-driver
+# The extension's window tests (panels drawn, a background job run from its timer) run in
+# Debian's Blender 3.4 under xvfb: the bpy module has no window (about 300 MB).
+APT_PACKAGES += blender xvfb
 
 .PHONY: demo test setup clean addon addon-screenshots
 
@@ -67,17 +70,9 @@ addon: setup
 	$(PY) $(BLENDER_EXT) build --source-dir blender_addons --output-filepath $(ADDON_ZIP)
 	$(PY) $(BLENDER_EXT) validate $(ADDON_ZIP)
 
-# Screenshots of the extension's panels in a real Blender window: the bpy module cannot draw
-# panels, so this uses Debian's Blender 3.4 under xvfb (about 80 s to install, 300 MB; only
-# this target installs them) with the kitchen of `make demo` in the viewport.
-SCREENSHOT_APT := blender xvfb
-
+# Screenshots of the extension's panels in a real Blender window (Debian's Blender 3.4 under
+# xvfb, which `setup` installs) with the kitchen of `make demo` in the viewport.
 addon-screenshots: demo
-	@missing=$$(for p in $(SCREENSHOT_APT); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
-	if [ -n "$$missing" ]; then \
-		if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
-		DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq -o DPkg::Lock::Timeout=600 $$missing; \
-	fi
 	blender -b --factory-startup --python-expr "import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); bpy.ops.wm.save_as_mainfile(filepath='$(CURDIR)/build/empty.blend')"
 	HOMEMODEL_COMMAND="$(CURDIR)/$(PY) -m homemodel" xvfb-run -a -s "-screen 0 1600x1000x24" \
 		blender --factory-startup --enable-event-simulate build/empty.blend \
