@@ -47,7 +47,7 @@ def test_a_run_never_replaces_an_output_that_appeared_while_it_ran(tmp_path: Pat
 
 def test_runs_racing_for_one_output_leave_one_whole_result(tmp_path: Path) -> None:
     """Four processes write the same folder at once: one wins; each other one is refused in one
-    line (the folder exists, or another run wrote it meanwhile); no temporaries are left."""
+    line (the folder is not empty, or another run wrote it meanwhile); no temporaries are left."""
     out = tmp_path / "board"
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     runs = [subprocess.Popen([sys.executable, "-m", "homemodel", "turntable", "board", "--out", str(out)],
@@ -57,7 +57,7 @@ def test_runs_racing_for_one_output_leave_one_whole_result(tmp_path: Path) -> No
     for code, stderr in results:
         if code == 2:
             assert len(stderr.strip().splitlines()) == 1 and str(out) in stderr, stderr
-            assert "exists" in stderr or "another run wrote this folder meanwhile" in stderr, stderr
+            assert "folder is not empty" in stderr or "another run wrote this folder meanwhile" in stderr, stderr
     assert sorted(p.name for p in out.iterdir()) == ["board.pdf", "board.yaml"] and _temporaries(tmp_path) == []
 
 
