@@ -1,8 +1,11 @@
 """Ctrl-C that is honoured even while a library that cannot be interrupted starts up.
 
-A SIGINT that lands while bpy is being imported is swallowed inside its start-up (the
-command then ran on and exited 0) or crashes it. Holding the signal for that moment and
-delivering it afterwards turns it into the KeyboardInterrupt every other moment gives.
+A SIGINT that lands while bpy is being imported, or while Blender resets its scene, is
+swallowed inside its start-up (the command then ran on and exited 0) or crashes it. Holding
+the signal for that moment and delivering it afterwards turns it into the KeyboardInterrupt
+every other moment gives. Inside any other import the command line's handler only takes
+note, and the run stops at its next stage: an exception thrown into a C extension's start-up
+crashed the process (SIGSEGV).
 """
 
 from __future__ import annotations
