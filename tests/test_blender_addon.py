@@ -737,6 +737,7 @@ def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_n
     run = _in_a_blender_window(tmp_path, REPO / "tests" / "blender_window_job.py", str(capture), str(tmp_path / "seen.json"))
     [kept] = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*")) - work_folders  # the cancelled one is gone
     assert (kept / "model" / "model.urdf").exists()  # the landed model's, whose textures Blender reads
+    shutil.rmtree(kept)
     seen = json.loads((tmp_path / "seen.json").read_text())
     assert seen["error"] is None, seen["error"] + run.stderr[-2000:]
     assert seen["modal_results"] == [["RUNNING_MODAL"], ["RUNNING_MODAL"]]
