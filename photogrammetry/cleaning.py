@@ -129,7 +129,6 @@ def segment_object(
     if len(points) < 100:
         raise ModelError(f"only {len(points)} dense points lie above the support plane: no object to mesh")
     labels = piece_labels(points, options.cluster_gap_fraction * scene_scale)
-    cloud = point_cloud(points)
     # The object is the piece nearest the point the cameras look at; others (background
     # furniture, a cable, a stray mismatch) are dropped.
     pieces = [label for label in np.unique(labels) if label >= 0]
@@ -148,7 +147,7 @@ def segment_object(
         inside = np.all((points[labels == label] > lo - margin) & (points[labels == label] < hi + margin), axis=1)
         if inside.mean() > 0.5:
             keep |= labels == label
-    cloud = cloud.select_by_index(np.nonzero(keep)[0])
+    cloud = point_cloud(points[keep])
     cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=24))
     normals = np.asarray(cloud.normals)
     flip = np.sum(normals * to_camera[keep], axis=1) < 0
