@@ -19,7 +19,7 @@ import typer
 from typer.testing import CliRunner
 
 from articulation.gate import clients as gate_clients, gltf as gate_gltf, process as gate_process
-from articulation.gate import validate as validate_module
+from articulation.gate import resident_validator, validate as validate_module
 from articulation.gate.clients import find_check_urdf
 from articulation.gate.validate import validate_path
 
@@ -405,6 +405,37 @@ def test_glb_joint_conventions(tmp_path: Path, joint: dict, words: str) -> None:
     checks = by_name(validate_path(glb))
     assert checks["glTF validator"].passed
     assert not checks["glTF joints"].passed and words in checks["glTF joints"].detail
+
+
+def test_one_validator_process_checks_many_models_and_a_hung_one_is_replaced(tmp_path: Path) -> None:
+    """The gate keeps one node process for every GLB (starting one costs 250 ms a model); a
+    validator that hangs is killed after the time bound and the next model gets a new one."""
+    glb = tmp_path / "box.glb"
+    glb.write_bytes(minimal_glb())
+    first = gate_gltf.khronos_check(glb)
+    process = resident_validator._resident.proc
+    assert first.passed and gate_gltf.khronos_check(glb).passed
+    assert resident_validator._resident.proc is process and process.poll() is None
+
+    hangs = tmp_path / "hangs.sh"
+    hangs.write_text("sleep 30\n")
+    started = time.perf_counter()
+    with pytest.raises(TimeoutError):
+        resident_validator.validate_resident("sh", hangs, glb, timeout_s=0.3)
+    assert time.perf_counter() - started < 5 and resident_validator._resident is None
+    assert gate_gltf.khronos_check(glb).passed  # a fresh node process
+    assert process.poll() is not None  # the first one was stopped when the command changed
+
+
+def test_a_validator_that_dies_fails_the_check_with_what_it_said(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    dies = tmp_path / "validate_gltf.js"
+    dies.write_text("process.stderr.write('out of memory'); process.exit(3);\n")
+    monkeypatch.setattr(gate_gltf, "VALIDATOR_SCRIPT", dies)
+    glb = tmp_path / "box.glb"
+    glb.write_bytes(minimal_glb())
+    check = gate_gltf.khronos_check(glb)
+    assert not check.passed
+    assert check.detail == "validator failed: the validator exited with status 3: out of memory"
 
 
 def test_missing_node_fails_and_says_make_setup(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -1,21 +1,23 @@
 #!/usr/bin/env node
-// Run the Khronos glTF validator on one .glb/.gltf file and print its JSON report on stdout.
-// Usage: node tools/validate_gltf.js FILE
+// Run the Khronos glTF validator on .glb/.gltf files and print its JSON reports.
+// Usage: node tools/validate_gltf.js FILE   one report on stdout
+//        node tools/validate_gltf.js --lines
+//            a request per line on stdin, {"file": PATH}, and a reply per line on stdout,
+//            {"report": ...} or {"error": "..."}, until stdin closes. The gate keeps one such
+//            process: starting node and loading the validator cost 250 ms, a model 3-10 ms.
 // Exit status: 0 when the validator ran (whatever it found), 2 when it could not run.
 'use strict';
 
 const fs = require('fs');
 const path = require('path');
+const readline = require('readline');
 const validator = require('gltf-validator');
 
-async function main(argv) {
-  if (argv.length !== 1) {
-    throw new Error('usage: validate_gltf.js FILE');
-  }
-  const file = path.resolve(argv[0]);
+function validateFile(name) {
+  const file = path.resolve(name);
   const folder = path.dirname(file);
   const bytes = new Uint8Array(fs.readFileSync(file));
-  const report = await validator.validateBytes(bytes, {
+  return validator.validateBytes(bytes, {
     uri: path.basename(file),
     maxIssues: 0,
     // External buffers and images may only come from the file's own folder, so a hostile
@@ -33,10 +35,36 @@ async function main(argv) {
       }
     }),
   });
-  process.stdout.write(JSON.stringify(report));
+}
+
+function message(err) {
+  return err && err.message ? err.message : String(err);
+}
+
+async function serveLines() {
+  const lines = readline.createInterface({ input: process.stdin, crlfDelay: Infinity });
+  for await (const line of lines) {  // one request at a time, in order
+    let reply;
+    try {
+      reply = { report: await validateFile(JSON.parse(line).file) };
+    } catch (err) {
+      reply = { error: message(err) };
+    }
+    process.stdout.write(JSON.stringify(reply) + '\n');
+  }
+}
+
+async function main(argv) {
+  if (argv.length === 1 && argv[0] === '--lines') {
+    return serveLines();
+  }
+  if (argv.length !== 1) {
+    throw new Error('usage: validate_gltf.js FILE | --lines');
+  }
+  process.stdout.write(JSON.stringify(await validateFile(argv[0])));
 }
 
 main(process.argv.slice(2)).catch((err) => {
-  process.stderr.write(`validate_gltf.js: ${err && err.message ? err.message : err}\n`);
+  process.stderr.write(`validate_gltf.js: ${message(err)}\n`);
   process.exit(2);
 });

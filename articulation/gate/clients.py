@@ -7,6 +7,7 @@ the lower, middle and upper joint positions.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import re
@@ -41,12 +42,32 @@ def find_check_urdf() -> str | None:
     return shutil.which("check_urdf")
 
 
+def _check_urdf_command() -> tuple[str, dict[str, str] | None] | None:
+    """The check_urdf executable to run and its environment (None: this process's).
+
+    cmeel's `check_urdf` is a Python script that starts an interpreter to set the library
+    path and run the binary in cmeel's prefix: 130 ms a model, against 4 ms for the binary.
+    """
+    script = find_check_urdf()
+    if script is None:
+        return None
+    spec = importlib.util.find_spec("cmeel")
+    if spec is not None and spec.origin is not None:
+        prefix = Path(spec.origin).parent.parent / "cmeel.prefix"
+        binary = prefix / "bin" / "check_urdf"
+        if binary.is_file() and os.access(binary, os.X_OK):
+            libraries = os.pathsep.join(filter(None, [str(prefix / "lib"), os.environ.get("LD_LIBRARY_PATH")]))
+            return str(binary), {**os.environ, "LD_LIBRARY_PATH": libraries}
+    return script, None
+
+
 def check_urdf_check(urdf: Path, timeout_s: float = CHECK_URDF_TIMEOUT_S) -> Check:
-    exe = find_check_urdf()
-    if exe is None:
+    command = _check_urdf_command()
+    if command is None:
         return Check("check_urdf", False, "check_urdf not found (Python package cmeel-urdfdom); run `make setup`")
+    exe, env = command
     try:
-        result = run_bounded([exe, str(urdf)], timeout_s)
+        result = run_bounded([exe, str(urdf)], timeout_s, env=env)
     except subprocess.TimeoutExpired:
         return Check("check_urdf", False, f"timed out after {timeout_s:g} s")
     except OSError as exc:

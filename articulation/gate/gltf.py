@@ -6,12 +6,11 @@ import json
 import math
 import shutil
 import struct
-import subprocess
 from pathlib import Path
 from typing import Any
 
-from articulation.gate.process import last_lines, run_bounded
 from articulation.gate.report import Check, check_from_problems, count
+from articulation.gate.resident_validator import ValidatorFailed, validate_resident
 from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from homemodel.core.errors import InputError
 
@@ -32,17 +31,14 @@ def khronos_check(glb: Path, timeout_s: float = VALIDATOR_TIMEOUT_S) -> Check:
         missing = "node" if node is None else f"the npm package gltf-validator under {TOOLS_DIR}"
         return Check(name, False, f"{missing} not found; run `make setup`")
     try:
-        result = run_bounded([node, str(VALIDATOR_SCRIPT), str(glb)], timeout_s)
-    except subprocess.TimeoutExpired:
+        reply = validate_resident(node, VALIDATOR_SCRIPT, glb, timeout_s)
+    except TimeoutError:
         return Check(name, False, f"timed out after {timeout_s:g} s")
-    except OSError as exc:
-        return Check(name, False, f"cannot run {node}: {exc}")
-    try:
-        report = json.loads(result.stdout) if result.returncode == 0 else None
-    except json.JSONDecodeError:
-        report = None
-    if report is None:
-        return Check(name, False, f"validator failed (exit status {result.returncode}): {last_lines(result.stderr)}")
+    except (OSError, ValidatorFailed) as exc:
+        return Check(name, False, f"validator failed: {exc}")
+    report = reply.get("report")
+    if not isinstance(report, dict):
+        return Check(name, False, f"validator failed: {reply.get('error', reply)}")
     issues = report.get("issues", {})
     errors = [m for m in issues.get("messages", []) if m.get("severity") == 0]
     if issues.get("numErrors", 0) > 0:

@@ -102,6 +102,8 @@ def joint_drifts(pb: Any, client: int, urdf: Path) -> list[JointDrift]:
     """Each movable joint's drift in `SIMULATED_S`, all started together, the base fixed."""
     body = pb.loadURDF(str(urdf), useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client)
     joints = _movable(pb, client, body)
+    if not joints:
+        return []
     starts = {}
     for info in joints:
         pb.resetJointState(body, info[0], 0.0, physicsClientId=client)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 
-def run_bounded(argv: Sequence[str], timeout_s: float) -> subprocess.CompletedProcess[str]:
+def run_bounded(argv: Sequence[str], timeout_s: float, env: Mapping[str, str] | None = None) -> subprocess.CompletedProcess[str]:
     """Run `argv` capturing its output; raises `subprocess.TimeoutExpired` after `timeout_s`.
 
     The child gets its own session so a timeout kills its children too (cmeel's
@@ -22,6 +22,7 @@ def run_bounded(argv: Sequence[str], timeout_s: float) -> subprocess.CompletedPr
         text=True,
         errors="replace",
         start_new_session=True,
+        env=env,
     )
     try:
         out, err = proc.communicate(timeout=timeout_s)
