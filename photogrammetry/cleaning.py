@@ -64,8 +64,8 @@ def downsample(
     _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
 
     def mean(values: np.ndarray) -> np.ndarray:
-        sums = np.zeros((len(counts), values.shape[1]))
-        np.add.at(sums, inverse, values)
+        # A weighted bincount per column: np.add.at took 2 s a call on a million points.
+        sums = np.column_stack([np.bincount(inverse, weights=column, minlength=len(counts)) for column in values.T])
         return sums / counts[:, None]
 
     directions = mean(to_camera)

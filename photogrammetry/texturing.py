@@ -8,6 +8,7 @@ and occluded views do not smear the texture.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,9 +63,11 @@ def bake_texture(
     views: list[View],
     options: TextureBakingOptions | None = None,
     progress: Progress | None = None,
+    *,
+    workers: int = 1,
 ) -> TexturedMesh:
-    """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame);
-    progress stage "texturing"."""
+    """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame),
+    `workers` views at a time; progress stage "texturing"."""
     options = options or TextureBakingOptions()
     atlas = uv_atlas(mesh, size_px=options.size_px, padding_px=options.padding_px, charts=options.charts)
     texels = atlas_texels(atlas, options.size_px)
@@ -72,9 +75,9 @@ def bake_texture(
     normals = texels.interpolate(atlas.mesh.vertex_normals)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
     caster = RayCaster(mesh)
-    colour_sum = np.zeros((len(points), 3))
-    weight_sum = np.zeros(len(points))
-    for index, view in enumerate(views):
+
+    def view_colours(view: View) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The texels `view` sees unoccluded, their colours in it and their weights."""
         depth, depth_camera = _depth_buffer(caster, view, options.depth_buffer_px)
         camera_points = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
         z = camera_points[:, 2]
@@ -89,15 +92,21 @@ def bake_texture(
         # Visible: nothing in front of the texel along this pixel's ray (a tolerance for the
         # depth buffer's coarser sampling of the surface).
         visible = candidates[z[candidates] <= buffer_depth * 1.01 + 1e-9]
-        if len(visible):
-            image = read_rgb(view.image_path, max_side_px=options.max_image_px)
-            image_camera = view.camera.scaled(image.shape[1] / view.camera.width)
-            colours = _sample_bilinear(image, image_camera.project(camera_points[visible]))
-            weight = cos[visible] ** 4
+        if not len(visible):
+            return visible, np.zeros((0, 3)), np.zeros(0)
+        image = read_rgb(view.image_path, max_side_px=options.max_image_px)
+        image_camera = view.camera.scaled(image.shape[1] / view.camera.width)
+        return visible, _sample_bilinear(image, image_camera.project(camera_points[visible])), cos[visible] ** 4
+
+    colour_sum = np.zeros((len(points), 3))
+    weight_sum = np.zeros(len(points))
+    # Views on every core (numpy, the ray caster and OpenCV release the GIL); sums in this thread.
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for index, (visible, colours, weight) in enumerate(pool.map(view_colours, views)):
             colour_sum[visible] += weight[:, None] * colours
             weight_sum[visible] += weight
-        if progress:
-            progress("texturing", index + 1, len(views))
+            if progress:
+                progress("texturing", index + 1, len(views))
     seen = weight_sum > 0
     if not seen.any():
         raise ModelError("no view sees the mesh: cannot bake a texture")

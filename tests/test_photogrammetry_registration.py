@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 
 from homemodel.cli import app
 from photogrammetry.convergence import in_frame_share
+from photogrammetry.pairing import mutual_match_counts
 from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, upright_photo_folder
 from photogrammetry.pose_agreement import load_reference_cameras, pose_agreement, similarity_from_points
 from photogrammetry.sfm import SfmOptions, View, run_sfm
@@ -136,6 +137,23 @@ def test_in_frame_share_is_one_where_every_camera_looks_and_falls_off_beside() -
 
 
 # ---------------------------------------------------------------- real photos, default command
+
+
+def test_preemptive_matching_counts_the_features_two_views_share_and_none_of_unrelated_ones() -> None:
+    """Two views of one scene share 40 of their 100 largest features (in another order, with
+    noise); a third view is of something else, and a fourth has fewer features."""
+    rng = np.random.default_rng(0)
+
+    def unit(x: np.ndarray) -> np.ndarray:
+        return (x / np.linalg.norm(x, axis=1, keepdims=True)).astype(np.float32)
+
+    scene = rng.standard_normal((100, 128))
+    first = unit(scene + 0.1 * rng.standard_normal(scene.shape))
+    second = unit(np.vstack([scene[rng.permutation(100)[:40]], rng.standard_normal((60, 128))]) + 0.1 * rng.standard_normal((100, 128)))
+    counts = mutual_match_counts([first, second, unit(rng.standard_normal((100, 128))), unit(rng.standard_normal((30, 128)))])
+    assert (counts == counts.T).all() and (np.diag(counts) == 0).all()
+    assert 36 <= counts[0, 1] <= 40
+    assert counts[0, 2:].max() <= 1 and counts[1, 2:].max() <= 1 and counts[2, 3] <= 1
 
 
 def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: Path, capfd) -> None:

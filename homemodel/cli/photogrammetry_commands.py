@@ -18,6 +18,7 @@ photogrammetry_app = typer.Typer(no_args_is_help=True)
 class MatchingChoice(str, enum.Enum):
     auto = "auto"
     exhaustive = "exhaustive"
+    preemptive = "preemptive"
     retrieval = "retrieval"
 
 
@@ -68,11 +69,12 @@ def reconstruct(
     matching: MatchingChoice = typer.Option(
         MatchingChoice.auto,
         "--matching",
-        help="auto: every pair up to 120 photos (any order), image retrieval (a vocabulary tree of the photos) beyond",
+        help="auto: preemptive up to 120 photos (every pair tried on its 100 largest features, any order; "
+        "those that share 3 or more, and each photo's 8 best, matched in full), image retrieval beyond",
     ),
     max_features: int = typer.Option(4096, "--max-features", help="SIFT features per photo"),
     sfm_image_px: int = typer.Option(1600, "--sfm-image-px", help="longer side photos are shrunk to for SfM"),
-    depth_image_px: int = typer.Option(800, "--depth-image-px", help="longer side of the depth maps"),
+    depth_image_px: int = typer.Option(640, "--depth-image-px", help="longer side of the depth maps"),
     texture_px: int = typer.Option(2048, "--texture-px", help="texture atlas size"),
     max_faces: int = typer.Option(40_000, "--max-faces", help="faces of the final mesh"),
     picture: bool = typer.Option(False, "--picture", help="also write cameras.png: the cameras around the mesh"),

@@ -43,6 +43,9 @@ class RayCaster:
             o3d.core.Tensor(np.asarray(mesh.vertices, dtype=np.float32)),
             o3d.core.Tensor(np.asarray(mesh.faces, dtype=np.uint32)),
         )
+        # The scene builds its acceleration structure on its first cast, unguarded: one cast
+        # here lets threads share the caster.
+        self._scene.cast_rays(o3d.core.Tensor(np.array([[0, 0, 0, 0, 0, 1]], dtype=np.float32)))
 
     def first_hits(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """What each ray `origin + t * direction` (t > 0) hits first: (N, 3) origins and
