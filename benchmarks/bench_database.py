@@ -22,6 +22,9 @@ mixed manifest of every source.
      counted (the client, Dask's workers, the gate's tools). Unlike the wall-time figures it
      barely moves when other jobs share the machine: it is what the database costs, not
      what it was given.
+   The three (serial loop, loops side by side, database) run in interleaved rounds, and the
+   table gives each figure's median and each round's speed-up: the machine is a shared host
+   whose speed drifts by tens of percent from minute to minute.
    The same figures are given for 2 plain loops started side by side, each a fresh process
    building half the entries: no Dask, no database, just two processes, so their speed-up
    is what this machine gives two processes at best (on a shared or hyperthreaded machine
@@ -32,7 +35,7 @@ mixed manifest of every source.
    shared Kermit photos, a completion query, an imported PartNet-style URDF): every entry
    built or recorded as failed, and the time per source.
 
-Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--skip-mixed | --only-mixed]
+Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--rounds 2] [--skip-mixed | --only-mixed]
 """
 
 from __future__ import annotations
@@ -159,18 +162,28 @@ def _load() -> str:
     return " ".join(f"{v:.2f}" for v in os.getloadavg())
 
 
-def throughput(entries: int, console: Console) -> None:
+def _one_round(manifest: Path, folder: Path) -> dict:
+    """The serial loop, the loops side by side and the database build, one after the other."""
+    serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
+    side_s, side_cpu_s = _loops_side_by_side(manifest, folder / "side")
+    db_s, built = _run_child("--db-build", manifest, folder / "db")
+    with ModelIndex(folder / "db") as index:
+        rows = index.rows()
+    return {"serial_s": serial_s, "serial": serial, "serial_cpu": serial["cpu_s"], "side_s": side_s, "side_cpu_s": side_cpu_s,
+            "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}
+
+
+def throughput(entries: int, rounds: int, console: Console) -> None:
     with tempfile.TemporaryDirectory(prefix="bench-db-") as tmp:
         folder = Path(tmp)
         manifest = _cup_manifest(folder, entries)
         load_before = _load()
-        serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
-        side_s, side_cpu_s = _loops_side_by_side(manifest, folder / "side")
-        db = folder / "db"
-        db_s, built = _run_child("--db-build", manifest, db)
+        # The rounds interleave the three sides: this machine's speed drifts (a shared host),
+        # and a side measured only early or only late would gain or lose by it.
+        runs = [_one_round(manifest, folder / f"round{r}") for r in range(rounds)]
         load_after = _load()
-        with ModelIndex(db) as index:
-            rows = index.rows()
+        db = folder / f"round{rounds - 1}" / "db"
+        rows = runs[-1]["rows"]
         problems = [f"{r.id}: {r.status}: {r.error or '; '.join(r.failed_checks)}" for r in rows if r.status != "valid"]
         thumbnail_s = sum(r.times_s["thumbnail"] for r in rows)
         # An entry's time outside its stages' clocks: the swept spec, the record, the atomic
@@ -187,25 +200,35 @@ def throughput(entries: int, console: Console) -> None:
         single.write_text(CUP.read_text().replace("colour: white", "colour: red"))
         one_s, one = _db_build(manifest, db)
 
-    serial_entry_s = serial["entries_s"] / entries
-    db_entry_s = WORKERS * built["entries_s"] / entries  # a worker's time per entry
-    table = Table(title=f"{entries} cup entries: the database on {WORKERS} Dask workers vs plain loops (load {load_before} -> {load_after})")
+    def median(figure) -> float:  # noqa: ANN001 (a function of one round's figures)
+        return statistics.median(figure(run) for run in runs)
+
+    serial_s, side_s, db_s = median(lambda r: r["serial_s"]), median(lambda r: r["side_s"]), median(lambda r: r["db_s"])
+    serial_entries_s, db_entries_s = median(lambda r: r["serial"]["entries_s"]), median(lambda r: r["built"]["entries_s"])
+    serial_cpu_s, side_cpu_s, db_cpu_s = (median(lambda r, k=k: r[k]) for k in ("serial_cpu", "side_cpu_s", "db_cpu"))
+    serial_entry_s = serial_entries_s / entries
+    db_entry_s = WORKERS * db_entries_s / entries  # a worker's time per entry
+    title = f"{entries} cup entries: the database on {WORKERS} Dask workers vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
+    table = Table(title=title)
     table.add_column("figure")
     table.add_column("serial loop", justify="right")
     table.add_column(f"{WORKERS} loops side by side", justify="right")
     table.add_column("database", justify="right")
     table.add_row("wall time, fresh processes to exit", f"{serial_s:.1f} s", f"{side_s:.1f} s", f"{db_s:.1f} s")
-    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{serial['startup_s']:.1f} s", "", f"{built['startup_s']:.1f} s")
-    table.add_row("  the entries (first start to last end)", f"{serial['entries_s']:.1f} s", "", f"{built['entries_s']:.1f} s")
+    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{median(lambda r: r['serial']['startup_s']):.1f} s", "", f"{median(lambda r: r['built']['startup_s']):.1f} s")
+    table.add_row("  the entries (first start to last end)", f"{serial_entries_s:.1f} s", "", f"{db_entries_s:.1f} s")
     table.add_row("time per entry (database: x workers)", f"{1000 * serial_entry_s:.0f} ms", "", f"{1000 * db_entry_s:.0f} ms")
-    table.add_row("CPU time, every process (user + system)", f"{serial['cpu_s']:.1f} s", f"{side_cpu_s:.1f} s", f"{built['cpu_s']:.1f} s")
-    table.add_row("entries valid / built", "", "", f"{entries - len(problems)} / {len(rows)}")
-    table.add_row("[bold]speed-up, wall time (serial / this)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
+    table.add_row("CPU time, every process (user + system)", f"{serial_cpu_s:.1f} s", f"{side_cpu_s:.1f} s", f"{db_cpu_s:.1f} s")
+    table.add_row("entries valid / built (last round)", "", "", f"{entries - len(problems)} / {len(rows)}")
+    ratios = "  ".join(f"{r['serial_s'] / r['db_s']:.2f}x" for r in runs)
+    side_ratios = "  ".join(f"{r['serial_s'] / r['side_s']:.2f}x" for r in runs)
+    table.add_row("speed-up, wall time, each round (serial / this)", "", side_ratios, ratios)
+    table.add_row("[bold]speed-up, wall time (medians)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
     table.add_row("[bold]overhead per entry, after start-up", "", "", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
     table.add_row("  in the entries: the thumbnail", "", "", f"{1000 * thumbnail_s / entries:.0f} ms")
     table.add_row("  in the entries: outside the stages' clocks", "", "", f"{1000 * untimed_s / entries:.0f} ms")
     table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * side_s - serial_s) / entries:.0f} ms", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
-    table.add_row("overhead per entry in CPU time, all in: (CPU - CPU serial) / N", "", f"{1000 * (side_cpu_s - serial['cpu_s']) / entries:.0f} ms", f"{1000 * (built['cpu_s'] - serial['cpu_s']) / entries:.0f} ms")
+    table.add_row("overhead per entry in CPU time, all in: (CPU - CPU serial) / N", "", f"{1000 * (side_cpu_s - serial_cpu_s) / entries:.0f} ms", f"{1000 * (db_cpu_s - serial_cpu_s) / entries:.0f} ms")
     table.add_row("rebuild, nothing changed (homemodel db build)", "", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
     table.add_row("rebuild, one spec changed (homemodel db build)", "", "", f"{one_s:.1f} s  ({_summary(one)})")
     console.print(table)
@@ -241,6 +264,7 @@ def mixed(console: Console) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--entries", type=int, default=200, help="generated spec entries (a multiple of 20)")
+    parser.add_argument("--rounds", type=int, default=2, help="rounds of serial loop, loops side by side and database, interleaved")
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
     # The two sides of the throughput figure, each run by throughput() in a fresh process.
@@ -253,7 +277,7 @@ def main() -> None:
             return
     console = Console(width=120)
     if not args.only_mixed:
-        throughput(args.entries, console)
+        throughput(args.entries, args.rounds, console)
     if not args.skip_mixed:
         mixed(console)
 
