@@ -38,8 +38,9 @@ class DenseOptions:
     min_angle_deg: float = 4.0  # triangulation angle of a good pair (at the scene)
     max_angle_deg: float = 35.0
     block_size_px: int = 5
-    # Depth pixels become points every this many along rows and columns: at 800 px a pixel
-    # covers about half a fusion voxel, and every voxel is seen by many views anyway.
+    # Depth pixels become points every this many along rows and columns: neighbouring pixels
+    # mostly land in one fusion voxel, which many views fill anyway (on the rendered set, fusion
+    # 8.8 s -> 2.8 s, mean surface distance 0.184 % -> 0.196 % of the size).
     point_step_px: int = 2
 
     def check(self) -> None:
@@ -180,8 +181,8 @@ def _agreeing_depth(candidates: np.ndarray, options: DenseOptions) -> np.ndarray
 @contextmanager
 def _opencv_single_threaded() -> Iterator[None]:
     """OpenCV's own threads off while the caller runs one OpenCV call per core: SGBM's
-    parallel loop leaves the numpy work between its calls to one core (serial, with OpenCV on
-    two threads, 200 pairs took 16 % longer than two pairs at a time on one thread each)."""
+    parallel loop leaves the numpy work between its calls to one core (7 pairs one after the
+    other with OpenCV on two threads: 1.5 s; two at a time on one thread each: 1.3 s)."""
     import cv2
 
     threads = cv2.getNumThreads()
