@@ -70,7 +70,8 @@ def reconstruct(
         MatchingChoice.auto,
         "--matching",
         help="auto: preemptive up to 120 photos (every pair tried on its 100 largest features, any order; "
-        "those that share 3 or more, and each photo's 8 best, matched in full), image retrieval beyond",
+        "each photo matched in full with up to 15 partners sharing 3 or more, and at least its 8 best), "
+        "image retrieval beyond",
     ),
     max_features: int = typer.Option(4096, "--max-features", help="SIFT features per photo"),
     sfm_image_px: int = typer.Option(1600, "--sfm-image-px", help="longer side photos are shrunk to for SfM"),
