@@ -136,9 +136,6 @@ def test_in_frame_share_is_one_where_every_camera_looks_and_falls_off_beside() -
     assert share[2] < 0.6 and share[3] == 0.0  # beside the object, and above every camera's frame
 
 
-# ---------------------------------------------------------------- real photos, default command
-
-
 def test_preemptive_matching_counts_the_features_two_views_share_and_none_of_unrelated_ones() -> None:
     """Two views of one scene share 40 of their 100 largest features (in another order, with
     noise); a third view is of something else, and a fourth has fewer features."""
@@ -154,6 +151,9 @@ def test_preemptive_matching_counts_the_features_two_views_share_and_none_of_unr
     assert (counts == counts.T).all() and (np.diag(counts) == 0).all()
     assert 36 <= counts[0, 1] <= 40
     assert counts[0, 2:].max() <= 1 and counts[1, 2:].max() <= 1 and counts[2, 3] <= 1
+
+
+# ---------------------------------------------------------------- real photos, default command
 
 
 def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: Path, capfd) -> None:
