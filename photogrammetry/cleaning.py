@@ -16,6 +16,7 @@ import trimesh
 from homemodel.core.checks import require_between, require_positive
 from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import largest_piece, point_cloud, poisson_surface
+from homemodel.geometry.voxel_cells import cell_keys, group_sums
 
 
 @dataclass(kw_only=True)
@@ -58,15 +59,10 @@ def downsample(
     points: np.ndarray, colours: np.ndarray, to_camera: np.ndarray, voxel: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Average points, colours and view directions per voxel (the fusion of overlapping depth maps)."""
-    cells = np.floor((points - points.min(axis=0)) / voxel).astype(np.int64)
-    span = cells.max(axis=0) + 1
-    keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]  # one integer per voxel: a fast unique
-    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    _, inverse, counts = np.unique(cell_keys(points, voxel), return_inverse=True, return_counts=True)
 
     def mean(values: np.ndarray) -> np.ndarray:
-        # A weighted bincount per column: np.add.at took 2 s a call on a million points.
-        sums = np.column_stack([np.bincount(inverse, weights=column, minlength=len(counts)) for column in values.T])
-        return sums / counts[:, None]
+        return group_sums(inverse, values, len(counts)) / counts[:, None]
 
     directions = mean(to_camera)
     directions /= np.maximum(np.linalg.norm(directions, axis=1, keepdims=True), 1e-12)
@@ -93,10 +89,7 @@ def piece_labels(points: np.ndarray, gap: float, *, min_points: int = 4) -> np.n
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    cells = np.floor((points - points.min(axis=0)) / (gap / (2 * np.sqrt(3)))).astype(np.int64)
-    span = cells.max(axis=0) + 1
-    keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    _, first, inverse = np.unique(cell_keys(points, gap / (2 * np.sqrt(3))), return_index=True, return_inverse=True)
     pairs = cKDTree(points[first]).query_pairs(gap, output_type="ndarray")
     count = len(first)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(count, count))

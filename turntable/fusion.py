@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from homemodel.core.errors import ModelError
+from homemodel.geometry.voxel_cells import group_sums
 
 
 @dataclass(kw_only=True)
@@ -59,10 +60,7 @@ class VoxelAccumulator:
         keys = np.concatenate([self._keys, *(k for k, _ in self._pending)])
         values = np.concatenate([self._sums, *(v for _, v in self._pending)])
         unique, inverse = np.unique(keys, return_inverse=True)
-        sums = np.empty((len(unique), values.shape[1]))
-        for column in range(values.shape[1]):
-            sums[:, column] = np.bincount(inverse, weights=values[:, column], minlength=len(unique))
-        self._keys, self._sums = unique, sums
+        self._keys, self._sums = unique, group_sums(inverse, values, len(unique))
         self._pending, self._pending_points = [], 0
 
     def cloud(self, min_count: int = 1) -> MergedCloud:
