@@ -9,7 +9,6 @@ registers it into a semantic map when asked.
 
 from __future__ import annotations
 
-import os
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -98,13 +97,9 @@ def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOp
     if options.use_cuda and cuda_available():
         # COLMAP's fusion checks visibility itself: no depth maps are handed on.
         return (*patch_match_points(undistorted, options.dense.max_image_size_px), [], "patch-match (CUDA)")
-    maps = compute_depth_maps(sparse, options.dense, progress=clock.progress, workers=_threads(options))
+    maps = compute_depth_maps(sparse, options.dense, progress=clock.progress, workers=options.sfm.threads)
     points, colours, to_camera = depth_maps_to_points(sparse, maps, options.dense.point_step_px)
     return points, colours, to_camera, maps, "semi-global matching (CPU)"
-
-
-def _threads(options: ReconstructOptions) -> int:
-    return options.sfm.num_threads if options.sfm.num_threads > 0 else len(os.sched_getaffinity(0))
 
 
 def _markers(sparse: SparseModel, options: ReconstructOptions, clock: StageClock):
@@ -116,7 +111,7 @@ def _markers(sparse: SparseModel, options: ReconstructOptions, clock: StageClock
         return detect_markers(read_image(view.image_path, cv2.IMREAD_GRAYSCALE), view.name, options.dictionary)
 
     sightings = []
-    with ThreadPoolExecutor(max_workers=_threads(options)) as pool:
+    with ThreadPoolExecutor(max_workers=options.sfm.threads) as pool:
         for index, found in enumerate(pool.map(detect, sparse.views)):
             sightings += found
             clock.tick(index + 1, len(sparse.views))
@@ -207,7 +202,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
 
     clock.start("texturing")
     views = [frame.view(v) for v in sparse.views]
-    textured = bake_texture(mesh, views, options.texture, progress=clock.progress, workers=_threads(options))
+    textured = bake_texture(mesh, views, options.texture, progress=clock.progress, workers=options.sfm.threads)
     clock.stop()
 
     summary = {

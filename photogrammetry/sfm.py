@@ -7,6 +7,7 @@ The result is a set of pinhole views (undistorted photos with their cameras and
 from __future__ import annotations
 
 import logging
+import os
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -77,6 +78,12 @@ class SfmOptions:
         require_at_least("retrieval_neighbours", self.retrieval_neighbours, 2)
         if self.num_threads != -1:
             require_at_least("num_threads", self.num_threads, 1)
+
+    @property
+    def threads(self) -> int:
+        """`num_threads`, with -1 made the number of cores this process may use (for our own
+        thread pools; COLMAP takes -1 itself)."""
+        return self.num_threads if self.num_threads > 0 else len(os.sched_getaffinity(0))
 
 
 @dataclass(kw_only=True)
@@ -333,7 +340,7 @@ def run_sfm(
 def _undistort(best, image_dir: Path, work_dir: Path, names: list[str], options: SfmOptions) -> SparseModel:
     """The registered photos as pinhole views (written undistorted into work_dir/undistorted),
     with the sparse points."""
-    written = undistort_photos(best, image_dir, work_dir / "undistorted", num_threads=options.num_threads)
+    written = undistort_photos(best, image_dir, work_dir / "undistorted", workers=options.threads)
     images = sorted(best.images.values(), key=lambda im: im.name)
     views, index_of = [], {}
     for image in images:

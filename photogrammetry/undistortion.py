@@ -8,7 +8,6 @@ OpenCV's remap, the write a fast lossless PNG, and the photos are spread over th
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -43,7 +42,7 @@ def _lookup(camera, pinhole: Camera) -> tuple[np.ndarray, np.ndarray]:
 
 
 def undistort_photos(
-    reconstruction, image_dir: Path, out_dir: Path, *, num_threads: int
+    reconstruction, image_dir: Path, out_dir: Path, *, workers: int
 ) -> dict[str, tuple[Path, Camera]]:
     """Write every registered photo of `reconstruction` undistorted into `out_dir`; by image
     name, the written file and its pinhole camera."""
@@ -70,6 +69,5 @@ def undistort_photos(
             raise ModelError(f"{path}: cannot write the undistorted photo")
         return name, (path, pinhole)
 
-    workers = num_threads if num_threads > 0 else len(os.sched_getaffinity(0))
     with ThreadPoolExecutor(max_workers=workers) as pool:  # OpenCV's decode, remap and encode release the GIL
         return dict(pool.map(one, jobs))
