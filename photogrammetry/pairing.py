@@ -113,18 +113,20 @@ def mutual_match_counts(descriptor_sets: list[np.ndarray]) -> np.ndarray:
 
 
 def preemptive_pairs(database: Path) -> list[tuple[str, str]]:
-    """The pairs of photos worth matching in full: each photo with its best partners by their
-    largest features' matches, up to `PREEMPTIVE_MAX_PER_PHOTO` of those with at least
-    `PREEMPTIVE_MIN_MATCHES`, and at least `PREEMPTIVE_PER_PHOTO` whatever their count (a photo
-    with few large features is still tried)."""
-    names, counts = preemptive_match_counts(database)
+    """The pairs of photos in `database` worth matching in full (`chosen_pairs`)."""
+    return chosen_pairs(*preemptive_match_counts(database))
+
+
+def chosen_pairs(names: list[str], counts: np.ndarray) -> list[tuple[str, str]]:
+    """Each photo with its best partners by their largest features' matches `counts`: up to
+    `PREEMPTIVE_MAX_PER_PHOTO` of those with at least `PREEMPTIVE_MIN_MATCHES`, and at least
+    `PREEMPTIVE_PER_PHOTO` whatever their count (a photo with few large features is still tried)."""
     chosen = np.zeros(counts.shape, bool)
     for i, row in enumerate(counts):
-        ranked = np.argsort(-row, kind="stable")
+        ranked = [j for j in np.argsort(-row, kind="stable") if j != i]  # never itself, even among zeros
         asked = ranked[:PREEMPTIVE_MAX_PER_PHOTO]
-        asked = np.concatenate([asked[row[asked] >= PREEMPTIVE_MIN_MATCHES], ranked[:PREEMPTIVE_PER_PHOTO]])
+        asked = [j for j in asked if row[j] >= PREEMPTIVE_MIN_MATCHES] + ranked[:PREEMPTIVE_PER_PHOTO]
         chosen[i, asked] = chosen[asked, i] = True
-    np.fill_diagonal(chosen, False)
     return [(names[i], names[j]) for i, j in zip(*np.nonzero(np.triu(chosen, 1)))]
 
 

@@ -16,7 +16,8 @@ from typer.testing import CliRunner
 
 from homemodel.cli import app
 from photogrammetry.convergence import in_frame_share
-from photogrammetry.pairing import mutual_match_counts
+from photogrammetry import pairing
+from photogrammetry.pairing import chosen_pairs, mutual_match_counts
 from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, upright_photo_folder
 from photogrammetry.pose_agreement import load_reference_cameras, pose_agreement, similarity_from_points
 from photogrammetry.sfm import SfmOptions, View, run_sfm
@@ -151,6 +152,24 @@ def test_preemptive_matching_counts_the_features_two_views_share_and_none_of_unr
     assert (counts == counts.T).all() and (np.diag(counts) == 0).all()
     assert 36 <= counts[0, 1] <= 40
     assert counts[0, 2:].max() <= 1 and counts[1, 2:].max() <= 1 and counts[2, 3] <= 1
+
+
+def test_preemptive_pairs_are_each_photos_best_partners_and_never_leave_a_photo_out() -> None:
+    """40 photos in a ring, each sharing large features with its 4 nearest on either side (more
+    with the nearer ones), and every photo with every other a little; one photo shares none."""
+    n = 40
+    apart = np.abs(np.subtract.outer(np.arange(n), np.arange(n)))
+    apart = np.minimum(apart, n - apart)
+    counts = np.where(apart <= 4, 20 - 3 * apart, 1)
+    counts[7, :] = counts[:, 7] = 0
+    np.fill_diagonal(counts, 0)
+    names = [f"p{i:02d}" for i in range(n)]
+    pairs = {tuple(sorted(pair)) for pair in chosen_pairs(names, counts)}
+    neighbours = {tuple(sorted((names[i], names[j]))) for i in range(n) for j in range(n) if 0 < apart[i, j] <= 4 and 7 not in (i, j)}
+    assert neighbours <= pairs  # every pair that shares features
+    partners = {name: sum(name in pair for pair in pairs) for name in names}
+    assert partners["p07"] >= pairing.PREEMPTIVE_PER_PHOTO  # tried even with nothing shared
+    assert len(pairs) < n * (n - 1) / 2 / 2  # far fewer than every pair
 
 
 # ---------------------------------------------------------------- real photos, default command
