@@ -180,9 +180,12 @@ def test_a_bad_manifest_is_one_line_and_exit_2(tmp_path) -> None:
 
 
 def test_a_killed_client_leaves_a_whole_index_and_the_next_build_finishes(tmp_path) -> None:
-    for i in range(6):
+    # Enough entries that the build is still running when the first row lands: an entry takes
+    # about 0.2 s, and rows are committed in batches (6 entries all landed in one batch in CI).
+    count = 30
+    for i in range(count):
         write_partnet_cabinet(tmp_path / f"cabinet{i}")
-    entries = [{"id": f"c{i}", "source": "urdf", "path": f"cabinet{i}"} for i in range(6)]
+    entries = [{"id": f"c{i:02d}", "source": "urdf", "path": f"cabinet{i}"} for i in range(count)]
     manifest = tmp_path / "manifest.yaml"
     manifest.write_text(yaml.safe_dump({"entries": entries}))
     db = tmp_path / "db"
@@ -198,13 +201,13 @@ def test_a_killed_client_leaves_a_whole_index_and_the_next_build_finishes(tmp_pa
         os.killpg(client.pid, signal.SIGKILL)  # the client and its workers, mid-build
         client.wait()
     partial = rows(db)
-    assert 0 < len(partial) < 6
+    assert 0 < len(partial) < count
     # A folder may have been stored just before the kill, without its row: it is built again.
     for row in partial.values():
         assert (db / row.path / "model.urdf").is_file() and (db / row.path / "thumbnail.png").is_file()
     result = build_database(manifest, db, DatabaseBuildOptions(workers=2, repair=True))
-    assert sorted(r.id for r in result.built) == sorted(set(f"c{i}" for i in range(6)) - set(partial))
+    assert sorted(r.id for r in result.built) == sorted(set(f"c{i:02d}" for i in range(count)) - set(partial))
     final = rows(db)
-    assert sorted(final) == [f"c{i}" for i in range(6)] and all(r.status == "valid" for r in final.values())
+    assert sorted(final) == [f"c{i:02d}" for i in range(count)] and all(r.status == "valid" for r in final.values())
     assert not [p for p in (db / "models").iterdir() if p.name.startswith(".")]
     assert np.all([(db / "models" / i / "model.glb").is_file() for i in final])
