@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from articulation.gate.process import last_lines, run_bounded
+from articulation.gate.pybullet_world import empty_pybullet_client
 from articulation.gate.report import Check, check_from_problems, count
 from articulation.model import MOVABLE_JOINT_TYPES
 from homemodel.core.c_stdio_capture import captured_c_output
@@ -202,7 +203,7 @@ def kinematics_problems(pb: Any, client: int, body: int, declared: Any) -> list[
 
 
 def pybullet_check(urdf: Path, declared: Any) -> Check:
-    """Load in a private DIRECT client with a fixed base and the file's inertias; move every joint."""
+    """Load in this thread's DIRECT client with a fixed base and the file's inertias; move every joint."""
     error: str | None = None
     problems: list[str] = []
     # A zero axis makes yourdfpy's kinematics divide by zero; the NaN pose fails below.
@@ -210,7 +211,7 @@ def pybullet_check(urdf: Path, declared: Any) -> Check:
         warnings.simplefilter("ignore", RuntimeWarning)
         import pybullet as pb
 
-        client = pb.connect(pb.DIRECT)
+        client = empty_pybullet_client()
         try:
             body = pb.loadURDF(
                 str(urdf), useFixedBase=True, flags=pb.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client
@@ -221,8 +222,6 @@ def pybullet_check(urdf: Path, declared: Any) -> Check:
             error = str(exc)
         except Exception as exc:  # yourdfpy's kinematics on a broken model raise anything
             error = f"comparing joints failed: {type(exc).__name__}: {exc}"
-        finally:
-            pb.disconnect(physicsClientId=client)
     if error is not None:
         said = pybullet_errors(output)
         return Check("pybullet", False, f"{error} {said}" if said else error)

@@ -37,6 +37,7 @@ import numpy as np
 
 from articulation.gate.clients import pybullet_errors
 from articulation.gate.real_meshes import RealMeshes
+from articulation.gate.pybullet_world import empty_pybullet_client
 from articulation.gate.report import Check, check_from_problems, count
 from homemodel.core.c_stdio_capture import captured_c_output
 
@@ -221,7 +222,7 @@ def collision_problems(pb: Any, client: int, body: int, real: RealMeshes) -> tup
 
 
 def collisions_check(urdf: Path) -> Check:
-    """Load `urdf` in a private pybullet DIRECT client and sweep its joints for penetrations.
+    """Load `urdf` in this thread's pybullet DIRECT client and sweep its joints for penetrations.
 
     Call only on a URDF the gate found safe for pybullet (a sound tree, meshes inside the folder).
     """
@@ -232,7 +233,7 @@ def collisions_check(urdf: Path) -> Check:
         warnings.simplefilter("ignore", RuntimeWarning)
         import pybullet as pb
 
-        client = pb.connect(pb.DIRECT)
+        client = empty_pybullet_client()
         try:
             # Self-collision with parent and child included: every pair of links goes
             # through the broadphase; welded pairs are left out after.
@@ -241,8 +242,6 @@ def collisions_check(urdf: Path) -> Check:
             problems, summary = collision_problems(pb, client, body, RealMeshes(urdf))
         except pb.error as exc:
             error = str(exc)
-        finally:
-            pb.disconnect(physicsClientId=client)
     if error is not None:
         said = pybullet_errors(output)
         return Check(CHECK_NAME, False, f"{error} {said}" if said else error)

@@ -1,6 +1,6 @@
 """The gate's physics check, after the collision sweep: a model left alone stays put.
 
-In a private pybullet DIRECT client with gravity, the model's base fixed and its frame
+In a pybullet DIRECT client with gravity, the model's base fixed and its frame
 upright (+z up): every movable joint is set at once to the middle of its range (a slide
 along gravity, such as a jar's lid, to the end gravity pushes it to), held only by the
 URDF's `<dynamics>` (pybullet applies the damping itself; the Coulomb friction is the usual
@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from articulation.gate.clients import pybullet_errors
+from articulation.gate.pybullet_world import empty_pybullet_client
 from articulation.gate.report import Check, check_from_problems, count
 from articulation.joint_loads import STANDARD_GRAVITY_M_S2
 from homemodel.core.c_stdio_capture import captured_c_output
@@ -166,17 +167,8 @@ def physics_problems(urdf: Path) -> tuple[list[str], str, list[JointDrift], floa
     """(problems, summary, every joint's drift, the small object's drift or None)."""
     import pybullet as pb
 
-    drifts: list[JointDrift] = []
-    resting: float | None = None
-    for run in ("joints", "resting"):
-        client = pb.connect(pb.DIRECT)
-        try:
-            if run == "joints":
-                drifts = joint_drifts(pb, client, urdf)
-            else:
-                resting = resting_drift_m(pb, client, urdf)
-        finally:
-            pb.disconnect(physicsClientId=client)
+    drifts = joint_drifts(pb, empty_pybullet_client(), urdf)
+    resting = resting_drift_m(pb, empty_pybullet_client(), urdf)
     problems = [f"{d.format()} in {SIMULATED_S:g} s, left alone" for d in drifts if not d.passed]
     if resting is not None and not resting < MAX_DRIFT_M:
         problems.append(f"set free on a floor, it moved {resting * 1000:.2f} mm in {SIMULATED_S:g} s")
