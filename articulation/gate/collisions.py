@@ -36,8 +36,8 @@ from typing import Any
 import numpy as np
 
 from articulation.gate.clients import pybullet_errors
-from articulation.gate.real_meshes import RealMeshes
 from articulation.gate.pybullet_world import empty_pybullet_client
+from articulation.gate.real_meshes import RealMeshes
 from articulation.gate.report import Check, check_from_problems, count
 from homemodel.core.c_stdio_capture import captured_c_output
 

@@ -15,8 +15,8 @@ from lxml import etree
 from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
 from articulation.gate.collisions import collisions_check
 from articulation.gate.gltf import gltf_checks
-from articulation.gate.physics import physics_check
 from articulation.gate.mesh_geometry import mesh_geometry_check, over_triangle_bound
+from articulation.gate.physics import physics_check
 from articulation.gate.report import Check, ValidationReport
 from articulation.gate.urdf_rules import (
     axes_check,
