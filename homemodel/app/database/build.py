@@ -34,6 +34,11 @@ from homemodel.core.errors import InputError
 log = logging.getLogger(__name__)
 
 LOCK_FILE = ".build.lock"
+# Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536, so that freed memory goes back
+# to the OS at once for its memory monitor. An entry allocates and frees many mid-sized arrays
+# (meshes, the gate's checks): with it, a cup's gate took 85 ms instead of 55 in one process,
+# and more with two side by side. The workers keep glibc's own, adaptive threshold.
+WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 COMMIT_EVERY_S = 0.5  # the index's rows are committed at most this often during a build
 
 
@@ -124,6 +129,7 @@ def _without_blender_paths() -> Iterator[None]:
 @contextlib.contextmanager
 def _client(options: DatabaseBuildOptions) -> Iterator:
     """A Dask client: of the scheduler given, or of a LocalCluster of this machine's cores."""
+    import dask
     from distributed import Client, LocalCluster
 
     if options.scheduler is not None:
@@ -135,7 +141,7 @@ def _client(options: DatabaseBuildOptions) -> Iterator:
             yield client
         return
     dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
-    with _without_blender_paths(), LocalCluster(
+    with _without_blender_paths(), dask.config.set(WORKER_CONFIG), LocalCluster(
         n_workers=options.workers or os.cpu_count() or 1,
         threads_per_worker=1,  # bpy is not thread-safe
         processes=True,
