@@ -9,12 +9,14 @@ mixed manifest of every source.
    Each side runs in a fresh `python` process and is timed from its start to its exit, so
    each pays its interpreter start and its imports (bpy, open3d, the gate's clients: once in
    the loop, once in each worker, in parallel), and the database its cluster's start.
-   What the database adds per entry ("overhead") is given two ways:
+   What the database adds per entry ("overhead") is given three ways:
    - after start-up: a worker's time per entry (workers x the time from the first entry's
      start to the last one's end, / N) minus the loop's time per entry (its loop, / N).
      This is the thumbnail, the entry record, the atomic store, Dask's dispatch, the index
      row and the two workers' contention for the machine; the thumbnail's share and the
-     entries' time outside their stages' clocks are listed too (from the index's times);
+     entries' time outside their stages' clocks are listed too (from the index's times).
+     The same figure for the loops side by side is the machine's share (two processes slow
+     each other); the database's minus theirs is what the database itself adds;
    - all in: (workers x database wall time - serial wall time) / N, which also spreads the
      database's start-up (the client's imports, the cluster, the workers' imports in
      parallel) over the N entries;
@@ -137,21 +139,25 @@ def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
     return seconds, {**json.loads(said.strip().splitlines()[-1]), "cpu_s": _children_cpu_s() - cpu_before}
 
 
-def _loops_side_by_side(manifest: Path, out: Path) -> tuple[float, float]:
+def _loops_side_by_side(manifest: Path, out: Path) -> tuple[float, float, float]:
     """Wall and CPU seconds of WORKERS plain loops started together, each a fresh process
-    building its share of the entries: what this machine gives WORKERS processes at best."""
+    building its share of the entries: what this machine gives WORKERS processes at best; and
+    the seconds from the first loop's first entry to the last loop's last."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    cpu_before, start = _children_cpu_s(), time.perf_counter()
+    cpu_before, start, t0 = _children_cpu_s(), time.perf_counter(), time.time()
     loops = [
-        subprocess.Popen([sys.executable, __file__, "--serial-loop", manifest, out / str(i), f"{time.time():.6f}", f"{i}/{WORKERS}"],
-                         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        subprocess.Popen([sys.executable, __file__, "--serial-loop", manifest, out / str(i), f"{t0:.6f}", f"{i}/{WORKERS}"],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         for i in range(WORKERS)
     ]  # fmt: skip
+    timings = []
     for loop in loops:
-        _, said = loop.communicate()
+        said, complained = loop.communicate()
         if loop.returncode != 0:
-            raise RuntimeError(f"a side-by-side loop exited {loop.returncode}:\n{said[-2000:]}")
-    return time.perf_counter() - start, _children_cpu_s() - cpu_before
+            raise RuntimeError(f"a side-by-side loop exited {loop.returncode}:\n{complained[-2000:]}")
+        timings.append(json.loads(said.strip().splitlines()[-1]))
+    entries_s = max(t["startup_s"] + t["entries_s"] for t in timings) - min(t["startup_s"] for t in timings)
+    return time.perf_counter() - start, _children_cpu_s() - cpu_before, entries_s
 
 
 def _db_build(manifest: Path, db: Path) -> tuple[float, str]:
@@ -165,12 +171,12 @@ def _load() -> str:
 def _one_round(manifest: Path, folder: Path) -> dict:
     """The serial loop, the loops side by side and the database build, one after the other."""
     serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
-    side_s, side_cpu_s = _loops_side_by_side(manifest, folder / "side")
+    side_s, side_cpu_s, side_entries_s = _loops_side_by_side(manifest, folder / "side")
     db_s, built = _run_child("--db-build", manifest, folder / "db")
     with ModelIndex(folder / "db") as index:
         rows = index.rows()
     return {"serial_s": serial_s, "serial": serial, "serial_cpu": serial["cpu_s"], "side_s": side_s, "side_cpu_s": side_cpu_s,
-            "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}
+            "side_entries_s": side_entries_s, "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}
 
 
 def throughput(entries: int, rounds: int, console: Console) -> None:
@@ -206,8 +212,9 @@ def throughput(entries: int, rounds: int, console: Console) -> None:
     serial_s, side_s, db_s = median(lambda r: r["serial_s"]), median(lambda r: r["side_s"]), median(lambda r: r["db_s"])
     serial_entries_s, db_entries_s = median(lambda r: r["serial"]["entries_s"]), median(lambda r: r["built"]["entries_s"])
     serial_cpu_s, side_cpu_s, db_cpu_s = (median(lambda r, k=k: r[k]) for k in ("serial_cpu", "side_cpu_s", "db_cpu"))
+    side_entries_s = median(lambda r: r["side_entries_s"])
     serial_entry_s = serial_entries_s / entries
-    db_entry_s = WORKERS * db_entries_s / entries  # a worker's time per entry
+    side_entry_s, db_entry_s = (WORKERS * span / entries for span in (side_entries_s, db_entries_s))  # a process's time per entry
     title = f"{entries} cup entries: the database on {WORKERS} Dask workers vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
     table = Table(title=title)
     table.add_column("figure")
@@ -216,15 +223,16 @@ def throughput(entries: int, rounds: int, console: Console) -> None:
     table.add_column("database", justify="right")
     table.add_row("wall time, fresh processes to exit", f"{serial_s:.1f} s", f"{side_s:.1f} s", f"{db_s:.1f} s")
     table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{median(lambda r: r['serial']['startup_s']):.1f} s", "", f"{median(lambda r: r['built']['startup_s']):.1f} s")
-    table.add_row("  the entries (first start to last end)", f"{serial_entries_s:.1f} s", "", f"{db_entries_s:.1f} s")
-    table.add_row("time per entry (database: x workers)", f"{1000 * serial_entry_s:.0f} ms", "", f"{1000 * db_entry_s:.0f} ms")
+    table.add_row("  the entries (first start to last end)", f"{serial_entries_s:.1f} s", f"{side_entries_s:.1f} s", f"{db_entries_s:.1f} s")
+    table.add_row("time per entry (side by side, database: x processes)", f"{1000 * serial_entry_s:.0f} ms", f"{1000 * side_entry_s:.0f} ms", f"{1000 * db_entry_s:.0f} ms")
     table.add_row("CPU time, every process (user + system)", f"{serial_cpu_s:.1f} s", f"{side_cpu_s:.1f} s", f"{db_cpu_s:.1f} s")
     table.add_row("entries valid / built (last round)", "", "", f"{entries - len(problems)} / {len(rows)}")
     ratios = "  ".join(f"{r['serial_s'] / r['db_s']:.2f}x" for r in runs)
     side_ratios = "  ".join(f"{r['serial_s'] / r['side_s']:.2f}x" for r in runs)
     table.add_row("speed-up, wall time, each round (serial / this)", "", side_ratios, ratios)
     table.add_row("[bold]speed-up, wall time (medians)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
-    table.add_row("[bold]overhead per entry, after start-up", "", "", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
+    table.add_row("[bold]overhead per entry, after start-up", "", f"{1000 * (side_entry_s - serial_entry_s):.0f} ms", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
+    table.add_row("  of which beyond two plain processes' (database - side by side)", "", "", f"{1000 * (db_entry_s - side_entry_s):.0f} ms")
     table.add_row("  in the entries: the thumbnail", "", "", f"{1000 * thumbnail_s / entries:.0f} ms")
     table.add_row("  in the entries: outside the stages' clocks", "", "", f"{1000 * untimed_s / entries:.0f} ms")
     table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * side_s - serial_s) / entries:.0f} ms", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
