@@ -1,7 +1,8 @@
 """Benchmark: `homemodel db build` on Dask against a plain serial loop, cached rebuilds, and a
 mixed manifest of every source.
 
-1. Throughput: N generated spec entries (a cup swept over heights and diameters) built by the
+1. Throughput: N generated spec entries (a cup swept over heights and diameters; with
+   `--spec cupboard`, the catalogue's kitchen base unit with 5 joints, over depths and masses) built by the
    database on 2 local Dask workers (`build_database`, as `homemodel db build --workers 2`
    calls it), against the same entries built one after the other by a plain loop of
    `modeller.build` (the swept spec written, then built: the pipeline, its export and the
@@ -37,7 +38,7 @@ mixed manifest of every source.
    shared Kermit photos, a completion query, an imported PartNet-style URDF): every entry
    built or recorded as failed, and the time per source.
 
-Run: .venv/bin/python benchmarks/bench_database.py [--entries 200] [--rounds 2] [--skip-mixed | --only-mixed]
+Run: .venv/bin/python benchmarks/bench_database.py [--spec cup|cupboard] [--entries 200] [--rounds 2] [--skip-mixed | --only-mixed]
 """
 
 from __future__ import annotations
@@ -64,21 +65,30 @@ from homemodel.app.database.manifest import load_manifest
 from homemodel.app.database.worker_setup import SHARED_MODULES, WARM_MODULES
 
 ROOT = Path(__file__).resolve().parent.parent
-CUP = ROOT / "examples" / "catalogue" / "cup.yaml"
+CATALOGUE = ROOT / "examples" / "catalogue"
 MIXED = ROOT / "examples" / "database" / "manifest.yaml"
 WORKERS = 2
+# Each generated entry is a catalogue spec with two of its fields swept (name, first value,
+# step): PER_SIDE values of the first, entries / PER_SIDE of the second.
+SWEEPS = {
+    "cup": (("height_m", 0.075, 0.002), ("outer_diameter_m", 0.08, 0.002)),
+    "cupboard": (("depth_m", 0.56, 0.002), ("mass_kg", 40.0, 1.0)),
+}
+PER_SIDE = 20
 
 
-def _cup_manifest(folder: Path, entries: int) -> Path:
-    spec = folder / "cup.yaml"
-    spec.write_text(CUP.read_text())
-    per_side = 20
-    heights = [round(0.075 + 0.002 * i, 4) for i in range(per_side)]
-    diameters = [round(0.08 + 0.002 * i, 4) for i in range(entries // per_side)]
+def _manifest(folder: Path, kind: str, entries: int) -> tuple[Path, Path]:
+    """A manifest of `entries` generated entries of the catalogue's `kind`, and its spec."""
+    spec = folder / f"{kind}.yaml"
+    spec.write_text((CATALOGUE / f"{kind}.yaml").read_text())
+    (first, start_1, step_1), (second, start_2, step_2) = SWEEPS[kind]
+    sweep = {
+        first: [round(start_1 + step_1 * i, 4) for i in range(PER_SIDE)],
+        second: [round(start_2 + step_2 * i, 4) for i in range(entries // PER_SIDE)],
+    }
     manifest = folder / "manifest.yaml"
-    sweep = {"height_m": heights, "outer_diameter_m": diameters}
-    manifest.write_text(yaml.safe_dump({"entries": [{"id": "cup", "source": "spec", "path": "cup.yaml", "sweep": sweep}]}))
-    return manifest
+    manifest.write_text(yaml.safe_dump({"entries": [{"id": kind, "source": "spec", "path": spec.name, "sweep": sweep}]}))
+    return manifest, spec
 
 
 def _since(t0: float) -> float:
@@ -179,10 +189,10 @@ def _one_round(manifest: Path, folder: Path) -> dict:
             "side_entries_s": side_entries_s, "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}
 
 
-def throughput(entries: int, rounds: int, console: Console) -> None:
+def throughput(kind: str, entries: int, rounds: int, console: Console) -> None:
     with tempfile.TemporaryDirectory(prefix="bench-db-") as tmp:
         folder = Path(tmp)
-        manifest = _cup_manifest(folder, entries)
+        manifest, spec = _manifest(folder, kind, entries)
         load_before = _load()
         # The rounds interleave the three sides: this machine's speed drifts (a shared host),
         # and a side measured only early or only late would gain or lose by it.
@@ -198,12 +208,12 @@ def throughput(entries: int, rounds: int, console: Console) -> None:
         nothing_s, nothing = _db_build(manifest, db)
         # One more entry with a spec file of its own, built once; then only its file changes.
         single = folder / "single.yaml"
-        single.write_text(CUP.read_text())
+        single.write_text(spec.read_text())
         data = yaml.safe_load(manifest.read_text())
         data["entries"].append({"id": "lonely", "source": "spec", "path": "single.yaml"})
         manifest.write_text(yaml.safe_dump(data))
         _db_build(manifest, db)
-        single.write_text(CUP.read_text().replace("colour: white", "colour: red"))
+        single.write_text(spec.read_text().replace("colour: white", "colour: red"))
         one_s, one = _db_build(manifest, db)
 
     def median(figure) -> float:  # noqa: ANN001 (a function of one round's figures)
@@ -215,7 +225,7 @@ def throughput(entries: int, rounds: int, console: Console) -> None:
     side_entries_s = median(lambda r: r["side_entries_s"])
     serial_entry_s = serial_entries_s / entries
     side_entry_s, db_entry_s = (WORKERS * span / entries for span in (side_entries_s, db_entries_s))  # a process's time per entry
-    title = f"{entries} cup entries: the database on {WORKERS} Dask workers vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
+    title = f"{entries} {kind} entries: the database on {WORKERS} Dask workers vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
     table = Table(title=title)
     table.add_column("figure")
     table.add_column("serial loop", justify="right")
@@ -272,6 +282,7 @@ def mixed(console: Console) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--entries", type=int, default=200, help="generated spec entries (a multiple of 20)")
+    parser.add_argument("--spec", choices=sorted(SWEEPS), default="cup", help="the catalogue spec the entries are generated from")
     parser.add_argument("--rounds", type=int, default=2, help="rounds of serial loop, loops side by side and database, interleaved")
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
@@ -285,7 +296,7 @@ def main() -> None:
             return
     console = Console(width=120)
     if not args.only_mixed:
-        throughput(args.entries, args.rounds, console)
+        throughput(args.spec, args.entries, args.rounds, console)
     if not args.skip_mixed:
         mixed(console)
 
