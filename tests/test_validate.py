@@ -115,6 +115,19 @@ def test_good_model_passes_every_check(tmp_path: Path) -> None:
     assert "3 movable joints moved as declared" in by_name(report)["pybullet"].detail
 
 
+def test_a_models_report_is_the_same_in_a_fresh_process_and_after_other_models(tmp_path: Path) -> None:
+    """pybullet's client is kept per thread and emptied between uses: nothing of one model (its
+    bodies, gravity, its joints' motors) reaches the next."""
+    write_cupboard(tmp_path / "cupboard")
+    write_cupboard(tmp_path / "tilted", axis="1 0 0", mass="0.5")  # its door swings about x, under gravity
+    code = "import sys; from articulation.gate.validate import validate_path; print(validate_path(sys.argv[1]).format())"
+    fresh = subprocess.run([sys.executable, "-c", code, str(tmp_path / "cupboard")], capture_output=True, text=True, check=True, cwd=REPO)
+    validate_path(tmp_path / "tilted")
+    validate_path(tmp_path / "cupboard")
+    validate_path(tmp_path / "tilted")
+    assert validate_path(tmp_path / "cupboard").format() == fresh.stdout.rstrip("\n")
+
+
 def test_a_urdf_file_is_validated_like_its_folder(tmp_path: Path) -> None:
     urdf = write_cupboard(tmp_path)
     report = validate_path(urdf)
