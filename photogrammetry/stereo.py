@@ -94,6 +94,28 @@ def depth_ranges(model: SparseModel) -> list[tuple[float, float]]:
     return ranges
 
 
+def _centred_projections(
+    k_ref: np.ndarray, k_src: np.ndarray, r1: np.ndarray, r2: np.ndarray, image_size: tuple[int, int],
+    canvas: tuple[int, int], vertical: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rectified 3x3 intrinsics at the reference's focal length, each view's centre ray at the
+    canvas's centre. Along the epipolar lines the two principal points differ (the disparity
+    is offset by that difference); across them they are shared, so that the lines stay
+    rows (columns for a vertical pair)."""
+    (w, h), (cw, ch) = image_size, canvas
+    f = float(k_ref[0, 0])
+    offsets = []
+    for k, r in ((k_ref, r1), (k_src, r2)):
+        ray = r @ np.linalg.inv(k) @ np.array([(w - 1) / 2, (h - 1) / 2, 1.0])
+        offsets.append(((cw - 1) / 2 - f * ray[0] / ray[2], (ch - 1) / 2 - f * ray[1] / ray[2]))
+    (cx1, cy1), (cx2, cy2) = offsets
+    if vertical:
+        cx1 = cx2 = (cx1 + cx2) / 2
+    else:
+        cy1 = cy2 = (cy1 + cy2) / 2
+    return (np.array([[f, 0, cx1], [0, f, cy1], [0, 0, 1.0]]), np.array([[f, 0, cx2], [0, f, cy2], [0, 0, 1.0]]))
+
+
 def _pair_depth(
     ref: np.ndarray,
     src: np.ndarray,
@@ -114,22 +136,33 @@ def _pair_depth(
         flags=cv2.CALIB_ZERO_DISPARITY, alpha=1, newImageSize=size,
     )  # fmt: skip
     vertical = abs(p2[1, 3]) > abs(p2[0, 3])
-    baseline_px = p2[1, 3] if vertical else p2[0, 3]  # focal length times the signed baseline
-    maps_ref = cv2.initUndistortRectifyMap(k_ref, None, r1, p1, size, cv2.CV_32FC1)
-    maps_src = cv2.initUndistortRectifyMap(k_src, None, r2, p2, size, cv2.CV_32FC1)
+    axis = 1 if vertical else 0
+    offset = 0.0  # the disparity of points at infinity
+    new_ref, new_src = p1[:3, :3], p2[:3, :3]
+    if p1[0, 0] <= 0:
+        # OpenCV's scaling to keep every pixel (alpha=1) breaks down for some strongly
+        # converging pairs: a negative focal length, and nothing matched (9 of Kermit's 36
+        # pairs). Such pairs keep the reference's focal length, each view centred.
+        new_ref, new_src = _centred_projections(k_ref, k_src, r1, r2, (w, h), size, vertical)
+        offset = new_ref[axis, 2] - new_src[axis, 2]
+    baseline_px = p2[axis, 3] / p2[axis, axis] * new_ref[axis, axis]  # focal length times the signed baseline
+    maps_ref = cv2.initUndistortRectifyMap(k_ref, None, r1, new_ref, size, cv2.CV_32FC1)
+    maps_src = cv2.initUndistortRectifyMap(k_src, None, r2, new_src, size, cv2.CV_32FC1)
     rect_ref = cv2.remap(ref, *maps_ref, cv2.INTER_LINEAR)
     rect_src = cv2.remap(src, *maps_src, cv2.INTER_LINEAR)
     # SGBM matches left to right along rows: transpose a vertical pair, mirror a pair whose
     # source lies on the reference's left, so disparities come out positive.
     if vertical:
         rect_ref, rect_src = rect_ref.transpose(1, 0, 2).copy(), rect_src.transpose(1, 0, 2).copy()
-    if baseline_px > 0:
+    mirrored = baseline_px > 0
+    if mirrored:
         rect_ref, rect_src = rect_ref[:, ::-1].copy(), rect_src[:, ::-1].copy()
+    shift = -offset if mirrored else offset  # what SGBM's disparities carry beyond |baseline| / depth
     near, far = depth_range
-    d_min = max(int(np.floor(abs(baseline_px) / far)), 0)
-    d_max = int(np.ceil(abs(baseline_px) / near))
+    d_min = int(np.floor(abs(baseline_px) / far + shift))
+    d_max = int(np.ceil(abs(baseline_px) / near + shift))
     num = int(np.clip(np.ceil((d_max - d_min) / 16) * 16, 16, MAX_DISPARITIES))
-    if d_min + num >= rect_ref.shape[1] // 2:
+    if max(abs(d_min), abs(d_min + num)) >= rect_ref.shape[1] // 2:
         return np.zeros((h, w), np.float32)  # the views converge too much to match along rows
     block = options.block_size_px
     sgbm = cv2.StereoSGBM_create(
@@ -138,15 +171,16 @@ def _pair_depth(
         uniquenessRatio=10, speckleWindowSize=100, speckleRange=2, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY,
     )  # fmt: skip
     disparity = sgbm.compute(rect_ref, rect_src).astype(np.float32) / 16.0
-    if baseline_px > 0:
+    if mirrored:
         disparity = disparity[:, ::-1]
     if vertical:
         disparity = disparity.T
-    disparity[disparity <= d_min] = 0  # SGBM's "no match" is d_min - 1
+    # |baseline| / depth; 0 where SGBM found no match (its d_min - 1) or behind the cameras.
+    disparity = np.where(disparity > max(d_min, shift), disparity - shift, 0)
     # The disparity is looked up where each reference pixel's ray meets the rectified image:
     # reference pixels map to rectified ones by the homography P1 R1 K^-1 (pinhole views).
     rect_from_ref = r1 @ np.linalg.inv(k_ref)
-    sampled = cv2.warpPerspective(disparity, p1[:3, :3] @ rect_from_ref, (w, h),
+    sampled = cv2.warpPerspective(disparity, new_ref @ rect_from_ref, (w, h),
                                   flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderValue=0)  # fmt: skip
     valid = sampled > 0
     rect_depth = np.where(valid, abs(baseline_px) / np.where(valid, sampled, 1), 0)  # depth along rectified z

@@ -268,3 +268,43 @@ def test_agreeing_depth_is_the_mean_of_the_depths_near_their_median(pairs: int) 
             expected[row, col] = agree.mean() if len(agree) >= options.min_agreeing_pairs else 0
     assert np.allclose(_agreeing_depth(candidates, options), expected, rtol=1e-6, atol=0)
     assert (expected > 0).any() == (pairs >= options.min_agreeing_pairs)
+
+
+# The relative pose of one of Kermit's strongly converging pairs (21.6 deg about y, 10 deg of
+# roll): OpenCV's rectification that keeps every pixel gives it a negative focal length.
+KERMIT_PAIR_ROTATION_DEG = (-4.1, 21.6, 10.0)
+KERMIT_PAIR_TRANSLATION = (-2.309, -0.595, 1.369)
+
+
+@pytest.mark.parametrize("pose", ["kermit", "kermit reversed", "gentle"])
+def test_a_pair_depth_matches_a_textured_plane_even_where_opencv_rectifies_it_with_a_negative_focal(pose: str) -> None:
+    from photogrammetry.stereo import DenseOptions, _pair_depth
+
+    w, h, f, plane_z = 640, 473, 674.5, 7.0
+    camera = Camera(width=w, height=h, fx=f, fy=f, cx=(w - 1) / 2, cy=(h - 1) / 2)
+    src_from_ref = np.eye(4)
+    if pose == "gentle":  # a plain pair, rectified as OpenCV does it
+        src_from_ref[:3, 3] = (-1.0, 0.0, 0.0)
+    else:
+        src_from_ref[:3, :3] = cv2.Rodrigues(np.radians(KERMIT_PAIR_ROTATION_DEG))[0]
+        src_from_ref[:3, 3] = KERMIT_PAIR_TRANSLATION
+        if pose == "kermit reversed":
+            src_from_ref = np.linalg.inv(src_from_ref)
+    size = (round(w * 1.2), round(h * 1.2))
+    p1 = cv2.stereoRectify(camera.matrix, None, camera.matrix, None, (w, h), src_from_ref[:3, :3], src_from_ref[:3, 3],
+                           flags=cv2.CALIB_ZERO_DISPARITY, alpha=1, newImageSize=size)[2]  # fmt: skip
+    assert (p1[0, 0] < 0) == (pose != "gentle")
+    # A fronto-parallel plane at z = 7 in the reference's frame, covered by a blurred noise
+    # texture of 2 cm texels; each view is that texture through the plane's homography.
+    texture = cv2.GaussianBlur(np.random.default_rng(0).integers(0, 256, (1600, 1600, 3), dtype=np.uint8), (0, 0), 1.5)
+    texel_m, corner = 0.02, np.array([-16.0, -16.0, plane_z])
+
+    def view(camera_from_ref: np.ndarray) -> np.ndarray:
+        r, t = camera_from_ref[:3, :3], camera_from_ref[:3, 3]
+        texture_to_image = camera.matrix @ np.column_stack([r[:, 0] * texel_m, r[:, 1] * texel_m, r @ corner + t])
+        return cv2.warpPerspective(texture, texture_to_image, (w, h), flags=cv2.INTER_LINEAR)
+
+    depth = _pair_depth(view(np.eye(4)), view(src_from_ref), camera, camera, src_from_ref, (4.2, 14.0), DenseOptions())
+    found = depth[depth > 0]
+    assert len(found) > 0.2 * w * h, len(found) / (w * h)
+    assert abs(np.median(found) - plane_z) < 0.005 * plane_z and np.mean(np.abs(found - plane_z) < 0.02 * plane_z) > 0.95
