@@ -141,12 +141,17 @@ def _run_timed(*args: str | Path) -> tuple[float, str]:
     return seconds, done.stdout + done.stderr
 
 
+def _reported(said: str) -> dict:
+    """The timings a child of this script printed: its last line, as JSON."""
+    return json.loads(said.strip().splitlines()[-1])
+
+
 def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
     """Wall seconds of this script's `mode` in a fresh process, and the timings it reports,
     with the CPU seconds of the process and all of its own (Dask's workers, the gate's tools)."""
     cpu_before = _children_cpu_s()
     seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}")
-    return seconds, {**json.loads(said.strip().splitlines()[-1]), "cpu_s": _children_cpu_s() - cpu_before}
+    return seconds, {**_reported(said), "cpu_s": _children_cpu_s() - cpu_before}
 
 
 def _loops_side_by_side(manifest: Path, out: Path) -> tuple[float, float, float]:
@@ -165,7 +170,7 @@ def _loops_side_by_side(manifest: Path, out: Path) -> tuple[float, float, float]
         said, complained = loop.communicate()
         if loop.returncode != 0:
             raise RuntimeError(f"a side-by-side loop exited {loop.returncode}:\n{complained[-2000:]}")
-        timings.append(json.loads(said.strip().splitlines()[-1]))
+        timings.append(_reported(said))
     entries_s = max(t["startup_s"] + t["entries_s"] for t in timings) - min(t["startup_s"] for t in timings)
     return time.perf_counter() - start, _children_cpu_s() - cpu_before, entries_s
 
