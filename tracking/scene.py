@@ -1,0 +1,368 @@
+"""The map's models as a scene a depth camera sees: every link of every object as a part,
+posed at joint positions and object poses, and ray-cast from a camera.
+
+The fitter (`tracking.observe`) and the view simulator (`tracking.simulate_view`) share it:
+
+    scene = HomeScene.load(map_path)                      # the models, read once
+    map_from_parts = scene.pose({"fridge_1": {"door": 1.2}})
+    renderer = Renderer(scene.parts)                      # one Open3D scene per part, built once
+    rendering = renderer.render(map_from_parts, camera, map_from_camera)
+
+A part is one link of one object (or the floor, or a wall of a room's outline), its mesh in
+the link frame. Re-posing costs nothing: the renderer casts each part's rays in the part's
+own frame, and only the pixels inside the part's projected bounds, so a door swung to a new
+angle needs no new acceleration structure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from articulation.model import Model
+from articulation.scene import walls_from_outlines
+from homemodel.core.errors import InputError, MapError
+from homemodel.core.transforms import as_transform
+from homemodel.geometry.camera import Camera
+from semantic_map.hierarchy import SemanticMap
+from semantic_map.nodes import Jointed, MapObject, SmallObject
+from semantic_map.xml_io import load_map
+
+FLOOR_RGB = (0.62, 0.58, 0.52)
+WALL_RGB = (0.88, 0.87, 0.84)
+# Nothing nearer the camera than this is seen (depth cameras see nothing within 0.2-0.5 m).
+NEAR_M = 0.05
+# The floor reaches this far past the rooms' outlines (or the objects, without outlines).
+FLOOR_MARGIN_M = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class Part:
+    """One rigid piece of the scene: a link of a map object, or the floor or a wall.
+
+    `object_id` is the map object the link belongs to (None for the floor and walls);
+    `joint` is the nearest movable joint between the link and the object's root (None for a
+    fixed link); `face_rgb` is the colour (0..1) of each triangle, from its visual's material.
+    """
+
+    object_id: str | None
+    link: str
+    joint: str | None
+    vertices_link: np.ndarray  # (V, 3) float64, in the link frame
+    faces: np.ndarray  # (F, 3) int64
+    face_rgb: np.ndarray  # (F, 3) float64
+
+    @property
+    def name(self) -> str:
+        return f"{self.object_id}/{self.link}" if self.object_id else self.link
+
+    @property
+    def rgb(self) -> np.ndarray:
+        """The part's colour: its triangles' colours weighted by area."""
+        mesh = trimesh.Trimesh(self.vertices_link, self.faces, process=False)
+        return np.average(self.face_rgb, axis=0, weights=mesh.area_faces + 1e-12)
+
+
+@dataclass(kw_only=True)
+class SceneObject:
+    """A map object with its model: the object's frame is the model's root link frame."""
+
+    node: MapObject
+    model: Model
+
+    @property
+    def id(self) -> str:
+        return self.node.id
+
+    @property
+    def is_small(self) -> bool:
+        return isinstance(self.node, SmallObject)
+
+
+@dataclass(kw_only=True)
+class HomeScene:
+    """The map, its objects' models, and their parts (in a fixed order the renderer keeps)."""
+
+    map_path: Path
+    smap: SemanticMap
+    objects: dict[str, SceneObject]
+    parts: list[Part]
+
+    @classmethod
+    def load(cls, map_path: Path, *, structure: bool = True, smap: SemanticMap | None = None) -> HomeScene:
+        """Read the map (or use `smap`, loaded from `map_path`) and every object's model.
+        `structure` adds the floor (z = 0) and walls on the rooms' outlines as parts."""
+        from articulation.urdf_import import load_urdf
+
+        map_path = Path(map_path)
+        if smap is None:
+            try:
+                smap = load_map(map_path)
+            except MapError as exc:
+                raise InputError(exc if str(map_path) in str(exc) else f"{map_path}: {exc}") from None
+        objects: dict[str, SceneObject] = {}
+        parts: list[Part] = []
+        for node in smap.objects():
+            model = load_urdf(_model_path(map_path, node))
+            objects[node.id] = SceneObject(node=node, model=model)
+            parts.extend(_model_parts(node.id, model))
+        if not objects:
+            raise InputError(f"{map_path}: the map has no objects")
+        scene = cls(map_path=map_path, smap=smap, objects=objects, parts=parts)
+        if structure:
+            scene._add_structure()
+        return scene
+
+    def _add_structure(self) -> None:
+        rooms = [(room.id, room.outline) for room in self.smap.apartment.rooms if room.outline is not None]
+        if rooms:
+            corners = np.array([c for _, outline in rooms for c in outline])
+        else:
+            corners = np.array([self.smap.world_from_object(o)[:2, 3] for o in self.objects])
+        low, high = corners.min(axis=0) - FLOOR_MARGIN_M, corners.max(axis=0) + FLOOR_MARGIN_M
+        floor = trimesh.creation.box(extents=(*(high - low), 0.02))
+        floor.apply_translation((*((low + high) / 2), -0.01))  # the top face at z = 0
+        self._add_fixed("floor", floor, FLOOR_RGB)
+        for wall in walls_from_outlines(rooms):
+            self._add_fixed(wall.name, trimesh.creation.box(extents=wall.size_m, transform=wall.world_from_wall()), WALL_RGB)
+
+    def _add_fixed(self, name: str, mesh_map: trimesh.Trimesh, rgb: tuple[float, float, float]) -> None:
+        # The floor and walls are fixed: their link frame is the map frame.
+        faces = np.asarray(mesh_map.faces, dtype=np.int64)
+        colours = np.tile(np.asarray(rgb, dtype=np.float64), (len(faces), 1))
+        self.parts.append(Part(object_id=None, link=name, joint=None,
+                               vertices_link=np.asarray(mesh_map.vertices, dtype=np.float64), faces=faces,
+                               face_rgb=colours))
+
+    # Queries
+
+    def object(self, object_id: str) -> SceneObject:
+        try:
+            return self.objects[object_id]
+        except KeyError:
+            raise InputError(
+                f"{self.map_path}: no object {object_id!r} (objects: {', '.join(sorted(self.objects))})"
+            ) from None
+
+    def part_indices(self, object_id: str) -> list[int]:
+        """The indices in `parts` of one object's links."""
+        self.object(object_id)
+        return [i for i, part in enumerate(self.parts) if part.object_id == object_id]
+
+    def joint_positions(self) -> dict[str, dict[str, float]]:
+        """Every object's joint positions as the map stores them."""
+        return {
+            oid: {j.name: j.position for j in obj.node.joints} if isinstance(obj.node, Jointed) else {}
+            for oid, obj in self.objects.items()
+        }
+
+    def checked_joint_positions(self, joint_positions: Mapping[str, Mapping[str, float]] | None) -> dict[str, dict[str, float]]:
+        """The map's joint positions with `joint_positions` ({object id: {joint: rad or m}})
+        over them; an unknown object or joint, or a position outside the limits, is an error."""
+        positions = self.joint_positions()
+        for object_id, joints in (joint_positions or {}).items():
+            node = self.object(object_id).node
+            for name, value in joints.items():
+                if not isinstance(node, Jointed) or not node.joints:
+                    raise InputError(f"{self.map_path}: object {object_id!r} has no joints (asked for {name!r})")
+                try:
+                    positions[object_id][name] = node.joint(name).check_position(value)
+                except MapError as exc:
+                    raise InputError(f"{self.map_path}: object {object_id!r}: {exc}") from None
+        return positions
+
+    # Posing
+
+    def map_from_objects(self, map_from_objects: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """Every object's pose in the map: the map's poses, with `map_from_objects` over them.
+
+        A small object rides on its parent: moving a table moves the cups on it, unless a
+        cup's own pose is given.
+        """
+        given = {oid: as_transform(m) for oid, m in (map_from_objects or {}).items()}
+        for object_id in given:
+            self.object(object_id)
+        result: dict[str, np.ndarray] = {}
+        for object_id, obj in self.objects.items():
+            if object_id in given:
+                result[object_id] = given[object_id]
+            elif isinstance(obj.node, SmallObject):
+                parent = given.get(obj.node.parent, self.smap.world_from_object(obj.node.parent))
+                result[object_id] = parent @ obj.node.parent_from_object.matrix()
+            else:
+                result[object_id] = self.smap.world_from_object(object_id)
+        return result
+
+    def pose(
+        self,
+        joint_positions: Mapping[str, Mapping[str, float]] | None = None,
+        map_from_objects: Mapping[str, np.ndarray] | None = None,
+    ) -> list[np.ndarray]:
+        """`map_from_link` of every part, in the order of `parts`: the objects at their map
+        poses (or `map_from_objects`), their joints at the map's positions (or those of
+        `joint_positions`, {object id: {joint name: rad or m}})."""
+        positions = self.checked_joint_positions(joint_positions)
+        objects = self.map_from_objects(map_from_objects)
+        links = {oid: obj.model.world_from_links(positions[oid]) for oid, obj in self.objects.items()}
+        return [
+            np.eye(4) if part.object_id is None else objects[part.object_id] @ links[part.object_id][part.link]
+            for part in self.parts
+        ]
+
+
+def _model_path(map_path: Path, obj: MapObject) -> Path:
+    if obj.model_ref is None:
+        raise InputError(f"{map_path}: object {obj.id!r} has no model (its 'model' attribute is missing)")
+    path = (map_path.parent / obj.model_ref).resolve()
+    if not path.is_file():
+        raise InputError(f"{map_path}: object {obj.id!r}: its model {obj.model_ref!r} does not exist")
+    return path
+
+
+def _model_parts(object_id: str, model: Model) -> list[Part]:
+    parts = []
+    for link in model.links:
+        if not link.visuals:
+            continue
+        vertices, faces, colours, offset = [], [], [], 0
+        for visual in link.visuals:
+            mesh = visual.mesh
+            vertices.append(trimesh.transform_points(np.asarray(mesh.vertices, dtype=np.float64), visual.link_from_visual))
+            faces.append(np.asarray(mesh.faces, dtype=np.int64) + offset)
+            colours.append(np.tile(np.asarray(visual.material.rgba[:3], dtype=np.float64), (len(mesh.faces), 1)))
+            offset += len(mesh.vertices)
+        driving = model.joint_driving(link.name)
+        parts.append(
+            Part(
+                object_id=object_id,
+                link=link.name,
+                joint=None if driving is None else driving.name,
+                vertices_link=np.concatenate(vertices),
+                faces=np.concatenate(faces),
+                face_rgb=np.concatenate(colours),
+            )
+        )
+    return parts
+
+
+def box_part(name: str, size_m: Sequence[float], rgb: Sequence[float] = (0.35, 0.3, 0.3)) -> Part:
+    """A box centred on its frame, e.g. an occluder (a person, a chair) placed with its own
+    `map_from_link` beside the scene's."""
+    box = trimesh.creation.box(extents=[float(s) for s in size_m])
+    faces = np.asarray(box.faces, dtype=np.int64)
+    return Part(object_id=None, link=name, joint=None, vertices_link=np.asarray(box.vertices, dtype=np.float64),
+                faces=faces, face_rgb=np.tile(np.asarray(rgb, dtype=np.float64), (len(faces), 1)))
+
+
+@dataclass(kw_only=True)
+class Rendering:
+    """What each pixel of a camera sees of a set of posed parts."""
+
+    depth_m: np.ndarray  # (H, W) float64 depth along the optical axis; 0 where nothing is hit
+    part_index: np.ndarray  # (H, W) int64 index into the rendered parts; -1 where nothing is hit
+    normals_camera: np.ndarray  # (H, W, 3) unit normals facing the camera, camera frame; 0 where nothing is hit
+    rgb: np.ndarray  # (H, W, 3) float64 colour of the hit triangle (0..1); 0 where nothing is hit
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.part_index >= 0
+
+
+class Renderer:
+    """Parts ready to be ray-cast at any poses: one acceleration structure per part, built once."""
+
+    def __init__(self, parts: Sequence[Part]) -> None:
+        from homemodel.geometry.raycast import RayCaster
+
+        self.parts = list(parts)
+        self._casters = [RayCaster(trimesh.Trimesh(p.vertices_link, p.faces, process=False)) for p in self.parts]
+        self._corners = [_box_corners(p.vertices_link) for p in self.parts]
+        self._rays: tuple[Camera, np.ndarray] | None = None
+
+    def _pixel_rays(self, camera: Camera) -> np.ndarray:
+        if self._rays is None or self._rays[0] != camera:
+            self._rays = (camera, camera.pixel_rays())
+        return self._rays[1]
+
+    def render(
+        self,
+        map_from_parts: Sequence[np.ndarray],
+        camera: Camera,
+        map_from_camera: np.ndarray,
+        *,
+        only: Sequence[int] | None = None,
+    ) -> Rendering:
+        """Depth, part index, normal and colour at every pixel of `camera` at `map_from_camera`,
+        the parts at `map_from_parts` (one per part); `only` renders a subset of part indices."""
+        if len(map_from_parts) != len(self.parts):
+            raise ValueError(f"{len(map_from_parts)=} but expected {len(self.parts)} (one pose per part)")
+        rays = self._pixel_rays(camera)
+        n = camera.width * camera.height
+        depth = np.full(n, np.inf)
+        index = np.full(n, -1, dtype=np.int64)
+        normals = np.zeros((n, 3))
+        rgb = np.zeros((n, 3))
+        camera_from_map = np.linalg.inv(as_transform(map_from_camera))
+        for i in range(len(self.parts)) if only is None else only:
+            camera_from_part = camera_from_map @ as_transform(map_from_parts[i])
+            pixels = _pixels_in_view(camera, camera_from_part, self._corners[i])
+            if pixels is None:
+                continue
+            part_from_camera = np.linalg.inv(camera_from_part)
+            hits = self._casters[i].first_hits(part_from_camera[:3, 3], rays[pixels] @ part_from_camera[:3, :3].T)
+            t = hits.t.astype(np.float64)
+            closer = hits.hit & (t >= NEAR_M) & (t < depth[pixels])
+            chosen = pixels[closer]
+            depth[chosen] = t[closer]
+            index[chosen] = i
+            normal = hits.normals[closer].astype(np.float64) @ camera_from_part[:3, :3].T
+            facing = np.sign(np.einsum("ij,ij->i", normal, rays[chosen]))
+            normals[chosen] = -normal * np.where(facing == 0, 1.0, facing)[:, None]
+            rgb[chosen] = self.parts[i].face_rgb[hits.triangle[closer]]
+        depth[index < 0] = 0.0
+        shape = (camera.height, camera.width)
+        return Rendering(
+            depth_m=depth.reshape(shape),
+            part_index=index.reshape(shape),
+            normals_camera=normals.reshape(*shape, 3),
+            rgb=rgb.reshape(*shape, 3),
+        )
+
+
+# Corner pairs of `_box_corners` that differ in one coordinate: the box's 12 edges.
+_BOX_EDGES = np.array([(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1])
+
+
+def _box_corners(vertices: np.ndarray) -> np.ndarray:
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+
+
+def _pixels_in_view(camera: Camera, camera_from_part: np.ndarray, corners_part: np.ndarray) -> np.ndarray | None:
+    """Flat indices of the pixels whose rays may hit the part in front of the near plane
+    (inside the projection of its bounding box clipped there), or None when there are none."""
+    corners = corners_part @ camera_from_part[:3, :3].T + camera_from_part[:3, 3]
+    z = corners[:, 2]
+    if (z < NEAR_M).all():
+        return None
+    if camera.has_distortion:
+        return np.arange(camera.width * camera.height)  # a distorted lens bends the box's outline
+    # The box clipped at the near plane is the hull of its corners in front of the plane and
+    # of its edges' crossings of the plane.
+    a, b = corners[_BOX_EDGES[:, 0]], corners[_BOX_EDGES[:, 1]]
+    crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
+    s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
+    points = np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
+    uv = camera.project(points)
+    u0, v0 = np.floor(uv.min(axis=0)).astype(int) - 1
+    u1, v1 = np.ceil(uv.max(axis=0)).astype(int) + 1
+    u0, v0 = max(u0, 0), max(v0, 0)
+    u1, v1 = min(u1, camera.width - 1), min(v1, camera.height - 1)
+    if u0 > u1 or v0 > v1:
+        return None
+    v, u = np.mgrid[v0 : v1 + 1, u0 : u1 + 1]
+    return (v * camera.width + u).ravel()
