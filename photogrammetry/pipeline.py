@@ -301,7 +301,8 @@ def write_reconstruction(
             result.mesh, result.views, folder / "cameras.png", title=f"{options.name}: {len(result.views)} cameras"
         )
     clock.stop()
-    result.summary["mass_kg"] = round(model.links[0].inertial.mass_kg, 6)
+    # Without markers the volume is in cubed SfM units: a mass from it would be a made-up number.
+    result.summary["mass_kg"] = round(model.links[0].inertial.mass_kg, 6) if result.frame.scaled else None
     result.summary["times_s"].update({k: round(v, 3) for k, v in clock.times_s.items()})
     write_json(folder / "summary.json", result.summary)
 
