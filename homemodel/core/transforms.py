@@ -18,6 +18,36 @@ def as_transform(matrix: np.ndarray | Sequence[Sequence[float]]) -> np.ndarray:
     return m
 
 
+# How far from orthonormal a hand-written rotation may be (one rounded to 4 decimals, say).
+RIGID_TOLERANCE = 1e-3
+
+
+def rigid_transform(matrix: object, what: str = "transform") -> np.ndarray:
+    """`matrix` as a 4x4 float64 rigid transform, its rotation made exactly orthonormal; a
+    ValueError naming `what` and the problem otherwise."""
+    try:
+        m = np.array(matrix, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a 4x4 nested list of numbers") from None
+    if m.shape != (4, 4):
+        raise ValueError(f"{what} must be a 4x4 nested list of numbers, got shape {m.shape}")
+    if not np.isfinite(m).all():
+        raise ValueError(f"{what} holds a value that is not a finite number")
+    rotation = m[:3, :3]
+    if (
+        not np.allclose(m[3], (0, 0, 0, 1), atol=1e-9)
+        or np.abs(rotation.T @ rotation - np.eye(3)).max() > RIGID_TOLERANCE
+        or np.linalg.det(rotation) <= 0
+    ):
+        raise ValueError(
+            f"{what} is not a rigid transform (its 3x3 rotation must be orthonormal with determinant +1,"
+            " its last row 0 0 0 1)"
+        )
+    u, _, vt = np.linalg.svd(rotation)
+    m[:3, :3] = u @ vt
+    return m
+
+
 def rotation_from_rpy(rpy: Sequence[float]) -> np.ndarray:
     """Rotation matrix of fixed-axis roll, pitch, yaw (URDF/ROS: R = Rz(yaw) Ry(pitch) Rx(roll))."""
     r, p, y = (float(v) for v in rpy)
