@@ -28,6 +28,7 @@ from articulation.scene import walls_from_outlines
 from homemodel.core.errors import InputError, MapError
 from homemodel.core.transforms import as_transform
 from homemodel.geometry.camera import Camera
+from homemodel.geometry.raycast import Hits, RayCaster
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, MapObject, SmallObject
 from semantic_map.xml_io import load_map
@@ -276,14 +277,13 @@ class Renderer:
     """Parts ready to be ray-cast at any poses: one acceleration structure per part, built once."""
 
     def __init__(self, parts: Sequence[Part]) -> None:
-        from homemodel.geometry.raycast import RayCaster
-
         self.parts = list(parts)
         self._casters = [RayCaster(trimesh.Trimesh(p.vertices_link, p.faces, process=False)) for p in self.parts]
         self._corners = [_box_corners(p.vertices_link) for p in self.parts]
         self._rays: tuple[Camera, np.ndarray] | None = None
 
-    def _pixel_rays(self, camera: Camera) -> np.ndarray:
+    def pixel_rays(self, camera: Camera) -> np.ndarray:
+        """(H * W, 3) rays with z = 1 through every pixel of `camera`, row by row (kept for the last camera)."""
         if self._rays is None or self._rays[0] != camera:
             self._rays = (camera, camera.pixel_rays())
         return self._rays[1]
@@ -300,7 +300,7 @@ class Renderer:
         the parts at `map_from_parts` (one per part); `only` renders a subset of part indices."""
         if len(map_from_parts) != len(self.parts):
             raise ValueError(f"{len(map_from_parts)=} but expected {len(self.parts)} (one pose per part)")
-        rays = self._pixel_rays(camera)
+        rays = self.pixel_rays(camera)
         n = camera.width * camera.height
         depth = np.full(n, np.inf)
         index = np.full(n, -1, dtype=np.int64)
@@ -309,11 +309,10 @@ class Renderer:
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
         for i in range(len(self.parts)) if only is None else only:
             camera_from_part = camera_from_map @ as_transform(map_from_parts[i])
-            pixels = _pixels_in_view(camera, camera_from_part, self._corners[i])
-            if pixels is None:
+            cast = self._cast(i, camera, camera_from_part)
+            if cast is None:
                 continue
-            part_from_camera = np.linalg.inv(camera_from_part)
-            hits = self._casters[i].first_hits(part_from_camera[:3, 3], rays[pixels] @ part_from_camera[:3, :3].T)
+            pixels, hits = cast
             t = hits.t.astype(np.float64)
             closer = hits.hit & (t >= NEAR_M) & (t < depth[pixels])
             chosen = pixels[closer]
@@ -331,6 +330,22 @@ class Renderer:
             normals_camera=normals.reshape(*shape, 3),
             rgb=rgb.reshape(*shape, 3),
         )
+
+
+    def pixels_alone(self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray) -> int:
+        """How many pixels part `index` at `map_from_part` covers with nothing else in the scene."""
+        camera_from_part = np.linalg.inv(as_transform(map_from_camera)) @ as_transform(map_from_part)
+        cast = self._cast(index, camera, camera_from_part)
+        return 0 if cast is None else int((cast[1].hit & (cast[1].t >= NEAR_M)).sum())
+
+    def _cast(self, index: int, camera: Camera, camera_from_part: np.ndarray) -> tuple[np.ndarray, Hits] | None:
+        """(flat pixel indices, their hits) of the rays that may reach part `index`, or None."""
+        pixels = _pixels_in_view(camera, camera_from_part, self._corners[index])
+        if pixels is None:
+            return None
+        part_from_camera = np.linalg.inv(camera_from_part)
+        rays = self.pixel_rays(camera)[pixels] @ part_from_camera[:3, :3].T
+        return pixels, self._casters[index].first_hits(part_from_camera[:3, 3], rays)
 
 
 # Corner pairs of `_box_corners` that differ in one coordinate: the box's 12 edges.
