@@ -180,19 +180,31 @@ def export(
 def serve(
     db: Path = DB_OPTION,
     map_path: Path | None = typer.Option(None, "--map", help="a home's semantic map to show as a tree"),
-    host: str = typer.Option("127.0.0.1", "--host", help="address to listen on"),
+    host: str = typer.Option("127.0.0.1", "--host", help="address to listen on (::1 for IPv6 loopback)"),
     port: int = typer.Option(8765, "--port", help="port (0: any free one)"),
+    allow_host: list[str] = typer.Option(
+        [], "--allow-host", help="another name (or name:port) browsers may reach this server by (repeatable)"
+    ),
+    client_timeout_s: float = typer.Option(10.0, "--client-timeout-s", help="seconds a client has to send a request"),
 ) -> None:
     """Serve a page to browse the database: a table, a 3D view with joint sliders, the gate's
     report, and a home's semantic map. Ctrl-C stops it."""
-    from homemodel.app.database.server import make_server
+    from homemodel.app.database.server import ServeOptions, make_server
 
+    options = ServeOptions(host=host, port=port, allow_hosts=allow_host, client_timeout_s=client_timeout_s)
     with exit_on_error():
-        server = make_server(db, host=host, port=port, map_path=map_path)
-    typer.echo(f"serving {db} at http://{host}:{server.server_address[1]}/ (Ctrl-C to stop)")
+        server = make_server(db, options, map_path=map_path)
+    if not options.is_loopback:
+        typer.echo(
+            f"warning: --host {host} is reachable from other machines; anyone who can reach it can read the "
+            "database's models and input paths (there is no login)",
+            err=True,
+        )
+    # One line per request and per refused or failed one, on stderr.
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    shown = f"[{host.strip('[]')}]" if ":" in host else host
+    typer.echo(f"serving {db} at http://{shown}:{server.port}/ (Ctrl-C to stop)")
     try:
         server.serve_forever()
-    except KeyboardInterrupt:
-        pass
     finally:
-        server.server_close()
+        server.close()

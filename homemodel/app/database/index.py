@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import sqlite3
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from homemodel.core.errors import InputError
@@ -48,6 +48,7 @@ CREATE TABLE IF NOT EXISTS file_hashes (
 );
 """
 JSON_COLUMNS = ("checks", "times_s", "inputs", "properties", "repairs")
+JSON_EMPTY = {"checks": [], "times_s": {}, "inputs": {}, "properties": {}, "repairs": []}
 
 
 @dataclass(kw_only=True)
@@ -107,8 +108,21 @@ class ModelIndex:
 
     def _row(self, values: sqlite3.Row | tuple, names: list[str]) -> EntryRow:
         data = dict(zip(names, values))
+        broken = []
         for column in JSON_COLUMNS:
-            data[column] = json.loads(data[column])
+            # A shared or hand-edited index may hold anything: a bad cell is said in the row's
+            # error and read as empty, so one row never breaks a listing.
+            empty = JSON_EMPTY[column]
+            try:
+                data[column] = json.loads(data[column])
+            except (TypeError, ValueError):
+                data[column] = None
+            if not isinstance(data[column], type(empty)):
+                broken.append(column)
+                data[column] = type(empty)()
+        if broken:
+            said = f"the index's {', '.join(broken)} cell is not valid"
+            data["error"] = f"{data['error']}; {said}" if data.get("error") else said
         return EntryRow(**data)
 
     def _select(self, where: str = "", params: tuple = ()) -> Iterator[EntryRow]:
@@ -119,6 +133,12 @@ class ModelIndex:
 
     def rows(self) -> list[EntryRow]:
         return list(self._select())
+
+    def columns(self, names: tuple[str, ...]) -> list[tuple]:
+        """Only these columns of every row, undecoded (the page's list reads 10,000 rows)."""
+        if unknown := set(names) - {f.name for f in fields(EntryRow)}:
+            raise ValueError(f"{sorted(unknown)} are not columns of the index")
+        return self._conn.execute(f"SELECT {', '.join(names)} FROM models").fetchall()
 
     def get(self, entry_id: str) -> EntryRow | None:
         return next(self._select("WHERE id = ?", (entry_id,)), None)

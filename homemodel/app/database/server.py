@@ -1,34 +1,78 @@
-"""`homemodel db serve`: the database's web page on localhost, from the standard library's
-HTTP server. Everything it sends is local: the page in `web/`, three.js from the
-`tools/node_modules` the Makefile installs (never fetched at run time), the index as JSON,
-and the model folders' files.
+"""`homemodel db serve`: the database's web page and its API, a Starlette app on uvicorn.
+Everything it sends is local: the page in `web/`, three.js from the `tools/node_modules` the
+Makefile installs (never fetched at run time), the index as JSON pages, and the model
+folders' files. What keeps it safe is in `server_security`.
 """
 
 from __future__ import annotations
 
+import ipaddress
 import json
-import mimetypes
-from functools import partial
-from http import HTTPStatus
-from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
+import logging
+import re
+import socket
+from dataclasses import dataclass, field
 from pathlib import Path
-from urllib.parse import unquote, urlparse
+from urllib.parse import quote
+
+from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import JSONResponse, PlainTextResponse, Response
+from starlette.routing import Route
 
 from articulation.gate.gltf import TOOLS_DIR
 from homemodel.app.database.entry_build import ENTRY_FILE
 from homemodel.app.database.index import MODELS_DIR, ModelIndex
-from homemodel.core.errors import InputError
+from homemodel.app.database.listing import Listing, ListQuery, finite_number, summary
+from homemodel.app.database.server_security import (
+    DeadlineH11Protocol,
+    Guard,
+    allowed_hosts,
+    content_security_policy,
+    file_response,
+    safe_file,
+    script_hash,
+)
+from homemodel.core.errors import HomemodelError, InputError
+
+logger = logging.getLogger(__name__)
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
+WEB_FILES = ("index.html", "app.js", "style.css")
 THREE_DIR = TOOLS_DIR / "node_modules" / "three"
 # Only these parts of three.js are served: the module build and the example add-ons' modules.
 THREE_PARTS = ("build", "examples/jsm")
+_IMPORT_MAP = re.compile(r'<script type="importmap">(.*?)</script>', re.S)
 
 
-def _inside(root: Path, relative: str) -> Path | None:
-    """`root / relative` if it is a file inside `root` (no `..` escapes), else None."""
-    path = (root / relative).resolve()
-    return path if path.is_relative_to(root.resolve()) and path.is_file() else None
+@dataclass(kw_only=True)
+class ServeOptions:
+    """Where and how `db serve` listens. A client has `client_timeout_s` to send a request's
+    headers (after connecting or its last response) and is then closed; at most
+    `max_connections` are open at once (more get 503)."""
+
+    host: str = "127.0.0.1"
+    port: int = 8765  # 0: any free port
+    allow_hosts: list[str] = field(default_factory=list)  # more names the Host header may give
+    client_timeout_s: float = 10.0
+    max_connections: int = 1000
+
+    def check(self) -> None:
+        if not 0 <= self.port <= 65535:
+            raise InputError(f"--port {self.port}: not a port number (0-65535)")
+        if self.client_timeout_s <= 0 or self.max_connections < 1:
+            raise InputError(f"client_timeout_s {self.client_timeout_s}, max_connections {self.max_connections}: must be positive")
+        for name in self.allow_hosts:
+            if not re.fullmatch(r"[A-Za-z0-9.\-]+(:\d+)?|\[[0-9A-Fa-f:.]+\](:\d+)?", name):
+                raise InputError(f"--allow-host {name!r}: not a host name, address or host:port")
+
+    @property
+    def is_loopback(self) -> bool:
+        try:
+            return ipaddress.ip_address(self.host.strip("[]")).is_loopback
+        except ValueError:
+            return self.host == "localhost"
 
 
 def map_tree(map_path: Path, db_dir: Path, entry_ids: set[str]) -> dict:
@@ -61,70 +105,161 @@ def map_tree(map_path: Path, db_dir: Path, entry_ids: set[str]) -> dict:
     return {"id": apartment.id, "kind": "apartment", "type": apartment.name, "model": None, "children": rooms}
 
 
-class _Handler(SimpleHTTPRequestHandler):
-    def __init__(self, *args, db_dir: Path, map_path: Path | None, **kwargs) -> None:  # noqa: ANN002, ANN003
-        self.db_dir = db_dir
-        self.map_path = map_path
-        super().__init__(*args, directory=str(WEB_DIR), **kwargs)
-
-    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 (the base class's name)
-        pass  # the library never prints; the command says where it serves
-
-    def _json(self, data: object, status: HTTPStatus = HTTPStatus.OK) -> None:
-        body = json.dumps(data).encode()
-        self.send_response(status)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(body)))
-        self.send_header("Cache-Control", "no-store")
-        self.end_headers()
-        self.wfile.write(body)
-
-    def _file(self, path: Path | None) -> None:
-        if path is None:
-            self.send_error(HTTPStatus.NOT_FOUND)
-            return
-        body = path.read_bytes()
-        kind = "text/javascript" if path.suffix == ".js" else mimetypes.guess_type(path.name)[0] or "application/octet-stream"
-        self.send_response(HTTPStatus.OK)
-        self.send_header("Content-Type", kind)
-        self.send_header("Content-Length", str(len(body)))
-        self.send_header("Cache-Control", "no-store")
-        self.end_headers()
-        self.wfile.write(body)
-
-    def do_GET(self) -> None:  # noqa: N802 (the base class's name)
-        route = unquote(urlparse(self.path).path)
-        if route == "/api/models":
-            with ModelIndex(self.db_dir) as index:
-                self._json([vars(row) for row in index.rows()])
-        elif route.startswith("/api/models/"):
-            with ModelIndex(self.db_dir) as index:
-                row = index.get(route.removeprefix("/api/models/"))
-            if row is None:
-                self._json({"error": "no such entry"}, HTTPStatus.NOT_FOUND)
-                return
-            entry = _inside(self.db_dir, f"{row.path}/{ENTRY_FILE}") if row.path else None
-            validation = json.loads(entry.read_text()).get("validation") if entry else None
-            self._json({**vars(row), "validation": validation})
-        elif route == "/api/map":
-            if self.map_path is None:
-                self._json(None)
-                return
-            with ModelIndex(self.db_dir) as index:
-                ids = set(index.keys())
-            self._json(map_tree(self.map_path, self.db_dir, ids))
-        elif route.startswith("/db/"):
-            self._file(_inside(self.db_dir / MODELS_DIR, route.removeprefix("/db/")))
-        elif route.startswith("/vendor/three/"):
-            relative = route.removeprefix("/vendor/three/")
-            allowed = any(relative.startswith(part + "/") for part in THREE_PARTS)
-            self._file(_inside(THREE_DIR, relative) if allowed else None)
-        else:
-            super().do_GET()
+def _json(data: object, status: int = 200) -> JSONResponse:
+    return JSONResponse(data, status, headers={"cache-control": "no-store"})
 
 
-def make_server(db_dir: Path, *, host: str = "127.0.0.1", port: int = 8765, map_path: Path | None = None) -> ThreadingHTTPServer:
-    """A server (not yet serving) for the database at `db_dir`; port 0 picks a free port."""
+def _validation_report(db_dir: Path, row_path: object) -> str | None:
+    """The gate's report from the entry's folder, or None when it cannot be read."""
+    if not isinstance(row_path, str):
+        return None
+    try:
+        entry = safe_file(db_dir, f"{row_path}/{ENTRY_FILE}")
+        report = json.loads(entry.read_text()).get("validation")
+    except (HTTPException, OSError, ValueError, AttributeError):
+        return None
+    return report if isinstance(report, str) else None
+
+
+def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int | None]]) -> Guard:
+    """The ASGI app: the page, the API (`/api/models?q=&status=&sort=&order=&offset=&limit=`,
+    `/api/models/ID`, `/api/map`), model files under `/db/` and three.js under `/vendor/three/`."""
+    listing = Listing(db_dir)
+    listing.query(ListQuery())  # read the index now, so the page's first list is quick
+    page = (WEB_DIR / "index.html").read_text()
+    csp = content_security_policy([script_hash(m) for m in _IMPORT_MAP.findall(page)])
+
+    def web_file(request: Request) -> Response:
+        name = request.path_params.get("name", "index.html")
+        if name not in WEB_FILES:
+            raise HTTPException(404)
+        return file_response(request.headers, WEB_DIR / name)
+
+    def models(request: Request) -> Response:
+        params = request.query_params
+        try:
+            query = ListQuery(
+                q=params.get("q", ""),
+                status=params.get("status") or None,
+                sort=params.get("sort", "id"),
+                descending=params.get("order") == "desc",
+                offset=int(params.get("offset", "0")),
+                limit=int(params.get("limit", "100")),
+            )
+            return _json(listing.query(query))
+        except ValueError as exc:
+            return _json({"error": f"not a number: {exc}"}, 400)
+        except InputError as exc:
+            return _json({"error": str(exc)}, 400)
+
+    def model(request: Request) -> Response:
+        with ModelIndex(db_dir) as index:
+            row = index.get(request.path_params["entry_id"])
+        if row is None:
+            return _json({"error": "no such entry"}, 404)
+        checks = [
+            {"name": str(c.get("name")), "passed": bool(c.get("passed")), "detail": str(c.get("detail"))}
+            for c in row.checks if isinstance(c, dict)
+        ]  # fmt: skip
+        return _json(
+            summary(db_dir, vars(row))
+            | {
+                "glb": _glb_url(row.path),
+                "built_at": str(row.built_at),
+                "repairs": [str(r) for r in row.repairs],
+                "checks": checks,
+                "times_s": {str(k): finite_number(v) for k, v in row.times_s.items()},
+                "validation": _validation_report(db_dir, row.path),
+            }
+        )
+
+    def map_view(_: Request) -> Response:
+        if map_path is None:
+            return _json(None)
+        with ModelIndex(db_dir) as index:
+            ids = set(index.keys())
+        try:
+            return _json(map_tree(map_path, db_dir, ids))
+        except HomemodelError as exc:
+            logger.error("GET /api/map: %s", exc)
+            return _json({"error": str(exc)}, 500)
+
+    def db_file(request: Request) -> Response:
+        return file_response(request.headers, safe_file(db_dir / MODELS_DIR, request.path_params["path"]))
+
+    def three_file(request: Request) -> Response:
+        path = safe_file(THREE_DIR, request.path_params["path"], allowed=THREE_PARTS)
+        return file_response(request.headers, path)
+
+    async def http_error(request: Request, exc: Exception) -> Response:
+        assert isinstance(exc, HTTPException)
+        logger.info("%s %s: %d %s", request.method, request.url.path, exc.status_code, exc.detail)
+        return PlainTextResponse(exc.detail, exc.status_code)
+
+    routes = [
+        Route("/", web_file),
+        Route("/{name:str}", web_file),
+        Route("/api/models", models),
+        Route("/api/models/{entry_id:path}", model),
+        Route("/api/map", map_view),
+        Route("/db/{path:path}", db_file),
+        Route("/vendor/three/{path:path}", three_file),
+    ]
+    app = Starlette(routes=routes, exception_handlers={HTTPException: http_error})
+    return Guard(app, hosts=hosts, csp=csp)
+
+
+def _glb_url(row_path: object) -> str | None:
+    if not isinstance(row_path, str) or not row_path.startswith(f"{MODELS_DIR}/"):
+        return None
+    return "/db/" + quote(row_path.removeprefix(f"{MODELS_DIR}/") + "/model.glb")
+
+
+class DatabaseServer:
+    """A bound, not yet serving, uvicorn server for the database page."""
+
+    def __init__(self, db_dir: Path, options: ServeOptions, map_path: Path | None) -> None:
+        import uvicorn
+
+        family = socket.AF_INET6 if ":" in options.host.strip("[]") else socket.AF_INET
+        self.socket = socket.socket(family, socket.SOCK_STREAM)
+        try:
+            self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            self.socket.bind((options.host.strip("[]"), options.port))
+            self.socket.listen(1024)
+        except OSError as exc:
+            self.socket.close()
+            raise InputError(f"cannot listen on {options.host}:{options.port}: {exc.strerror}") from None
+        self.port: int = self.socket.getsockname()[1]
+        hosts = allowed_hosts(options.host, self.port, options.allow_hosts)
+        config = uvicorn.Config(
+            make_app(db_dir, map_path=map_path, hosts=hosts),
+            http=DeadlineH11Protocol,
+            ws="none",
+            lifespan="off",
+            timeout_keep_alive=options.client_timeout_s,
+            limit_concurrency=options.max_connections,
+            h11_max_incomplete_event_size=16 * 1024,  # a request line and headers
+            server_header=False,
+            log_config=None,
+        )
+        self._server = uvicorn.Server(config)
+
+    def serve_forever(self) -> None:
+        """Serve until `shutdown()` (from another thread) or Ctrl-C."""
+        self._server.run(sockets=[self.socket])
+
+    def shutdown(self) -> None:
+        self._server.should_exit = True
+
+    def close(self) -> None:
+        self.socket.close()
+
+
+def make_server(db_dir: Path, options: ServeOptions | None = None, *, map_path: Path | None = None) -> DatabaseServer:
+    """A server, bound and not yet serving, for the database at `db_dir`."""
+    options = options or ServeOptions()
+    options.check()
     db_dir = Path(db_dir)
     ModelIndex(db_dir).close()  # a missing database fails here, before the port is taken
     if not (THREE_DIR / "build" / "three.module.js").is_file():
@@ -133,8 +268,4 @@ def make_server(db_dir: Path, *, host: str = "127.0.0.1", port: int = 8765, map_
         from semantic_map import load_map
 
         load_map(map_path)  # a bad map fails now
-    handler = partial(_Handler, db_dir=db_dir, map_path=map_path)
-    try:
-        return ThreadingHTTPServer((host, port), handler)
-    except OSError as exc:
-        raise InputError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+    return DatabaseServer(db_dir, options, map_path)
