@@ -57,12 +57,13 @@ def library_files(folder: Path) -> list[tuple[str, Path]]:
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"{folder}: no such library folder")
-    found = [
-        (class_dir.name, path)
-        for class_dir in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
-        for path in sorted(class_dir.iterdir())
-        if path.is_file() and path.suffix.lower() in MESH_SUFFIXES
-    ]
+    found = []
+    for class_dir in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        meshes = sorted(p for p in class_dir.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
+        # An empty class is a copy that went wrong, not a class to train without.
+        if not meshes:
+            raise InputError(f"{class_dir}: an empty class: no mesh files ({', '.join(MESH_SUFFIXES)})")
+        found += [(class_dir.name, path) for path in meshes]
     if not found:
         raise InputError(f"{folder}: no class folders with mesh files ({', '.join(MESH_SUFFIXES)})")
     return found
@@ -109,6 +110,8 @@ def write_procedural_library(
 ) -> list[Path]:
     """Write `per_class` generated instances of each class as PLY files under `folder/<class>/`."""
     classes = sorted(GENERATORS) if classes is None else classes
+    if not classes:
+        raise InputError(f"no classes to write: the generator makes {sorted(GENERATORS)}")
     unknown = sorted(set(classes) - set(GENERATORS))
     if unknown:
         raise InputError(f"unknown class(es) {unknown}: the generator makes {sorted(GENERATORS)}")

@@ -12,6 +12,7 @@ import os
 import re
 import shutil
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -135,3 +136,96 @@ def test_the_urdf_importer_returns_a_model_or_an_input_error(urdf_folder: tuple[
     path = folder / "fuzzed.urdf"
     path.write_text(data.draw(mutated(text, SPECIAL_XML, XML_NOISE, r'="([^"]*)"')))
     _expect_model_or_input_error(load_urdf, path)
+
+
+def _one_line_error(result, capfd, *fragments: str) -> None:
+    """Exit 2 and one line on stderr, counting what C code wrote to file descriptor 2."""
+    c_stderr = capfd.readouterr().err
+    assert result.exit_code == 2, result.output
+    lines = (result.stderr + c_stderr).splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), lines
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+
+
+class NoisePngs(NamedTuple):
+    colour: bytes
+    depth: bytes
+
+    def __repr__(self) -> str:  # hypothesis prints the fixtures of a failing example
+        return f"NoisePngs({len(self.colour)} and {len(self.depth)} bytes)"
+
+
+@pytest.fixture(scope="module")
+def noise_pngs() -> NoisePngs:
+    """A 640x480 colour PNG and a 16-bit depth PNG of noise (large enough for libpng to read
+    them in many chunks, so a cut lands mid-stream)."""
+    import cv2
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    colour = cv2.imencode(".png", rng.integers(0, 256, (480, 640, 3), dtype=np.uint8))[1].tobytes()
+    depth = cv2.imencode(".png", rng.integers(500, 900, (480, 640), dtype=np.uint16))[1].tobytes()
+    return NoisePngs(colour, depth)
+
+
+@FUZZ
+@given(cut=st.floats(0.0, 0.999), flip=st.booleans(), flags=st.sampled_from([None, -1]))
+def test_a_truncated_or_corrupt_png_is_an_input_error_and_nothing_on_stderr(
+    noise_pngs: NoisePngs, tmp_path: Path, capfd, cut, flip, flags
+) -> None:
+    from homemodel.core.images import read_image
+
+    capfd.readouterr()
+    data = bytearray(noise_pngs.colour if flags is None else noise_pngs.depth)
+    if flip:  # a flipped bit somewhere past the signature, else a cut
+        data[8 + int((len(data) - 9) * cut)] ^= 0x10
+    else:
+        del data[int(len(data) * cut) :]
+    path = tmp_path / "bad.png"
+    path.write_bytes(bytes(data))
+    with pytest.raises(InputError, match="bad.png: not a readable image"):
+        read_image(path, flags)
+    assert capfd.readouterr().err == ""
+
+
+def test_a_capture_of_truncated_pngs_is_one_line_of_error(noise_pngs, tmp_path: Path, capfd) -> None:
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+    from homemodel.geometry.camera import Camera, save_camera
+    from turntable.board import grid_board, save_board
+
+    capture = tmp_path / "capture"
+    (capture / "color").mkdir(parents=True)
+    (capture / "depth").mkdir()
+    save_camera(Camera(width=640, height=480, fx=600, fy=600, cx=319.5, cy=239.5, depth_scale_m=0.001), capture / "camera.yaml")
+    save_board(grid_board(table_diameter_m=0.3, tag_size_m=0.03), capture / "board.yaml")
+    colour, depth = noise_pngs
+    for k, cut in enumerate((0.1, 0.4, 0.7, 0.95, 0.999)):
+        (capture / "color" / f"{k:06d}.png").write_bytes(colour[: int(len(colour) * cut)])
+        (capture / "depth" / f"{k:06d}.png").write_bytes(depth[: int(len(depth) * cut)])
+    capfd.readouterr()
+    result = CliRunner().invoke(app, ["turntable", "reconstruct", str(capture), "--out", str(tmp_path / "out")])
+    _one_line_error(result, capfd, "only 0 of 5 frames", "000000.png: not a readable image")
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_completion_library_with_an_empty_class_is_refused(tmp_path: Path, capfd) -> None:
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    runner = CliRunner()
+    result = runner.invoke(app, ["completion", "library", "--classes", "cup", "--per-class", "2", "--out", str(tmp_path / "lib")])
+    assert result.exit_code == 0, result.output
+    (tmp_path / "lib" / "bowl").mkdir()
+    (tmp_path / "lib" / "bowl" / "notes.txt").write_text("the bowls are still on the other disk")
+    capfd.readouterr()
+    result = runner.invoke(app, ["completion", "train", str(tmp_path / "lib"), "--out", str(tmp_path / "model.npz")])
+    _one_line_error(result, capfd, "lib/bowl: an empty class")
+    assert not (tmp_path / "model.npz").exists()
+
+    result = runner.invoke(app, ["completion", "library", "--classes", " , ", "--out", str(tmp_path / "none")])
+    _one_line_error(result, capfd, "no classes to write")
+    assert not (tmp_path / "none").exists()

@@ -5,6 +5,11 @@ gigabytes), and every failure one InputError naming the file."""
 from __future__ import annotations
 
 import io
+import struct
+import threading
+import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +19,14 @@ from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import IMAGE_PIXELS
 
 MAX_IMAGE_BYTES = 256 * 1024 * 1024
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# OpenCV's codecs log what they find wrong with a file to stderr, a line per image, and
+# libpng prints its own errors from C ("libpng error: PNG input buffer is incomplete"), which
+# no log level stops: PNG chunks are checked here first, the rest of the log is turned off
+# while decoding, and the InputError says it once.
+_QUIET_LOCK = threading.Lock()
+_quiet_users = 0
+_loud_level: int | None = None
 
 
 def read_image(path: Path, flags: int | None = None) -> np.ndarray:
@@ -24,13 +37,51 @@ def read_image(path: Path, flags: int | None = None) -> np.ndarray:
     path = Path(path)
     data = read_bounded(path, MAX_IMAGE_BYTES)
     _checked_size(path, data)
+    if data.startswith(PNG_SIGNATURE) and (problem := _png_problem(data)):
+        raise InputError(f"{path}: not a readable image: {problem}")
     try:
-        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR if flags is None else flags)
+        with _opencv_silenced(cv2):
+            image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR if flags is None else flags)
     except cv2.error:
         image = None
     if image is None or image.size == 0:
         raise InputError(f"{path}: not a readable image: cannot decode it (truncated or corrupt)")
     return image
+
+
+def _png_problem(data: bytes) -> str | None:
+    """What is wrong with a PNG's chunk stream (a cut, a chunk whose CRC fails, no IEND), or None."""
+    offset = len(PNG_SIGNATURE)
+    while offset + 12 <= len(data):
+        length, kind = struct.unpack_from(">I4s", data, offset)
+        end = offset + 12 + length
+        if end > len(data):
+            break
+        critical = not kind[0] & 0x20  # libpng only warns about an ancillary chunk's CRC
+        if critical and zlib.crc32(data[offset + 4 : end - 4]) != struct.unpack_from(">I", data, end - 4)[0]:
+            return f"the {kind.decode('latin-1')!r} chunk at byte {offset} fails its CRC (corrupt)"
+        if kind == b"IEND":
+            return None
+        offset = end
+    return f"truncated: it ends at byte {len(data)} before its IEND chunk"
+
+
+@contextmanager
+def _opencv_silenced(cv2) -> Iterator[None]:
+    """OpenCV's log off while any thread decodes, back to its level when the last one ends
+    (the level is process-wide, so threads share one count)."""
+    global _quiet_users, _loud_level
+    with _QUIET_LOCK:
+        if _quiet_users == 0:
+            _loud_level = cv2.setLogLevel(0)  # 0 is LOG_LEVEL_SILENT; it returns the old level
+        _quiet_users += 1
+    try:
+        yield
+    finally:
+        with _QUIET_LOCK:
+            _quiet_users -= 1
+            if _quiet_users == 0:
+                cv2.setLogLevel(_loud_level)
 
 
 def read_image_size(path: Path) -> tuple[int, int]:
