@@ -28,6 +28,7 @@ sun.position.set(3, 5, 4);
 scene.add(sun);
 const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 100);
 const controls = new OrbitControls(camera, renderer.domElement);
+hm.memory = () => renderer.info.memory; // geometries and textures held on the GPU
 let current = null;
 const graspMarkers = [];
 
