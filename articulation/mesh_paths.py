@@ -1,11 +1,13 @@
 """Where a URDF's mesh reference points: always inside the model folder (or, for a
-`package://NAME/...` URI, inside the ROS package NAME that holds the URDF), never elsewhere.
+`package://NAME/...` URI, inside the ROS package NAME: the one that holds the URDF, or one
+found in the given package paths as ROS finds it), never elsewhere.
 
 The importer and the validation gate share this, so what one accepts the other does too.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from homemodel.core.errors import HomemodelError, InputError
@@ -26,18 +28,49 @@ def _enclosing_package(urdf_dir: Path) -> tuple[str, Path] | None:
     return None
 
 
-def _package_file(rest: str, urdf_dir: Path) -> Path | None:
-    """The file `package://rest` names inside the package that holds the URDF, if it is one."""
-    package = _enclosing_package(urdf_dir)
-    name, _, inside = rest.partition("/")
-    if package is None or package[0] != name or not inside:
+def _package_name(folder: Path) -> str | None:
+    try:
+        return (parse_xml_file(folder / "package.xml").getroot().findtext("name") or "").strip()
+    except HomemodelError:
         return None
-    target = (package[1] / inside).resolve()
-    return target if target.is_relative_to(package[1]) and target.is_file() else None
 
 
-def resolve_mesh(filename: str, urdf_dir: Path) -> Path:
-    """The file `filename` names inside the URDF's folder (it may not exist).
+# A package path is searched this deep for package.xml files (ROS_PACKAGE_PATH's crawl, bounded).
+MAX_PACKAGE_DEPTH = 4
+
+
+def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
+    """The folder of ROS package `name` in `package_paths` (each a package, a folder of
+    packages, or an install prefix with `share/NAME`): the first whose package.xml names it."""
+    for root in package_paths:
+        root = Path(root).resolve()
+        for candidate in (root, root / name, root / "share" / name):
+            if (candidate / "package.xml").is_file() and _package_name(candidate) == name:
+                return candidate
+        for depth in range(1, MAX_PACKAGE_DEPTH + 1):
+            for manifest in sorted(root.glob("/".join(["*"] * depth) + "/package.xml")):
+                if _package_name(manifest.parent) == name:
+                    return manifest.parent.resolve()
+    return None
+
+
+def _package_file(rest: str, urdf_dir: Path, package_paths: Sequence[Path]) -> Path | None:
+    """The file `package://rest` names inside package NAME: the one holding the URDF if it
+    is NAME, else NAME found in `package_paths`; never outside that package's folder."""
+    name, _, inside = rest.partition("/")
+    if not inside:
+        return None
+    package = _enclosing_package(urdf_dir)
+    folder = package[1] if package is not None and package[0] == name else find_package(name, package_paths)
+    if folder is None:
+        return None
+    target = (folder / inside).resolve()
+    return target if target.is_relative_to(folder.resolve()) and target.is_file() else None
+
+
+def resolve_mesh(filename: str, urdf_dir: Path, package_paths: Sequence[Path] = ()) -> Path:
+    """The file `filename` names inside the URDF's folder (it may not exist), or for a
+    `package://` URI inside its package (the one holding the URDF, or in `package_paths`).
 
     Raises InputError for absolute paths, URIs and paths escaping the folder after `..`
     and symlinks are resolved.
@@ -50,10 +83,11 @@ def resolve_mesh(filename: str, urdf_dir: Path) -> Path:
             target = (folder / candidate).resolve() if candidate else None
             if target is not None and target.is_relative_to(folder) and target.is_file():
                 return target
-        target = _package_file(rest, folder)
+        target = _package_file(rest, folder, package_paths)
         if target is not None:
             return target
-        raise InputError("package:// path cannot be resolved inside the model folder or the package holding it")
+        searched = f" or the package paths {[str(p) for p in package_paths]}" if package_paths else " (give --package-path)"
+        raise InputError(f"package:// path cannot be resolved inside the model folder, the package holding it{searched}")
     return confined_path(folder, filename, folder_role="model folder")
 
 

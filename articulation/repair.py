@@ -1,18 +1,22 @@
 """Repair an imported asset that fails the validation gate only for want of what the gate
-needs, and say what was repaired: inertials computed from the meshes at a stated density,
-and the `effort` and `velocity` a `<limit>` must have (check_urdf refuses one without them)
-set to stated defaults. Nothing else is ever changed."""
+needs, and say what was repaired and why: inertials computed from a closed volume of the
+meshes at a stated density (see `articulation.inertia.link_mass`: open sheets are voxel-filled,
+never taken at their meaningless "volume"), and the `effort` and `velocity` a `<limit>` must
+have (check_urdf refuses one without them) set to stated defaults. Nothing else is changed."""
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+import trimesh
 from lxml import etree
 
-from articulation.inertia import inertial_from_meshes
-from articulation.model import Model
+from articulation.inertia import link_mass
+from articulation.gate.mesh_geometry import VOLUME_TOLERANCE
+from articulation.model import Box, Collision, Link, MeshGeometry, Model
 from homemodel.core.checks import require_positive
 from homemodel.core.safe_xml import parse_xml_file
 
@@ -22,11 +26,18 @@ LIMITED_TYPES = ("revolute", "prismatic")
 @dataclass(kw_only=True)
 class RepairOptions:
     density_kg_m3: float = 500.0  # for links without an inertial: about that of furniture board
+    # Open sheets are voxel-filled at this size (smaller for small links): they count this thick.
+    voxel_size_m: float = 0.01
+    default_mass_kg: float = 1.0  # a link with no surface to measure: this mass,
+    default_size_m: float = 0.1  # spread as a solid cube this wide
     effort: float = 10.0  # N m (revolute) or N (prismatic), for a <limit> without one
     velocity: float = 1.0  # rad/s or m/s, for a <limit> without one
 
     def check(self) -> None:
         require_positive("density_kg_m3", self.density_kg_m3)
+        require_positive("voxel_size_m", self.voxel_size_m)
+        require_positive("default_mass_kg", self.default_mass_kg)
+        require_positive("default_size_m", self.default_size_m)
         require_positive("effort", self.effort)
         require_positive("velocity", self.velocity)
 
@@ -39,9 +50,13 @@ class AssetGaps:
     links_without_inertial: list[str]
     limits_without_effort: list[str]
     limits_without_velocity: list[str]
+    # "link/collision" of collision meshes with no volume (PartNet's sheets): nothing to collide with
+    flat_collisions: list[str] = field(default_factory=list)
 
     def __bool__(self) -> bool:
-        return bool(self.links_without_inertial or self.limits_without_effort or self.limits_without_velocity)
+        return bool(
+            self.links_without_inertial or self.limits_without_effort or self.limits_without_velocity or self.flat_collisions
+        )
 
     def describe(self) -> list[str]:
         said = []
@@ -51,10 +66,47 @@ class AssetGaps:
             said.append(f"<limit> without effort on joints: {', '.join(self.limits_without_effort)}")
         if self.limits_without_velocity:
             said.append(f"<limit> without velocity on joints: {', '.join(self.limits_without_velocity)}")
+        if self.flat_collisions:
+            said.append(f"flat collision meshes (no volume): {', '.join(self.flat_collisions)}")
         return said
 
 
-def find_gaps(urdf: Path) -> AssetGaps:
+def _flat_box(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray | None = None) -> tuple[Box, np.ndarray] | None:
+    """A box on a mesh with no volume (a sheet), `thickness_m` thick on the side of the point
+    `inside` (the link's centre: parts that abut, a door on a cabinet's front edge, stay
+    apart), and `mesh_from_box`; None when the mesh has volume."""
+    points = np.asarray(mesh.vertices, dtype=np.float64)
+    centre = points.mean(axis=0)
+    _, _, axes = np.linalg.svd(points - centre)  # rows: principal directions, thinnest last
+    axes[2] = np.cross(axes[0], axes[1])  # a proper rotation
+    local = (points - centre) @ axes.T
+    low, high = local.min(axis=0), local.max(axis=0)
+    size = high - low
+    if size[2] > VOLUME_TOLERANCE ** (1 / 3) * float(np.linalg.norm(size)):
+        return None
+    middle = (low + high) / 2
+    if inside is not None:
+        side = 1.0 if float((np.asarray(inside) - centre) @ axes[2]) >= 0 else -1.0
+        middle[2] = high[2] + side * thickness_m / 2 if side > 0 else low[2] - thickness_m / 2
+    size = np.maximum(size, thickness_m)
+    mesh_from_box = np.eye(4)
+    mesh_from_box[:3, :3] = axes.T
+    mesh_from_box[:3, 3] = centre + axes.T @ middle
+    return Box(size_m=tuple(float(v) for v in size)), mesh_from_box
+
+
+def model_flat_collisions(model: Model) -> list[str]:
+    """"link/collision" of every collision mesh of the model with no volume."""
+    return [
+        f"{link.name}/{c.name}"
+        for link in model.links
+        for c in link.collisions
+        if isinstance(c.geometry, MeshGeometry) and _flat_box(c.geometry.mesh, 1.0) is not None
+    ]
+
+
+def find_gaps(urdf: Path, model: Model | None = None) -> AssetGaps:
+    """What the URDF lacks; with its `model` loaded, also its flat collision meshes."""
     robot = parse_xml_file(Path(urdf)).getroot()
     no_inertial = [
         link.get("name")
@@ -68,7 +120,35 @@ def find_gaps(urdf: Path) -> AssetGaps:
         links_without_inertial=no_inertial,
         limits_without_effort=[name for name, el in limits if el.get("effort") is None],
         limits_without_velocity=[name for name, el in limits if el.get("velocity") is None],
+        flat_collisions=model_flat_collisions(model) if model is not None else [],
     )
+
+
+def _centre(link: Link) -> np.ndarray:
+    meshes = _link_meshes(link)
+    return trimesh.util.concatenate(meshes).bounds.mean(axis=0) if meshes else np.zeros(3)
+
+
+def _thickened(collision: Collision, thickness_m: float, inside_link: np.ndarray) -> Collision:
+    if not isinstance(collision.geometry, MeshGeometry):
+        return collision
+    inside = (np.linalg.inv(collision.link_from_collision) @ np.append(inside_link, 1.0))[:3]
+    box = _flat_box(collision.geometry.mesh, thickness_m, inside)
+    if box is None:
+        return collision
+    geometry, mesh_from_box = box
+    return Collision(name=collision.name, geometry=geometry, link_from_collision=collision.link_from_collision @ mesh_from_box)
+
+
+def _link_meshes(link: Link) -> list[trimesh.Trimesh]:
+    """The link's visual meshes in the link frame; its collision meshes when it has no visuals."""
+    if link.visuals:
+        return [v.mesh.copy().apply_transform(v.link_from_visual) for v in link.visuals]
+    meshes = []
+    for collision in link.collisions:
+        if isinstance(collision.geometry, MeshGeometry):
+            meshes.append(collision.geometry.mesh.copy().apply_transform(collision.link_from_collision))
+    return meshes
 
 
 def repair(model: Model, gaps: AssetGaps, options: RepairOptions) -> tuple[Model, list[str]]:
@@ -78,12 +158,25 @@ def repair(model: Model, gaps: AssetGaps, options: RepairOptions) -> tuple[Model
     links = []
     for link in model.links:
         if link.name in gaps.links_without_inertial:
-            meshes = [v.mesh.copy().apply_transform(v.link_from_visual) for v in link.visuals]
-            inertial = inertial_from_meshes(meshes, density_kg_m3=options.density_kg_m3)
-            link = dataclasses.replace(link, inertial=inertial)
+            found = link_mass(
+                _link_meshes(link),
+                density_kg_m3=options.density_kg_m3,
+                voxel_size_m=options.voxel_size_m,
+                default_mass_kg=options.default_mass_kg,
+                default_size_m=options.default_size_m,
+            )
+            link = dataclasses.replace(link, inertial=found.inertial)
             done.append(
-                f"link {link.name!r}: inertial computed from its meshes at {options.density_kg_m3:g} kg/m^3 "
-                f"({inertial.mass_kg:.3g} kg)"
+                f"link {link.name!r}: no <inertial>; {found.inertial.mass_kg:.3g} kg from {found.method} "
+                f"at {options.density_kg_m3:g} kg/m^3"
+            )
+        flat = [c for c in link.collisions if f"{link.name}/{c.name}" in gaps.flat_collisions]
+        if flat:
+            inside = link.inertial.com_m if link.inertial is not None else _centre(link)
+            link = dataclasses.replace(link, collisions=[_thickened(c, options.voxel_size_m, inside) for c in link.collisions])
+            done.append(
+                f"link {link.name!r}: {len(flat)} flat collision mesh(es) (no volume to collide with) made "
+                f"boxes {options.voxel_size_m * 1000:g} mm thick on the link's inner side"
             )
         links.append(link)
     joints = []

@@ -8,12 +8,14 @@ parsed safely (no DOCTYPE, no entities, a size bound).
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import trimesh
 from lxml import etree
 
+from articulation.collada import collada_unit_m
 from articulation.mesh_paths import resolve_mesh
 from articulation.model import (
     Box,
@@ -43,9 +45,10 @@ _NUMBER_LIST = re.compile(r"\s+")
 
 
 class _Context:
-    def __init__(self, urdf_path: Path) -> None:
+    def __init__(self, urdf_path: Path, package_paths: Sequence[Path] = ()) -> None:
         self.path = urdf_path
         self.folder = urdf_path.parent.resolve()
+        self.package_paths = tuple(package_paths)
         self.global_materials: dict[str, tuple[float, float, float, float]] = {}
 
     def fail(self, element: etree._Element, message: str) -> InputError:
@@ -72,7 +75,7 @@ class _Context:
     def mesh_path(self, element: etree._Element) -> Path:
         filename = element.get("filename", "")
         try:
-            path = resolve_mesh(filename, self.folder)
+            path = resolve_mesh(filename, self.folder, self.package_paths)
         except InputError as exc:
             raise self.fail(element, f"mesh {filename!r}: {exc}") from None
         if not path.is_file():
@@ -87,25 +90,41 @@ def check_robot_size(robot: etree._Element, source: Path) -> None:
     URDF_JOINTS.check(source, len(robot.findall("joint")))
 
 
-def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, trimesh.Trimesh]]:
-    """The parts of one mesh file (an OBJ may hold several materials), scaled as the URDF says."""
-    path = ctx.mesh_path(element)
+def read_mesh_parts(path: Path) -> list[tuple[str, trimesh.Trimesh]]:
+    """The triangle meshes of one mesh file (an OBJ may hold several materials, a DAE or glTF
+    several nodes), placed by their nodes, in metres for a DAE with a `<unit>`; raises
+    InputError "PATH: problem" for a file that is unsafe, too big, empty or NaN."""
     data = read_bounded(path, MAX_MESH_BYTES)
     MESH_TRIANGLES.check(path, declared_faces(data, path.suffix.lower()))
+    unit_m = 1.0
+    if path.suffix.lower() == ".dae":
+        try:
+            unit_m = collada_unit_m(data, path)  # parsed safely first: pycollada would resolve entities
+        except InputError as exc:
+            raise InputError(f"{path}: {str(exc).removeprefix(f'{path}: ')}") from None
     try:
         loaded = trimesh.load(path, process=False, maintain_order=True)
     except Exception as exc:  # trimesh raises many types for corrupt files
-        raise ctx.fail(element, f"cannot read mesh {path.name}: {exc}") from None
-    if isinstance(loaded, trimesh.Scene):
-        parts = [(name, geom) for name, geom in loaded.geometry.items() if isinstance(geom, trimesh.Trimesh)]
-    else:
-        parts = [(path.stem, loaded)]
-    parts = [(name, mesh) for name, mesh in parts if len(mesh.faces) > 0]
+        raise InputError(f"{path}: cannot be read: {type(exc).__name__}: {exc}") from None
+    parts = [(name, mesh) for name, mesh in scene_parts(loaded, path.stem) if len(mesh.faces) > 0]
     if not parts:
-        raise ctx.fail(element, f"mesh {path.name} has no triangles")
+        raise InputError(f"{path}: has no triangles")
     MESH_TRIANGLES.check(path, sum(len(mesh.faces) for _, mesh in parts))
     if not all(np.all(np.isfinite(mesh.vertices)) for _, mesh in parts):
-        raise ctx.fail(element, f"mesh {path.name} has non-finite (NaN or infinite) vertex coordinates")
+        raise InputError(f"{path}: has non-finite (NaN or infinite) vertex coordinates")
+    if unit_m != 1.0:
+        for _, mesh in parts:
+            mesh.apply_scale(unit_m)
+    return parts
+
+
+def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, trimesh.Trimesh]]:
+    """The parts of one mesh file, scaled as the URDF says."""
+    path = ctx.mesh_path(element)
+    try:
+        parts = read_mesh_parts(path)
+    except InputError as exc:
+        raise ctx.fail(element, f"mesh {path.name} {str(exc).removeprefix(f'{path}: ')}") from None
     scale = ctx.floats(element, "scale", 3, "1 1 1")
     if not np.allclose(scale, 1.0):
         for _, mesh in parts:
@@ -113,8 +132,32 @@ def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, 
     return parts
 
 
-def _mtl_textures(obj_path: Path) -> dict[str, Path]:
-    """Material name -> texture image, from the OBJ's MTL files (trimesh keeps images, not paths)."""
+def scene_parts(loaded: trimesh.Trimesh | trimesh.Scene, stem: str) -> list[tuple[str, trimesh.Trimesh]]:
+    """(name, mesh) of every triangle mesh a file holds, each placed by its scene node's
+    transform (a DAE's or glTF's nodes move their meshes; an OBJ's are the identity)."""
+    if not isinstance(loaded, trimesh.Scene):
+        return [(stem, loaded)] if isinstance(loaded, trimesh.Trimesh) else []
+    parts: list[tuple[str, trimesh.Trimesh]] = []
+    used: set[str] = set()
+    for node in loaded.graph.nodes_geometry:
+        transform, geometry_name = loaded.graph[node]
+        mesh = loaded.geometry.get(geometry_name)
+        if not isinstance(mesh, trimesh.Trimesh):
+            continue
+        if not np.allclose(transform, np.eye(4)):
+            mesh = mesh.copy()
+            mesh.apply_transform(transform)
+        name = geometry_name if geometry_name not in used else str(node)
+        used.add(name)
+        parts.append((name, mesh))
+    return parts
+
+
+def _mtl_textures(obj_path: Path, model_folder: Path) -> dict[str, Path]:
+    """Material name -> texture image, from the OBJ's MTL files (trimesh keeps images, not
+    paths). Images may lie anywhere in the model folder (PartNet-Mobility's MTLs name
+    `../images/texture_N.jpg`), or beside the OBJ when it lies in another package."""
+    root = model_folder if obj_path.resolve().is_relative_to(model_folder) else obj_path.parent.resolve()
     textures: dict[str, Path] = {}
     for line in obj_path.read_text(errors="replace").splitlines():
         if not line.startswith("mtllib "):
@@ -129,7 +172,7 @@ def _mtl_textures(obj_path: Path) -> dict[str, Path]:
                 current = words[1].strip()
             elif len(words) == 2 and words[0] == "map_Kd" and current is not None:
                 image = (mtl.parent / words[1].strip().split()[-1]).resolve()
-                if image.is_file() and image.is_relative_to(obj_path.parent.resolve()):
+                if image.is_file() and image.is_relative_to(root):
                     textures[current] = image
     return textures
 
@@ -184,7 +227,7 @@ def _geometry_meshes(ctx: _Context, parent: etree._Element):
     if shape.tag != "mesh":
         raise ctx.fail(shape, f"unknown geometry <{shape.tag}>")
     parts = _load_mesh_parts(ctx, shape)
-    textures = _mtl_textures(ctx.mesh_path(shape)) if ctx.mesh_path(shape).suffix.lower() == ".obj" else {}
+    textures = _mtl_textures(ctx.mesh_path(shape), ctx.folder) if ctx.mesh_path(shape).suffix.lower() == ".obj" else {}
     single = len(parts) == 1
     return [(None if single else name, mesh, textures) for name, mesh in parts]
 
@@ -308,10 +351,12 @@ def find_urdf(path: Path) -> Path:
     return path
 
 
-def load_urdf(path: Path) -> Model:
-    """Read `path` into a Model; raises InputError naming the file and line on bad input."""
+def load_urdf(path: Path, *, package_paths: Sequence[Path] = ()) -> Model:
+    """Read `path` into a Model; raises InputError naming the file and line on bad input.
+    `package://NAME/...` meshes are found in the package holding the URDF, else in
+    `package_paths` (see `articulation.mesh_paths.find_package`)."""
     path = Path(path)
-    ctx = _Context(path)
+    ctx = _Context(path, package_paths)
     robot = parse_xml_file(path).getroot()
     if robot.tag != "robot":
         raise InputError(f"{path}: root element is <{robot.tag}>, expected <robot>")

@@ -14,6 +14,7 @@ from lxml import etree
 
 from articulation.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
 from articulation.gate.collisions import collisions_check
+from articulation.gate.finite_numbers import finite_numbers_check
 from articulation.gate.gltf import gltf_checks
 from articulation.gate.mesh_geometry import mesh_geometry_check, over_triangle_bound
 from articulation.gate.physics import physics_check
@@ -59,8 +60,12 @@ def _inputs(path: Path) -> tuple[Path | None, Path | None]:
 PYBULLET_MAX_JOINTS = 121
 
 
-def _pybullet_refusal(tree: Check, robot: etree._Element, folder: Path, meshes: Check, geometry: Check) -> str | None:
+def _pybullet_refusal(
+    tree: Check, robot: etree._Element, folder: Path, meshes: Check, geometry: Check, finite: Check
+) -> str | None:
     """Why pybullet must not load this URDF in our process, or None."""
+    if not finite.passed:
+        return "a simulation with NaN or infinite numbers means nothing (see finite numbers)"
     if over_triangle_bound(meshes):
         return "its meshes are over the triangle bound (see meshes)"
     if not geometry.passed:
@@ -92,7 +97,8 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
     tree = tree_check(robot)
     meshes = meshes_check(robot, urdf.parent)
-    checks += [tree, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
+    finite = finite_numbers_check(robot)
+    checks += [tree, finite, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
     geometry = mesh_geometry_check(robot, urdf.parent)
     checks += [geometry, check_urdf_check(urdf)]
     if over_triangle_bound(meshes):  # the clients would read every triangle into memory
@@ -100,7 +106,7 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
     else:
         declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
-    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes, geometry)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes, geometry, finite)
     with tempfile.TemporaryDirectory(prefix="homemodel-gate-") as tmp:
         loadable = with_package_uris_resolved(urdf, Path(tmp))
         checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(loadable, declared))

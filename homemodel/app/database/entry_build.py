@@ -6,6 +6,7 @@ at all. Any failure is caught and returned as a "failed" row: one bad entry neve
 from __future__ import annotations
 
 import copy
+import dataclasses
 import functools
 import logging
 import os
@@ -27,7 +28,8 @@ from homemodel.app.database.manifest import Job, RepairSpec
 from homemodel.app.database.thumbnail import write_thumbnail
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.c_stdio_capture import captured_c_output
-from homemodel.core.errors import HomemodelError, InputError, SpecError
+from homemodel.core.errors import HomemodelError, SpecError
+from homemodel.core.options_data import options_from_dict
 from homemodel.core.yaml_specs import read_yaml_mapping
 
 log = logging.getLogger(__name__)
@@ -55,12 +57,11 @@ class _Built:
 
 
 def _options(cls: type, job: Job, **fixed: Any) -> Any:
-    """The source's options dataclass from the manifest's `options` (top-level fields only)."""
-    try:
-        options = cls(**{**job.options, **fixed})
-    except TypeError as exc:
-        raise InputError(f"entry {job.id!r}: options: {exc}") from None
-    return options
+    """The source's options from the manifest's `options` (nested fields included), with the
+    fields the entry decides set over them; a fixed field given as None leaves the options'
+    own value (an absent top-level `marker_size_m` must not erase the options')."""
+    options = options_from_dict(cls, job.options, where=f"entry {job.id!r}: options")
+    return dataclasses.replace(options, **{name: value for name, value in fixed.items() if value is not None})
 
 
 @functools.lru_cache(maxsize=64)
@@ -143,28 +144,28 @@ def _build_completion(job: Job, out: Path) -> _Built:
 
 
 def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
+    from articulation.asset_import import ImportOptions, import_asset
     from articulation.export import write_model_files
     from articulation.gate import validate_path
-    from articulation.partnet import import_partnet, is_partnet_folder
-    from articulation.repair import RepairOptions, find_gaps
+    from articulation.repair import RepairOptions
     from articulation.repair import repair as repaired
-    from articulation.urdf_import import find_urdf, load_urdf
 
     start = time.perf_counter()
-    source = job.inputs["path"]
-    urdf = find_urdf(source)
-    gaps = find_gaps(urdf)
-    if gaps and repair is None:
-        # The asset as given fails the gate for want of what it needs: say so, and how to repair.
-        report = validate_path(urdf)
-        report.checks.insert(0, Check("repairable", False, "; ".join(gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"))
-        return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
-    model: Model = import_partnet(source).model if source.is_dir() and is_partnet_folder(source) else load_urdf(urdf)
-    model.name = job.id
-    repairs: list[str] = []
-    if gaps and repair is not None:
-        model, repairs = repaired(model, gaps, RepairOptions(**repair.model_dump()))
-    write_model_files(model, out)
+    with tempfile.TemporaryDirectory(prefix="homemodel-import-") as textures:
+        imported = import_asset(job.inputs["path"], _options(ImportOptions, job), texture_dir=Path(textures))
+        if imported.gaps and repair is None:
+            # The asset as given fails the gate for want of what it needs: say so, and how to repair.
+            report = validate_path(imported.urdf) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
+            said = "; ".join(imported.gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"
+            report.checks.insert(0, Check("repairable", False, said))
+            return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
+        model = imported.model
+        model.name = job.id
+        repairs = [f"imported: {note}" for note in imported.notes]
+        if imported.gaps and repair is not None:
+            model, done = repaired(model, imported.gaps, RepairOptions(**repair.model_dump()))
+            repairs += done
+        write_model_files(model, out)
     return _gated(out, {"import": time.perf_counter() - start}, repairs)
 
 

@@ -12,14 +12,20 @@ entries:
   - {id: kermit, source: photos, path: /data/kermit, marker_size_m: 0.05}
   - {id: cup_query, source: completion, path: query/depth.png, camera: query/camera.yaml,
      completion_model: completer.npz}
-  - {id: cabinet_46037, source: urdf, path: partnet/46037}   # a model folder or a .urdf
+  - {id: cabinet_46037, source: urdf, path: partnet/46037}   # a model folder, a .urdf or a mesh file
+  - {id: arm, source: urdf, path: ros/arm_description/urdf/arm.urdf,
+     options: {package_paths: [ros]}}   # where package://NAME/... finds other ROS packages
   - {id: cabinet_7128, source: urdf, path: partnet/7128, repair: true}   # see RepairSpec
 ```
 
-Paths are relative to the manifest's folder. `options` sets top-level fields of the source's
-options (`modeller.BuildOptions`, `turntable.ReconstructionOptions`,
-`photogrammetry.ReconstructOptions`, `shape_completion.CompletionOptions`); a swept field is
-a top-level field of the spec, and its values are recorded as the entry's properties.
+Paths are relative to the manifest's folder. `options` mirrors the source's options class
+(`modeller.BuildOptions`, `turntable.ReconstructionOptions`, `photogrammetry.ReconstructOptions`,
+`shape_completion.CompletionOptions`, `articulation.asset_import.ImportOptions`), nested ones
+included (`options: {sfm: {max_num_features: 8192}}` sets that one field of the sfm options);
+it is checked field by field when the manifest is read (`entries.3.options.sfm...: problem`).
+The fields the entry itself decides (the model's name is its id; a photos entry's
+`marker_size_m`, a completion entry's `camera`) are not options. A swept field is a top-level
+field of the spec, and its values are recorded as the entry's properties.
 """
 
 from __future__ import annotations
@@ -33,7 +39,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from homemodel.core.errors import SpecError
+from homemodel.core.errors import InputError, SpecError
+from homemodel.core.options_data import options_from_dict
 from homemodel.core.yaml_specs import load_yaml_spec
 
 # An entry's id names its folder, its model and its map object: a safe file stem.
@@ -81,6 +88,9 @@ class RepairSpec(_Strict):
     """What `--repair` fills in, stated here so every repair says what it assumed."""
 
     density_kg_m3: float = Field(default=500.0, gt=0)
+    voxel_size_m: float = Field(default=0.01, gt=0)  # open sheets voxel-filled at this size, so this thick
+    default_mass_kg: float = Field(default=1.0, gt=0)  # a link with no surface to measure
+    default_size_m: float = Field(default=0.1, gt=0)
     effort: float = Field(default=10.0, gt=0)
     velocity: float = Field(default=1.0, gt=0)
 
@@ -128,6 +138,50 @@ def _inputs(entry: EntrySpec, folder: Path, manifest: Path, index: int) -> dict[
     return inputs
 
 
+# source -> (module, options class); imported only when an entry of that source sets options.
+OPTIONS_CLASSES = {
+    "spec": ("modeller.build", "BuildOptions"),
+    "turntable": ("turntable.reconstruct", "ReconstructionOptions"),
+    "photos": ("photogrammetry.pipeline", "ReconstructOptions"),
+    "completion": ("shape_completion.model_export", "CompletionOptions"),
+    "urdf": ("articulation.asset_import", "ImportOptions"),
+}
+# Options fields the entry decides: the build sets them, so `options` may not.
+ENTRY_FIELDS = {
+    "name": "the entry's id names the model",
+    "workers": "the database gives each entry one worker process",
+    "camera_path": "set by the entry's `camera`",
+    "map_entry": "add models to a map with `homemodel map add db:ID`",
+}
+
+
+def options_class(source: str) -> type:
+    import importlib
+
+    module, name = OPTIONS_CLASSES[source]
+    return getattr(importlib.import_module(module), name)
+
+
+def _checked_options(entry: EntrySpec, where: str) -> None:
+    """Refuse what the source's options class would not take, field by field (before any
+    build starts), and the fields the entry decides."""
+    for name, why in ENTRY_FIELDS.items():
+        if name in entry.options:
+            raise InputError(f"{where}.{name}: not an option here ({why})")
+    if entry.marker_size_m is not None and "marker_size_m" in entry.options:
+        raise InputError(f"{where}.marker_size_m: given twice (the entry's marker_size_m and its options')")
+    options_from_dict(options_class(entry.source), entry.options, where=where)
+
+
+def _options_with_paths(entry: EntrySpec, folder: Path) -> dict[str, Any]:
+    """The entry's options with an import's package paths made absolute (relative to the
+    manifest's folder, as every path in it is)."""
+    options = dict(entry.options)
+    if entry.source == "urdf" and isinstance(options.get("package_paths"), list):
+        options["package_paths"] = [str((folder / p).resolve()) for p in options["package_paths"]]
+    return options
+
+
 def _sweep_combinations(sweep: dict[str, list[Any]]) -> list[dict[str, Any]]:
     names = sorted(sweep)
     return [dict(zip(names, values)) for values in itertools.product(*(sweep[n] for n in names))]
@@ -147,6 +201,11 @@ def load_manifest(path: Path) -> tuple[list[Job], RepairSpec]:
     jobs: list[Job] = []
     for index, entry in enumerate(spec.entries):
         inputs = _inputs(entry, folder, path, index)
+        if entry.options:
+            try:
+                _checked_options(entry, f"entries.{index}.options")
+            except InputError as exc:
+                raise SpecError(f"{path}: {exc}") from None
         combinations = _sweep_combinations(entry.sweep) if entry.sweep else [{}]
         if len(jobs) + len(combinations) > MAX_SWEEP_ENTRIES:
             raise SpecError(f"{path}: entries.{index}.sweep: over {MAX_SWEEP_ENTRIES} entries in one manifest")
@@ -156,7 +215,7 @@ def load_manifest(path: Path) -> tuple[list[Job], RepairSpec]:
                     id=f"{entry.id}_{n}" if entry.sweep else entry.id,
                     source=entry.source,
                     inputs=inputs,
-                    options=dict(entry.options),
+                    options=_options_with_paths(entry, folder),
                     overrides=overrides,
                     marker_size_m=entry.marker_size_m,
                     repair=entry.repair,
