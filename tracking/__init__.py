@@ -5,3 +5,7 @@ observation from the map, with a structured-light sensor's noise.
 `HomeScene` and `Renderer` (`tracking.scene`) pose and ray-cast the map's models;
 `simulate_view` writes an observation folder with its truth.
 """
+
+from tracking.observe import ObserveOptions, ObserveResult, observe, write_observed
+
+__all__ = ["ObserveOptions", "ObserveResult", "observe", "write_observed"]

@@ -1,0 +1,277 @@
+"""Small objects looked for on the surfaces of the large objects in view.
+
+Once the large objects are fitted, the observed points the rendered scene does not explain
+(in front of it by more than the tolerance) and that stand on an upward surface of a large
+object in view are clustered. Each small object whose parent is in view is first looked for
+in the clusters on its parent near its map pose, then, if not there, in any other cluster
+(it has moved: the cup from the table to the worktop). A candidate is its own model placed
+on the cluster's surface, tried at several yaws, each refined by ICP in x, y and yaw; it is
+accepted only if the model explains most of its visible pixels and of the cluster's points.
+Otherwise the object is "not found" (its map place is in view and empty) or "not seen" (that
+place is out of view or covered), never guessed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from homemodel.core.checks import require_between, require_positive
+from semantic_map.nodes import SmallObject
+from tracking.fit_pose import fit_quality, icp_correction
+from tracking.fit_state import FitState
+from tracking.fit_view import FitView
+from tracking.report import SmallObjectReport
+
+
+@dataclass(kw_only=True)
+class SmallObjectSearch:
+    """How small objects are looked for."""
+
+    search_radius_m: float = 0.5  # around the map pose, on the parent: the object has not moved
+    yaw_candidates: int = 12
+    cluster_gap_m: float = 0.02  # points closer than this belong to one cluster
+    min_cluster_points: int = 15  # full-resolution points
+    min_explained: float = 0.6  # of the model's visible pixels, observed where it renders them
+    min_cluster_explained: float = 0.5  # of the cluster's points, within the tolerance of the model
+    gates_m: tuple[float, ...] = (0.05, 0.03, 0.015)
+
+    def check(self) -> None:
+        for name in ("search_radius_m", "yaw_candidates", "cluster_gap_m", "min_cluster_points"):
+            require_positive(name, getattr(self, name))
+        for name in ("min_explained", "min_cluster_explained"):
+            require_between(name, getattr(self, name), 0.0, 1.0)
+
+
+@dataclass(kw_only=True)
+class _Cluster:
+    points: np.ndarray  # (N, 3) map frame
+    owner: str  # the large object whose surface it stands on
+    height_m: float  # of that surface, map frame
+    relation: str  # "on" its top, "in" it (a shelf)
+    used: bool = False
+
+    @property
+    def centre_xy(self) -> np.ndarray:
+        return self.points[:, :2].mean(axis=0)
+
+
+@dataclass(kw_only=True)
+class _Candidate:
+    map_from_object: np.ndarray
+    explained: float
+    cluster_explained: float
+    rmse_m: float
+
+
+def find_small_objects(
+    state: FitState, full: FitView, fine: FitView, in_view: list[str], search: SmallObjectSearch
+) -> list[SmallObjectReport]:
+    """A report for each small object whose parent is in view; found ones get their pose in
+    `state`."""
+    smalls = [
+        obj for obj in state.scene.objects.values()
+        if isinstance(obj.node, SmallObject) and obj.node.parent in in_view
+    ]
+    if not smalls:
+        return []
+    poses = state.map_from_parts()
+    context = state.renderer.render(poses, full.camera, full.map_from_camera, only=state.context_parts)
+    scene_depth = np.where(context.hit, context.depth_m, np.inf)
+    clusters = _clusters(state, full, scene_depth, in_view, search)
+    reports: dict[str, SmallObjectReport] = {}
+    # Where the map has them first, for all of them; then the moved ones anywhere else.
+    for moved in (False, True):
+        for obj in smalls:
+            if obj.id in reports:
+                continue
+            home = state.map_from_objects[obj.id][:2, 3]
+            choices = [
+                c for c in clusters
+                if not c.used and (c.owner == obj.node.parent and np.linalg.norm(c.centre_xy - home) < search.search_radius_m) != moved
+            ]
+            choices.sort(key=lambda c: np.linalg.norm(c.centre_xy - home))
+            for cluster in choices:
+                candidate = _fit_on_cluster(state, full, scene_depth, obj.id, cluster, search)
+                if candidate is None:
+                    continue
+                cluster.used = True
+                state.map_from_objects[obj.id] = candidate.map_from_object
+                parent_from_object = np.linalg.inv(state.map_from_objects[cluster.owner]) @ candidate.map_from_object
+                reports[obj.id] = SmallObjectReport(
+                    id=obj.id, status="found", parent=cluster.owner, previous_parent=obj.node.parent,
+                    relation=cluster.relation if cluster.owner != obj.node.parent else obj.node.relation,
+                    map_from_object=candidate.map_from_object, parent_from_object=parent_from_object,
+                    inlier_fraction=candidate.explained, rmse_m=candidate.rmse_m,
+                )
+                break
+    for obj in smalls:
+        if obj.id not in reports:
+            status = "not found" if _place_in_view(state, full, scene_depth, obj.id, search) else "not seen"
+            reports[obj.id] = SmallObjectReport(id=obj.id, status=status, parent=obj.node.parent,
+                                                previous_parent=obj.node.parent, relation=obj.node.relation)
+    return [reports[obj.id] for obj in smalls]
+
+
+def _render_object(state: FitState, view: FitView, object_id: str, map_from_object: np.ndarray):
+    saved = state.map_from_objects[object_id]
+    state.map_from_objects[object_id] = map_from_object
+    try:
+        return state.renderer.render(
+            state.map_from_parts(), view.camera, view.map_from_camera, only=state.object_parts(object_id)
+        )
+    finally:
+        state.map_from_objects[object_id] = saved
+
+
+def _upward_faces(state: FitState, object_id: str) -> tuple[np.ndarray, float]:
+    """(F, 3, 3) map-frame triangles of the object's upward surfaces at its estimates, and its top height."""
+    poses = state.map_from_parts()
+    triangles, top = [], -np.inf
+    for i in state.object_parts(object_id):
+        part = state.scene.parts[i]
+        vertices = part.vertices_link @ poses[i][:3, :3].T + poses[i][:3, 3]
+        tri = vertices[part.faces]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        length = np.linalg.norm(normal, axis=1)
+        up = (length > 1e-12) & (normal[:, 2] > 0.97 * np.maximum(length, 1e-12))
+        triangles.append(tri[up])
+        top = max(top, float(vertices[:, 2].max()))
+    return np.concatenate(triangles) if triangles else np.empty((0, 3, 3)), top
+
+
+def _under(points_xy: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(N, F) whether each point lies over each triangle (in x, y)."""
+    a, b, c = (triangles[None, :, k, :2] for k in range(3))
+    p = points_xy[:, None, :]
+
+    def side(u, v, w):
+        return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
+
+    d1, d2, d3 = side(a, b, p), side(b, c, p), side(c, a, p)
+    negative = (d1 < 0) | (d2 < 0) | (d3 < 0)
+    positive = (d1 > 0) | (d2 > 0) | (d3 > 0)
+    return ~(negative & positive)
+
+
+def _clusters(
+    state: FitState, view: FitView, scene_depth: np.ndarray, in_view: list[str], search: SmallObjectSearch
+) -> list[_Cluster]:
+    """Clusters of unexplained points standing on an upward surface of an object in view."""
+    import open3d as o3d
+
+    with np.errstate(invalid="ignore"):
+        unexplained = view.valid & (view.depth_m < scene_depth - view.tolerance_m)
+    points = view.points_map(view.depth_m, unexplained)
+    if len(points) < search.min_cluster_points:
+        return []
+    clusters: list[_Cluster] = []
+    for owner in in_view:
+        triangles, top = _upward_faces(state, owner)
+        if not len(triangles):
+            continue
+        heights = triangles[:, :, 2].mean(axis=1)
+        above = (points[:, 2:3] - heights[None, :] > 0.003) & (points[:, 2:3] - heights[None, :] < 0.35)
+        over = _under(points[:, :2], triangles) & above
+        # Each point stands on the highest surface beneath it.
+        support = np.where(over, heights[None, :], -np.inf).max(axis=1)
+        on = np.isfinite(support)
+        for height in np.unique(np.round(support[on], 3)):
+            chosen = points[on & (np.abs(support - height) < 0.0015)]
+            if len(chosen) < search.min_cluster_points:
+                continue
+            cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(chosen))
+            labels = np.asarray(cloud.cluster_dbscan(eps=search.cluster_gap_m, min_points=4))
+            for label in range(labels.max() + 1 if len(labels) else 0):
+                member = chosen[labels == label]
+                if len(member) >= search.min_cluster_points:
+                    relation = "on" if height >= top - 0.01 else "in"
+                    clusters.append(_Cluster(points=member, owner=owner, height_m=float(height), relation=relation))
+    return clusters
+
+
+def _planar_pose(x: float, y: float, z: float, yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    pose = np.eye(4)
+    pose[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    pose[:3, 3] = (x, y, z)
+    return pose
+
+
+def _fit_on_cluster(
+    state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, cluster: _Cluster, search: SmallObjectSearch
+) -> _Candidate | None:
+    """The object on the cluster's surface at its best yaw, or None when no yaw explains it."""
+    # The camera sees the near side: start the centre half a footprint beyond the points' centroid.
+    model_xy = state.scene.object(object_id).model.world_mesh().bounds[:, :2]
+    radius = float(np.linalg.norm(model_xy[1] - model_xy[0])) / 4
+    away = cluster.centre_xy - view.map_from_camera[:2, 3]
+    away /= max(np.linalg.norm(away), 1e-9)
+    start_xy = cluster.centre_xy + radius * away
+    best: _Candidate | None = None
+    for yaw in np.linspace(0, 2 * np.pi, search.yaw_candidates, endpoint=False):
+        pose = _planar_pose(*start_xy, cluster.height_m, yaw)
+        candidate = _refine(state, view, scene_depth, object_id, pose, cluster, search)
+        if candidate is not None and (best is None or candidate.explained > best.explained):
+            best = candidate
+    if best is None or best.explained < search.min_explained or best.cluster_explained < search.min_cluster_explained:
+        return None
+    return best
+
+
+def _refine(
+    state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, pose: np.ndarray, cluster: _Cluster,
+    search: SmallObjectSearch,
+) -> _Candidate | None:
+    rotation = view.map_from_camera[:3, :3]
+    from scipy.spatial import cKDTree
+
+    kernel = view.tolerance_m.min()
+    for gate in search.gates_m:
+        rendering = _render_object(state, view, object_id, pose)
+        visible = rendering.hit & (rendering.depth_m < scene_depth)
+        if visible.sum() < 4:
+            return None
+        kernel = float(np.median(view.tolerance_m[visible]))
+        target = view.points_map(rendering.depth_m, visible)
+        normals = rendering.normals_camera[visible] @ rotation.T
+        distance, _ = cKDTree(target).query(cluster.points)
+        source = cluster.points[distance < gate]
+        if len(source) < 4:
+            return None
+        correction = icp_correction(source, target, normals, gate_m=gate, kernel_m=kernel, planar=True)
+        pose = np.linalg.inv(correction) @ pose
+        pose[2, 3] = cluster.height_m
+    rendering = _render_object(state, view, object_id, pose)
+    visible = rendering.hit & (rendering.depth_m < scene_depth)
+    if not visible.any():
+        return None
+    observed, model, tolerance = view.depth_m[visible], rendering.depth_m[visible], view.tolerance_m[visible]
+    with np.errstate(invalid="ignore"):
+        covered = observed < model - tolerance  # something in front: no evidence either way
+        explained = np.abs(observed - model) < tolerance
+    judged = np.isfinite(observed) & ~covered
+    if judged.sum() < 4:
+        return None
+    target = view.points_map(rendering.depth_m, visible)
+    normals = rendering.normals_camera[visible] @ rotation.T
+    quality = fit_quality(cluster.points, target, normals, np.eye(4), kernel)
+    residual = (observed - model)[judged & explained]
+    return _Candidate(
+        map_from_object=pose,
+        explained=float(explained[judged].mean()),
+        cluster_explained=quality.inlier_fraction,
+        rmse_m=float(np.sqrt(np.mean(residual**2))) if residual.size else float("nan"),
+    )
+
+
+def _place_in_view(state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, search: SmallObjectSearch) -> bool:
+    """Whether the map's place of the object is in the image, in front of the scene and not covered."""
+    rendering = _render_object(state, view, object_id, state.map_from_objects[object_id])
+    visible = rendering.hit & (rendering.depth_m < scene_depth)
+    if visible.sum() < search.min_cluster_points:
+        return False
+    with np.errstate(invalid="ignore"):
+        covered = view.depth_m[visible] < rendering.depth_m[visible] - view.tolerance_m[visible]
+    return bool(np.mean(np.isfinite(view.depth_m[visible]) & ~covered) >= 0.5)

@@ -1,0 +1,168 @@
+"""One joint's position fitted against the model's own rendered depth: a coarse 1-D search
+over the joint's range, then a fine one around the best, each candidate scored by how well
+the scene rendered with the joint there explains the observed depth.
+
+The score is robust to occlusion. It counts only the pixels where the moving part is the
+first surface at some candidate position, and leaves out the pixels where the observation
+lies in front of every surface any candidate renders there: something the map does not hold
+(a person, a chair, a box) covers them, and they say nothing about the joint. At the pixels
+left, the residual (observed minus rendered depth) is truncated at the sensor's tolerance: a
+part rendered where the camera sees through it, or missing where the camera sees it, costs
+the same wherever the mismatch is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracking.fit_state import FitState
+from tracking.fit_view import FitView
+
+
+@dataclass(kw_only=True)
+class JointSearch:
+    """How a joint is searched: the coarse grid's step and the fine grid's step (rad for
+    revolute and continuous joints, m for prismatic ones)."""
+
+    coarse_step: float
+    fine_step: float
+
+
+@dataclass(kw_only=True)
+class JointFit:
+    """A joint's estimate and what supports it."""
+
+    position: float
+    visible_fraction: float  # of the moving part's pixels in the image, those observed and not covered
+    residual_m: float  # RMS of the truncated residual over the part's observed pixels
+    pixels: int  # the part's observed pixels (in the fine view)
+    contrast: float  # how much worse (share of pixels) the best position far from this one scores; NaN for a refit
+
+
+def joint_range(state: FitState, object_id: str, joint: str) -> tuple[float, float]:
+    limits = state.scene.object(object_id).node.joint(joint).limits
+    return (-np.pi, np.pi) if limits is None else (float(limits[0]), float(limits[1]))
+
+
+def fit_joint(
+    state: FitState,
+    views: list[tuple[FitView, np.ndarray]],
+    object_id: str,
+    joint: str,
+    search: JointSearch,
+    *,
+    near: float | None = None,
+) -> JointFit | None:
+    """Fit `joint` of `object_id`, the other joints and the poses at their estimates; sets
+    the estimate in `state`. `views` are the coarse and the fine view, each with the depth
+    of the scene without the object (`FitState.background_depth`). `near`: search only the
+    fine grid around this position (a refit after the pose moved a little). None (state
+    unchanged) when the moving part is nowhere in view."""
+    low, high = joint_range(state, object_id, joint)
+    moving = state.moving_parts(object_id, joint)
+    if not moving:
+        return None
+    (coarse, coarse_background), (fine, fine_background) = views
+    contrast = float("nan")
+    if near is None:
+        coarse_values = _grid(low, high, search.coarse_step)
+        coarse_static = _static_depth(state, coarse, coarse_background, object_id, moving)
+        coarse_costs = _costs(state, coarse, coarse_static, object_id, joint, moving, coarse_values)
+        if coarse_costs is None:
+            return None
+        near = float(coarse_values[int(np.argmin(coarse_costs))])
+        far = np.abs(coarse_values - near) > 2 * search.coarse_step
+        contrast = float(coarse_costs[far].min() - coarse_costs.min()) if far.any() else 0.0
+    fine_values = _grid(max(low, near - search.coarse_step), min(high, near + search.coarse_step), search.fine_step)
+    fine_static = _static_depth(state, fine, fine_background, object_id, moving)
+    fine_costs = _costs(state, fine, fine_static, object_id, joint, moving, fine_values)
+    if fine_costs is None:
+        return None
+    position = float(np.clip(_parabola_minimum(fine_values, fine_costs), low, high))
+    state.joint_positions[object_id][joint] = position
+    support = _support(state, fine, fine_static, object_id, joint, moving, position)
+    return JointFit(position=position, contrast=contrast, **support)
+
+
+def _grid(low: float, high: float, step: float) -> np.ndarray:
+    count = max(int(np.ceil((high - low) / step - 1e-9)), 1) + 1
+    return np.linspace(low, high, count)
+
+
+def _parabola_minimum(values: np.ndarray, costs: np.ndarray) -> float:
+    """The vertex of the parabola through the best grid value and its neighbours."""
+    k = int(np.argmin(costs))
+    if k == 0 or k == len(values) - 1:
+        return float(values[k])
+    c0, c1, c2 = costs[k - 1], costs[k], costs[k + 1]
+    curvature = c0 - 2 * c1 + c2
+    if curvature <= 0:
+        return float(values[k])
+    step = values[k + 1] - values[k]
+    return float(values[k] + 0.5 * step * (c0 - c2) / curvature)
+
+
+def _depth(rendering_depth: np.ndarray) -> np.ndarray:
+    return np.where(rendering_depth > 0, rendering_depth, np.inf)
+
+
+def _static_depth(state: FitState, view: FitView, background: np.ndarray, object_id: str, moving: list[int]) -> np.ndarray:
+    """The scene's depth without the moving part."""
+    others = [i for i in state.object_parts(object_id) if i not in set(moving)]
+    if not others:
+        return background
+    rendering = state.renderer.render(state.map_from_parts(), view.camera, view.map_from_camera, only=others)
+    return np.minimum(background, _depth(rendering.depth_m))
+
+
+def _moving_depths(
+    state: FitState, view: FitView, object_id: str, joint: str, moving: list[int], values: np.ndarray
+) -> np.ndarray:
+    """(len(values), H, W) depth of the moving part alone at each position; inf where it is not hit."""
+    poses = state.map_from_parts()
+    depths = []
+    for value in values:
+        for i, pose in zip(moving, state.part_poses_at(object_id, joint, value, moving)):
+            poses[i] = pose
+        depths.append(_depth(state.renderer.render(poses, view.camera, view.map_from_camera, only=moving).depth_m))
+    return np.stack(depths)
+
+
+def _costs(
+    state: FitState, view: FitView, static: np.ndarray, object_id: str, joint: str, moving: list[int], values: np.ndarray
+) -> np.ndarray | None:
+    """The mean truncated squared residual (0 = every pixel explained, 1 = none) at each value."""
+    stack = _moving_depths(state, view, object_id, joint, moving, values)
+    in_front = stack < static  # the moving part is what the camera would see there
+    considered = in_front.any(axis=0)
+    model = np.minimum(stack, static)[:, considered]
+    observed = view.depth_m[considered]
+    tolerance = view.tolerance_m[considered]
+    nearest = model.min(axis=0)
+    usable = np.isfinite(observed) & (observed >= nearest - tolerance)
+    if not usable.any():
+        return None
+    residual = (observed[usable] - model[:, usable]) / tolerance[usable]
+    with np.errstate(invalid="ignore"):
+        return np.minimum(np.nan_to_num(residual**2, nan=1.0, posinf=1.0), 1.0).mean(axis=1)
+
+
+def _support(
+    state: FitState, view: FitView, static: np.ndarray, object_id: str, joint: str, moving: list[int], position: float
+) -> dict:
+    own = _moving_depths(state, view, object_id, joint, moving, np.array([position]))[0]
+    projected = np.isfinite(own)
+    front = own < static
+    observed = view.depth_m
+    tolerance = view.tolerance_m
+    with np.errstate(invalid="ignore"):
+        seen = front & np.isfinite(observed) & (observed >= own - tolerance)
+        residual = np.where(seen, (observed - own) / tolerance, 0.0)
+    truncated = np.minimum(residual[seen] ** 2, 1.0) * tolerance[seen] ** 2
+    return {
+        "visible_fraction": float(seen.sum() / projected.sum()) if projected.any() else 0.0,
+        "residual_m": float(np.sqrt(truncated.mean())) if seen.any() else float("nan"),
+        "pixels": int(seen.sum()),
+    }

@@ -1,0 +1,72 @@
+"""The observed depth image as the fitters compare it with rendered depth: at a reduced
+resolution (each pixel the median of a block of valid readings, which also averages the
+sensor's noise down), with a per-pixel tolerance that grows with the sensor's axial noise.
+
+A view at `factor` k is seen through `Camera.scaled(1 / k)`, whose pixel centres are the
+blocks' centres, so the scene renders onto it directly.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from homemodel.geometry.camera import Camera
+from tracking.sensor_noise import axial_sigma_m
+
+
+@dataclass(kw_only=True)
+class FitView:
+    """Observed depth on `camera`'s pixels; `depth_m` is NaN where there is no reading."""
+
+    camera: Camera
+    map_from_camera: np.ndarray
+    depth_m: np.ndarray  # (H, W) float64
+    tolerance_m: np.ndarray  # (H, W) float64: a residual beyond it is not noise
+
+    @classmethod
+    def from_depth(
+        cls,
+        camera: Camera,
+        map_from_camera: np.ndarray,
+        depth_m: np.ndarray,
+        *,
+        factor: int,
+        min_tolerance_m: float,
+        tolerance_sigmas: float,
+    ) -> FitView:
+        """The view of a full-resolution depth image (NaN or 0 = no reading) in blocks of
+        `factor` x `factor` pixels; the edge rows and columns that fill no block are dropped."""
+        depth = np.asarray(depth_m, dtype=np.float64)
+        depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
+        if factor > 1:
+            h, w = depth.shape[0] // factor, depth.shape[1] // factor
+            blocks = depth[: h * factor, : w * factor].reshape(h, factor, w, factor).transpose(0, 2, 1, 3)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all-empty blocks stay NaN
+                depth = np.nanmedian(blocks.reshape(h, w, -1), axis=2)
+            camera = _scaled(camera, factor, w, h)
+        tolerance = np.maximum(min_tolerance_m, tolerance_sigmas * axial_sigma_m(np.nan_to_num(depth, nan=0.0)))
+        return cls(camera=camera, map_from_camera=np.asarray(map_from_camera, dtype=np.float64), depth_m=depth,
+                   tolerance_m=tolerance)
+
+    @property
+    def valid(self) -> np.ndarray:
+        return np.isfinite(self.depth_m)
+
+    def points_map(self, depth_m: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """(N, 3) map-frame points of `depth_m` (this view's shape) at the pixels of `mask`."""
+        points = self.camera.depth_to_points(np.where(mask, depth_m, np.nan))
+        return points @ self.map_from_camera[:3, :3].T + self.map_from_camera[:3, 3]
+
+    def directions_map(self, mask: np.ndarray) -> np.ndarray:
+        """(N, 3) rays (z = 1 in the camera) through the pixels of `mask`, in the map frame."""
+        v, u = np.nonzero(mask)
+        return self.camera.rays(np.column_stack([u, v])) @ self.map_from_camera[:3, :3].T
+
+
+def _scaled(camera: Camera, factor: int, width: int, height: int) -> Camera:
+    # Camera.scaled rounds the size; blocks drop the edge pixels that fill no block.
+    return Camera(**{**camera.scaled(1.0 / factor).model_dump(), "width": width, "height": height})

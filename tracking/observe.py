@@ -1,0 +1,324 @@
+"""`observe`: one depth image from the robot's camera, fitted with the map's own models,
+gives the map updated by what the camera saw (D3.1 section 5).
+
+For each large object in view, fixed body first: its pose is refined from its fixed links
+(ICP, `fit_pose`), then each joint is fitted alone against the rendered depth (`fit_joints`),
+parents before children; then the pose again from all its links at the fitted joints, and
+the joints once more. Then the small objects are looked for (`find_small_objects`).
+
+The map changes only where the camera gave evidence: joints seen well enough, small objects
+found, and the pose of each large object refined from enough of its surface. Each change
+keeps the old value in the object's history.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from homemodel.core.checks import require_between, require_positive
+from homemodel.core.errors import InputError
+from homemodel.core.progress import Progress, StageClock
+from homemodel.geometry.camera import Camera
+from semantic_map.hierarchy import SemanticMap
+from semantic_map.nodes import Jointed, LargeObject
+from tracking.find_small_objects import SmallObjectSearch, find_small_objects
+from tracking.fit_joints import JointSearch, fit_joint
+from tracking.fit_pose import refine_pose
+from tracking.fit_state import FitState
+from tracking.fit_view import FitView
+from tracking.report import JointReport, ObjectReport, ObservationReport
+from tracking.scene import HomeScene
+
+
+class Observation(Protocol):
+    """What `observe` reads of an observation (`tracking.observation_files`)."""
+
+    camera: Camera
+    depth_m: np.ndarray  # (H, W) metres; 0 or NaN = no reading
+    map_from_camera: np.ndarray
+
+
+@dataclass(kw_only=True)
+class ObserveOptions:
+    """How hard to look. The views are the depth image in blocks of `coarse_factor` and
+    `fine_factor` pixels (block medians); residuals are truncated at `tolerance_sigmas`
+    times the sensor's axial noise at that depth, never below `min_tolerance_m`."""
+
+    coarse_factor: int = 4
+    fine_factor: int = 2
+    min_tolerance_m: float = 0.01
+    tolerance_sigmas: float = 3.0
+    min_object_pixels: int = 40  # observed pixels of the coarse view for an object to be in view
+    pose_gates_m: tuple[float, ...] = (0.08, 0.04, 0.025)
+    min_pose_points: int = 150  # fine-view points for a pose refinement
+    min_pose_inliers: float = 0.5  # of those, the share the refined pose must explain
+    revolute_coarse_step_deg: float = 4.0
+    revolute_fine_step_deg: float = 1.0
+    prismatic_coarse_step_m: float = 0.015
+    prismatic_fine_step_m: float = 0.003
+    min_visible_fraction: float = 0.15  # of a moving part, to fit its joint
+    min_joint_pixels: int = 12  # fine-view pixels of a moving part, to fit its joint
+    min_contrast: float = 0.02  # share of pixels a far-off position must score worse by
+    small_objects: SmallObjectSearch = field(default_factory=SmallObjectSearch)
+
+    def check(self) -> None:
+        for name in ("coarse_factor", "fine_factor"):
+            require_between(name, getattr(self, name), 1, 16)
+        for name in (
+            "min_tolerance_m", "tolerance_sigmas", "revolute_coarse_step_deg", "revolute_fine_step_deg",
+            "prismatic_coarse_step_m", "prismatic_fine_step_m", "min_object_pixels", "min_pose_points",
+            "min_joint_pixels",
+        ):
+            require_positive(name, getattr(self, name))
+        if not self.pose_gates_m or any(not g > 0 for g in self.pose_gates_m):
+            raise InputError(f"pose_gates_m: {self.pose_gates_m!r} must be one or more positive distances")
+        for name in ("min_pose_inliers", "min_visible_fraction", "min_contrast"):
+            require_between(name, getattr(self, name), 0.0, 1.0)
+        self.small_objects.check()
+
+    def search(self, joint_type: str) -> JointSearch:
+        if joint_type == "prismatic":
+            return JointSearch(coarse_step=self.prismatic_coarse_step_m, fine_step=self.prismatic_fine_step_m)
+        return JointSearch(
+            coarse_step=np.radians(self.revolute_coarse_step_deg), fine_step=np.radians(self.revolute_fine_step_deg)
+        )
+
+
+@dataclass(kw_only=True)
+class ObserveResult:
+    """The updated map (the input map when nothing was seen) and the report."""
+
+    smap: SemanticMap
+    report: ObservationReport
+
+
+def observe(
+    map: Path | HomeScene,
+    observation: Path | Observation,
+    options: ObserveOptions | None = None,
+    *,
+    progress: Progress | None = None,
+    time: datetime | None = None,
+) -> ObserveResult:
+    """Fit the map's models (a map file, or its loaded `HomeScene`) to one observation (an
+    observation folder, or one read) and return the updated map and the report; `time`
+    (default now, UTC) stamps the history records of what changed. Nothing is written."""
+    options = options or ObserveOptions()
+    options.check()
+    clock = StageClock(progress)
+    clock.start("read")
+    name, observation = _read(observation)
+    scene = map if isinstance(map, HomeScene) else HomeScene.load(Path(map))
+    depth = np.asarray(observation.depth_m, dtype=np.float64)
+    if not (np.isfinite(depth) & (depth > 0)).any():
+        clock.stop()
+        return ObserveResult(smap=scene.smap, report=ObservationReport(observation=name, nothing_seen=True, times_s=clock.times_s))
+
+    state = FitState.start(scene)
+    views = {
+        factor: FitView.from_depth(
+            observation.camera, observation.map_from_camera, depth, factor=factor,
+            min_tolerance_m=options.min_tolerance_m, tolerance_sigmas=options.tolerance_sigmas,
+        )
+        for factor in {options.coarse_factor, options.fine_factor, 1}
+    }
+    coarse, fine = views[options.coarse_factor], views[options.fine_factor]
+    in_view = _objects_in_view(state, coarse, options)
+    reports: list[ObjectReport] = []
+    clock.start("large objects", len(in_view))
+    for done, (object_id, pixels) in enumerate(in_view.items()):
+        reports.append(_fit_large_object(state, coarse, fine, object_id, pixels, options))
+        clock.tick(done + 1, len(in_view))
+    clock.start("small objects")
+    small = find_small_objects(state, views[1], fine, [r.id for r in reports], options.small_objects)
+    for report in reports:
+        report.small_objects = [s for s in small if s.parent == report.id or s.previous_parent == report.id]
+    clock.stop()
+    smap = _updated_map(scene, state, reports, time or datetime.now(timezone.utc))
+    return ObserveResult(smap=smap, report=ObservationReport(observation=name, nothing_seen=False, objects=reports,
+                                                             times_s=clock.times_s))
+
+
+def _read(observation: Path | Observation) -> tuple[str, Observation]:
+    if isinstance(observation, str | Path):
+        from tracking.observation_files import read_observation
+
+        return str(observation), read_observation(Path(observation))
+    return "(in memory)", observation
+
+
+def _objects_in_view(state: FitState, view: FitView, options: ObserveOptions) -> dict[str, int]:
+    """Large objects with enough observed pixels where the map puts them first, with those counts."""
+    rendering = state.renderer.render(state.map_from_parts(), view.camera, view.map_from_camera, only=state.context_parts)
+    owner = np.array([p.object_id or "" for p in state.scene.parts], dtype=object)
+    seen = rendering.hit & view.valid
+    ids, counts = np.unique(owner[rendering.part_index[seen]], return_counts=True)
+    return {str(i): int(c) for i, c in zip(ids, counts) if i and c >= options.min_object_pixels}
+
+
+def _upright(map_from_object: np.ndarray) -> bool:
+    return bool(map_from_object[2, 2] > np.cos(np.radians(1.0)))
+
+
+def _fit_large_object(
+    state: FitState, coarse: FitView, fine: FitView, object_id: str, pixels: int, options: ObserveOptions
+) -> ObjectReport:
+    start = time.perf_counter()
+    obj = state.scene.object(object_id)
+    previous_pose = state.map_from_objects[object_id].copy()
+    previous_joints = dict(state.joint_positions[object_id])
+    planar = _upright(previous_pose)
+    kernel = _kernel_m(state, fine, object_id, options)
+    pose_kwargs = dict(gates_m=options.pose_gates_m, kernel_m=kernel, min_points=options.min_pose_points, planar=planar)
+    background = state.background_depth(fine, object_id)
+    joint_views = [(coarse, state.background_depth(coarse, object_id)), (fine, background)]
+    fixed = state.object_parts(object_id, fixed_only=True)
+    fit = refine_pose(state, fine, object_id, fixed, background, **pose_kwargs)
+    joints = _joint_order(state, object_id)
+    results = {joint: _fit_one_joint(state, joint_views, object_id, joint, options) for joint in joints}
+    if joints:
+        # Again with every part at its fitted position (the moving parts constrain the pose
+        # too), then the fitted joints once more, near where they are.
+        fit = refine_pose(state, fine, object_id, state.object_parts(object_id), background, **pose_kwargs) or fit
+        for joint in joints:
+            if results[joint][0] == "fitted":
+                results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=True)
+    refined = fit is not None and fit.inlier_fraction >= options.min_pose_inliers
+    if not refined:
+        state.map_from_objects[object_id] = previous_pose
+    report = ObjectReport(
+        id=object_id,
+        type=obj.node.type,
+        pixels=pixels,
+        map_from_object=state.map_from_objects[object_id].copy(),
+        previous_map_from_object=previous_pose,
+        pose_refined=refined,
+        pose_inlier_fraction=fit.inlier_fraction if fit else 0.0,
+        pose_rmse_m=fit.rmse_m if fit else float("nan"),
+    )
+    for joint in joints:
+        fitted = results[joint]
+        node_joint = obj.node.joint(joint)
+        report.joints.append(
+            JointReport(
+                name=joint,
+                type=node_joint.type,
+                status=fitted[0],
+                position=state.joint_positions[object_id][joint],
+                previous=previous_joints[joint],
+                **fitted[1],
+            )
+        )
+    report.seconds = time.perf_counter() - start
+    return report
+
+
+def _kernel_m(state: FitState, view: FitView, object_id: str, options: ObserveOptions) -> float:
+    """The robust kernel's width for an object: the tolerance at its median observed depth."""
+    rendering = state.renderer.render(
+        state.map_from_parts(), view.camera, view.map_from_camera, only=state.object_parts(object_id)
+    )
+    tolerance = view.tolerance_m[rendering.hit & view.valid]
+    return float(np.median(tolerance)) if tolerance.size else options.min_tolerance_m
+
+
+def _joint_order(state: FitState, object_id: str) -> list[str]:
+    """The object's movable joints, each after the joints that carry it."""
+    obj = state.scene.object(object_id)
+    if not isinstance(obj.node, Jointed):
+        return []
+    model = obj.model
+    parent_joint = {j.child: j for j in model.joints}
+
+    def depth(joint_name: str) -> int:
+        link, count = model.joint(joint_name).parent, 0
+        while link in parent_joint:
+            link, count = parent_joint[link].parent, count + 1
+        return count
+
+    names = [j.name for j in obj.node.joints]
+    return sorted(names, key=depth)
+
+
+def _fit_one_joint(
+    state: FitState,
+    views: list[tuple[FitView, np.ndarray]],
+    object_id: str,
+    joint: str,
+    options: ObserveOptions,
+    *,
+    refit: bool = False,
+) -> tuple[str, dict]:
+    """(status, support figures); the estimate stays in `state` only when fitted. A `refit`
+    searches near the current estimate only."""
+    before = state.joint_positions[object_id][joint]
+    joint_type = state.scene.object(object_id).node.joint(joint).type
+    fit = fit_joint(state, views, object_id, joint, options.search(joint_type), near=before if refit else None)
+    if fit is None:
+        return "not seen", {}
+    support = {"visible_fraction": fit.visible_fraction, "residual_m": fit.residual_m, "pixels": fit.pixels}
+    status = "fitted"
+    if fit.visible_fraction < options.min_visible_fraction or fit.pixels < options.min_joint_pixels:
+        status = "not seen"
+    elif not refit and fit.contrast < options.min_contrast:
+        status = "ambiguous"
+    if status != "fitted":
+        state.joint_positions[object_id][joint] = before
+    return status, support
+
+
+def _updated_map(scene: HomeScene, state: FitState, reports: list[ObjectReport], at: datetime) -> SemanticMap:
+    """The map with what was seen: refined large-object poses, fitted joints, found small objects."""
+    smap = scene.smap
+    for report in reports:
+        if report.pose_refined:
+            smap.update_pose(report.id, report.map_from_object, at)
+        for joint in report.joints:
+            if joint.status == "fitted" and joint.position != joint.previous:
+                node = smap.node(report.id)
+                assert isinstance(node, LargeObject) and isinstance(node, Jointed)
+                smap.set_joint_state(report.id, joint.name, float(np.clip(joint.position, *_limits(node, joint.name))), at)
+        for small in report.small_objects:
+            if small.status != "found" or small.previous_parent != report.id:
+                continue
+            if small.parent == small.previous_parent:
+                smap.update_pose(small.id, small.parent_from_object, at)
+            else:
+                smap.move_object(small.id, parent_id=small.parent, relation=small.relation,
+                                 parent_from_object=small.parent_from_object, time=at)
+    return smap
+
+
+def _limits(node: Jointed, joint: str) -> tuple[float, float]:
+    limits = node.joint(joint).limits
+    return (-np.pi, np.pi) if limits is None else limits
+
+
+def write_observed(
+    result: ObserveResult, map_path: Path, out_path: Path, report_path: Path | None = None, *, force: bool = False
+) -> None:
+    """Save the updated map as `out_path` (atomically; an existing file only with `force`),
+    its model references rewritten relative to the new file's folder, and the report JSON."""
+    import os
+
+    from homemodel.core.atomic import write_json
+    from homemodel.core.errors import OutputExistsError
+    from semantic_map.xml_io import save_map
+
+    out_path, map_path = Path(out_path), Path(map_path)
+    for path in (out_path, report_path):
+        if path is not None and path.exists() and not force:
+            raise OutputExistsError(f"{path}: exists (use --force to replace it)")
+    for node in result.smap.objects():
+        if node.model_ref is not None:
+            model = (map_path.parent / node.model_ref).resolve()
+            node.model_ref = Path(os.path.relpath(model, out_path.resolve().parent)).as_posix()
+    save_map(result.smap, out_path)
+    if report_path is not None:
+        write_json(Path(report_path), result.report.to_json())
