@@ -24,7 +24,7 @@ from articulation.gate.clients import find_check_urdf
 from articulation.gate.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
-RULE_CHECKS = ["kinematic tree", "joint limits", "joint axes", "inertials", "meshes", "mesh geometry"]
+RULE_CHECKS = ["kinematic tree", "finite numbers", "joint limits", "joint axes", "inertials", "meshes", "mesh geometry"]
 URDF_CHECKS = ["safe XML", *RULE_CHECKS, "check_urdf", "yourdfpy", "pybullet", "collisions", "physics"]
 GLTF_CHECKS = ["glTF validator", "glTF joints"]
 

@@ -1,0 +1,231 @@
+"""Real assets imported whole: a PartNet-Mobility folder with the real ones' traits (open
+sheets, many OBJ parts per link, y up, no inertials), a ROS description package with
+`package://` STL and DAE meshes, and a glb of a small object; masses from closed volumes,
+never NaN, every repair stated, the gate passed; the gate refuses NaN and infinity."""
+
+from __future__ import annotations
+
+import io
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from articulation.asset_import import ImportOptions, import_asset
+from articulation.export import write_model_files
+from articulation.gate import validate_path
+from articulation.repair import RepairOptions, repair
+from homemodel.core.errors import InputError
+from partnet_sample import REAL_D, REAL_H, REAL_W, write_partnet_real_traits
+
+DENSITY = 500.0
+VOXEL_M = 0.01
+
+
+@pytest.fixture(scope="module")
+def partnet_built(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("partnet_real")
+    sheets = write_partnet_real_traits(folder / "asset")
+    imported = import_asset(folder / "asset")
+    model, done = repair(imported.model, imported.gaps, RepairOptions(density_kg_m3=DENSITY, voxel_size_m=VOXEL_M))
+    write_model_files(model, folder / "out")
+    return sheets, imported, model, done, folder / "out"
+
+
+def test_partnet_masses_come_from_voxel_filled_sheets_not_their_hulls(partnet_built) -> None:
+    sheets, imported, model, done, _ = partnet_built
+    assert imported.kind == "partnet" and imported.gaps.links_without_inertial == ["link_0", "link_1", "link_2"]
+    masses = {link.name: link.inertial.mass_kg for link in model.links if link.inertial is not None}
+    # The body: open sheets one voxel thick (area x 10 mm x density, within the voxels' staircase),
+    # about a tenth of what its convex hull (the cavity included) would weigh.
+    body_area = sum(s.area for s in sheets["link_2"])
+    assert 0.9 <= masses["link_2"] / (body_area * VOXEL_M * DENSITY) <= 1.6, masses
+    assert masses["link_2"] < 0.15 * REAL_W * REAL_H * REAL_D * DENSITY
+    # The door: six separate sheets that close a panel: the voxel fill fills it (20 x 700 x 900 mm).
+    door_solid = 0.02 * REAL_H / 2 * REAL_W * DENSITY
+    assert 0.9 <= masses["link_1"] / door_solid <= 1.8, masses
+    for link in model.links:
+        if link.inertial is not None:
+            assert np.all(np.isfinite(link.inertial.com_m)) and np.all(np.isfinite(link.inertial.inertia_kgm2))
+            assert np.all(np.linalg.eigvalsh(link.inertial.inertia_kgm2) > 0)
+    # Every repair is stated with its method and density.
+    said = "\n".join(done)
+    assert said.count("voxel fill of its open meshes at 10 mm") == 3 and said.count("at 500 kg/m^3") == 3
+    assert "flat collision mesh(es)" in said and "joint 'joint_0': effort set to 10, velocity set to 1" in said
+
+
+def test_partnet_import_keeps_its_shape_frame_and_textures(partnet_built) -> None:
+    _, imported, model, _, _ = partnet_built
+    low, high = model.world_mesh().bounds
+    assert low[2] == pytest.approx(0.0, abs=1e-9) and high[2] - low[2] == pytest.approx(REAL_H, abs=1e-6)  # y up -> z up
+    # The drawer opens out of the front (+x), its full travel, and stays level.
+    drawer = model.joint("joint_0")
+    closed = model.world_from_links()["link_0"][:3, 3]
+    opened = model.world_from_links({"joint_0": drawer.limits.upper})["link_0"][:3, 3]
+    np.testing.assert_allclose(opened - closed, [drawer.limits.upper, 0, 0], atol=1e-9)
+    # Many parts per link, several sharing one visual name; the MTL's ../images texture found.
+    door = model.link("link_1")
+    assert len(door.visuals) == 6 and all(v.material.texture is not None for v in door.visuals)
+    assert door.visuals[0].material.texture.parent.name == "images"
+
+
+def test_partnet_repaired_model_passes_the_gate_with_no_nan(partnet_built) -> None:
+    *_, out = partnet_built
+    text = (out / "model.urdf").read_text()
+    assert not re.search(r"nan|inf", text, re.IGNORECASE)
+    report = validate_path(out)
+    assert report.ok, report.format()
+
+
+def _write_dae(path: Path, mesh: trimesh.Trimesh, *, unit_m: float, node_xyz: tuple[float, float, float]) -> None:
+    """A COLLADA file with one node placing `mesh` (in units of `unit_m`) at `node_xyz`."""
+    positions = " ".join(f"{v:.6f}" for v in mesh.vertices.ravel())
+    indices = " ".join(str(i) for i in mesh.faces.ravel())
+    x, y, z = node_xyz
+    path.write_text(f"""<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="unit" meter="{unit_m}"/><up_axis>Y_UP</up_axis></asset>
+  <library_geometries><geometry id="g" name="part"><mesh>
+    <source id="p"><float_array id="pa" count="{mesh.vertices.size}">{positions}</float_array>
+      <technique_common><accessor source="#pa" count="{len(mesh.vertices)}" stride="3">
+        <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+      </accessor></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <triangles count="{len(mesh.faces)}"><input semantic="VERTEX" source="#v" offset="0"/><p>{indices}</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s"><node id="n" name="n">
+    <matrix>1 0 0 {x} 0 1 0 {y} 0 0 1 {z} 0 0 0 1</matrix>
+    <instance_geometry url="#g"/>
+  </node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>
+""")
+
+
+def _package(root: Path, name: str) -> Path:
+    folder = root / name
+    (folder / "meshes").mkdir(parents=True)
+    (folder / "package.xml").write_text(f'<?xml version="1.0"?><package format="3"><name>{name}</name><version>1.0.0</version></package>')
+    return folder
+
+
+@pytest.fixture()
+def ros_workspace(tmp_path: Path) -> Path:
+    """src/arm_description (urdf/arm.urdf, meshes/base.stl, meshes/arm.dae in millimetres) and
+    src/shared_meshes (meshes/knob.dae), which the URDF names by package://."""
+    src = tmp_path / "ws" / "src"
+    arm = _package(src, "arm_description")
+    shared = _package(src, "shared_meshes")
+    trimesh.creation.box(extents=(0.4, 0.4, 0.1)).export(arm / "meshes" / "base.stl")
+    _write_dae(arm / "meshes" / "arm.dae", trimesh.creation.box(extents=(50.0, 50.0, 300.0)), unit_m=0.001, node_xyz=(0, 0, 150.0))
+    _write_dae(shared / "meshes" / "knob.dae", trimesh.creation.icosphere(radius=0.03), unit_m=1.0, node_xyz=(0, 0, 0))
+    (arm / "urdf").mkdir()
+    mesh = '<geometry><mesh filename="package://{0}"/></geometry>'
+    (arm / "urdf" / "arm.urdf").write_text(f"""<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base_link">
+    <visual>{mesh.format("arm_description/meshes/base.stl")}</visual>
+    <collision>{mesh.format("arm_description/meshes/base.stl")}</collision>
+    <inertial><mass value="2.0"/><inertia ixx="0.03" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.05"/></inertial>
+  </link>
+  <link name="arm_link">
+    <visual>{mesh.format("arm_description/meshes/arm.dae")}</visual>
+    <visual><origin xyz="0 0 0.33"/>{mesh.format("shared_meshes/meshes/knob.dae")}</visual>
+    <collision>{mesh.format("arm_description/meshes/arm.dae")}</collision>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <origin xyz="0 0 0.05"/><axis xyz="0 0 1"/>
+    <parent link="base_link"/><child link="arm_link"/>
+    <limit lower="-1.5" upper="1.5" effort="5" velocity="1"/>
+  </joint>
+</robot>
+""")
+    return src
+
+
+def test_a_ros_package_imports_with_package_uris_dae_units_and_node_transforms(ros_workspace: Path, tmp_path: Path) -> None:
+    urdf = ros_workspace / "arm_description" / "urdf" / "arm.urdf"
+    with pytest.raises(InputError, match=r"arm\.urdf: line \d+: mesh 'package://shared_meshes/meshes/knob\.dae': .*cannot be resolved"):
+        import_asset(urdf)  # shared_meshes is another package: not found without a package path
+    imported = import_asset(urdf, ImportOptions(package_paths=[ros_workspace]))
+    arm = imported.model.link("arm_link")
+    dae = arm.visuals[0].mesh
+    # 50 x 50 x 300 mm, its node 150 mm up: in metres, from z = 0 to 0.3 (RViz's reading).
+    np.testing.assert_allclose(dae.bounds, [[-0.025, -0.025, 0.0], [0.025, 0.025, 0.3]], atol=1e-9)
+    assert arm.visuals[1].mesh.extents == pytest.approx([0.06, 0.06, 0.06], rel=0.05)
+    assert imported.gaps.links_without_inertial == ["arm_link"]
+    model, done = repair(imported.model, imported.gaps, RepairOptions(density_kg_m3=1000.0))
+    arm_mass = model.link("arm_link").inertial.mass_kg
+    volume = 0.05 * 0.05 * 0.3 + 4 / 3 * np.pi * 0.03**3  # closed meshes: their own volume
+    assert arm_mass == pytest.approx(1000.0 * volume, rel=0.02)
+    assert "closed meshes' volume" in done[0]
+    write_model_files(model, tmp_path / "out")
+    report = validate_path(tmp_path / "out")
+    assert report.ok, report.format()
+
+
+def test_package_uris_stay_inside_their_package(ros_workspace: Path, tmp_path: Path) -> None:
+    urdf = ros_workspace / "arm_description" / "urdf" / "arm.urdf"
+    (tmp_path / "secret.stl").write_bytes((ros_workspace / "arm_description" / "meshes" / "base.stl").read_bytes())
+    text = urdf.read_text().replace("package://arm_description/meshes/base.stl", "package://arm_description/../../../secret.stl")
+    urdf.write_text(text)
+    with pytest.raises(InputError, match="cannot be resolved"):
+        import_asset(urdf, ImportOptions(package_paths=[ros_workspace]))
+
+
+def test_a_dae_with_a_doctype_is_refused_before_pycollada_reads_it(ros_workspace: Path) -> None:
+    dae = ros_workspace / "shared_meshes" / "meshes" / "knob.dae"
+    dae.write_text(dae.read_text().replace('<?xml version="1.0" encoding="utf-8"?>', '<?xml version="1.0"?><!DOCTYPE c [<!ENTITY x SYSTEM "file:///etc/passwd">]>'))
+    with pytest.raises(InputError, match="knob.dae"):
+        import_asset(ros_workspace / "arm_description" / "urdf" / "arm.urdf", ImportOptions(package_paths=[ros_workspace]))
+
+
+def test_a_glb_of_a_small_object_is_a_one_link_model_on_the_floor(tmp_path: Path) -> None:
+    # A mug-sized cylinder, 10 cm tall along glTF's +y, coloured, off the origin.
+    cup = trimesh.creation.cylinder(radius=0.04, height=0.1, sections=48)
+    cup.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]))  # z -> y
+    cup.apply_translation((0.3, 0.5, -0.2))
+    cup.visual = trimesh.visual.ColorVisuals(cup, face_colors=[30, 60, 200, 255])
+    glb = tmp_path / "blue cup.glb"  # a space in the name, as downloaded files have
+    glb.write_bytes(trimesh.Scene(cup).export(file_type="glb"))
+    imported = import_asset(glb, texture_dir=tmp_path)
+    assert imported.kind == "mesh" and [link.name for link in imported.model.links] == ["body"]
+    low, high = imported.model.world_mesh().bounds
+    np.testing.assert_allclose(low, [-0.04, -0.04, 0.0], atol=1e-3)
+    np.testing.assert_allclose(high, [0.04, 0.04, 0.1], atol=1e-3)
+    model, done = repair(imported.model, imported.gaps, RepairOptions(density_kg_m3=700.0))
+    assert model.link("body").inertial.mass_kg == pytest.approx(700.0 * cup.volume, rel=1e-6)
+    np.testing.assert_allclose(model.link("body").inertial.com_m, [0, 0, 0.05], atol=1e-6)
+    assert "closed meshes' volume" in done[0] and "700 kg/m^3" in done[0]
+    write_model_files(model, tmp_path / "out")
+    report = validate_path(tmp_path / "out")
+    assert report.ok, report.format()
+
+
+def test_a_bad_mesh_file_is_an_input_error_naming_it(tmp_path: Path) -> None:
+    bad = tmp_path / "broken.glb"
+    bad.write_bytes(b"glTF not really")
+    with pytest.raises(InputError, match="broken.glb"):
+        import_asset(bad)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "said"),
+    [
+        ('<origin xyz="0 0 0.05"/>', '<origin xyz="nan nan nan"/>', r"joint 'shoulder': line \d+: <origin xyz='nan nan nan'> is not finite"),
+        ('<axis xyz="0 0 1"/>', '<axis xyz="0 0 inf"/>', "<axis xyz='0 0 inf'> is not finite"),
+        ('upper="1.5"', 'upper="NaN"', "<limit upper='NaN'> is not finite"),
+        ('<mass value="2.0"/>', '<mass value="nan"/>', "<mass value='nan'> is not finite"),
+        ('ixx="0.03"', 'ixx="-inf"', "<inertia ixx='-inf'> is not finite"),
+    ],
+)
+def test_the_gate_refuses_nan_and_infinity_anywhere(ros_workspace: Path, tmp_path: Path, old: str, new: str, said: str) -> None:
+    urdf = ros_workspace / "arm_description" / "urdf" / "arm.urdf"
+    urdf.write_text(urdf.read_text().replace(old, new))
+    report = validate_path(urdf)
+    checks = {c.name: c for c in report.checks}
+    assert not checks["finite numbers"].passed and re.search(said, checks["finite numbers"].detail), report.format()
+    assert checks["pybullet"].detail.startswith("not run: a simulation with NaN")
