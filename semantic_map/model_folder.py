@@ -26,6 +26,7 @@ class MapEntry:
     relation: Relation | None = None  # small objects: "on" (default), "in" or "under"
     parent_from_object: np.ndarray = field(default_factory=lambda: np.eye(4))
     parking_positions: Sequence[ParkingPosition] = ()  # large objects; one is the default
+    category: str | None = None  # the object's type instead of the model's category
     properties: dict[str, str] | None = None  # merged over the model's
     graspable: bool | None = None  # default: small objects are, large ones are not
     out_path: Path | None = None  # write the extended map here; None: over `map_path`
@@ -73,6 +74,8 @@ def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -
     urdf = urdf_import.find_urdf(Path(model_dir))
     smap = entry.load()
     model = urdf_import.load_urdf(urdf)
+    if entry.category:
+        model.category = entry.category
     try:
         node = smap.register_model(
             model,

@@ -11,7 +11,6 @@ import typer
 from rich.markup import escape
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.map_commands import key_values
 from homemodel.cli.progress import Column, fitted_table, make_console
 
 if TYPE_CHECKING:
@@ -138,16 +137,19 @@ def show(entry_id: str = typer.Argument(..., metavar="ID"), db: Path = DB_OPTION
 @db_app.command()
 def find(
     db: Path = DB_OPTION,
-    category: str | None = typer.Option(None, "--category", help="e.g. cup"),
-    properties: list[str] = typer.Option([], "--property", help="key=value the entry's properties must hold (repeatable)"),
+    category: str | None = typer.Option(None, "--category", help="e.g. cup (any case)"),
+    properties: list[str] = typer.Option(
+        [], "--property", help="name=value, name!=value or a range such as width_m>=0.7 (<, <=, >, >=); repeatable"
+    ),
 ) -> None:
-    """Entries of a category and with given properties."""
-    from homemodel.app.database import ModelIndex
+    """Entries of a category and with given properties: names and text in any case, numbers
+    as numbers (width_m=0.80 finds 0.8)."""
+    from homemodel.app.database.queries import PropertyCondition, find_entries
 
     console = make_console()
-    wanted = key_values(properties, "--property")
-    with exit_on_error(), ModelIndex(db) as index:
-        rows = index.find(category=category, properties=wanted)
+    with exit_on_error():
+        conditions = [PropertyCondition.parse(p) for p in properties]
+        rows = find_entries(db, category=category, conditions=conditions)
     console.print(rows_table(console, f"{len(rows)} found", rows))
 
 

@@ -191,7 +191,7 @@ def add(
     from semantic_map import MapEntry, add_model_folder
 
     with exit_on_error():
-        model_dir = resolve_model_ref(model_dir, db)
+        model = resolve_model_ref(model_dir, db)  # a db:ID brings the manifest's category and properties
         entry = MapEntry(
             map_path=map_path,
             object_id=object_id,
@@ -199,11 +199,12 @@ def add(
             relation=relation.value if relation else None,
             parent_from_object=transform_from_xyz_rpy(xyz, rpy),
             parking_positions=_parking_list(parking),
-            properties=key_values(properties, "--property") or None,
+            category=model.category,
+            properties={**model.properties, **key_values(properties, "--property")} or None,
             graspable=graspable,
             out_path=out,
         )
-        registration = add_model_folder(model_dir, entry, force=force)
+        registration = add_model_folder(model.folder, entry, force=force)
     echo_registration(registration)
 
 

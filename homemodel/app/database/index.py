@@ -153,16 +153,6 @@ class ModelIndex:
         """id -> (content key, status, model folder) of every entry."""
         return {i: (k, s, p) for i, k, s, p in self._conn.execute("SELECT id, key, status, path FROM models")}
 
-    def find(self, *, category: str | None = None, properties: dict[str, str] | None = None) -> list[EntryRow]:
-        where, params = [], []
-        if category is not None:
-            where.append("category = ?")
-            params.append(category)
-        for name, value in (properties or {}).items():
-            where.append("json_extract(properties, ?) = ?")
-            params += [f"$.{json.dumps(name)}", value]
-        return list(self._select(("WHERE " + " AND ".join(where)) if where else "", tuple(params)))
-
     def put(self, row: EntryRow, *, commit: bool = True) -> None:
         """Insert or replace `row`; with `commit=False` it waits for the next `commit()`."""
         data = asdict(row)
