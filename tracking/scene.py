@@ -30,7 +30,7 @@ from homemodel.core.transforms import as_transform
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import Hits, RayCaster
 from semantic_map.hierarchy import SemanticMap
-from semantic_map.nodes import Jointed, MapObject, SmallObject
+from semantic_map.nodes import Jointed, MapObject, ObjectJoint, SmallObject
 from semantic_map.xml_io import load_map
 
 FLOOR_RGB = (0.62, 0.58, 0.52)
@@ -161,9 +161,12 @@ class HomeScene:
             for oid, obj in self.objects.items()
         }
 
-    def checked_joint_positions(self, joint_positions: Mapping[str, Mapping[str, float]] | None) -> dict[str, dict[str, float]]:
-        """The map's joint positions with `joint_positions` ({object id: {joint: rad or m}})
-        over them; an unknown object or joint, or a position outside the limits, is an error."""
+    def checked_joint_positions(
+        self, joint_positions: Mapping[str, Mapping[str, float | str]] | None
+    ) -> dict[str, dict[str, float]]:
+        """The map's joint positions with `joint_positions` ({object id: {joint: rad or m, or
+        text: a named state such as "open", or a number}}) over them; an unknown object, joint
+        or state, or a position outside the limits, is an error."""
         positions = self.joint_positions()
         for object_id, joints in (joint_positions or {}).items():
             node = self.object(object_id).node
@@ -171,9 +174,12 @@ class HomeScene:
                 if not isinstance(node, Jointed) or not node.joints:
                     raise InputError(f"{self.map_path}: object {object_id!r} has no joints (asked for {name!r})")
                 try:
-                    positions[object_id][name] = node.joint(name).check_position(value)
+                    joint = node.joint(name)
+                    if isinstance(value, str):
+                        value = _named_state(joint, value)
+                    positions[object_id][name] = joint.check_position(value)
                 except MapError as exc:
-                    raise InputError(f"{self.map_path}: object {object_id!r}: {exc}") from None
+                    raise InputError(f"{self.map_path}: {exc}") from None
         return positions
 
     # Posing
@@ -213,6 +219,20 @@ class HomeScene:
             np.eye(4) if part.object_id is None else objects[part.object_id] @ links[part.object_id][part.link]
             for part in self.parts
         ]
+
+
+def _named_state(joint: ObjectJoint, text: str) -> float:
+    """A joint position given as text: a named state of the joint (an oven knob's "2" is its
+    state, not 2 rad), else a number."""
+    for state in joint.states:
+        if state.name == text:
+            return state.position
+    try:
+        return float(text)
+    except ValueError:
+        raise MapError(
+            f"joint {joint.name!r}: {text!r} is neither a number nor one of its states {[s.name for s in joint.states]}"
+        ) from None
 
 
 def _model_path(map_path: Path, obj: MapObject) -> Path:

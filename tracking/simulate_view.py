@@ -14,6 +14,7 @@ over its pixels were nothing else in front of it.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,13 +73,13 @@ class BoxOccluder:
 class ViewOptions:
     """What differs from the map in the simulated home, and the sensor.
 
-    `joint_positions`: {object id: {joint name: rad or m}} over the map's;
+    `joint_positions`: {object id: {joint name: rad or m, or a named state}} over the map's;
     `moves`: small objects put elsewhere; `occluders`: boxes in front of the home;
     `occlude`: {object id: fraction}: a box hiding that fraction of the object's pixels,
     from its left edge in the image, half-way between the camera and the object.
     """
 
-    joint_positions: dict[str, dict[str, float]] = field(default_factory=dict)
+    joint_positions: dict[str, dict[str, float | str]] = field(default_factory=dict)
     moves: list[SmallObjectMove] = field(default_factory=list)
     occluders: list[BoxOccluder] = field(default_factory=list)
     occlude: dict[str, float] = field(default_factory=dict)
@@ -104,7 +105,11 @@ class ViewSimulator:
 
     def __init__(self, scene: HomeScene) -> None:
         self.scene = scene
-        self.renderer = Renderer(scene.parts)
+
+    @functools.cached_property
+    def renderer(self) -> Renderer:
+        """Built on first use, so bad options fail before the ray-casting scenes are built."""
+        return Renderer(self.scene.parts)
 
     @classmethod
     def load(cls, map_path: Path) -> ViewSimulator:

@@ -19,6 +19,8 @@ from homemodel.cli.errors import EXIT_INTERRUPTED, report_bug
 from homemodel.cli.eval_commands import eval_app
 from homemodel.cli.export_command import export
 from homemodel.cli.map_commands import map_app
+from homemodel.cli.map_observe_command import observe_command as _observe_command  # noqa: F401 (registers map observe)
+from homemodel.cli.map_simulate_command import simulate_view as _simulate_view  # noqa: F401 (registers map simulate-view)
 from homemodel.cli.photogrammetry_commands import photogrammetry_app
 from homemodel.cli.render_command import render
 from homemodel.cli.turntable_commands import turntable_app
