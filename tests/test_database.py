@@ -221,3 +221,43 @@ def test_local_workers_keep_glibcs_own_malloc_trim_threshold() -> None:
         trim = client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_")
         threads = client.run(os.environ.get, "OMP_NUM_THREADS")
     assert list(trim.values()) == [None] and list(threads.values()) == ["1"]
+
+
+def _manifest_with(tmp_path: Path, entry: dict) -> Path:
+    (tmp_path / "photos").mkdir(exist_ok=True)
+    path = tmp_path / "m.yaml"
+    path.write_text(yaml.safe_dump({"entries": [{"id": "kermit", "source": "photos", "path": "photos", **entry}]}))
+    return path
+
+
+def test_manifest_options_are_nested_and_reach_the_pipeline_unchanged(tmp_path) -> None:
+    from homemodel.app.database.entry_build import _options
+    from homemodel.app.database.manifest import load_manifest
+    from photogrammetry.pipeline import ReconstructOptions
+    from photogrammetry.sfm import SfmOptions
+
+    entry = {"options": {"marker_size_m": 0.05, "sfm": {"max_num_features": 8192}, "dense": {"neighbours": 3}}}
+    [job], _ = load_manifest(_manifest_with(tmp_path, entry))
+    options = _options(ReconstructOptions, job, name=job.id, marker_size_m=job.marker_size_m)
+    # The options' marker size is kept (the entry has none at the top level to put over it).
+    assert options.marker_size_m == 0.05 and options.name == "kermit"
+    assert options.sfm.max_num_features == 8192 and options.dense.neighbours == 3
+    assert options.sfm.max_image_size_px == SfmOptions().max_image_size_px
+    [job], _ = load_manifest(_manifest_with(tmp_path, {"marker_size_m": 0.07}))
+    assert _options(ReconstructOptions, job, name=job.id, marker_size_m=job.marker_size_m).marker_size_m == 0.07
+
+
+@pytest.mark.parametrize(
+    ("entry", "said"),
+    [
+        ({"options": {"sfm": {"max_num_features": "many"}}}, "entries.0.options.sfm.max_num_features: expected a whole number"),
+        ({"options": {"sfm": {"max_features": 10}}}, "entries.0.options.sfm.max_features: not a field of SfmOptions"),
+        ({"options": {"texture": {"size_px": 1.5}}}, "entries.0.options.texture.size_px: expected a whole number"),
+        ({"options": {"name": "other"}}, "entries.0.options.name: not an option here (the entry's id names the model)"),
+        ({"marker_size_m": 0.05, "options": {"marker_size_m": 0.06}}, "entries.0.options.marker_size_m: given twice"),
+    ],
+)
+def test_a_bad_manifest_option_is_named_by_its_path_and_exit_2(tmp_path, entry: dict, said: str) -> None:
+    result = run("db", "build", _manifest_with(tmp_path, entry), "--db", tmp_path / "db")
+    assert result.exit_code == 2 and said in result.output and "\n" not in result.output.strip(), result.output
+    assert not (tmp_path / "db").exists()
