@@ -242,3 +242,13 @@ def test_an_observation_whose_depth_disagrees_with_its_camera_is_refused(
     save_observation_camera(tmp_path / "camera.yaml", CAMERA, map_from_camera)
     result = _run(simulator.scene.map_path, "--camera", tmp_path / "camera.yaml", "--out", tmp_path / "obs")
     assert result.exit_code == 2 and "not empty" in result.output
+
+
+def test_a_map_whose_models_are_missing_is_refused(map_path: Path, tmp_path: Path) -> None:
+    moved = tmp_path / "map.xml"
+    moved.write_bytes(map_path.read_bytes())  # its models' paths are relative: none beside it
+    save_observation_camera(tmp_path / "camera.yaml", CAMERA, world_from_camera_looking_along((2, 2, 1), (0, 1, 0)))
+    result = _run(moved, "--camera", tmp_path / "camera.yaml", "--out", tmp_path / "obs")
+    assert result.exit_code == 2, result.output
+    assert "its model" in result.output and "does not exist" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "obs").exists()
