@@ -119,9 +119,8 @@ def build_microwave(spec: MicrowaveSpec, name: str) -> Assembly:
     cabinet = build_cabinet(spec, name, category="microwave", affordances=_APPLIANCE_AFFORDANCES)
     if spec.turntable_diameter_m is None:
         return cabinet.assembly
-    left, right = spec.cavity_span_m()
     radius, lift = spec.turntable_diameter_m / 2, spec.turntable_raise_m
-    axis_x, axis_y = (spec.back_inner_x_m + spec.depth_m / 2) / 2, -spec.width_m / 2 + (left + right) / 2
+    axis_x, axis_y = spec.turntable_centre_m()
     if lift > 0:
         hub_centre = (axis_x, axis_y, spec.inner_floor_m + lift / 2)
         hub = cylinder_mesh("body.turntable_coupler", _COUPLER_RADIUS_M, lift, segments=24)

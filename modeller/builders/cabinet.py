@@ -56,9 +56,14 @@ from modeller.specs import colour_name, colour_rgb
 from modeller.specs.cabinet_geometry import (
     door_face_x_m,
     door_hinge_point_m,
+    door_plug_bounds_m,
     door_shelf_box_m,
+    door_slab_m,
     drawer_box_bounds_m,
     drawer_front_x_m,
+    frame_members_m,
+    opening_around_m,
+    panel_at,
     panel_face_x_m,
     shelf_span_m,
 )
@@ -120,7 +125,7 @@ def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: l
     cabinet = Cabinet(spec=spec, body=_add_carcass(spec, assembly), assembly=assembly)
     for i, shelf in enumerate(spec.shelves):
         left, right, depth = shelf_span_m(spec, shelf)
-        t = spec.wall_thickness_m
+        t = spec.shelf_board_m(shelf)
         size = (depth, right - left, t)
         centre = (spec.back_inner_x_m + depth / 2, -spec.width_m / 2 + (left + right) / 2, shelf.height_m - t / 2)
         cabinet.add_to_body(f"shelf_{i}", box_mesh(f"body.shelf_{i}", size), centre)
@@ -161,7 +166,7 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
     mesh = box_mesh("body", size, centre)
     # Boards of their own thickness are boxes of their own, not the shell's faces.
     own_top = not spec.top_panel or spec.top_thickness_m is not None
-    own_bottom = spec.bottom_thickness_m is not None
+    own_bottom = spec.bottom_thickness_m is not None or spec.bottom_raise_m > 0
     open_faces = ["+x"] + (["+z"] if own_top else []) + (["-z"] if own_bottom else [])
     open_faces += [] if spec.back_panel is None else ["-x"]
     remove_faces(mesh, [FACE_NORMALS[face] for face in open_faces])
@@ -210,9 +215,14 @@ def _carcass_extras(spec: CabinetSpec) -> list[tuple[str, tuple[float, float, fl
     if spec.top_panel and spec.top_thickness_m is not None:
         size = (spec.depth_m, between_sides, spec.top_board_m)
         parts.append(("carcass_top", size, (0.0, 0.0, top - spec.top_board_m / 2)))
-    if spec.bottom_thickness_m is not None:
+    if spec.bottom_thickness_m is not None or spec.bottom_raise_m > 0:
+        # A raised bottom leaves a void under it, open at the front.
         size = (spec.depth_m, between_sides, spec.bottom_board_m)
-        parts.append(("carcass_bottom", size, (0.0, 0.0, bottom + spec.bottom_board_m / 2)))
+        parts.append(("carcass_bottom", size, (0.0, 0.0, bottom + spec.bottom_raise_m + spec.bottom_board_m / 2)))
+    for k, rail in enumerate(spec.top_rails):
+        thickness = spec.top_board_m if rail.thickness_m is None else rail.thickness_m
+        x = spec.depth_m / 2 - rail.from_front_m - rail.depth_m / 2
+        parts.append((f"top_rail_{k}", (rail.depth_m, between_sides, thickness), (x, 0.0, top - thickness / 2)))
     if spec.back_panel is not None:
         back = spec.back_panel
         z0, z1 = spec.inner_floor_m, spec.inner_top_m
@@ -220,20 +230,75 @@ def _carcass_extras(spec: CabinetSpec) -> list[tuple[str, tuple[float, float, fl
         parts.append(("back_panel", size, (spec.back_inner_x_m - back.thickness_m / 2, 0.0, (z0 + z1) / 2)))
     frame = spec.face_frame
     if frame is not None:
-        w, x = frame.width_m, spec.depth_m / 2 - frame.thickness_m / 2
+        w, x, out = frame.width_m, spec.depth_m / 2 - frame.thickness_m / 2, frame.overhang_m
         stile = (frame.thickness_m, w, top - bottom)
-        rail = (frame.thickness_m, spec.width_m - 2 * w, w)
+        rail = (frame.thickness_m, spec.width_m + 2 * out - 2 * w, w)
         parts += [
-            ("frame_left", stile, (x, -half_w + w / 2, (bottom + top) / 2)),
-            ("frame_right", stile, (x, half_w - w / 2, (bottom + top) / 2)),
+            ("frame_left", stile, (x, -half_w - out + w / 2, (bottom + top) / 2)),
+            ("frame_right", stile, (x, half_w + out - w / 2, (bottom + top) / 2)),
             ("frame_bottom", rail, (x, 0.0, bottom + w / 2)),
             ("frame_top", rail, (x, 0.0, top - w / 2)),
         ]
+        for name, left, right, low, high in frame_members_m(spec)[4:]:
+            size = (frame.thickness_m, right - left, high - low)
+            parts.append((name, size, (x, -half_w + (left + right) / 2, (low + high) / 2)))
     return parts
 
 
+def _pockets(spec: CabinetSpec, panel: Panel) -> list[tuple[float, float, float, float, float, bool]]:
+    """(y_min, y_max, z_min, z_max, depth, round) of the pockets cut into `panel` for the knobs
+    and buttons on it, in the model frame."""
+    pockets = []
+    for part in [*spec.knobs, *spec.buttons]:
+        if part.pocket is None or panel_at(spec, part.left_m, part.height_m) is not panel:
+            continue
+        across, up = part.half_size_m
+        y = -spec.width_m / 2 + part.left_m
+        is_round = getattr(part, "shape", "round") == "round"
+        pockets.append((y - across, y + across, part.height_m - up, part.height_m + up, part.pocket.depth_m, is_round))
+    return pockets
+
+
+def _cut(obj: bpy.types.Object, name: str, mesh: bpy.types.Mesh, obj_from_cutter: np.ndarray) -> None:
+    """Subtract `mesh`, placed at `obj_from_cutter`, from `obj` (a boolean difference)."""
+    import bpy
+
+    cutter = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(cutter)
+    cutter.parent = obj
+    cutter.matrix_basis = blender_matrix(obj_from_cutter)
+    cutter.hide_render = True
+    cutter.display_type = "WIRE"
+    modifier = obj.modifiers.new(name, "BOOLEAN")
+    modifier.operation = "DIFFERENCE"
+    modifier.object = cutter
+
+
+def _slab_round_pockets(
+    name: str, x_face: float, thickness: float, bounds: tuple[float, float, float, float], pockets: list
+) -> list:
+    """A panel's collision as boxes: the slab cut on a grid at the pockets' edges, full
+    thickness outside the pockets, only the floor behind each pocket inside it."""
+    y0, y1, z0, z1 = bounds
+    ys = sorted({y0, y1, *(min(max(v, y0), y1) for p in pockets for v in p[:2])})
+    zs = sorted({z0, z1, *(min(max(v, z0), z1) for p in pockets for v in p[2:4])})
+    boxes = []
+    for a, b in zip(ys, ys[1:]):
+        for c, d in zip(zs, zs[1:]):
+            if b - a < 1e-6 or d - c < 1e-6:
+                continue
+            inside = [p for p in pockets if p[0] <= a + 1e-9 and b <= p[1] + 1e-9 and p[2] <= c + 1e-9 and d <= p[3] + 1e-9]
+            depth = max((p[4] for p in inside), default=0.0)
+            front = x_face - depth
+            size = (thickness - depth, b - a, d - c)
+            centre = (front - size[0] / 2, (a + b) / 2, (c + d) / 2)
+            boxes.append(box_collision(f"{name}_{len(boxes)}", size, centre))
+    return boxes
+
+
 def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
-    """A slab in the front plane, inside the carcass' edges (they show round it), with its hole cut."""
+    """A slab in the front plane, inside the carcass' edges (they show round it), with its hole
+    and the pockets of the knobs and buttons on it cut."""
     import bpy
 
     spec = cabinet.spec
@@ -243,9 +308,24 @@ def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
     z0, z1 = max(panel.bottom_m, spec.inner_floor_m), min(panel.top_m, spec.inner_top_m)
     if y1 - y0 <= 0 or z1 - z0 <= 0:
         return  # wholly in front of the carcass' edges, which are the panel
+    t = spec.panel_board_m(panel)
     size = (t, y1 - y0, z1 - z0)
     centre = (spec.depth_m / 2 + panel.forward_m - t / 2, (y0 + y1) / 2, (z0 + z1) / 2)
     obj = cabinet.add_to_body(f"panel_{i}", box_mesh(f"body.panel_{i}", size), centre, panel.colour)
+    pockets = _pockets(spec, panel)
+    if pockets:
+        face = spec.depth_m / 2 + panel.forward_m
+        for k, (a, b, c, d, depth, is_round) in enumerate(pockets):
+            # Twice the depth, centred on the face: it opens the face and stops at the floor.
+            cutter_name = f"body.panel_{i}.pocket_{k}"
+            if is_round:
+                cutter = cylinder_mesh(cutter_name, (b - a) / 2, 2 * depth, axis="x", segments=48)
+            else:
+                cutter = box_mesh(cutter_name, (2 * depth, b - a, d - c))
+            at = translation_transform((face - centre[0], (a + b) / 2 - centre[1], (c + d) / 2 - centre[2]))
+            _cut(obj, cutter_name, cutter, at)
+        cabinet.body_collisions.extend(_slab_round_pockets(f"panel_{i}", face, t, (y0, y1, z0, z1), pockets))
+        return
     hole = panel.hole
     if hole is None:
         cabinet.body_collisions.append(box_collision(f"panel_{i}", size, centre))
@@ -280,7 +360,7 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
     spec, assembly = cabinet.spec, cabinet.assembly
     door = spec.doors[i]
     link = f"door_{i}"
-    thick = spec.door_thickness_m
+    thick = door_slab_m(spec, door)
     hinge = door_hinge_point_m(spec, door)
     body_from_door = translation_transform(hinge)
     face_x = door_face_x_m(spec, door)
@@ -298,6 +378,21 @@ def _add_door(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -> 
     door_obj = add_object(
         link, mesh, link=link, material=door_material, parent=cabinet.body, parent_from_object=body_from_door
     )
+    if door.in_opening_m > 0:
+        # The door's inner part, in the opening: from its slab back past the front plane.
+        y_min, y_max, z_min, z_max = door_plug_bounds_m(spec, door)
+        x0, x1 = spec.depth_m / 2 - door.in_opening_m, face_x - thick
+        size = (x1 - x0, y_max - y_min, z_max - z_min)
+        centre = np.array([(x0 + x1) / 2, (y_min + y_max) / 2, (z_min + z_max) / 2]) - hinge
+        add_object(
+            f"{link}.inner",
+            box_mesh(f"{link}.inner", size),
+            link=link,
+            material=door_material,
+            parent=door_obj,
+            parent_from_object=translation_transform(centre),
+        )
+        collisions.append(box_collision(f"{link}_inner", size, centre))
     if door.window is not None:
         glass_material = material(door.window.colour)
         glass_x = face_x - hinge[0] - _GLASS_DEPTH_M / 2 + _GLASS_PROUD_M
@@ -378,8 +473,24 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
         link, front_mesh, link=link, material=drawer_material, parent=cabinet.body, parent_from_object=body_from_drawer
     )
     collisions = [box_collision(f"{link}_front", front_size, front_centre)]
-    # The box behind the front, inside the body: a box without its top, walls inward.
+    # The box behind the front (and its inner board), inside the body: a box without its top, walls inward.
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
+    if drawer.inner_board_m > 0:
+        # The second board, across the box, from the box's floor to the front's top inside the opening.
+        top = min(drawer.top_m, opening_around_m(spec, drawer.left_m + drawer.width_m / 2, z_min)[3]) - spec.door_gap_m
+        board_size = (drawer.inner_board_m, y_max - y_min, top - z_min)
+        board_centre = (inner - drawer.inner_board_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + top) / 2 - drawer.bottom_m)
+        add_object(
+            f"{link}.inner_board",
+            box_mesh(f"{link}.inner_board", board_size),
+            link=link,
+            material=drawer_material,
+            parent=drawer_obj,
+            parent_from_object=translation_transform(board_centre),
+        )
+        collisions.append(box_collision(f"{link}_inner_board", board_size, board_centre))
+    face = inner + thick
+    inner -= drawer.inner_board_m
     box_size = (drawer.depth_m, y_max - y_min, z_max - z_min)
     box_centre = (inner - drawer.depth_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + z_max) / 2 - drawer.bottom_m)
     open_box = box_mesh(f"{link}.box", box_size)
@@ -409,7 +520,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
         )
     )
     across, up = drawer.handle_offset_m()
-    drawer_from_face = translation_transform((inner + thick, left_y + across - middle_y, up))
+    drawer_from_face = translation_transform((face, left_y + across - middle_y, up))
     add_handle(
         f"{link}_handle",
         link,

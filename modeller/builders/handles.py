@@ -228,8 +228,10 @@ def add_control_knob(
     radius, projection = knob.diameter_m / 2, knob.projection_m
     material = colour_material(colour_name(knob.colour), colour_rgb(knob.colour))
     marker_material = colour_material(colour_name(knob.marker_colour), colour_rgb(knob.marker_colour))
-    skirt_mesh = cylinder_mesh(link, radius, projection, axis="x")
-    skirt_mesh.transform(blender_matrix(translation_transform((projection / 2, 0, 0))))
+    # In a pocket the skirt reaches down to the pocket's floor.
+    sunk = 0.0 if knob.pocket is None else knob.pocket.depth_m
+    skirt_mesh = cylinder_mesh(link, radius, projection + sunk, axis="x")
+    skirt_mesh.transform(blender_matrix(translation_transform(((projection - sunk) / 2, 0, 0))))
     skirt = add_object(link, skirt_mesh, link=link, material=material, parent=body, parent_from_object=body_from_knob)
     marker_size = (_MARKER_THICKNESS_M, _MARKER_WIDTH_RATIO * knob.diameter_m, _MARKER_LENGTH_RATIO * knob.diameter_m)
     add_object(
@@ -242,18 +244,18 @@ def add_control_knob(
             (projection + _MARKER_PROUD_M - _MARKER_THICKNESS_M / 2, 0, _MARKER_CENTRE_RATIO * knob.diameter_m)
         ),
     )
-    assembly.collisions[link] = [cylinder_collision(link, radius, projection, (projection / 2, 0, 0))]
+    assembly.collisions[link] = [cylinder_collision(link, radius, projection + sunk, ((projection - sunk) / 2, 0, 0))]
     step = math.radians(knob.step_deg)
     assembly.joints.append(
         Joint(
             name=f"{link}_turn",
-            type="revolute",
+            type="revolute" if knob.stops else "continuous",
             parent="body",
             child=link,
             parent_from_joint=body_from_knob,
             # Positive turns about -x are clockwise for someone looking at the front (along -x).
             axis=np.array([-1.0 if knob.turns == "clockwise" else 1.0, 0.0, 0.0]),
-            limits=JointLimits(lower=0.0, upper=step * (len(knob.states) - 1)),
+            limits=JointLimits(lower=0.0, upper=step * (len(knob.states) - 1)) if knob.stops else None,
             states=[JointState(name=state, position=k * step) for k, state in enumerate(knob.states)],
             dynamics=spec_dynamics(knob.dynamics),
         )
@@ -265,16 +267,31 @@ def add_control_knob(
 def add_push_button(
     i: int, button: PushButton, body: bpy.types.Object, body_from_button: np.ndarray, assembly: Assembly
 ) -> None:
-    """A push button: link `button_<i>` at the panel's face, a disc along +x, pressed in along -x."""
+    """A push button: link `button_<i>` at the panel's face, a disc (or a block) along +x,
+    pressed in along -x; in a pocket, its body reaches back to where, pressed, it meets the
+    pocket's floor."""
     link = f"button_{i}"
     radius, projection = button.diameter_m / 2, button.projection_m
-    mesh = cylinder_mesh(link, radius, projection, axis="x")
-    mesh.transform(blender_matrix(translation_transform((projection / 2, 0, 0))))
+    if button.pocket is None:
+        length, back = projection, 0.0
+        # Pressed, the button's stem goes into a hole in the panel; its cap (what stays out) collides.
+        cap = projection - button.travel_m
+        collide_length, collide_centre = cap, button.travel_m + cap / 2
+    else:
+        length = projection + button.pocket.depth_m - button.travel_m
+        back = projection - length
+        collide_length, collide_centre = length, back + length / 2
+    if button.shape == "round":
+        mesh = cylinder_mesh(link, radius, length, axis="x")
+        collision = cylinder_collision(link, radius, collide_length, (collide_centre, 0, 0))
+    else:
+        across, up = button.width_m, button.button_height_m
+        mesh = box_mesh(link, (length, across, up))
+        collision = box_collision(link, (collide_length, across, up), (collide_centre, 0, 0))
+    mesh.transform(blender_matrix(translation_transform((back + length / 2, 0, 0))))
     material = colour_material(colour_name(button.colour), colour_rgb(button.colour))
     add_object(link, mesh, link=link, material=material, parent=body, parent_from_object=body_from_button)
-    # Pressed, the button's stem goes into a hole in the panel; its cap (what stays out) collides.
-    cap = projection - button.travel_m
-    assembly.collisions[link] = [cylinder_collision(link, radius, cap, (button.travel_m + cap / 2, 0, 0))]
+    assembly.collisions[link] = [collision]
     assembly.joints.append(
         Joint(
             name=f"{link}_press",

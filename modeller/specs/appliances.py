@@ -300,7 +300,7 @@ class DishwasherSpec(_ApplianceSpec):
                 if z0 < other.bottom_m + other.height_m and z1 > other.bottom_m:
                     raise FieldError(("racks", i, "bottom_m"), f"rack {i} overlaps rack {j}")
             for j, shelf in enumerate(self.shelves):
-                if z0 < shelf.height_m and z1 > shelf.height_m - self.wall_thickness_m:
+                if z0 < shelf.height_m and z1 > shelf.height_m - self.shelf_board_m(shelf):
                     raise FieldError(("racks", i, "bottom_m"), f"rack {i} runs through shelf {j}")
 
 
@@ -460,6 +460,19 @@ class MicrowaveSpec(_ApplianceSpec):
         0.0, description="from the cavity floor up to the plate's underside (on its roller ring and coupler)"
     )
     turntable_turns: bool = Field(False, description="true: the plate turns freely (a continuous joint)")
+    turntable_right_m: float = Field(
+        0.0, description="the plate's centre from the cavity's centre, sideways (positive: to the right, seen from in front)"
+    )
+    turntable_back_m: float = Field(
+        0.0, description="the plate's centre from the cavity's centre, front to back (positive: toward the back)"
+    )
+
+    def turntable_centre_m(self) -> tuple[float, float]:
+        """(x, y) of the plate's axis in the model frame."""
+        left, right = self.cavity_span_m()
+        x = (self.back_inner_x_m + self.depth_m / 2) / 2
+        y = -self.width_m / 2 + (left + right) / 2
+        return x - self.turntable_back_m, y + self.turntable_right_m
 
     def default_layout(self) -> None:
         g = self.door_gap_m
@@ -510,6 +523,16 @@ class MicrowaveSpec(_ApplianceSpec):
             raise FieldError(
                 ("turntable_diameter_m",),
                 f"a plate {d} m across does not fit a cavity {right - left:.3f} x {self.inner_depth_m:.3f} m",
+            )
+        if abs(self.turntable_right_m) + d / 2 > (right - left) / 2 + _EPS_M:
+            raise FieldError(
+                ("turntable_right_m",),
+                f"a plate {d} m across {self.turntable_right_m} m off the middle reaches into the cavity's side",
+            )
+        if abs(self.turntable_back_m) + d / 2 > self.inner_depth_m / 2 + _EPS_M:
+            raise FieldError(
+                ("turntable_back_m",),
+                f"a plate {d} m across {self.turntable_back_m} m off the middle reaches the cavity's back or front",
             )
         if self.inner_floor_m + self.turntable_raise_m >= self.inner_top_m - _EPS_M:
             raise FieldError(("turntable_raise_m",), "raises the plate to the cavity's top")

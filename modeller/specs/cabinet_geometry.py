@@ -21,7 +21,7 @@ from modeller.specs.hinges import check_hinge_offsets, solve_free_corner, solve_
 _MIN_HINGE_GAP_M = 0.0005
 
 if TYPE_CHECKING:
-    from modeller.specs.cabinets import CabinetSpec, Divider, DoorShelf, DoorSpec, DrawerSpec, Shelf
+    from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Panel, Shelf
 
 
 def shelf_span_m(spec: CabinetSpec, shelf: Shelf) -> tuple[float, float, float]:
@@ -33,20 +33,75 @@ def shelf_span_m(spec: CabinetSpec, shelf: Shelf) -> tuple[float, float, float]:
     return left, right, default_depth if shelf.depth_m is None else shelf.depth_m
 
 
+def frame_members_m(spec: CabinetSpec) -> list[tuple[str, float, float, float, float]]:
+    """(name, left, right, bottom, top) of each face frame member seen from in front, left
+    and right from the body's left edge (an overhanging stile starts left of it)."""
+    frame = spec.face_frame
+    if frame is None:
+        return []
+    w, out = frame.width_m, frame.overhang_m
+    bottom, top = spec.carcass_bottom_m, spec.carcass_top_m
+    inner_left, inner_right = w - out, spec.width_m + out - w
+    members = [
+        ("frame_left", -out, inner_left, bottom, top),
+        ("frame_right", inner_right, spec.width_m + out, bottom, top),
+        ("frame_bottom", inner_left, inner_right, bottom, bottom + w),
+        ("frame_top", inner_left, inner_right, top - w, top),
+    ]
+    for k, stile in enumerate(frame.stiles):
+        width = w if stile.width_m is None else stile.width_m
+        low = bottom + w if stile.bottom_m is None else stile.bottom_m
+        high = top - w if stile.top_m is None else stile.top_m
+        members.append((f"frame_stile_{k}", stile.left_m, stile.left_m + width, low, high))
+    for k, rail in enumerate(frame.rails):
+        height = w if rail.height_m is None else rail.height_m
+        left = inner_left if rail.left_m is None else rail.left_m
+        right = inner_right if rail.right_m is None else rail.right_m
+        members.append((f"frame_rail_{k}", left, right, rail.bottom_m, rail.bottom_m + height))
+    return members
+
+
+def opening_around_m(spec: CabinetSpec, left_m: float, height_m: float) -> tuple[float, float, float, float]:
+    """(left, right, bottom, top) of the opening round a point of the front (`left_m` from the
+    body's left edge, `height_m` above the floor): inside the carcass' edges or the face
+    frame, between the dividers and the frame's middle stiles and rails either side of it."""
+    t = spec.wall_thickness_m
+    left, right, bottom, top = opening_bounds_m(spec)
+    for d in spec.dividers:
+        if d.left_m + t <= left_m:
+            left = max(left, d.left_m + t)
+        if d.left_m >= left_m:
+            right = min(right, d.left_m)
+    for name, m_left, m_right, m_bottom, m_top in frame_members_m(spec)[4:]:
+        if name.startswith("frame_stile") and m_bottom <= height_m <= m_top:
+            left = max(left, m_right) if m_right <= left_m else left
+            right = min(right, m_left) if m_left >= left_m else right
+        if name.startswith("frame_rail") and m_left <= left_m <= m_right:
+            bottom = max(bottom, m_top) if m_top <= height_m else bottom
+            top = min(top, m_bottom) if m_bottom >= height_m else top
+    return left, right, bottom, top
+
+
 def drawer_box_bounds_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[float, float, float, float]:
     """(y_min, y_max, z_min, z_max) of a drawer's box: behind its front, inside the body
-    between the walls or dividers either side of the front's middle."""
-    t, gap = spec.wall_thickness_m, spec.door_gap_m
+    between the walls, dividers and frame members either side of the front's middle, or
+    where the spec puts it (`box_bottom_m`, `box_offset_m`, `box_width_m`)."""
+    gap = spec.door_gap_m
     runners = gap if drawer.runner_clearance_m is None else drawer.runner_clearance_m
     middle = drawer.left_m + drawer.width_m / 2
     # Inside the opening: the carcass' walls, or a face frame's stiles and rails.
-    open_left, open_right, open_bottom, open_top = opening_bounds_m(spec)
-    inner_left = max([open_left] + [d.left_m + t for d in spec.dividers if d.left_m + t <= middle])
-    inner_right = min([open_right] + [d.left_m for d in spec.dividers if d.left_m >= middle])
+    inner_left, inner_right, open_bottom, open_top = opening_around_m(spec, middle, drawer.bottom_m + drawer.height_m / 2)
     # Seen from in front, the body's left edge is at y = -width/2.
-    y_min = -spec.width_m / 2 + max(drawer.left_m, inner_left) + runners
-    y_max = -spec.width_m / 2 + min(drawer.right_m, inner_right) - runners
-    z_min = max(drawer.bottom_m, open_bottom) + gap
+    if drawer.box_width_m is None:
+        y_min = -spec.width_m / 2 + max(drawer.left_m, inner_left) + runners + drawer.box_offset_m
+        y_max = -spec.width_m / 2 + min(drawer.right_m, inner_right) - runners + drawer.box_offset_m
+    else:
+        centre = -spec.width_m / 2 + middle + drawer.box_offset_m
+        y_min, y_max = centre - drawer.box_width_m / 2, centre + drawer.box_width_m / 2
+    if drawer.box_bottom_m is None:
+        z_min = max(drawer.bottom_m, open_bottom) + gap
+    else:
+        z_min = drawer.bottom_m + drawer.box_bottom_m
     z_max = min(drawer.top_m, open_top) - gap
     if drawer.box_height_m is not None:
         z_max = min(z_max, z_min + drawer.box_height_m)
@@ -54,18 +109,29 @@ def drawer_box_bounds_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[float, f
 
 
 def drawer_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
-    """x of a closed drawer front's inner face: behind it starts the box."""
+    """x of a closed drawer front's inner face: behind it the inner board, then the box."""
     if drawer.mounting == "inset":
         return spec.depth_m / 2 - spec.door_thickness_m
     return spec.depth_m / 2 + spec.door_gap_m
 
 
-def panel_face_x_m(spec: CabinetSpec, left_m: float, height_m: float) -> float:
-    """x of the face of the panel a knob or button at (`left_m`, `height_m`) sits on."""
+def drawer_box_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+    """x of a closed drawer box's front face (behind the front and its inner board)."""
+    return drawer_front_x_m(spec, drawer) - drawer.inner_board_m
+
+
+def panel_at(spec: CabinetSpec, left_m: float, height_m: float) -> Panel | None:
+    """The panel a knob or button at (`left_m`, `height_m`) sits on."""
     for panel in spec.panels:
         if panel.left_m <= left_m <= panel.right_m and panel.bottom_m <= height_m <= panel.top_m:
-            return spec.depth_m / 2 + panel.forward_m
-    return spec.depth_m / 2
+            return panel
+    return None
+
+
+def panel_face_x_m(spec: CabinetSpec, left_m: float, height_m: float) -> float:
+    """x of the face of the panel a knob or button at (`left_m`, `height_m`) sits on."""
+    panel = panel_at(spec, left_m, height_m)
+    return spec.depth_m / 2 + (0.0 if panel is None else panel.forward_m)
 
 
 def front_x_m(spec: CabinetSpec) -> float:
@@ -74,36 +140,61 @@ def front_x_m(spec: CabinetSpec) -> float:
 
 
 def door_face_x_m(spec: CabinetSpec, door: DoorSpec) -> float:
-    """x of a closed door's outer face: in front of the body, or flush with its front if inset."""
-    return spec.depth_m / 2 if door.mounting == "inset" else front_x_m(spec)
+    """x of a closed door's outer face: in front of the body, or flush with its front if
+    inset; a door partly inside the opening stands out by the rest of its thickness."""
+    if door.mounting == "inset":
+        return spec.depth_m / 2
+    if door.in_opening_m > 0:
+        return spec.depth_m / 2 + spec.door_board_m(door) - door.in_opening_m
+    return spec.depth_m / 2 + spec.door_gap_m + spec.door_board_m(door)
+
+
+def door_slab_m(spec: CabinetSpec, door: DoorSpec) -> float:
+    """Thickness of the door's slab in front of the opening (all of it, but for a plug)."""
+    if door.in_opening_m > 0:
+        return door_face_x_m(spec, door) - spec.depth_m / 2 - spec.door_gap_m
+    return spec.door_board_m(door)
+
+
+def door_plug_bounds_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float, float, float]:
+    """(y_min, y_max, z_min, z_max) in the model frame of a door's part inside the opening:
+    the opening round the door's middle, `door_gap_m` clear of its edges, within the door."""
+    gap = spec.door_gap_m
+    left, right, bottom, top = opening_around_m(spec, door.left_m + door.width_m / 2, door.bottom_m + door.height_m / 2)
+    y0 = -spec.width_m / 2 + max(left + gap, door.left_m)
+    y1 = -spec.width_m / 2 + min(right - gap, door.right_m)
+    return y0, y1, max(bottom + gap, door.bottom_m), min(top - gap, door.top_m)
 
 
 def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
     """(left, right, bottom, top) of the front opening an inset front sits in: inside the
     carcass' edges, or inside the face frame; left and right from the body's left edge."""
     frame = 0.0 if spec.face_frame is None else spec.face_frame.width_m
-    side = max(spec.wall_thickness_m, frame)
+    side = max(spec.wall_thickness_m, frame - (0.0 if spec.face_frame is None else spec.face_frame.overhang_m))
     bottom = max(spec.bottom_board_m, frame)
     top = max(spec.top_board_m if spec.top_panel else 0.0, frame)
     return side, spec.width_m - side, spec.carcass_bottom_m + bottom, spec.carcass_top_m - top
 
 
-def hinge_divider(spec: CabinetSpec, door: DoorSpec) -> Divider | None:
-    """The middle panel (divider) a side-hinged door hangs on, if its hinge-side edge is over one."""
+def hinge_divider(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float] | None:
+    """(left, right) faces, from the body's left edge, of the middle panel (a divider or a
+    face frame's middle stile) a side-hinged door hangs on, if its hinge-side edge is over one."""
     if not door.side_hinged:
         return None
     edge = door.left_m if door.hinge == "left" else door.right_m
     t = spec.wall_thickness_m
-    return next((d for d in spec.dividers if d.left_m - 1e-9 <= edge <= d.left_m + t + 1e-9), None)
+    middles = [(d.left_m, d.left_m + t) for d in spec.dividers]
+    middles += [(m[1], m[2]) for m in frame_members_m(spec) if m[0].startswith("frame_stile")]
+    return next((faces for faces in middles if faces[0] - 1e-9 <= edge <= faces[1] + 1e-9), None)
 
 
 def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
     """How far the door's hinge-side edge is in from the outer face of what it hangs on: the
-    body's side (its top or underside for a flap), or, for a door hung on a middle panel,
-    that panel's face on the far side from the door."""
-    divider = hinge_divider(spec, door)
-    if divider is not None:
-        far_face = divider.left_m if door.hinge == "left" else divider.left_m + spec.wall_thickness_m
+    body's side (its top or underside for a flap), or, for a door hung on a middle panel
+    (a divider or a middle stile), that panel's face on the far side from the door."""
+    middle = hinge_divider(spec, door)
+    if middle is not None:
+        far_face = middle[0] if door.hinge == "left" else middle[1]
         return abs(far_face - (door.left_m if door.hinge == "left" else door.right_m))
     return {
         "left": door.left_m,
@@ -115,7 +206,7 @@ def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
 
 def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
     """(behind_face_m, in_from_edge_m) of the door's hinge line (see `modeller.specs.hinges`)."""
-    thick = spec.door_thickness_m
+    thick = spec.door_board_m(door)
     if door.hinge_line is not None:
         return door.hinge_line.behind_face_m, door.hinge_line.in_from_edge_m
     face_forward = door_face_x_m(spec, door) - spec.depth_m / 2
@@ -173,7 +264,7 @@ def door_hinge_point_m(spec: CabinetSpec, door: DoorSpec) -> np.ndarray:
 
 def door_shelf_box_m(spec: CabinetSpec, door: DoorSpec, shelf: DoorShelf) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of a closed door's bin in the model frame."""
-    inner_x = door_face_x_m(spec, door) - spec.door_thickness_m
+    inner_x = door_face_x_m(spec, door) - spec.door_board_m(door)
     y0 = -spec.width_m / 2 + door.left_m + shelf.margin_m
     y1 = -spec.width_m / 2 + door.right_m - shelf.margin_m
     z0 = door.bottom_m + shelf.height_m
@@ -186,7 +277,7 @@ def shelf_box_m(spec: CabinetSpec, shelf: Shelf) -> tuple[np.ndarray, np.ndarray
     back = spec.back_inner_x_m
     y0 = -spec.width_m / 2
     return (
-        np.array([back, y0 + left, shelf.height_m - spec.wall_thickness_m]),
+        np.array([back, y0 + left, shelf.height_m - spec.shelf_board_m(shelf)]),
         np.array([back + depth, y0 + right, shelf.height_m]),
     )
 
@@ -194,5 +285,5 @@ def shelf_box_m(spec: CabinetSpec, shelf: Shelf) -> tuple[np.ndarray, np.ndarray
 def drawer_reach_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of the space a closed drawer's box takes in the model frame."""
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
-    front = drawer_front_x_m(spec, drawer)
-    return np.array([front - drawer.depth_m, y_min, z_min]), np.array([front, y_max, z_max])
+    front = drawer_box_front_x_m(spec, drawer)
+    return np.array([front - drawer.depth_m, y_min, z_min]), np.array([drawer_front_x_m(spec, drawer), y_max, z_max])

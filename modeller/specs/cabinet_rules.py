@@ -16,12 +16,16 @@ import numpy as np
 from homemodel.core.yaml_specs import FieldError
 from modeller.specs.cabinet_geometry import (
     door_hinge_point_m,
+    door_plug_bounds_m,
     door_shelf_box_m,
+    door_slab_m,
     drawer_box_bounds_m,
-    drawer_front_x_m,
+    drawer_box_front_x_m,
     drawer_reach_m,
+    frame_members_m,
     hinge_offsets_m,
-    opening_bounds_m,
+    opening_around_m,
+    panel_at,
     shelf_box_m,
     shelf_span_m,
 )
@@ -125,6 +129,7 @@ def _check_handle_on_front(
 def check_cabinet(spec: CabinetSpec) -> None:
     """The rules every cabinet-like kind shares, on a spec whose layout is filled in."""
     _check_walls(spec)
+    _check_frame_and_top(spec)
     _check_shelves_and_dividers(spec)
     fronts = [("doors", i, f) for i, f in enumerate(spec.doors)] + [
         ("drawers", i, f) for i, f in enumerate(spec.drawers)
@@ -170,6 +175,43 @@ def _check_walls(spec: CabinetSpec) -> None:
         )
 
 
+def _check_frame_and_top(spec: CabinetSpec) -> None:
+    """A face frame's members on the front, its overhang narrower than its stiles; top rails
+    over an open top."""
+    frame = spec.face_frame
+    if frame is not None and frame.overhang_m >= frame.width_m:
+        raise FieldError(
+            ("face_frame", "overhang_m"), f"stiles {frame.width_m} m wide cannot stand {frame.overhang_m} m out"
+        )
+    if frame is not None:
+        members = frame_members_m(spec)
+        left, right = members[0][2], members[1][1]
+        bottom, top = members[2][4], members[3][3]
+        for name, m_left, m_right, m_bottom, m_top in members[4:]:
+            group, k = ("stiles", int(name.rsplit("_", 1)[1])) if "stile" in name else ("rails", int(name.rsplit("_", 1)[1]))
+            if m_left < left - _EPS_M or m_right > right + _EPS_M or m_right - m_left <= 0:
+                raise FieldError(
+                    ("face_frame", group, k, "left_m"),
+                    f"spans {m_left:.3f}..{m_right:.3f} m, not inside the frame's opening {left:.3f}..{right:.3f} m",
+                )
+            if m_bottom < bottom - _EPS_M or m_top > top + _EPS_M or m_top - m_bottom <= 0:
+                raise FieldError(
+                    ("face_frame", group, k, "bottom_m"),
+                    f"spans {m_bottom:.3f}..{m_top:.3f} m up, not inside the frame's opening {bottom:.3f}..{top:.3f} m",
+                )
+    if spec.top_rails and spec.top_panel:
+        raise FieldError(("top_rails",), "rails go across an open top; give top_panel: false")
+    for i, rail in enumerate(spec.top_rails):
+        if rail.from_front_m + rail.depth_m > spec.depth_m + _EPS_M:
+            raise FieldError(
+                ("top_rails", i, "depth_m"), f"rail reaches {rail.from_front_m + rail.depth_m:.3f} m back in a "
+                f"{spec.depth_m} m deep body"
+            )
+        thickness = spec.top_board_m if rail.thickness_m is None else rail.thickness_m
+        if spec.carcass_top_m - thickness < spec.inner_floor_m:
+            raise FieldError(("top_rails", i, "thickness_m"), f"a rail {thickness} m thick fills the body")
+
+
 def _check_shelves_and_dividers(spec: CabinetSpec) -> None:
     t = spec.wall_thickness_m
     for i, divider in enumerate(spec.dividers):
@@ -187,10 +229,10 @@ def _check_shelves_and_dividers(spec: CabinetSpec) -> None:
                 ("shelves", i, "height_m"),
                 f"shelf at {shelf.height_m} m is above the body's inside top at {spec.inner_top_m:.3f} m",
             )
-        if shelf.height_m - t < spec.inner_floor_m - _EPS_M:
+        if shelf.height_m - spec.shelf_board_m(shelf) < spec.inner_floor_m - _EPS_M:
             raise FieldError(
                 ("shelves", i, "height_m"),
-                f"shelf at {shelf.height_m} m ({t} m thick) is below the body's inside floor at "
+                f"shelf at {shelf.height_m} m ({spec.shelf_board_m(shelf)} m thick) is below the body's inside floor at "
                 f"{spec.inner_floor_m:.3f} m",
             )
         left, right, depth = shelf_span_m(spec, shelf)
@@ -257,7 +299,7 @@ def _check_no_overlap(fronts: list[tuple[str, int, Front]]) -> None:
 
 
 def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
-    room = min(drawer_front_x_m(spec, drawer), spec.depth_m / 2) - spec.back_inner_x_m
+    room = min(drawer_box_front_x_m(spec, drawer), spec.depth_m / 2) - spec.back_inner_x_m
     if drawer.depth_m > room + _EPS_M:
         raise FieldError(
             ("drawers", i, "depth_m"),
@@ -265,6 +307,18 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
         )
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     t = spec.wall_thickness_m
+    middle = drawer.left_m + drawer.width_m / 2
+    left, right, bottom, _ = opening_around_m(spec, middle, drawer.bottom_m + drawer.height_m / 2)
+    if y_min < -spec.width_m / 2 + left - _EPS_M or y_max > -spec.width_m / 2 + right + _EPS_M:
+        raise FieldError(
+            ("drawers", i, "box_offset_m" if drawer.box_width_m is None else "box_width_m"),
+            f"drawer {i}'s box spans {y_min + spec.width_m / 2:.3f}..{y_max + spec.width_m / 2:.3f} m from the left, "
+            f"outside its opening {left:.3f}..{right:.3f} m",
+        )
+    if z_min < bottom - _EPS_M:
+        raise FieldError(
+            ("drawers", i, "box_bottom_m"), f"drawer {i}'s box starts at {z_min:.3f} m, below its opening at {bottom:.3f} m"
+        )
     if y_max - y_min <= 2 * t:
         raise FieldError(
             ("drawers", i, "width_m"), f"drawer front leaves a box {y_max - y_min:.3f} m wide inside the body"
@@ -281,7 +335,7 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
     for k, shelf in enumerate(spec.shelves):
         left, right, _ = shelf_span_m(spec, shelf)
         beside = right - spec.width_m / 2 <= y_min or left - spec.width_m / 2 >= y_max
-        if not beside and shelf.height_m > z_min and shelf.height_m - t < z_max:
+        if not beside and shelf.height_m > z_min and shelf.height_m - spec.shelf_board_m(shelf) < z_max:
             raise FieldError(
                 ("shelves", k, "height_m"),
                 f"shelf at {shelf.height_m} m cuts through drawer {i}'s box ({z_min:.3f}..{z_max:.3f} m)",
@@ -299,11 +353,24 @@ def _check_door(spec: CabinetSpec, i: int, door: DoorSpec) -> None:
         hinge_offsets_m(spec, door)  # measurements solved here, so a misread tape fails on load
     except FieldError as exc:
         raise FieldError(("doors", i, *exc.loc), str(exc)) from None
-    if door.handle.type == "recessed" and door.handle.recess_depth_m >= spec.door_thickness_m:
+    slab = door_slab_m(spec, door)
+    if door.handle.type == "recessed" and door.handle.recess_depth_m >= slab:
         raise FieldError(
             ("doors", i, "handle", "recess_depth_m"),
-            f"a pocket {door.handle.recess_depth_m} m deep goes through a {spec.door_thickness_m} m thick door",
+            f"a pocket {door.handle.recess_depth_m} m deep goes through a {slab:.3f} m thick door",
         )
+    if door.in_opening_m > 0:
+        if door.mounting == "inset":
+            raise FieldError(("doors", i, "in_opening_m"), "an inset door is in the opening already; give its thickness")
+        if slab <= 0:
+            raise FieldError(
+                ("doors", i, "in_opening_m"),
+                f"{door.in_opening_m} m inside the opening leaves nothing of a {spec.door_board_m(door)} m thick door "
+                f"in front of it ({spec.door_gap_m} m clear of the body)",
+            )
+        y0, y1, z0, z1 = door_plug_bounds_m(spec, door)
+        if y1 - y0 <= 0 or z1 - z0 <= 0:
+            raise FieldError(("doors", i, "in_opening_m"), f"door {i} is not over an opening its inner part could enter")
     for k, shelf in enumerate(door.shelves):
         _check_door_shelf(spec, i, door, k, shelf)
 
@@ -347,7 +414,7 @@ def _check_door_shelf(spec: CabinetSpec, i: int, door: DoorSpec, k: int, shelf: 
 
 def _check_inset(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
     """An inset front sits inside the opening (the carcass' edges or the face frame)."""
-    left, right, bottom, top = opening_bounds_m(spec)
+    left, right, bottom, top = opening_around_m(spec, front.left_m + front.width_m / 2, front.bottom_m + front.height_m / 2)
     if front.left_m < left - _EPS_M or front.right_m > right + _EPS_M:
         raise FieldError(
             (group, i, "left_m"),
@@ -367,7 +434,7 @@ def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
             min(door.right_m, panel.right_m) - max(door.left_m, panel.left_m) > _EPS_M
             and min(door.top_m, panel.top_m) - max(door.bottom_m, panel.bottom_m) > _EPS_M
         )
-        room = spec.door_gap_m if door.mounting != "inset" else -spec.door_thickness_m
+        room = spec.door_gap_m if door.mounting != "inset" else -spec.door_board_m(door)
         if over and panel.forward_m > room + _EPS_M:
             raise FieldError(("panels", i, "forward_m"), f"panel stands {panel.forward_m} m out, into door {j}")
     hole = panel.hole
@@ -384,32 +451,64 @@ def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
         raise FieldError(("panels", i, "hole"), f"hole {hole.diameter_m} m across is not inside its panel")
 
 
-def _on_a_panel(spec: CabinetSpec, left_m: float, height_m: float, radius_m: float) -> bool:
+def _on_a_panel(spec: CabinetSpec, left_m: float, height_m: float, radius_m: float, up_m: float | None = None) -> bool:
+    """Whether the rectangle `radius_m` either side and `up_m` (default: the same) above and
+    below the point lies on one panel."""
+    up_m = radius_m if up_m is None else up_m
     return any(
         left_m - radius_m >= p.left_m - _EPS_M
         and left_m + radius_m <= p.right_m + _EPS_M
-        and height_m - radius_m >= p.bottom_m - _EPS_M
-        and height_m + radius_m <= p.top_m + _EPS_M
+        and height_m - up_m >= p.bottom_m - _EPS_M
+        and height_m + up_m <= p.top_m + _EPS_M
         for p in spec.panels
     )
 
 
 def _check_buttons(spec: CabinetSpec) -> None:
     for i, button in enumerate(spec.buttons):
-        if not _on_a_panel(spec, button.left_m, button.height_m, button.diameter_m / 2):
+        across, up = button.half_size_m
+        if not _on_a_panel(spec, button.left_m, button.height_m, across, up):
             raise FieldError(
                 ("buttons", i, "left_m"),
                 f"button at {button.left_m} m from the left, {button.height_m} m up is off every panel",
             )
         for k, knob in enumerate(spec.knobs):
-            gap = math.hypot(button.left_m - knob.left_m, button.height_m - knob.height_m)
-            if gap < (button.diameter_m + knob.diameter_m) / 2 - _EPS_M:
+            if button.shape == "round" and button.pocket is None and knob.pocket is None:
+                gap = math.hypot(button.left_m - knob.left_m, button.height_m - knob.height_m)
+                overlaps = gap < (button.diameter_m + knob.diameter_m) / 2 - _EPS_M
+            else:
+                overlaps = _boxes_overlap(button.left_m, button.height_m, (across, up), knob.left_m, knob.height_m, knob.half_size_m)
+            if overlaps:
                 raise FieldError(("buttons", i, "left_m"), f"button {i} overlaps knob {k}")
+        for k, other in enumerate(spec.buttons[:i]):
+            if _boxes_overlap(button.left_m, button.height_m, (across, up), other.left_m, other.height_m, other.half_size_m):
+                raise FieldError(("buttons", i, "left_m"), f"button {i} overlaps button {k}")
+    for group, parts in (("buttons", spec.buttons), ("knobs", spec.knobs)):
+        for i, part in enumerate(parts):
+            if part.pocket is not None:
+                _check_pocket(spec, group, i, part)
+
+
+def _boxes_overlap(x0: float, z0: float, half0: tuple[float, float], x1: float, z1: float, half1: tuple[float, float]) -> bool:
+    return abs(x0 - x1) < half0[0] + half1[0] - _EPS_M and abs(z0 - z1) < half0[1] + half1[1] - _EPS_M
+
+
+def _check_pocket(spec: CabinetSpec, group: str, i: int, part) -> None:
+    """A pocket lies in one panel without a hole, shallower than the panel is thick."""
+    panel = panel_at(spec, part.left_m, part.height_m)
+    if panel is None or panel.hole is not None:
+        raise FieldError((group, i, "pocket"), f"a pocket is cut into a panel without a hole; {group[:-1]} {i} has none")
+    thickness = spec.panel_board_m(panel)
+    if part.pocket.depth_m >= thickness:
+        raise FieldError(
+            (group, i, "pocket", "depth_m"),
+            f"a pocket {part.pocket.depth_m} m deep goes through a panel {thickness} m thick; give the panel's thickness_m",
+        )
 
 
 def _check_knobs(spec: CabinetSpec) -> None:
     for i, knob in enumerate(spec.knobs):
-        r = knob.diameter_m / 2
+        r = knob.half_size_m[0]
         if not _on_a_panel(spec, knob.left_m, knob.height_m, r):
             raise FieldError(
                 ("knobs", i, "left_m"),
@@ -425,6 +524,6 @@ def _check_knobs(spec: CabinetSpec) -> None:
             ):
                 raise FieldError(("knobs", i, "left_m"), f"knob {i} is behind door {j}, which would close on it")
         for j, other in enumerate(spec.knobs[:i]):
-            gap = math.hypot(knob.left_m - other.left_m, knob.height_m - other.height_m) - r - other.diameter_m / 2
+            gap = math.hypot(knob.left_m - other.left_m, knob.height_m - other.height_m) - r - other.half_size_m[0]
             if gap < -_EPS_M:
                 raise FieldError(("knobs", i, "left_m"), f"knob {i} overlaps knob {j} by {-gap:.3f} m")

@@ -80,6 +80,16 @@ class DoorSpec(Front, DoorMount):
     window: Window | None = None
     dynamics: JointDynamicsSpec | None = Field(None, description="the hinge's damping and friction; default: by its kind")
     shelves: list[DoorShelf] = Field([], description="bins on the door's inner face (a fridge door's)")
+    thickness_m: Length | None = Field(
+        None,
+        description="from the door's outer face to its innermost face (what a tape across its hinge-side edge "
+        "reads, the part inside the opening included); default: the cabinet's door_thickness_m",
+    )
+    in_opening_m: Offset = Field(
+        0.0,
+        description="how much of that thickness lies inside the opening, behind the body's front plane "
+        "(a microwave door's inner part in the cavity's recess): a plug door_gap_m clear of the opening's edges",
+    )
 
     @property
     def side_hinged(self) -> bool:
@@ -127,6 +137,21 @@ class DrawerSpec(Front):
     runner_clearance_m: Offset | None = Field(
         None, description="gap each side between the box and the carcass for the runners; default: door_gap_m"
     )
+    inner_board_m: Offset = Field(
+        0.0,
+        description="a second board behind the front, inside the opening, this thick (the box's own front, "
+        "across the box); the box starts behind it",
+    )
+    box_bottom_m: Offset | None = Field(
+        None,
+        description="from the front's bottom edge up to the box's underside; default: as low as the opening allows",
+    )
+    box_offset_m: float = Field(
+        0.0, description="the box's middle from the front's middle, sideways (positive: to the right, seen from in front)"
+    )
+    box_width_m: Length | None = Field(
+        None, description="the box's outer width; default: as wide as the opening allows, less runner_clearance_m"
+    )
     dynamics: JointDynamicsSpec | None = Field(None, description="the slide's damping and friction; default: by its kind")
 
     def handle_orientation(self) -> Orientation:
@@ -145,7 +170,7 @@ class DrawerSpec(Front):
 
 
 class Shelf(_Spec):
-    """A fixed shelf, as thick as the walls, from the back wall forward."""
+    """A fixed shelf from the back wall forward, as thick as the cabinet's shelves."""
 
     height_m: Length = Field(description="height of the shelf's top surface above the floor")
     left_m: Offset | None = Field(
@@ -153,6 +178,7 @@ class Shelf(_Spec):
     )
     width_m: Length | None = Field(None, description="length side to side; default: to the right wall")
     depth_m: Length | None = Field(None, description="from the back wall's inner face forward; default: to the front")
+    thickness_m: Length | None = Field(None, description="this shelf's own thickness; default: shelf_thickness_m")
 
 
 class Divider(_Spec):
@@ -170,13 +196,34 @@ class Hole(_Spec):
 
 
 class Panel(Front):
-    """A fixed panel in the body's front (a control panel, a kick plate), as thick as the walls."""
+    """A fixed panel in the body's front (a control panel, a kick plate), as thick as the walls
+    unless given; knobs and buttons on it may sit in pockets cut into it."""
 
     hole: Hole | None = None
+    thickness_m: Length | None = Field(None, description="the panel's own thickness; default: wall_thickness_m")
     forward_m: float = Field(
         0.0, description="how far the panel's face stands out of the body's front (negative: set back into it)"
     )
     colour: Colour | None = Field(None, description="default: the body's colour")
+
+
+class FrameStile(_Spec):
+    """A middle stile of a face frame: a vertical member between the top and bottom rails
+    (a door may hang on it; it is not a divider behind the opening)."""
+
+    left_m: Offset = Field(description="from the body's left edge to the stile's left edge, seen from in front")
+    width_m: Length | None = Field(None, description="default: the frame's width_m")
+    bottom_m: Offset | None = Field(None, description="its lower end above the floor; default: the bottom rail")
+    top_m: Offset | None = Field(None, description="its upper end above the floor; default: the top rail")
+
+
+class FrameRail(_Spec):
+    """A middle rail of a face frame: a horizontal member across the opening."""
+
+    bottom_m: Offset = Field(description="height of the rail's lower edge above the floor")
+    height_m: Length | None = Field(None, description="seen from in front; default: the frame's width_m")
+    left_m: Offset | None = Field(None, description="its left end from the body's left edge; default: the left stile")
+    right_m: Offset | None = Field(None, description="its right end from the body's left edge; default: the right stile")
 
 
 class FaceFrame(_Spec):
@@ -184,6 +231,19 @@ class FaceFrame(_Spec):
 
     width_m: Length = Field(0.038, description="width of the stiles and rails, seen from in front")
     thickness_m: Length = Field(0.019, description="depth of the frame, front to back")
+    overhang_m: Offset = Field(
+        0.0, description="how far the outer stiles stand out past the side panels, each side (the stiles' width_m includes it)"
+    )
+    stiles: list[FrameStile] = Field([], description="middle stiles (a door may hang on one)")
+    rails: list[FrameRail] = Field([], description="middle rails")
+
+
+class TopRail(_Spec):
+    """A rail (cleat) across an open top, side to side, flush with the sides' top edges."""
+
+    from_front_m: Offset = Field(description="from the body's front plane back to the rail's front edge")
+    depth_m: Length = Field(description="front to back")
+    thickness_m: Length | None = Field(None, description="default: top_thickness_m (else wall_thickness_m)")
 
 
 class BackPanel(_Spec):
@@ -212,6 +272,11 @@ class CabinetSpec(ObjectSpec):
     top_panel: bool = Field(True, description="false: no top (a base unit under a worktop)")
     top_thickness_m: Length | None = Field(None, description="the top's own thickness; default: wall_thickness_m")
     bottom_thickness_m: Length | None = Field(None, description="the bottom's own thickness; default: wall_thickness_m")
+    bottom_raise_m: Offset = Field(
+        0.0, description="from the carcass' underside (the plinth's top) up to the bottom board: a void under it"
+    )
+    shelf_thickness_m: Length | None = Field(None, description="the shelves' thickness; default: wall_thickness_m")
+    top_rails: list[TopRail] = Field([], description="rails or cleats across an open top (top_panel: false)")
     back_panel: BackPanel | None = Field(None, description="default: a back wall as thick as the walls, flush")
     face_frame: FaceFrame | None = None
     plinth_height_m: Offset = 0.0
@@ -271,7 +336,20 @@ class CabinetSpec(ObjectSpec):
 
     @property
     def inner_floor_m(self) -> float:
-        return self.carcass_bottom_m + self.bottom_board_m
+        return self.carcass_bottom_m + self.bottom_raise_m + self.bottom_board_m
+
+    def shelf_board_m(self, shelf: Shelf) -> float:
+        """A shelf's thickness."""
+        if shelf.thickness_m is not None:
+            return shelf.thickness_m
+        return self.wall_thickness_m if self.shelf_thickness_m is None else self.shelf_thickness_m
+
+    def door_board_m(self, door: DoorSpec) -> float:
+        """A door's thickness, outer face to innermost face."""
+        return self.door_thickness_m if door.thickness_m is None else door.thickness_m
+
+    def panel_board_m(self, panel: Panel) -> float:
+        return self.wall_thickness_m if panel.thickness_m is None else panel.thickness_m
 
     @property
     def inner_top_m(self) -> float:
@@ -282,7 +360,9 @@ class CabinetSpec(ObjectSpec):
         """How far inset fronts reach back from the body's front (shelves stop behind them)."""
         fronts = [*self.doors, *self.drawers] if self.doors is not None and self.drawers is not None else []
         inset = any(front.mounting == "inset" for front in fronts)
-        return self.door_thickness_m + self.door_gap_m if inset else 0.0
+        reach = self.door_thickness_m + self.door_gap_m if inset else 0.0
+        plugs = [door.in_opening_m for door in self.doors or [] if door.mounting != "inset"]
+        return max([reach, *plugs])
 
     # ------------------------------------------------------------------ layout and checks
 
@@ -436,7 +516,7 @@ class WardrobeSpec(CabinetSpec):
                 if (
                     overlaps
                     and in_depth
-                    and shelf.height_m - t < rail.height_m + r
+                    and shelf.height_m - self.shelf_board_m(shelf) < rail.height_m + r
                     and shelf.height_m > rail.height_m - r
                 ):
                     raise FieldError(("rails", i, "height_m"), f"rail runs through shelf {k}")

@@ -3,6 +3,7 @@ control knobs and push buttons."""
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
@@ -12,6 +13,8 @@ from modeller.specs.common import Colour, Length, Offset, _Spec
 from modeller.specs.joint_dynamics import JointDynamicsSpec
 
 Orientation = Literal["vertical", "horizontal"]
+# A button in a pocket keeps at least this much of itself above the pocket's floor, pressed.
+_MIN_BUTTON_BODY_M = 0.001
 
 
 class Handle(_Spec):
@@ -93,6 +96,13 @@ class DrawerHandle(Handle):
     height_m: Offset | None = Field(None, description="handle centre above the front's bottom edge; default: centred")
 
 
+class Pocket(_Spec):
+    """A pocket cut into the panel round a knob or button: it sits in it."""
+
+    depth_m: Length = Field(description="from the panel's outer face to the pocket's floor")
+    margin_m: Offset = Field(0.002, description="gap between the knob or button and the pocket's side, all round")
+
+
 class ControlKnob(_Spec):
     """A turning knob on an appliance's front panel (oven, hob, washing machine): a revolute link.
 
@@ -112,12 +122,20 @@ class ControlKnob(_Spec):
     colour: Colour = "black"
     marker_colour: Colour = "white"
     dynamics: JointDynamicsSpec | None = Field(None, description="the knob's damping and friction; default: by its kind")
+    stops: bool = Field(True, description="false: the knob turns round and round (a continuous joint)")
+    pocket: Pocket | None = Field(None, description="a round pocket in the panel the knob sits in")
+
+    @property
+    def half_size_m(self) -> tuple[float, float]:
+        """Half its extent across and up, pocket included (for the panel's rules)."""
+        r = self.diameter_m / 2 + (0.0 if self.pocket is None else self.pocket.margin_m)
+        return r, r
 
     @model_validator(mode="after")
     def _states_fit(self) -> ControlKnob:
         if len(set(self.states)) != len(self.states):
             raise FieldError(("states",), f"state names repeat: {self.states}")
-        if (len(self.states) - 1) * self.step_deg > 360:
+        if self.stops and (len(self.states) - 1) * self.step_deg > 360:
             raise FieldError(
                 ("step_deg",), f"{len(self.states)} states {self.step_deg} degrees apart turn more than once round"
             )
@@ -125,20 +143,56 @@ class ControlKnob(_Spec):
 
 
 class PushButton(_Spec):
-    """A round push button on a front panel (a microwave's door release): a prismatic link
-    pressed straight in (-x) by up to `travel_m`."""
+    """A push button on a front panel (a microwave's door release), round or rectangular: a
+    prismatic link pressed straight in (-x) by up to `travel_m`. In a pocket it may stand
+    level with the panel's face or below it (projection zero or negative) and press in
+    further than it stands out, down to the pocket's floor."""
 
     left_m: Offset = Field(description="button centre from the body's left edge, seen from in front")
     height_m: Offset = Field(description="button centre above the floor")
-    diameter_m: Length = 0.02
-    projection_m: Length = Field(0.006, description="from the panel's outer face to the button's face")
+    shape: Literal["round", "rectangle"] = "round"
+    diameter_m: Length = Field(0.02, description="a round button's diameter")
+    width_m: Length | None = Field(None, description="a rectangular button's width, seen from in front")
+    button_height_m: Length | None = Field(None, description="a rectangular button's height, seen from in front")
+    projection_m: float = Field(
+        0.006, description="from the panel's outer face to the button's face (negative: below it, in a pocket)"
+    )
     travel_m: Length = Field(0.004, description="how far the button presses in")
+    pocket: Pocket | None = Field(None, description="a pocket in the panel the button sits in")
     colour: Colour = "grey"
+
+    @property
+    def half_size_m(self) -> tuple[float, float]:
+        """Half its extent across and up, pocket included (for the panel's rules)."""
+        margin = 0.0 if self.pocket is None else self.pocket.margin_m
+        if self.shape == "round":
+            return self.diameter_m / 2 + margin, self.diameter_m / 2 + margin
+        assert self.width_m is not None and self.button_height_m is not None
+        return self.width_m / 2 + margin, self.button_height_m / 2 + margin
 
     @model_validator(mode="after")
     def _travel_fits(self) -> PushButton:
-        if self.travel_m >= self.projection_m:
+        if not (math.isfinite(self.projection_m) and abs(self.projection_m) <= 1.0):
+            raise FieldError(("projection_m",), f"{self.projection_m} m is not a button's projection")
+        if self.shape == "rectangle" and (self.width_m is None or self.button_height_m is None):
+            raise FieldError(("width_m",), "a rectangular button needs width_m and button_height_m")
+        if self.pocket is None:
+            if self.projection_m <= 0:
+                raise FieldError(
+                    ("projection_m",), f"a button {self.projection_m} m out of the panel's face needs a pocket to sit in"
+                )
+            if self.travel_m >= self.projection_m:
+                raise FieldError(
+                    ("travel_m",), f"a button standing {self.projection_m} m out cannot press in {self.travel_m} m"
+                )
+            return self
+        floor = self.pocket.depth_m
+        if self.projection_m <= -floor:
+            raise FieldError(("projection_m",), f"a button {-self.projection_m} m down a {floor} m deep pocket is not in it")
+        if self.projection_m - self.travel_m <= -floor + _MIN_BUTTON_BODY_M:
             raise FieldError(
-                ("travel_m",), f"a button standing {self.projection_m} m out cannot press in {self.travel_m} m"
+                ("travel_m",),
+                f"a button {self.projection_m} m out pressed in {self.travel_m} m goes through its pocket's floor "
+                f"{floor} m down",
             )
         return self
