@@ -7,6 +7,7 @@ is in `gaps`, for `articulation.repair` to fill in and state.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -30,7 +31,8 @@ _GLTF = (".glb", ".gltf")
 @dataclass(kw_only=True)
 class ImportOptions:
     # Folders where `package://NAME/...` finds ROS package NAME (each a package, a folder of
-    # packages, or an install prefix with share/NAME), after the package holding the URDF.
+    # packages, or an install prefix with share/NAME), after the package holding the URDF and
+    # before those of ROS_PACKAGE_PATH and AMENT_PREFIX_PATH (as ROS 1 and 2 find packages).
     package_paths: list[Path] = field(default_factory=list)
     # A mesh file's up axis: "auto" is y for glTF (its specification says so), z otherwise.
     up_axis: Literal["auto", "y", "z"] = "auto"
@@ -64,13 +66,22 @@ def import_asset(path: Path, options: ImportOptions | None = None, *, texture_di
     if path.is_dir() and is_partnet_folder(path):
         urdf = find_urdf(path)
         imported = import_partnet(path)
-        note = f"PartNet-Mobility {imported.category_source}: turned to z up, front (from its {imported.front_from}) to +x, on the floor"
+        note = f"frame: PartNet-Mobility's y up turned to z up, the front (found from its {imported.front_from}) to +x, on the floor"
         return ImportedAsset(model=imported.model, kind="partnet", gaps=find_gaps(urdf, imported.model), urdf=urdf, notes=[note])
     if path.is_file() and path.suffix.lower() not in (".urdf",):
         raise InputError(f"{path}: expected a model folder, a .urdf or a mesh file ({', '.join(MESH_FILE_SUFFIXES)})")
     urdf = find_urdf(path)
-    model = load_urdf(urdf, package_paths=options.package_paths)
+    model = load_urdf(urdf, package_paths=[*options.package_paths, *environment_package_paths()])
     return ImportedAsset(model=model, kind="urdf", gaps=find_gaps(urdf, model), urdf=urdf)
+
+
+def environment_package_paths() -> list[Path]:
+    """The package paths a sourced ROS workspace sets: ROS_PACKAGE_PATH's folders (ROS 1)
+    and AMENT_PREFIX_PATH's install prefixes (ROS 2, packages in share/NAME)."""
+    paths = []
+    for variable in ("ROS_PACKAGE_PATH", "AMENT_PREFIX_PATH"):
+        paths += [Path(p) for p in os.environ.get(variable, "").split(os.pathsep) if p]
+    return paths
 
 
 def _up_axis(path: Path, options: ImportOptions) -> str:
@@ -108,7 +119,7 @@ def _import_mesh_file(path: Path, options: ImportOptions, texture_dir: Path | No
     except InputError as exc:
         raise InputError(str(exc) if str(exc).startswith(f"{path}:") else f"{path}: {exc}") from None
     up = _up_axis(path, options)
-    notes = [f"mesh file: {len(parts)} part(s), {'y' if up == 'y' else 'z'} up"]
+    notes = [f"frame: {len(parts)} mesh part(s) as one link, " + ("y up (glTF's) turned to z up" if up == "y" else "z up as given")]
     z_up_from_file = np.linalg.inv(Y_UP_FROM_Z_UP) if up == "y" else np.eye(4)
     whole = trimesh.util.concatenate([trimesh.Trimesh(m.vertices, m.faces, process=False) for _, m in parts])
     whole.apply_transform(z_up_from_file)
@@ -118,7 +129,7 @@ def _import_mesh_file(path: Path, options: ImportOptions, texture_dir: Path | No
     floor_from_file = np.eye(4)
     floor_from_file[:3, 3] = -np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, low[2]])
     floor_from_file = floor_from_file @ z_up_from_file
-    notes.append("placed on the floor (z = 0), its footprint centred on the origin")
+    notes[0] += ", standing on the floor (z = 0) with its footprint centred on the origin"
     used: set[str] = set()
     visuals = []
     for index, (name, mesh) in enumerate(parts):

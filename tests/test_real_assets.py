@@ -146,11 +146,15 @@ def ros_workspace(tmp_path: Path) -> Path:
     return src
 
 
-def test_a_ros_package_imports_with_package_uris_dae_units_and_node_transforms(ros_workspace: Path, tmp_path: Path) -> None:
+def test_a_ros_package_imports_with_package_uris_dae_units_and_node_transforms(ros_workspace: Path, tmp_path: Path, monkeypatch) -> None:
     urdf = ros_workspace / "arm_description" / "urdf" / "arm.urdf"
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
     with pytest.raises(InputError, match=r"arm\.urdf: line \d+: mesh 'package://shared_meshes/meshes/knob\.dae': .*cannot be resolved"):
         import_asset(urdf)  # shared_meshes is another package: not found without a package path
     imported = import_asset(urdf, ImportOptions(package_paths=[ros_workspace]))
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(ros_workspace))  # a sourced ROS 1 workspace finds it too
+    assert len(import_asset(urdf).model.link("arm_link").visuals) == 2
     arm = imported.model.link("arm_link")
     dae = arm.visuals[0].mesh
     # 50 x 50 x 300 mm, its node 150 mm up: in metres, from z = 0 to 0.3 (RViz's reading).
@@ -200,6 +204,7 @@ def test_a_glb_of_a_small_object_is_a_one_link_model_on_the_floor(tmp_path: Path
     assert model.link("body").inertial.mass_kg == pytest.approx(700.0 * cup.volume, rel=1e-6)
     np.testing.assert_allclose(model.link("body").inertial.com_m, [0, 0, 0.05], atol=1e-6)
     assert "closed meshes' volume" in done[0] and "700 kg/m^3" in done[0]
+    assert imported.notes == ["frame: 1 mesh part(s) as one link, y up (glTF's) turned to z up, standing on the floor (z = 0) with its footprint centred on the origin"]
     write_model_files(model, tmp_path / "out")
     report = validate_path(tmp_path / "out")
     assert report.ok, report.format()

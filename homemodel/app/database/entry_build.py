@@ -161,7 +161,7 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
             return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
         model = imported.model
         model.name = job.id
-        repairs = [f"imported: {note}" for note in imported.notes]
+        repairs = list(imported.notes)
         if imported.gaps and repair is not None:
             model, done = repaired(model, imported.gaps, RepairOptions(**repair.model_dump()))
             repairs += done
