@@ -7,7 +7,6 @@ is in `gaps`, for `articulation.repair` to fill in and state.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -71,17 +70,8 @@ def import_asset(path: Path, options: ImportOptions | None = None, *, texture_di
     if path.is_file() and path.suffix.lower() not in (".urdf",):
         raise InputError(f"{path}: expected a model folder, a .urdf or a mesh file ({', '.join(MESH_FILE_SUFFIXES)})")
     urdf = find_urdf(path)
-    model = load_urdf(urdf, package_paths=[*options.package_paths, *environment_package_paths()])
+    model = load_urdf(urdf, package_paths=options.package_paths)
     return ImportedAsset(model=model, kind="urdf", gaps=find_gaps(urdf, model), urdf=urdf)
-
-
-def environment_package_paths() -> list[Path]:
-    """The package paths a sourced ROS workspace sets: ROS_PACKAGE_PATH's folders (ROS 1)
-    and AMENT_PREFIX_PATH's install prefixes (ROS 2, packages in share/NAME)."""
-    paths = []
-    for variable in ("ROS_PACKAGE_PATH", "AMENT_PREFIX_PATH"):
-        paths += [Path(p) for p in os.environ.get(variable, "").split(os.pathsep) if p]
-    return paths
 
 
 def _up_axis(path: Path, options: ImportOptions) -> str:

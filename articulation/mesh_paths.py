@@ -1,12 +1,14 @@
 """Where a URDF's mesh reference points: always inside the model folder (or, for a
 `package://NAME/...` URI, inside the ROS package NAME: the one that holds the URDF, or one
-found in the given package paths as ROS finds it), never elsewhere.
+found in the given package paths, then in those of ROS_PACKAGE_PATH and AMENT_PREFIX_PATH,
+as ROS finds it), never elsewhere.
 
 The importer and the validation gate share this, so what one accepts the other does too.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -54,6 +56,15 @@ def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
     return None
 
 
+def environment_package_paths() -> list[Path]:
+    """The package paths a sourced ROS workspace sets: ROS_PACKAGE_PATH's folders (ROS 1)
+    and AMENT_PREFIX_PATH's install prefixes (ROS 2, packages in share/NAME)."""
+    paths = []
+    for variable in ("ROS_PACKAGE_PATH", "AMENT_PREFIX_PATH"):
+        paths += [Path(p) for p in os.environ.get(variable, "").split(os.pathsep) if p]
+    return paths
+
+
 def _package_file(rest: str, urdf_dir: Path, package_paths: Sequence[Path]) -> Path | None:
     """The file `package://rest` names inside package NAME: the one holding the URDF if it
     is NAME, else NAME found in `package_paths`; never outside that package's folder."""
@@ -61,7 +72,10 @@ def _package_file(rest: str, urdf_dir: Path, package_paths: Sequence[Path]) -> P
     if not inside:
         return None
     package = _enclosing_package(urdf_dir)
-    folder = package[1] if package is not None and package[0] == name else find_package(name, package_paths)
+    if package is not None and package[0] == name:
+        folder = package[1]
+    else:
+        folder = find_package(name, [*package_paths, *environment_package_paths()])
     if folder is None:
         return None
     target = (folder / inside).resolve()
