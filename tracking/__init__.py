@@ -3,7 +3,8 @@ the map's own models, gives the state of the home; and a view simulator that ren
 observation from the map, with a structured-light sensor's noise.
 
 `HomeScene` and `Renderer` (`tracking.scene`) pose and ray-cast the map's models;
-`simulate_view` writes an observation folder with its truth.
+`ViewSimulator` and `write_view` (`tracking.simulate_view`) render an observation folder
+with its truth, the sensor's noise from `tracking.sensor_noise`.
 """
 
 from tracking.observe import ObserveOptions, ObserveResult, observe, write_observed
