@@ -93,9 +93,31 @@ class ListQuery:
 
 
 @dataclass
-class _Entry:
-    summary: dict
-    text: str  # what free text searches, case-folded
+class _Snapshot:
+    """The index as the list reads it, in parallel lists (fast to filter)."""
+
+    summaries: list[dict]
+    texts: list[str]  # what free text searches, case-folded
+    statuses: list[str]
+    orders: dict[str, list[int]]  # sort key -> row positions in ascending order, made on demand
+
+    @classmethod
+    def of(cls, summaries: list[dict]) -> _Snapshot:
+        texts = [
+            " ".join([s["id"], s["category"], s["source"], *(f"{k}={v}" for k, v in s["properties"].items())]).casefold()
+            for s in summaries
+        ]  # fmt: skip
+        return cls(summaries, texts, [s["status"] for s in summaries], {})
+
+    def order(self, key: str) -> list[int]:
+        if key not in self.orders:
+            rows = self.summaries
+            if key in NUMBER_KEYS:
+                sort_key = lambda i: (rows[i][key] is None, rows[i][key] or 0, natural_key(rows[i]["id"]))  # noqa: E731
+            else:
+                sort_key = lambda i: (natural_key(rows[i][key]), natural_key(rows[i]["id"]))  # noqa: E731
+            self.orders[key] = sorted(range(len(rows)), key=sort_key)
+        return self.orders[key]
 
 
 class Listing:
@@ -105,8 +127,7 @@ class Listing:
         self.db_dir = Path(db_dir)
         self._lock = threading.Lock()
         self._stamp: tuple | None = None
-        self._entries: list[_Entry] = []
-        self._orders: dict[str, list[int]] = {}
+        self._snapshot = _Snapshot.of([])
 
     def _index_stamp(self) -> tuple:
         stamps = []
@@ -118,48 +139,35 @@ class Listing:
                 stamps.append(None)
         return tuple(stamps)
 
-    def _current(self) -> tuple[list[_Entry], dict[str, list[int]]]:
+    def _current(self) -> _Snapshot:
         with self._lock:
             stamp = self._index_stamp()
             if stamp != self._stamp:
                 with ModelIndex(self.db_dir) as index:
                     rows = index.columns(LIST_COLUMNS)
-                summaries = (summary(self.db_dir, dict(zip(LIST_COLUMNS, r))) for r in rows)
-                self._entries = [_Entry(s, self._text(s)) for s in summaries]
-                self._orders, self._stamp = {}, stamp
-            return self._entries, self._orders
-
-    @staticmethod
-    def _text(entry: dict) -> str:
-        words = [entry["id"], entry["category"], entry["source"], *(f"{k}={v}" for k, v in entry["properties"].items())]
-        return " ".join(words).casefold()
-
-    def _order(self, entries: list[_Entry], orders: dict[str, list[int]], key: str) -> list[int]:
-        """Row positions in ascending order of `key`, computed once per index version."""
-        if key not in orders:
-            if key in NUMBER_KEYS:
-                sort_key = lambda i: (entries[i].summary[key] is None, entries[i].summary[key] or 0, natural_key(entries[i].summary["id"]))  # noqa: E731
-            else:
-                sort_key = lambda i: (natural_key(entries[i].summary[key]), natural_key(entries[i].summary["id"]))  # noqa: E731
-            orders[key] = sorted(range(len(entries)), key=sort_key)
-        return orders[key]
+                self._snapshot = _Snapshot.of([summary(self.db_dir, dict(zip(LIST_COLUMNS, r))) for r in rows])
+                self._stamp = stamp
+            return self._snapshot
 
     def query(self, query: ListQuery) -> dict:
         """{total, matched, offset, rows}: one page of the rows `query` selects, in its order."""
         query.check()
-        entries, orders = self._current()
+        snapshot = self._current()
         words, status = [], query.status
         for word in query.q.casefold().split():
             if word.startswith("status:"):
                 status = word.removeprefix("status:")
             else:
                 words.append(word)
-        order = self._order(entries, orders, query.sort)
+        chosen = snapshot.order(query.sort)
         if query.descending:
-            order = order[::-1]
-        chosen = [
-            i for i in order
-            if (status is None or entries[i].summary["status"] == status) and all(w in entries[i].text for w in words)
-        ]  # fmt: skip
+            chosen = chosen[::-1]
+        if status is not None:
+            statuses = snapshot.statuses
+            chosen = [i for i in chosen if statuses[i] == status]
+        texts = snapshot.texts
+        for word in words:
+            chosen = [i for i in chosen if word in texts[i]]
         page = chosen[query.offset : query.offset + query.limit]
-        return {"total": len(entries), "matched": len(chosen), "offset": query.offset, "rows": [entries[i].summary for i in page]}
+        rows = snapshot.summaries
+        return {"total": len(rows), "matched": len(chosen), "offset": query.offset, "rows": [rows[i] for i in page]}

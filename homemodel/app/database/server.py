@@ -1,7 +1,7 @@
 """`homemodel db serve`: the database's web page and its API, a Starlette app on uvicorn.
-Everything it sends is local: the page in `web/`, three.js from the `tools/node_modules` the
-Makefile installs (never fetched at run time), the index as JSON pages, and the model
-folders' files. What keeps it safe is in `server_security`.
+Everything it sends is local: the page in `web/`, three.js from the node_modules folder the
+Makefile installs (found by `homemodel.core.node_packages`; never fetched at run time), the
+index as JSON pages, and the model folders' files. What keeps it safe is in `server_security`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, PlainTextResponse, Response
 from starlette.routing import Route
 
-from articulation.gate.gltf import TOOLS_DIR
 from homemodel.app.database.entry_build import ENTRY_FILE
 from homemodel.app.database.index import MODELS_DIR, ModelIndex
 from homemodel.app.database.listing import Listing, ListQuery, finite_number, summary
@@ -35,12 +34,12 @@ from homemodel.app.database.server_security import (
     script_hash,
 )
 from homemodel.core.errors import HomemodelError, InputError
+from homemodel.core.node_packages import find_node_package, install_hint
 
 logger = logging.getLogger(__name__)
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
 WEB_FILES = ("index.html", "app.js", "style.css")
-THREE_DIR = TOOLS_DIR / "node_modules" / "three"
 # Only these parts of three.js are served: the module build and the example add-ons' modules.
 THREE_PARTS = ("build", "examples/jsm")
 _IMPORT_MAP = re.compile(r'<script type="importmap">(.*?)</script>', re.S)
@@ -121,9 +120,18 @@ def _validation_report(db_dir: Path, row_path: object) -> str | None:
     return report if isinstance(report, str) else None
 
 
+def three_dir() -> Path:
+    """The installed three.js package; an InputError saying how to install it when it is absent."""
+    folder = find_node_package("three")
+    if folder is None or not (folder / "build" / "three.module.js").is_file():
+        raise InputError(install_hint("three"))
+    return folder
+
+
 def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int | None]]) -> Guard:
     """The ASGI app: the page, the API (`/api/models?q=&status=&sort=&order=&offset=&limit=`,
     `/api/models/ID`, `/api/map`), model files under `/db/` and three.js under `/vendor/three/`."""
+    three = three_dir()
     listing = Listing(db_dir)
     listing.query(ListQuery())  # read the index now, so the page's first list is quick
     page = (WEB_DIR / "index.html").read_text()
@@ -188,7 +196,7 @@ def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int |
         return file_response(request.headers, safe_file(db_dir / MODELS_DIR, request.path_params["path"]))
 
     def three_file(request: Request) -> Response:
-        path = safe_file(THREE_DIR, request.path_params["path"], allowed=THREE_PARTS)
+        path = safe_file(three, request.path_params["path"], allowed=THREE_PARTS)
         return file_response(request.headers, path)
 
     async def http_error(request: Request, exc: Exception) -> Response:
@@ -222,7 +230,9 @@ class DatabaseServer:
         import uvicorn
 
         family = socket.AF_INET6 if ":" in options.host.strip("[]") else socket.AF_INET
-        self.socket = socket.socket(family, socket.SOCK_STREAM)
+        # IPPROTO_TCP named: asyncio turns Nagle off (TCP_NODELAY) only on sockets that say it,
+        # and with Nagle on, each response's body waited 40 ms for the client's delayed ACK.
+        self.socket = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
         try:
             self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             self.socket.bind((options.host.strip("[]"), options.port))
@@ -262,8 +272,7 @@ def make_server(db_dir: Path, options: ServeOptions | None = None, *, map_path: 
     options.check()
     db_dir = Path(db_dir)
     ModelIndex(db_dir).close()  # a missing database fails here, before the port is taken
-    if not (THREE_DIR / "build" / "three.module.js").is_file():
-        raise InputError(f"{THREE_DIR}: three.js is not installed; run `make setup`")
+    three_dir()  # a missing three.js fails here, before the port is taken
     if map_path is not None:
         from semantic_map import load_map
 
