@@ -132,7 +132,9 @@ def link_mass(
     """Mass properties of a link's meshes (in the link frame) at `density_kg_m3`, never NaN:
     closed meshes by their volume, open sheets by a voxel fill at up to `voxel_size_m`, else
     the convex hull, else a cube of `default_size_m` and `default_mass_kg`."""
-    parts = [m for m in meshes if len(m.faces) and np.all(np.isfinite(m.vertices)) and m.area > 0]
+    parts = [m.copy() for m in meshes if len(m.faces) and np.all(np.isfinite(m.vertices)) and m.area > 0]
+    for part in parts:
+        part.merge_vertices()  # an STL repeats each corner per triangle: closed only once merged
     if not parts:
         centre = np.zeros(3)
         if meshes and all(np.all(np.isfinite(m.vertices)) and len(m.vertices) for m in meshes):

@@ -52,10 +52,17 @@ class AssetGaps:
     limits_without_velocity: list[str]
     # "link/collision" of collision meshes with no volume (PartNet's sheets): nothing to collide with
     flat_collisions: list[str] = field(default_factory=list)
+    # ... and of open meshes whose hull is mostly air (a cabinet's sheets in one file): the
+    # hull a simulator collides fills the cavity, and the drawers inside collide with it
+    hollow_collisions: list[str] = field(default_factory=list)
 
     def __bool__(self) -> bool:
         return bool(
-            self.links_without_inertial or self.limits_without_effort or self.limits_without_velocity or self.flat_collisions
+            self.links_without_inertial
+            or self.limits_without_effort
+            or self.limits_without_velocity
+            or self.flat_collisions
+            or self.hollow_collisions
         )
 
     def describe(self) -> list[str]:
@@ -68,6 +75,8 @@ class AssetGaps:
             said.append(f"<limit> without velocity on joints: {', '.join(self.limits_without_velocity)}")
         if self.flat_collisions:
             said.append(f"flat collision meshes (no volume): {', '.join(self.flat_collisions)}")
+        if self.hollow_collisions:
+            said.append(f"open collision meshes whose hull fills a cavity: {', '.join(self.hollow_collisions)}")
         return said
 
 
@@ -95,14 +104,72 @@ def _flat_box(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray | No
     return Box(size_m=tuple(float(v) for v in size)), mesh_from_box
 
 
-def model_flat_collisions(model: Model) -> list[str]:
-    """"link/collision" of every collision mesh of the model with no volume."""
+# An open mesh is hollow when its hull holds this many times its sheets taken SHEET_M thick.
+HOLLOW_HULL_RATIO = 3.0
+SHEET_M = 0.01
+# A hollow mesh is replaced by at most this many panels; beyond (a finely curved surface), its hull stays.
+MAX_PANELS = 64
+
+
+def _merged(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The mesh with coincident vertices merged (an STL repeats each corner per triangle, so
+    a closed STL box reads as open until they are)."""
+    merged = mesh.copy()
+    merged.merge_vertices()
+    return merged
+
+
+def _is_hollow(mesh: trimesh.Trimesh) -> bool:
+    mesh = _merged(mesh)
+    if mesh.is_watertight:
+        return False
+    try:
+        hull_m3 = float(mesh.convex_hull.volume)
+    except Exception:  # qhull refuses flat or collinear point sets
+        return False
+    return hull_m3 > HOLLOW_HULL_RATIO * float(mesh.area) * SHEET_M
+
+
+def _mesh_collisions(model: Model) -> list[tuple[str, trimesh.Trimesh]]:
     return [
-        f"{link.name}/{c.name}"
+        (f"{link.name}/{c.name}", c.geometry.mesh)
         for link in model.links
         for c in link.collisions
-        if isinstance(c.geometry, MeshGeometry) and _flat_box(c.geometry.mesh, 1.0) is not None
+        if isinstance(c.geometry, MeshGeometry)
     ]
+
+
+def model_flat_collisions(model: Model) -> list[str]:
+    """"link/collision" of every collision mesh of the model with no volume."""
+    return [name for name, mesh in _mesh_collisions(model) if _flat_box(mesh, 1.0) is not None]
+
+
+def model_hollow_collisions(model: Model) -> list[str]:
+    """"link/collision" of every open collision mesh whose hull is mostly air."""
+    return [name for name, mesh in _mesh_collisions(model) if _flat_box(mesh, 1.0) is None and _is_hollow(mesh)]
+
+
+def _panels(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray) -> list[tuple[Box, np.ndarray]] | None:
+    """The open mesh as thin boxes, one per planar region (trimesh's facets; a lone triangle
+    is its own region), each on the side of `inside`; None when a region is not flat or there
+    are more than MAX_PANELS."""
+    merged = _merged(mesh)
+    groups = [np.asarray(f) for f in merged.facets]
+    grouped = np.zeros(len(merged.faces), dtype=bool)
+    for group in groups:
+        grouped[group] = True
+    groups += [np.array([i]) for i in np.flatnonzero(~grouped)]
+    if len(groups) > MAX_PANELS:
+        return None
+    panels = []
+    for group in groups:
+        region = trimesh.Trimesh(merged.vertices, merged.faces[group], process=False)
+        region.remove_unreferenced_vertices()
+        box = _flat_box(region, thickness_m, inside)
+        if box is None:
+            return None
+        panels.append(box)
+    return panels
 
 
 def find_gaps(urdf: Path, model: Model | None = None) -> AssetGaps:
@@ -121,6 +188,7 @@ def find_gaps(urdf: Path, model: Model | None = None) -> AssetGaps:
         limits_without_effort=[name for name, el in limits if el.get("effort") is None],
         limits_without_velocity=[name for name, el in limits if el.get("velocity") is None],
         flat_collisions=model_flat_collisions(model) if model is not None else [],
+        hollow_collisions=model_hollow_collisions(model) if model is not None else [],
     )
 
 
@@ -170,6 +238,29 @@ def repair(model: Model, gaps: AssetGaps, options: RepairOptions) -> tuple[Model
                 f"link {link.name!r}: no <inertial>; {found.inertial.mass_kg:.3g} kg from {found.method} "
                 f"at {options.density_kg_m3:g} kg/m^3"
             )
+        hollow = [c for c in link.collisions if f"{link.name}/{c.name}" in gaps.hollow_collisions]
+        if hollow:
+            inside = link.inertial.com_m if link.inertial is not None else _centre(link)
+            collisions, kept = [], []
+            for collision in link.collisions:
+                panels = _panels(collision.geometry.mesh, options.voxel_size_m, (np.linalg.inv(collision.link_from_collision) @ np.append(inside, 1.0))[:3]) if collision in hollow else None
+                if panels is None:
+                    collisions.append(collision)
+                    kept += [collision.name] if collision in hollow else []
+                    continue
+                collisions += [
+                    Collision(name=f"{collision.name}_panel{k}", geometry=box, link_from_collision=collision.link_from_collision @ mesh_from_box)
+                    for k, (box, mesh_from_box) in enumerate(panels)
+                ]
+            link = dataclasses.replace(link, collisions=collisions)
+            made = len(hollow) - len(kept)
+            if made:
+                done.append(
+                    f"link {link.name!r}: {made} open collision mesh(es) whose hull would fill a cavity made one box "
+                    f"{options.voxel_size_m * 1000:g} mm thick per flat panel, on the link's inner side"
+                )
+            if kept:
+                done.append(f"link {link.name!r}: open collision mesh(es) {', '.join(kept)} kept as their hulls (not flat panels, or over {MAX_PANELS})")
         flat = [c for c in link.collisions if f"{link.name}/{c.name}" in gaps.flat_collisions]
         if flat:
             inside = link.inertial.com_m if link.inertial is not None else _centre(link)

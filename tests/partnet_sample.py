@@ -70,7 +70,7 @@ if __name__ == "__main__":
 
 
 # --- A folder with the traits of PartNet-Mobility's real models (none can be downloaded here) ---
-# Normalised size (1.4 m tall), y up, every part an open sheet in its own OBJ
+# Normalised size (1.4 m tall), y up, open sheets in many OBJs per link
 # (`textured_objs/original-N.obj`, one `new-N.obj`), several visuals of one link sharing a name,
 # <collision>s naming the same sheets, MTLs whose textures lie in `../images/`, the root turned
 # by a fixed joint's rpy, no inertials and <limit>s without effort or velocity.
@@ -124,7 +124,9 @@ def write_partnet_real_traits(folder: Path) -> dict[str, list[trimesh.Trimesh]]:
     Image.fromarray(np.full((8, 8, 3), (150, 110, 70), np.uint8)).save(folder / "images" / "texture_1.png")
     hw, hh, hd = REAL_W / 2, REAL_H / 2, REAL_D / 2
     # The body: open at the front (-x), a shelf inside; the drawer below, the door above it.
-    body = _open_box((-hd, -hh, -hw), (hd, hh, hw), "-x") + [_sheet((-hd, 0.0, -hw), (0, 0, REAL_W), (REAL_D, 0, 0))]
+    # The body's five outer sheets in one file (its hull would fill the cavity), a shelf in another.
+    body = [trimesh.util.concatenate(_open_box((-hd, -hh, -hw), (hd, hh, hw), "-x"))]
+    body.append(_sheet((-hd, 0.0, -hw), (0, 0, REAL_W), (REAL_D, 0, 0)))
     drawer = _open_box((-hd, -hh + 0.02, -hw + 0.02), (hd - 0.02, -0.02, hw - 0.02), "+y")  # open at the top
     handle = trimesh.creation.box(extents=(0.03, 0.03, 0.2))
     handle.apply_translation((-hd - 0.015, -hh / 2, 0.0))

@@ -55,6 +55,11 @@ def test_partnet_masses_come_from_voxel_filled_sheets_not_their_hulls(partnet_bu
     said = "\n".join(done)
     assert said.count("voxel fill of its open meshes at 10 mm") == 3 and said.count("at 500 kg/m^3") == 3
     assert "flat collision mesh(es)" in said and "joint 'joint_0': effort set to 10, velocity set to 1" in said
+    # The body's sheets in one file: a hull would fill the cavity the drawer slides in.
+    assert imported.gaps.hollow_collisions == ["link_2/collision0"]
+    assert "link 'link_2': 1 open collision mesh(es) whose hull would fill a cavity made one box 10 mm thick per flat panel" in said
+    body = [c for c in model.link("link_2").collisions if c.name.startswith("collision0_panel")]
+    assert len(body) == 5
 
 
 def test_partnet_import_keeps_its_shape_frame_and_textures(partnet_built) -> None:
