@@ -1,5 +1,5 @@
 """`python -m homemodel` runs the command line, as the `homemodel` script does."""
 
-from homemodel.launcher import main
+from homemodel.cli.launcher import main
 
 main()

@@ -85,7 +85,10 @@ def write_reconstruction(
         if options.picture:
             from turntable.picture import draw_mesh_and_orbit
 
-            draw_mesh_and_orbit(result, tmp / "picture.png")
+            cameras_from_table = [p.camera_from_table for p in result.poses.values()]
+            draw_mesh_and_orbit(
+                result.mesh, result.vertex_colors, cameras_from_table, result.axis.axis_xy_m, tmp / "picture.png"
+            )
         clock.stop()
         result.times_s.update(clock.times_s)
         summary = result.summary()

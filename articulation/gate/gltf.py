@@ -13,11 +13,11 @@ from articulation.gate.report import Check, check_from_problems, count
 from articulation.gate.resident_validator import ValidatorFailed, validate_resident
 from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from homemodel.core.errors import InputError
+from homemodel.core.node_packages import find_node_package, install_hint
 
 VALIDATOR_TIMEOUT_S = 60.0
-TOOLS_DIR = Path(__file__).resolve().parents[2] / "tools"
-VALIDATOR_SCRIPT = TOOLS_DIR / "validate_gltf.js"
-VALIDATOR_PACKAGE = TOOLS_DIR / "node_modules" / "gltf-validator" / "package.json"
+# Shipped with the package; it runs the npm package gltf-validator, which is installed apart.
+VALIDATOR_SCRIPT = Path(__file__).resolve().with_name("validate_gltf.js")
 MESSAGES_SHOWN = 5
 GLB_MAGIC = b"glTF"
 GLB_JSON_CHUNK = 0x4E4F534A
@@ -27,11 +27,13 @@ JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
 def khronos_check(glb: Path, timeout_s: float = VALIDATOR_TIMEOUT_S) -> Check:
     name = "glTF validator"
     node = shutil.which("node")
-    if node is None or not VALIDATOR_SCRIPT.is_file() or not VALIDATOR_PACKAGE.is_file():
-        missing = "node" if node is None else f"the npm package gltf-validator under {TOOLS_DIR}"
-        return Check(name, False, f"{missing} not found; run `make setup`")
+    if node is None:
+        return Check(name, False, "node not found; run `make setup` (or install Node.js)")
+    package = find_node_package("gltf-validator")
+    if package is None:
+        return Check(name, False, install_hint("gltf-validator"))
     try:
-        reply = validate_resident(node, VALIDATOR_SCRIPT, glb, timeout_s)
+        reply = validate_resident(node, VALIDATOR_SCRIPT, glb, timeout_s, node_path=package.parent)
     except TimeoutError:
         return Check(name, False, f"timed out after {timeout_s:g} s")
     except (OSError, ValidatorFailed) as exc:

@@ -2,7 +2,7 @@
 
 Starting node and loading the validator cost about 250 ms, validating a model 3-10 ms: a
 batch build validates hundreds of models, so the gate keeps the process and talks to it
-over pipes (`tools/validate_gltf.js --lines`). A request that times out kills the process;
+over pipes (`validate_gltf.js --lines`, beside this module). A request that times out kills the process;
 the next one starts a fresh one. The process ends when this one does: at exit, or by
 reading the end of its stdin when this process dies without running its exit handlers.
 """
@@ -29,11 +29,14 @@ class ValidatorFailed(Exception):
 
 
 class _Resident:
-    def __init__(self, node: str, script: Path) -> None:
+    def __init__(self, node: str, script: Path, node_path: Path | None) -> None:
         self.argv = [node, str(script), "--lines"]
+        self.node_path = node_path
         self.stderr = tempfile.TemporaryFile()
+        env = dict(os.environ, NODE_PATH=str(node_path)) if node_path is not None else None
         self.proc = subprocess.Popen(
             self.argv,
+            env=env,  # where `require` finds the npm packages, wherever they are installed
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self.stderr,
@@ -42,10 +45,11 @@ class _Resident:
         self.owner = os.getpid()
         self.pending = b""
 
-    def serves(self, node: str, script: Path) -> bool:
+    def serves(self, node: str, script: Path, node_path: Path | None) -> bool:
         """Whether this process can take a request for `node script` from this process."""
         alive = self.proc.poll() is None
-        return alive and self.owner == os.getpid() and self.argv == [node, str(script), "--lines"]
+        same = self.argv == [node, str(script), "--lines"] and self.node_path == node_path
+        return alive and self.owner == os.getpid() and same
 
     def ask(self, glb: Path, timeout_s: float) -> dict[str, Any]:
         """The reply to one request; raises TimeoutError or ValidatorFailed."""
@@ -99,18 +103,21 @@ _lock = threading.Lock()
 _resident: _Resident | None = None
 
 
-def validate_resident(node: str, script: Path, glb: Path, timeout_s: float) -> dict[str, Any]:
-    """The validator's reply for `glb`: {"report": ...} or {"error": "..."}.
+def validate_resident(
+    node: str, script: Path, glb: Path, timeout_s: float, *, node_path: Path | None = None
+) -> dict[str, Any]:
+    """The validator's reply for `glb`: {"report": ...} or {"error": "..."}; `node_path` is the
+    node_modules folder its `require` looks in.
 
     Raises TimeoutError (the process is killed) or ValidatorFailed (it is dropped); either
     way the next call starts a new process.
     """
     global _resident
     with _lock:
-        if _resident is not None and not _resident.serves(node, script):
+        if _resident is not None and not _resident.serves(node, script, node_path):
             _stop_resident()
         if _resident is None:
-            _resident = _Resident(node, script)
+            _resident = _Resident(node, script, node_path)
         try:
             return _resident.ask(glb, timeout_s)
         except (TimeoutError, ValidatorFailed):

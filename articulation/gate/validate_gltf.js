@@ -1,10 +1,12 @@
 #!/usr/bin/env node
 // Run the Khronos glTF validator on .glb/.gltf files and print its JSON reports.
-// Usage: node tools/validate_gltf.js FILE   one report on stdout
-//        node tools/validate_gltf.js --lines
+// Usage: node validate_gltf.js FILE   one report on stdout
+//        node validate_gltf.js --lines
 //            a request per line on stdin, {"file": PATH}, and a reply per line on stdout,
 //            {"report": ...} or {"error": "..."}, until stdin closes. The gate keeps one such
 //            process: starting node and loading the validator cost 250 ms, a model 3-10 ms.
+// `require` finds gltf-validator through NODE_PATH, which the gate sets to the node_modules
+// folder it found (homemodel/core/node_packages.py).
 // Exit status: 0 when the validator ran (whatever it found), 2 when it could not run.
 'use strict';
 

@@ -3,6 +3,7 @@ Schema with a filled-in example, and every problem of a filled form, field by fi
 
 from __future__ import annotations
 
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
@@ -10,8 +11,8 @@ import pydantic
 
 from homemodel.core.yaml_specs import read_yaml_mapping, validation_problems
 
-# The catalogue beside the package in a checkout; an install without it starts from defaults.
-CATALOGUE_DIR = Path(__file__).resolve().parents[2] / "examples" / "catalogue"
+# examples/catalogue, shipped as package data (`catalogue` is a link to it in a checkout).
+CATALOGUE = files("homemodel.app") / "catalogue"
 
 
 def spec_kinds() -> dict[str, dict[str, Any]]:
@@ -20,8 +21,9 @@ def spec_kinds() -> dict[str, dict[str, Any]]:
 
     kinds = {}
     for kind, spec_type in SPEC_TYPES.items():
-        example_path = CATALOGUE_DIR / f"{kind}.yaml"
-        example = read_yaml_mapping(example_path) if example_path.is_file() else {"kind": kind}
+        example_path = CATALOGUE / f"{kind}.yaml"
+        # A kind newer than the catalogue starts from its defaults.
+        example = read_yaml_mapping(Path(str(example_path))) if example_path.is_file() else {"kind": kind}
         kinds[kind] = {"schema": spec_type.model_json_schema(), "example": example}
     return kinds
 

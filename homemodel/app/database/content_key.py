@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import importlib.metadata
 import importlib.util
 from collections.abc import Callable
 from pathlib import Path
 
-import homemodel
 from homemodel.app.database.manifest import Job
 
 # The packages whose code builds each source (all of them export through articulation and
@@ -43,7 +43,8 @@ def _package_folder(name: str) -> Path:
 @functools.cache
 def code_version(source: str) -> str:
     """A hash of homemodel's version and the source of every module that builds `source`."""
-    digest = hashlib.sha256(homemodel.__version__.encode())
+    # The installed distribution's version: the package root is imported by nothing.
+    digest = hashlib.sha256(importlib.metadata.version("homemodel").encode())
     for package in (*SOURCE_PACKAGES[source], *SHARED_PACKAGES):
         folder = _package_folder(package)
         for path in sorted(folder.rglob("*")):

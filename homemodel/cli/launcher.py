@@ -11,7 +11,7 @@ def main() -> None:
 
     remember_interrupts()
     try:
-        from homemodel.cli import main as run_command_line
+        from homemodel.cli.commands import main as run_command_line
 
         raise_if_interrupted()
     except KeyboardInterrupt:
