@@ -1,7 +1,9 @@
 """Repair an imported asset that fails the validation gate only for want of what the gate
 needs, and say what was repaired and why: inertials computed from a closed volume of the
 meshes at a stated density (see `articulation.inertia.link_mass`: open sheets are voxel-filled,
-never taken at their meaningless "volume"), and the `effort` and `velocity` a `<limit>` must
+never taken at their meaningless "volume"); collision meshes a simulator cannot use (flat
+sheets: nothing to collide with; open meshes whose hull fills a cavity a drawer slides in)
+made thin boxes on the link's inner side; and the `effort` and `velocity` a `<limit>` must
 have (check_urdf refuses one without them) set to stated defaults. Nothing else is changed."""
 
 from __future__ import annotations
@@ -197,15 +199,55 @@ def _centre(link: Link) -> np.ndarray:
     return trimesh.util.concatenate(meshes).bounds.mean(axis=0) if meshes else np.zeros(3)
 
 
-def _thickened(collision: Collision, thickness_m: float, inside_link: np.ndarray) -> Collision:
-    if not isinstance(collision.geometry, MeshGeometry):
-        return collision
+def _as_boxes(collision: Collision, hollow: bool, thickness_m: float, inside_link: np.ndarray) -> list[Collision] | None:
+    """A flat collision mesh as one thin box, a hollow one as a box per flat panel (None
+    when it cannot be: not flat panels, or too many)."""
     inside = (np.linalg.inv(collision.link_from_collision) @ np.append(inside_link, 1.0))[:3]
-    box = _flat_box(collision.geometry.mesh, thickness_m, inside)
-    if box is None:
-        return collision
-    geometry, mesh_from_box = box
-    return Collision(name=collision.name, geometry=geometry, link_from_collision=collision.link_from_collision @ mesh_from_box)
+    mesh = collision.geometry.mesh
+    boxes = _panels(mesh, thickness_m, inside) if hollow else [_flat_box(mesh, thickness_m, inside)]
+    if boxes is None or None in boxes:
+        return None
+    return [
+        Collision(
+            name=collision.name if len(boxes) == 1 and not hollow else f"{collision.name}_panel{k}",
+            geometry=box,
+            link_from_collision=collision.link_from_collision @ mesh_from_box,
+        )
+        for k, (box, mesh_from_box) in enumerate(boxes)
+    ]
+
+
+def _collisions_repaired(link: Link, gaps: AssetGaps, thickness_m: float) -> tuple[Link, list[str]]:
+    """The link with its flat and hollow collision meshes made thin boxes on its inner side
+    (towards its centre of mass), and what was done."""
+    kinds = {name.partition("/")[2]: "flat" for name in gaps.flat_collisions if name.startswith(f"{link.name}/")}
+    kinds |= {name.partition("/")[2]: "hollow" for name in gaps.hollow_collisions if name.startswith(f"{link.name}/")}
+    if not kinds:
+        return link, []
+    inside = link.inertial.com_m if link.inertial is not None else _centre(link)
+    collisions: list[Collision] = []
+    made = {"flat": 0, "hollow": 0}
+    kept = []
+    for collision in link.collisions:
+        kind = kinds.get(collision.name) if isinstance(collision.geometry, MeshGeometry) else None
+        boxes = _as_boxes(collision, kind == "hollow", thickness_m, inside) if kind else None
+        if kind and boxes is None:
+            kept.append(collision.name)
+        elif kind:
+            made[kind] += 1
+        collisions += boxes or [collision]
+    said = []
+    thick = f"{thickness_m * 1000:g} mm thick"
+    if made["hollow"]:
+        said.append(
+            f"link {link.name!r}: {made['hollow']} open collision mesh(es) whose hull would fill a cavity made "
+            f"one box {thick} per flat panel, on the link's inner side"
+        )
+    if made["flat"]:
+        said.append(f"link {link.name!r}: {made['flat']} flat collision mesh(es) (no volume to collide with) made boxes {thick} on the link's inner side")
+    if kept:
+        said.append(f"link {link.name!r}: collision mesh(es) {', '.join(kept)} left as they are (not flat panels, or over {MAX_PANELS})")
+    return dataclasses.replace(link, collisions=collisions), said
 
 
 def _link_meshes(link: Link) -> list[trimesh.Trimesh]:
@@ -238,37 +280,8 @@ def repair(model: Model, gaps: AssetGaps, options: RepairOptions) -> tuple[Model
                 f"link {link.name!r}: no <inertial>; {found.inertial.mass_kg:.3g} kg from {found.method} "
                 f"at {options.density_kg_m3:g} kg/m^3"
             )
-        hollow = [c for c in link.collisions if f"{link.name}/{c.name}" in gaps.hollow_collisions]
-        if hollow:
-            inside = link.inertial.com_m if link.inertial is not None else _centre(link)
-            collisions, kept = [], []
-            for collision in link.collisions:
-                panels = _panels(collision.geometry.mesh, options.voxel_size_m, (np.linalg.inv(collision.link_from_collision) @ np.append(inside, 1.0))[:3]) if collision in hollow else None
-                if panels is None:
-                    collisions.append(collision)
-                    kept += [collision.name] if collision in hollow else []
-                    continue
-                collisions += [
-                    Collision(name=f"{collision.name}_panel{k}", geometry=box, link_from_collision=collision.link_from_collision @ mesh_from_box)
-                    for k, (box, mesh_from_box) in enumerate(panels)
-                ]
-            link = dataclasses.replace(link, collisions=collisions)
-            made = len(hollow) - len(kept)
-            if made:
-                done.append(
-                    f"link {link.name!r}: {made} open collision mesh(es) whose hull would fill a cavity made one box "
-                    f"{options.voxel_size_m * 1000:g} mm thick per flat panel, on the link's inner side"
-                )
-            if kept:
-                done.append(f"link {link.name!r}: open collision mesh(es) {', '.join(kept)} kept as their hulls (not flat panels, or over {MAX_PANELS})")
-        flat = [c for c in link.collisions if f"{link.name}/{c.name}" in gaps.flat_collisions]
-        if flat:
-            inside = link.inertial.com_m if link.inertial is not None else _centre(link)
-            link = dataclasses.replace(link, collisions=[_thickened(c, options.voxel_size_m, inside) for c in link.collisions])
-            done.append(
-                f"link {link.name!r}: {len(flat)} flat collision mesh(es) (no volume to collide with) made "
-                f"boxes {options.voxel_size_m * 1000:g} mm thick on the link's inner side"
-            )
+        link, said = _collisions_repaired(link, gaps, options.voxel_size_m)
+        done += said
         links.append(link)
     joints = []
     for joint in model.joints:
