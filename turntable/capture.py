@@ -3,6 +3,7 @@ and depth frames paired by file stem."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import numpy as np
 
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
+from homemodel.core.input_files import read_bounded
 from homemodel.geometry.camera import Camera, load_camera
 from homemodel.geometry.depth_io import read_depth_m
 from turntable.board import Board, load_board
@@ -32,6 +34,7 @@ class Capture:
     board: Board
     frames: list[FramePaths]
     unpaired: list[str]  # stems with only a colour or only a depth image
+    recording: dict | None = None  # recording.json: what `turntable import` read, associated and dropped
 
 
 class FrameError(InputError):
@@ -60,6 +63,12 @@ def load_capture(folder: Path) -> Capture:
     colors = _images(folder / "color", COLOR_SUFFIXES)
     depths = _images(folder / "depth", DEPTH_SUFFIXES)
     stems = sorted(set(colors) & set(depths))
+    recording = None
+    if (folder / "recording.json").is_file():
+        try:
+            recording = json.loads(read_bounded(folder / "recording.json", 1 << 20))
+        except (ValueError, RecursionError) as exc:
+            raise InputError(f"{folder / 'recording.json'}: not JSON: {exc}") from None
     if not stems:
         raise InputError(
             f"{folder}: no frames (expected color/NNNNNN.png and depth/NNNNNN.png pairs; "
@@ -71,6 +80,7 @@ def load_capture(folder: Path) -> Capture:
         board=board,
         frames=[FramePaths(stem=s, color=colors[s], depth=depths[s]) for s in stems],
         unpaired=sorted(set(colors) ^ set(depths)),
+        recording=recording,
     )
 
 

@@ -55,6 +55,9 @@ def estimate_camera_from_table(
     object_points = np.concatenate([table_corners[i] for i in known])
     image_points = np.concatenate([detections[i] for i in known])
     K, dist = camera.matrix, camera.distortion_coefficients
+    seen = image_points  # OpenCV's PnP knows Brown-Conrady only: a fisheye's corners go in undistorted
+    if camera.has_distortion and camera.distortion_model == "kannala_brandt":
+        image_points, dist = camera.undistorted_pixels(image_points), np.zeros(5)
     # Minimal (P3P) samples: OpenCV's RANSAC with a non-minimal solver (SQPnP, EPnP) drew
     # samples from one small tag and kept 30 of 104 corners on a steep view where AP3P kept all.
     ok, rvec, tvec, inliers = cv2.solvePnPRansac(
@@ -101,5 +104,5 @@ def estimate_camera_from_table(
         inlier_corners=len(inliers),
         reprojection_error_px=rms,
         table_points=object_points[inliers],
-        image_points=image_points[inliers],
+        image_points=seen[inliers],
     )

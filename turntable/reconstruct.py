@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from articulation.naming import check_model_name
-from homemodel.core.checks import check_nested, require_at_least, require_positive
+from homemodel.core.checks import check_nested, require_at_least, require_between, require_positive
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.progress import Progress, StageClock
@@ -29,11 +29,13 @@ from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_poin
 from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
 from turntable.outputs import write_reconstruction
 from turntable.orbit import TableAxis, table_axis
+from turntable.real_frames import depth_color_offset_px, drop_flying_pixels, sharpness
 from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table
 from turntable.tags import DetectionOptions, detect_tags
 from turntable.turntable_model import TurntableFit, fit_turntable
 
 STAGES = ("poses", "axis", "merge", "mesh", "texture", "export")
+_MISREGISTRATION_FRAMES = 8
 
 
 @dataclass(kw_only=True)
@@ -50,6 +52,10 @@ class ReconstructionOptions:
     texture_size_px: int = 1024  # 0: no texture (vertex colours in the PLY only)
     texture_max_triangles: int = 12_000  # the exported visual is decimated to this for xatlas
     workers: int = 2  # threads reading images and detecting tags
+    # Real sensors' frames (turntable.real_frames):
+    blur_ratio: float = 0.35  # frames sharper than this fraction of the median only are skipped; 0: none
+    drop_flying_pixels: bool = True
+    misregistration_warning_px: float = 1.5  # depth edges farther than this from colour edges: warned
     # The model folder (`reconstruct`):
     name: str = "turntable_object"  # the model's name
     density_kg_m3: float = 500.0  # for the inertial
@@ -69,6 +75,8 @@ class ReconstructionOptions:
         require_at_least("texture_size_px", self.texture_size_px, 0)
         require_at_least("texture_max_triangles", self.texture_max_triangles, 100)
         require_at_least("workers", self.workers, 1)
+        require_between("blur_ratio", self.blur_ratio, 0.0, 1.0)
+        require_positive("misregistration_warning_px", self.misregistration_warning_px)
         require_positive("density_kg_m3", self.density_kg_m3)
         check_model_name(self.name)
 
@@ -91,6 +99,8 @@ class Reconstruction:
     meshing: MeshingFigures
     times_s: dict[str, float]  # seconds per stage; `reconstruct` adds the export's
     frames_total: int
+    real_frames: dict = field(default_factory=dict)  # flying pixels, blur, misregistration (turntable.real_frames)
+    recording: dict | None = None  # the capture's recording.json, when imported from a recording
     registration: Registration | None = None  # set by `reconstruct` when given a map
 
     def summary(self) -> dict:
@@ -129,6 +139,8 @@ class Reconstruction:
             "density_trimmed": self.meshing.density_trimmed,
             "watertight": bool(self.mesh.is_watertight),
             "extent_m": np.ptp(self.mesh.vertices, axis=0).tolist(),
+            "real_frames": self.real_frames,
+            "recording": self.recording,
             "times_s": dict(self.times_s),
         }
 
@@ -148,24 +160,34 @@ def estimate_poses(
     """Pose per frame; frames with unreadable images or too few tags are skipped with a reason."""
     import cv2
 
-    def one(frame) -> tuple[str, FramePose | str]:  # noqa: ANN001
+    def one(frame) -> tuple[str, FramePose | str, float]:  # noqa: ANN001
         try:
             gray = cv2.cvtColor(read_color(frame.color, capture.camera), cv2.COLOR_RGB2GRAY)
-            detections = detect_tags(gray, options.detection)
-            return frame.stem, estimate_camera_from_table(detections, capture.board, capture.camera, options.pose)
         except FrameError as exc:
-            return frame.stem, f"image: {exc}"
+            return frame.stem, f"image: {exc}", np.nan
+        try:
+            detections = detect_tags(gray, options.detection)
+            return frame.stem, estimate_camera_from_table(detections, capture.board, capture.camera, options.pose), sharpness(gray)
         except PoseSkip as exc:
-            return frame.stem, f"pose: {exc}"
+            return frame.stem, f"pose: {exc}", sharpness(gray)
 
     poses: dict[str, FramePose] = {}
+    sharpness_of: dict[str, float] = {}
     skipped = {stem: "unpaired: a colour or a depth image without its partner" for stem in capture.unpaired}
-    for done, (stem, result) in enumerate(_parallel(options.workers, one, capture.frames), start=1):
+    for done, (stem, result, sharp) in enumerate(_parallel(options.workers, one, capture.frames), start=1):
+        sharpness_of[stem] = sharp
         if isinstance(result, FramePose):
             poses[stem] = result
         else:
             skipped[stem] = result
         report("poses", done, len(capture.frames))
+    # Blur: a turntable's frames see the same scene, so a frame far less sharp than the
+    # median is blurred (auto exposure, motion); its tag corners and colours would smear.
+    median = float(np.nanmedian(list(sharpness_of.values()))) if sharpness_of else 0.0
+    for stem in list(poses):
+        if sharpness_of[stem] < options.blur_ratio * median:
+            del poses[stem]
+            skipped[stem] = f"blur: sharpness {sharpness_of[stem]:.0f} below {options.blur_ratio} x the median {median:.0f}"
     if len(poses) < options.min_frames:
         examples = "; ".join(f"{s}: {r}" for s, r in list(skipped.items())[:3])
         raise ModelError(
@@ -194,27 +216,62 @@ def merge_frames(
     cylinder: Cylinder,
     options: ReconstructionOptions,
     report: Progress,
+    figures: dict,
 ) -> MergedCloud:
+    """The frames' points in the table frame, voxel-averaged; fills `figures` with the real-frame
+    figures (flying pixels, holes, misregistration)."""
     rays = capture.camera.pixel_rays()
     accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
     frames = [f for f in capture.frames if f.stem in poses]
 
-    def one(frame) -> tuple[str, tuple | str]:  # noqa: ANN001
+    # The misregistration is measured on a few frames spread over the turn.
+    probes = {f.stem for f in frames[:: max(1, len(frames) // _MISREGISTRATION_FRAMES)]}
+
+    def one(frame) -> tuple[str, tuple | str, int, int, np.ndarray | None]:  # noqa: ANN001
         try:
             depth = read_depth(frame.depth, capture.camera)
             rgb = read_color(frame.color, capture.camera)
         except FrameError as exc:
-            return frame.stem, f"image: {exc}"
-        table_from_camera = np.linalg.inv(poses[frame.stem].camera_from_table)
-        return frame.stem, frame_points(depth, rgb, rays, table_from_camera, cylinder)
+            return frame.stem, f"image: {exc}", 0, 0, None
+        valid = int(np.count_nonzero(np.isfinite(depth)))
+        offset = None
+        if frame.stem in probes:
+            import cv2
 
-    for done, (stem, result) in enumerate(_parallel(options.workers, one, frames), start=1):
+            offset = depth_color_offset_px(depth, cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY))
+        flying = 0
+        if options.drop_flying_pixels:
+            depth, flying = drop_flying_pixels(depth)
+        table_from_camera = np.linalg.inv(poses[frame.stem].camera_from_table)
+        return frame.stem, frame_points(depth, rgb, rays, table_from_camera, cylinder), flying, valid, offset
+
+    flying_total = valid_total = 0
+    offsets = []
+    for done, (stem, result, flying, valid, offset) in enumerate(_parallel(options.workers, one, frames), start=1):
         if isinstance(result, str):
             skipped[stem] = result
             del poses[stem]
         else:
             accumulator.add(*result)
+            flying_total += flying
+            valid_total += valid
+            if offset is not None:
+                offsets.append(offset)
         report("merge", done, len(frames))
+    offset_px = np.median(offsets, axis=0) if offsets else None
+    figures.update(
+        {
+            "flying_pixels_dropped": flying_total,
+            "flying_pixel_fraction": flying_total / max(valid_total, 1),
+            "holes_filled": 0,  # never: a hole is no measurement
+            "depth_valid_fraction": valid_total / max(len(frames) * capture.camera.width * capture.camera.height, 1),
+            "depth_to_color_offset_px": None if offset_px is None else [round(float(v), 2) for v in offset_px],
+            "misregistration_frames": len(offsets),
+            "misregistration_warning": bool(
+                offset_px is not None and np.hypot(*offset_px) > options.misregistration_warning_px
+            ),
+        }
+    )
     if len(poses) < options.min_frames:
         raise ModelError(f"{capture.folder}: only {len(poses)} frames have readable depth, {options.min_frames} needed")
     return accumulator.cloud()
@@ -230,6 +287,7 @@ def reconstruct_capture(
     clock = StageClock(progress)
     clock.start("poses")
     poses, skipped = estimate_poses(capture, options, clock.progress)
+    real_frames = {"blurred_frames_skipped": sum(r.startswith("blur:") for r in skipped.values())}
 
     clock.start("axis", 1)
     axis = table_axis([p.camera_from_table for p in poses.values()])
@@ -242,7 +300,7 @@ def reconstruct_capture(
     cylinder = object_cylinder(capture, axis, options)
 
     clock.start("merge")
-    cloud = merge_frames(capture, poses, skipped, cylinder, options, clock.progress)
+    cloud = merge_frames(capture, poses, skipped, cylinder, options, clock.progress, real_frames)
 
     clock.start("mesh", 1)
     mesh, colors, figures = poisson_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
@@ -269,6 +327,8 @@ def reconstruct_capture(
         meshing=figures,
         times_s=clock.times_s,
         frames_total=len(capture.frames) + len(capture.unpaired),
+        real_frames=real_frames,
+        recording=capture.recording,
     )
 
 

@@ -322,25 +322,34 @@ def resimulate_depth(
     import shutil
 
     capture_dir = Path(capture_dir)
-    try:
-        saved = json.loads(read_bounded(capture_dir / SIMULATION_JSON, 1 << 20))
-        saved["board_path"] = None if saved["board_path"] is None else Path(saved["board_path"])
-        saved["axis_offset_m"] = tuple(saved["axis_offset_m"])
-        options = SimulationOptions(**{**saved, "depth_noise_m": depth_noise_m, "random_state": random_state})
-    except (ValueError, TypeError, KeyError, RecursionError) as exc:  # RecursionError: nested deep
-        raise InputError(f"{capture_dir / SIMULATION_JSON}: not a simulation record: {exc}") from None
+    options, scene = simulated_scene(capture_dir)
+    options = dataclasses.replace(options, depth_noise_m=depth_noise_m, random_state=random_state)
     options.check()
-    board = load_board(capture_dir / "board.yaml")
     camera = load_camera(capture_dir / "camera.yaml")
-    placed = load_mesh(capture_dir / GROUND_TRUTH)  # bounded, finite
     camera_from_tables = read_poses(capture_dir / TRUE_POSES)
     with atomic_dir(Path(out_dir), force=force, inputs=[capture_dir]) as tmp:
         for name in ("camera.yaml", "board.yaml", TRUE_POSES, GROUND_TRUTH):
             shutil.copy2(capture_dir / name, tmp / name)
         shutil.copytree(capture_dir / "color", tmp / "color")
         (tmp / "depth").mkdir()
-        _write_depth_frames(
-            tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, no_progress
-        )
+        _write_depth_frames(tmp / "depth", scene, camera, camera_from_tables, options, no_progress)
         write_json(tmp / SIMULATION_JSON, _options_json(options))
     return Path(out_dir)
+
+
+def simulated_scene(capture_dir: Path) -> tuple[SimulationOptions, trimesh.Trimesh]:
+    """A simulated capture's options and everything its depth sees (object, table, floor, in
+    the table frame), rebuilt from `simulation.json`, `board.yaml` and `ground_truth.ply`: to
+    render its depth again, from other cameras too."""
+    capture_dir = Path(capture_dir)
+    try:
+        saved = json.loads(read_bounded(capture_dir / SIMULATION_JSON, 1 << 20))
+        saved["board_path"] = None if saved["board_path"] is None else Path(saved["board_path"])
+        saved["axis_offset_m"] = tuple(saved["axis_offset_m"])
+        options = SimulationOptions(**saved)
+    except (ValueError, TypeError, KeyError, RecursionError) as exc:  # RecursionError: nested deep
+        raise InputError(f"{capture_dir / SIMULATION_JSON}: not a simulation record: {exc}") from None
+    options.check()
+    board = load_board(capture_dir / "board.yaml")
+    placed = load_mesh(capture_dir / GROUND_TRUTH)  # bounded, finite
+    return options, _scene(options, board, placed)

@@ -1,0 +1,338 @@
+"""Recordings of a simulated turntable capture as real RGB-D cameras would write them, with
+real sensor faults: lens distortion, depth from another camera (own intrinsics, size and
+pose), the structured-light noise model sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m, holes at
+grazing angles, flying pixels at depth edges, dropped frames, jittered depth times (the
+table keeps turning: a late depth frame sees it turned further), motion blur on some frames.
+
+`record` renders the streams from a clean capture (its Cycles colour, warped through the
+lens; depth ray-cast again from the depth camera); the `write_*` functions store them in each
+format the importer reads.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from homemodel.geometry.camera import Camera, load_camera
+from homemodel.geometry.raycast import RayCaster
+from turntable.poses_io import read_poses
+from turntable.simulate import render_depth, simulated_scene
+
+
+@dataclass(kw_only=True)
+class Rig:
+    color_camera: Camera  # what the recording's colour images are seen with (may be distorted)
+    depth_camera: Camera | None = None  # None: depth registered to colour (rendered in its pixels)
+    color_from_depth: np.ndarray = field(default_factory=lambda: np.eye(4))
+    depth_scale_m: float = 0.001
+    period_s: float = 1.0  # between colour frames
+
+
+@dataclass(kw_only=True)
+class Recorded:
+    rig: Rig
+    colors: list[tuple[float, np.ndarray]]  # (time s, RGB uint8)
+    depths: list[tuple[float, np.ndarray]]  # (time s, uint16 units of rig.depth_scale_m)
+
+
+def distorted(camera: Camera, **fields: object) -> Camera:
+    return Camera(**{**camera.model_dump(), **fields})
+
+
+def depth_camera_for(color: Camera, *, width: int, height: int, hfov_deg: float) -> Camera:
+    f = width / 2 / math.tan(math.radians(hfov_deg) / 2)
+    return Camera(width=width, height=height, fx=f, fy=f * 1.002, cx=(width - 1) / 2 + 1.3, cy=(height - 1) / 2 - 0.8)
+
+
+def baseline(dx_m: float = -0.015, yaw_deg: float = 0.6) -> np.ndarray:
+    """color_from_depth of a depth camera beside the colour one, turned a little."""
+    from scipy.spatial.transform import Rotation
+
+    color_from_depth = np.eye(4)
+    color_from_depth[:3, :3] = Rotation.from_euler("yxz", [yaw_deg, -0.3, 0.2], degrees=True).as_matrix()
+    color_from_depth[:3, 3] = [dx_m, 0.0015, 0.001]
+    return color_from_depth
+
+
+def _noisy(depth: np.ndarray, cosine: np.ndarray, rng: np.random.Generator, flying: bool) -> np.ndarray:
+    sigma = 0.0012 + 0.0019 * (depth - 0.4) ** 2
+    noisy = depth + rng.normal(size=depth.shape) * sigma
+    noisy[cosine < math.cos(math.radians(80.0))] = np.nan
+    if flying:  # half the pixels beside a jump over 1 cm read between the two surfaces
+        padded = np.pad(depth, 1, mode="edge")
+        right, below = padded[1:-1, 2:], padded[2:, 1:-1]
+        for other in (right, below):
+            edge = np.isfinite(depth) & np.isfinite(other) & (np.abs(other - depth) > 0.01)
+            edge &= rng.random(depth.shape) < 0.5
+            mix = rng.uniform(0.2, 0.8, depth.shape)
+            noisy[edge] = (depth * mix + other * (1 - mix))[edge]
+    return noisy
+
+
+def _motion_blur(rgb: np.ndarray, length_px: int) -> np.ndarray:
+    import cv2
+
+    kernel = np.zeros((length_px, length_px), np.float32)
+    kernel[length_px // 2, :] = 1.0 / length_px
+    return cv2.filter2D(rgb, -1, kernel, borderType=cv2.BORDER_REFLECT)
+
+
+def record(
+    clean_dir: Path,
+    rig: Rig,
+    *,
+    drop_fraction: float = 0.03,
+    jitter_s: float = 0.02,
+    blurred: tuple[int, ...] = (),
+    noise: bool = True,
+    seed: int = 0,
+) -> Recorded:
+    import cv2
+
+    clean_dir = Path(clean_dir)
+    rng = np.random.default_rng(seed)
+    options, scene = simulated_scene(clean_dir)
+    caster = RayCaster(scene)
+    clean_camera = load_camera(clean_dir / "camera.yaml")
+    poses = read_poses(clean_dir / "true_poses.json")
+    stems = sorted(poses)
+    n = len(stems)
+    map_x, map_y = rig.color_camera.remap_from(clean_camera)
+    axis = np.array([*options.axis_offset_m, 0.0])
+    turn_s = n * rig.period_s
+    drops = max(1, round(drop_fraction * n)) if drop_fraction > 0 else 0
+    drop_color = set(rng.choice(n, drops, replace=False).tolist()) if drops else set()
+    drop_depth = set(rng.choice(sorted(set(range(n)) - drop_color), drops, replace=False).tolist()) if drops else set()
+    depth_camera = rig.depth_camera or rig.color_camera
+    depth_from_color = np.linalg.inv(rig.color_from_depth) if rig.depth_camera is not None else np.eye(4)
+    colors, depths = [], []
+    for k, stem in enumerate(stems):
+        t = k * rig.period_s
+        if k not in drop_color:
+            bgr = cv2.imread(str(clean_dir / "color" / f"{stem}.png"))
+            rgb = cv2.cvtColor(cv2.remap(bgr, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_BGR2RGB)
+            colors.append((t, _motion_blur(rgb, 9) if k in blurred else rgb))
+        if k not in drop_depth:
+            delay = float(rng.uniform(-jitter_s, jitter_s))
+            turned = 2 * math.pi * delay / turn_s  # the table's further turn while the depth waited
+            c, s = math.cos(turned), math.sin(turned)
+            rz = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+            shift = np.eye(4)
+            shift[:3, 3] = axis
+            camera_from_table = poses[stem] @ shift @ rz @ np.linalg.inv(shift)
+            depth, cosine = render_depth(caster, depth_camera, depth_from_color @ camera_from_table)
+            if noise:
+                depth = _noisy(depth, cosine, rng, flying=True)
+            units = np.where(np.isfinite(depth), np.round(depth / rig.depth_scale_m), 0)
+            units[(units < 0) | (units > 65535)] = 0
+            depths.append((t + delay, units.astype(np.uint16)))
+    return Recorded(rig=rig, colors=colors, depths=depths)
+
+
+def write_tum(recorded: Recorded, folder: Path, start_s: float = 1305031102.0) -> None:
+    """TUM: registered depth in 1/5000 m (the rig must have no depth camera and that scale)."""
+    import cv2
+
+    assert recorded.rig.depth_camera is None and recorded.rig.depth_scale_m == 1 / 5000
+    for kind, items in (("rgb", recorded.colors), ("depth", recorded.depths)):
+        (folder / kind).mkdir(parents=True)
+        lines = [f"# {kind} maps", "# file: 'rgbd_dataset_homemodel'", "# timestamp filename"]
+        for t, image in items:
+            name = f"{kind}/{start_s + t:.6f}.png"
+            cv2.imwrite(str(folder / name), cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if kind == "rgb" else image)
+            lines.append(f"{start_s + t:.6f} {name}")
+        (folder / f"{kind}.txt").write_text("\n".join(lines) + "\n")
+
+
+def write_open3d(recorded: Recorded, folder: Path) -> None:
+    """Open3D's recorder layout: registered depth, frames by order, intrinsic.json (pinhole)."""
+    import cv2
+
+    camera = recorded.rig.color_camera
+    assert recorded.rig.depth_camera is None and not camera.has_distortion
+    (folder / "color").mkdir(parents=True)
+    (folder / "depth").mkdir()
+    # Frames pair by order there: only the frames both streams kept (the recorder drops whole pairs).
+    depth_at = {round(t / recorded.rig.period_s): image for t, image in recorded.depths}
+    k = 0
+    for t, rgb in recorded.colors:
+        depth = depth_at.get(round(t / recorded.rig.period_s))
+        if depth is None:
+            continue
+        cv2.imwrite(str(folder / "color" / f"{k:06d}.jpg"), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 95])
+        cv2.imwrite(str(folder / "depth" / f"{k:06d}.png"), depth)
+        k += 1
+    intrinsic = {
+        "width": camera.width,
+        "height": camera.height,
+        "intrinsic_matrix": camera.matrix.T.ravel().tolist(),
+        "depth_scale": 1.0 / recorded.rig.depth_scale_m,
+    }
+    (folder / "intrinsic.json").write_text(json.dumps(intrinsic))
+
+
+def _ros_camera_info(types: object, camera: Camera, frame: str, header: object, ros1: bool) -> object:
+    model = "equidistant" if camera.distortion_model == "kannala_brandt" else "plumb_bob"
+    d = camera.distortion_coefficients if camera.has_distortion else np.zeros(5)
+    roi = types.sensor_msgs__msg__RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+    p = np.zeros(12)
+    p[[0, 2, 5, 6, 10]] = [camera.fx, camera.cx, camera.fy, camera.cy, 1.0]
+    matrices = {"d": np.asarray(d, dtype=np.float64), "k": camera.matrix.ravel(), "r": np.eye(3).ravel(), "p": p}
+    if ros1:  # ROS 1 spells them D K R P
+        matrices = {name.upper(): value for name, value in matrices.items()}
+    return types.sensor_msgs__msg__CameraInfo(
+        header=header, height=camera.height, width=camera.width, distortion_model=model,
+        binning_x=0, binning_y=0, roi=roi, **matrices,
+    )
+
+
+def write_rosbag(recorded: Recorded, path: Path, *, ros_version: int) -> None:
+    """/camera/color/image_raw (rgb8) and /camera/depth/image_rect_raw (16UC1, mm) with their
+    CameraInfo, and /tf_static placing both optical frames under camera_link."""
+    from rosbags.typesys import Stores, get_typestore
+    from scipy.spatial.transform import Rotation
+
+    rig = recorded.rig
+    assert rig.depth_scale_m == 0.001 and rig.depth_camera is not None
+    store = get_typestore(Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE)
+    if ros_version == 1:  # rosbags' Noetic store lacks tf2_msgs
+        from rosbags.typesys import get_types_from_msg
+
+        store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
+    types = store.types
+    Time = types["builtin_interfaces/msg/Time"]
+    Header = types["std_msgs/msg/Header"]
+    header_fields = {"seq": 0} if ros_version == 1 else {}
+
+    class _T:  # attribute access to the typestore's classes
+        def __getattr__(self, name: str) -> object:
+            return types[name.replace("__", "/")]
+
+    t = _T()
+    origin = 1700000000.0
+
+    def header(time_s: float, frame: str) -> object:
+        sec = math.floor(origin + time_s)
+        nanosec = int(round((origin + time_s - sec) * 1e9)) % 1_000_000_000
+        return Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id=frame, **header_fields)
+
+    def image(time_s: float, pixels: np.ndarray, encoding: str, frame: str) -> object:
+        data = np.ascontiguousarray(pixels).view(np.uint8).ravel()
+        return t.sensor_msgs__msg__Image(
+            header=header(time_s, frame),
+            height=pixels.shape[0],
+            width=pixels.shape[1],
+            encoding=encoding,
+            is_bigendian=0,
+            step=pixels.shape[1] * pixels.itemsize * (pixels.shape[2] if pixels.ndim == 3 else 1),
+            data=data,
+        )
+
+    def stamped(child: str, link_from_child: np.ndarray) -> object:
+        q = Rotation.from_matrix(link_from_child[:3, :3]).as_quat()
+        return t.geometry_msgs__msg__TransformStamped(
+            header=header(0.0, "camera_link"),
+            child_frame_id=child,
+            transform=t.geometry_msgs__msg__Transform(
+                translation=t.geometry_msgs__msg__Vector3(x=float(link_from_child[0, 3]), y=float(link_from_child[1, 3]), z=float(link_from_child[2, 3])),
+                rotation=t.geometry_msgs__msg__Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])),
+            ),
+        )
+
+    # camera_link sits at the colour camera; the depth optical frame beside it.
+    tf = t.tf2_msgs__msg__TFMessage(
+        transforms=[stamped("camera_color_optical_frame", np.eye(4)), stamped("camera_depth_optical_frame", rig.color_from_depth)]
+    )
+    messages = [(0.0, "/tf_static", tf)]
+    messages += [(0.0, "/camera/color/camera_info", _ros_camera_info(t, rig.color_camera, "", header(0.0, "camera_color_optical_frame"), ros_version == 1))]
+    messages += [(0.0, "/camera/depth/camera_info", _ros_camera_info(t, rig.depth_camera, "", header(0.0, "camera_depth_optical_frame"), ros_version == 1))]
+    messages += [(ts, "/camera/color/image_raw", image(ts, rgb, "rgb8", "camera_color_optical_frame")) for ts, rgb in recorded.colors]
+    messages += [(ts, "/camera/depth/image_rect_raw", image(ts, d, "16UC1", "camera_depth_optical_frame")) for ts, d in recorded.depths]
+    messages.sort(key=lambda m: m[0])
+    if ros_version == 1:
+        from rosbags.rosbag1 import Writer
+
+        writer = Writer(path)
+    else:
+        from rosbags.rosbag2 import Writer
+
+        writer = Writer(path, version=9)
+    with writer:
+        connections = {}
+        for _, topic, message in messages:
+            if topic not in connections:
+                msgtype = type(message).__msgtype__
+                connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
+        for ts, topic, message in messages:
+            serialize = store.serialize_ros1 if ros_version == 1 else store.serialize_cdr
+            writer.write(connections[topic], int((origin + max(ts, 0.0)) * 1e9), serialize(message, type(message).__msgtype__))
+
+
+def write_realsense_bag(recorded: Recorded, path: Path) -> None:
+    """A RealSense .bag written by pyrealsense2's software device and recorder (2.55.1 writes
+    .bag), depth in the depth sensor's units with its own intrinsics and extrinsics to colour."""
+    import pyrealsense2 as rs
+
+    rig = recorded.rig
+    assert rig.depth_camera is not None
+
+    def intrinsics(camera: Camera) -> object:
+        i = rs.intrinsics()
+        i.width, i.height, i.fx, i.fy, i.ppx, i.ppy = camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
+        i.model = rs.distortion.brown_conrady
+        i.coeffs = [float(c) for c in (camera.distortion_coefficients if camera.has_distortion else np.zeros(5))]
+        return i
+
+    device = rs.software_device()
+    depth_sensor, color_sensor = device.add_sensor("Depth"), device.add_sensor("Color")
+    profiles = []
+    for sensor, kind, camera, uid, bpp, form in (
+        (depth_sensor, rs.stream.depth, rig.depth_camera, 0, 2, rs.format.z16),
+        (color_sensor, rs.stream.color, rig.color_camera, 1, 3, rs.format.rgb8),
+    ):
+        stream = rs.video_stream()
+        # The frame rate the recording claims: one a period (the importer pairs within half of it).
+        fps = max(1, round(1 / rig.period_s))
+        stream.type, stream.uid, stream.index, stream.fps, stream.bpp, stream.fmt = kind, uid, 0, fps, bpp, form
+        stream.width, stream.height, stream.intrinsics = camera.width, camera.height, intrinsics(camera)
+        profiles.append(sensor.add_video_stream(stream))
+    depth_profile, color_profile = profiles
+    depth_sensor.add_read_only_option(rs.option.depth_units, rig.depth_scale_m)
+    extrinsics = rs.extrinsics()
+    color_from_depth = rig.color_from_depth
+    extrinsics.rotation = color_from_depth[:3, :3].T.ravel().tolist()  # column-major
+    extrinsics.translation = color_from_depth[:3, 3].tolist()
+    depth_profile.register_extrinsics_to(color_profile, extrinsics)
+    recorder = rs.recorder(str(path), device)
+    queue = rs.syncer()
+    depth_sensor.open(depth_profile)
+    color_sensor.open(color_profile)
+    depth_sensor.start(queue)
+    color_sensor.start(queue)
+    events = [(t, "depth", d) for t, d in recorded.depths] + [(t, "color", c) for t, c in recorded.colors]
+    numbers = {"depth": 0, "color": 0}
+    for t, kind, pixels in sorted(events, key=lambda e: e[0]):
+        frame = rs.software_video_frame()
+        frame.pixels = np.ascontiguousarray(pixels)
+        frame.bpp = 2 if kind == "depth" else 3
+        frame.stride = pixels.shape[1] * frame.bpp
+        frame.timestamp = 1000.0 * (t + 1.0)
+        frame.domain = rs.timestamp_domain.system_time
+        numbers[kind] += 1
+        frame.frame_number = numbers[kind]
+        if kind == "depth":
+            frame.profile = depth_profile.as_video_stream_profile()
+            frame.depth_units = rig.depth_scale_m
+            depth_sensor.on_video_frame(frame)
+        else:
+            frame.profile = color_profile.as_video_stream_profile()
+            color_sensor.on_video_frame(frame)
+    for sensor in (depth_sensor, color_sensor):
+        sensor.stop()
+        sensor.close()
+    del recorder  # closes the file

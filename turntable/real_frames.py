@@ -1,0 +1,77 @@
+"""What real sensors' frames need before merging, each measured for summary.json: flying
+pixels at depth edges dropped (holes are left as they are: no filling), blurred colour frames
+found, and the depth-to-colour misregistration estimated from where depth edges and colour
+edges fall."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+FLYING_RELATIVE_JUMP = 0.02  # a pixel this far (x its depth) from a neighbour on both sides flies
+FLYING_MIN_JUMP_M = 0.005
+
+
+def drop_flying_pixels(depth_m: np.ndarray) -> tuple[np.ndarray, int]:
+    """The depth with its flying pixels set to NaN, and how many went. A flying pixel reads
+    between a foreground and a background surface: it differs by more than the threshold from
+    a neighbour on each side of it (left and right, or above and below), which a surface
+    point, even at a grazing angle, does not."""
+    depth = np.asarray(depth_m, dtype=np.float32)
+    padded = np.pad(depth, 1, mode="constant", constant_values=np.nan)
+    threshold = np.maximum(FLYING_RELATIVE_JUMP * depth, FLYING_MIN_JUMP_M)
+    centre = padded[1:-1, 1:-1]
+    flying = np.zeros(depth.shape, dtype=bool)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for a, b in (((1, 0), (1, 2)), ((0, 1), (2, 1))):  # left/right, above/below
+            first = padded[a[0] : a[0] + depth.shape[0], a[1] : a[1] + depth.shape[1]]
+            second = padded[b[0] : b[0] + depth.shape[0], b[1] : b[1] + depth.shape[1]]
+            jump_first = np.abs(first - centre) > threshold
+            jump_second = np.abs(second - centre) > threshold
+            # Between the two: one neighbour nearer, the other farther.
+            between = (first - centre) * (second - centre) < 0
+            flying |= jump_first & jump_second & between
+    out = depth.copy()
+    out[flying] = np.nan
+    return out, int(flying.sum())
+
+
+def sharpness(gray: np.ndarray) -> float:
+    """Variance of the Laplacian: falls by several times under motion or focus blur."""
+    import cv2
+
+    return float(cv2.Laplacian(gray, cv2.CV_32F, ksize=3).var())
+
+
+def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: int = 6) -> np.ndarray | None:
+    """(dx, dy): the shift of the depth image's edges that best lands them on the colour image's
+    edges, to a tenth of a pixel; None when the depth has too few edges to say. Registered
+    streams give about (0, 0)."""
+    import cv2
+
+    depth = np.nan_to_num(np.asarray(depth_m, dtype=np.float32), nan=0.0)
+    valid = depth > 0
+    # Depth edges: jumps over 1 cm between valid neighbours (silhouettes against the background).
+    gx = np.abs(np.diff(depth, axis=1, append=depth[:, -1:])) > 0.01
+    gy = np.abs(np.diff(depth, axis=0, append=depth[-1:])) > 0.01
+    edges = (gx | gy) & valid & np.roll(valid, -1, 1) & np.roll(valid, -1, 0)
+    ys, xs = np.nonzero(edges[max_shift_px:-max_shift_px, max_shift_px:-max_shift_px])
+    if len(xs) < 50:
+        return None
+    ys, xs = ys + max_shift_px, xs + max_shift_px
+    g = gray.astype(np.float32)
+    magnitude = cv2.GaussianBlur(np.hypot(cv2.Sobel(g, cv2.CV_32F, 1, 0), cv2.Sobel(g, cv2.CV_32F, 0, 1)), (0, 0), 1.0)
+    shifts = np.arange(-max_shift_px, max_shift_px + 1)
+    score = np.array([[magnitude[ys + dy, xs + dx].mean() for dx in shifts] for dy in shifts])
+    iy, ix = np.unravel_index(np.argmax(score), score.shape)
+
+    def vertex(values: np.ndarray, i: int) -> float:  # the parabola's peak through three samples
+        if 0 < i < len(values) - 1:
+            denominator = values[i - 1] - 2 * values[i] + values[i + 1]
+            if denominator < 0:
+                return float(i + 0.5 * (values[i - 1] - values[i + 1]) / denominator)
+        return float(i)
+
+    return np.array([vertex(score[iy], ix), vertex(score[:, ix], iy)]) - max_shift_px

@@ -1,0 +1,45 @@
+"""Which kind of recording a path is, from its layout alone."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from homemodel.core.errors import InputError
+from turntable.recordings.open3d_folder import COLOR_FOLDERS, INTRINSICS_FILES
+
+FORMATS = ("realsense-bag", "ros1", "ros2", "tum", "open3d")
+
+
+def _is_realsense_bag(path: Path) -> bool:
+    """librealsense writes its streams under /device_0/... in a ROS 1 bag."""
+    from rosbags.rosbag1 import Reader, ReaderError
+
+    try:
+        with Reader(path) as reader:
+            return any(c.topic.startswith("/device_0/") for c in reader.connections)
+    except (ReaderError, OSError, ValueError, KeyError) as exc:
+        raise InputError(f"{path}: not a readable .bag: {exc}") from None
+
+
+def detect_format(path: Path) -> str:
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such recording")
+    if path.is_file():
+        if path.suffix == ".bag":
+            return "realsense-bag" if _is_realsense_bag(path) else "ros1"
+        if path.suffix in (".db3", ".mcap"):
+            return "ros2"
+        raise InputError(f"{path}: cannot tell the recording's format (a .bag, .db3 or .mcap file?); give --format")
+    if (path / "metadata.yaml").is_file():
+        return "ros2"
+    if (path / "rgb.txt").is_file() or (path / "depth.txt").is_file():
+        return "tum"
+    if (path / "depth").is_dir() and (
+        any((path / n).is_dir() for n in COLOR_FOLDERS) or any((path / n).is_file() for n in INTRINSICS_FILES)
+    ):
+        return "open3d"
+    raise InputError(
+        f"{path}: cannot tell the recording's format (no metadata.yaml, rgb.txt/depth.txt, or depth/ "
+        "beside color/); give --format"
+    )

@@ -1,0 +1,225 @@
+"""ROS 1 (.bag) and ROS 2 (a folder with metadata.yaml, or its .db3/.mcap) recordings, read
+with the pure-Python `rosbags`: a colour and a depth `sensor_msgs/Image` (or
+`CompressedImage`) topic, each with the `CameraInfo` beside it, and `/tf_static` for the
+depth camera's pose in colour's when the depth is not registered (an `aligned_depth_to_color`
+topic, or depth in colour's frame at its size, is)."""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from homemodel.core.errors import InputError
+from homemodel.geometry.camera import Camera
+from turntable.recordings.images import (
+    decode_compressed_message,
+    decode_image_message,
+    is_color_encoding,
+    is_depth_encoding,
+)
+from turntable.recordings.source import StreamSetup
+from turntable.recordings.timed import TimedStreamsSource
+
+IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
+INFO_TYPE = "sensor_msgs/msg/CameraInfo"
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+FLOAT_DEPTH_SCALE_M = 0.0001  # float depth (32FC1 metres) is written in 0.1 mm units
+
+
+def bag_path(path: Path) -> Path:
+    """What rosbags opens: a ROS 1 .bag file, or a ROS 2 bag's folder."""
+    path = Path(path)
+    if path.is_file() and path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
+        return path.parent
+    return path
+
+
+def _field(message: object, *names: str) -> object:
+    for name in names:  # ROS 2 spells CameraInfo's fields k, d; ROS 1 K, D
+        if hasattr(message, name):
+            return getattr(message, name)
+    raise AttributeError(names[0])
+
+
+def _stamp_s(message: object) -> float:
+    stamp = message.header.stamp
+    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
+
+
+def camera_from_info(info: object, where: str) -> tuple[Camera, list[str]]:
+    """The Camera of a CameraInfo (plumb_bob / rational_polynomial: Brown-Conrady; equidistant:
+    Kannala-Brandt) and notes on what it could not carry."""
+    k = np.asarray(_field(info, "k", "K"), dtype=np.float64).reshape(3, 3)
+    d = [float(v) for v in np.asarray(_field(info, "d", "D"), dtype=np.float64)]
+    model = str(info.distortion_model).lower()
+    width, height = int(info.width), int(info.height)
+    if k[0, 0] <= 0 or k[1, 1] <= 0 or width <= 0 or height <= 0:
+        raise InputError(f"{where}: the CameraInfo has no intrinsics (K = {k.ravel().tolist()}, {width}x{height})")
+    notes = []
+    fields: dict = {}
+    if model == "equidistant":
+        fields = {"distortion": tuple((d + [0.0] * 4)[:4]), "distortion_model": "kannala_brandt"}
+    elif any(d):
+        if model not in ("plumb_bob", "rational_polynomial", ""):
+            notes.append(f"{where}: distortion model {info.distortion_model!r} read as Brown-Conrady")
+        if any(d[5:]):
+            notes.append(f"{where}: rational terms k4-k6 {d[5:8]} dropped (Brown-Conrady keeps k1 k2 p1 p2 k3)")
+        fields = {"distortion": tuple((d + [0.0] * 5)[:5])}
+    camera = Camera.from_matrix(k, width=width, height=height)
+    return Camera(**{**camera.model_dump(), **fields}), notes
+
+
+class _TfTree:
+    def __init__(self) -> None:
+        self.edges: dict[str, list[tuple[str, np.ndarray]]] = {}
+
+    def add(self, parent: str, child: str, parent_from_child: np.ndarray) -> None:
+        self.edges.setdefault(parent, []).append((child, parent_from_child))
+        self.edges.setdefault(child, []).append((parent, np.linalg.inv(parent_from_child)))
+
+    def a_from_b(self, a: str, b: str) -> np.ndarray | None:
+        """Breadth-first from b to a, composing; None when not connected."""
+        found = {b: np.eye(4)}
+        queue = deque([b])
+        while queue:
+            frame = queue.popleft()
+            for other, frame_from_other in self.edges.get(frame, []):
+                if other not in found:
+                    found[other] = np.linalg.inv(frame_from_other) @ found[frame]  # other_from_b
+                    queue.append(other)
+        return found.get(a)
+
+
+def _transform_matrix(transform: object) -> np.ndarray:
+    q, t = transform.rotation, transform.translation
+    matrix = np.eye(4)
+    from scipy.spatial.transform import Rotation
+
+    matrix[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+    matrix[:3, 3] = [t.x, t.y, t.z]
+    return matrix
+
+
+class RosBagSource(TimedStreamsSource):
+    """Both ROS generations; `format` says which the importer named (ros1 or ros2)."""
+
+    def __init__(self, path: Path, *, ros_version: int, **kwargs: object) -> None:
+        super().__init__(path, **kwargs)
+        self.ros_version = ros_version
+        self._reader = None
+
+    def open(self) -> StreamSetup:
+        from rosbags.highlevel import AnyReader, AnyReaderError
+
+        try:
+            self._reader = AnyReader([bag_path(self.path)])
+            self._reader.open()
+        except (AnyReaderError, OSError, ValueError, KeyError) as exc:
+            raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {exc}") from None
+        where = str(self.path)
+        reader = self._reader
+        images = [c for c in reader.connections if c.msgtype in IMAGE_TYPES]
+        self._depth_dtypes: dict[str, type] = {}
+        kinds = {c.topic: self._kind(c) for c in images}
+        colors = [c for c in images if kinds[c.topic] == "color"]
+        depths = [c for c in images if kinds[c.topic] == "depth"]
+        if not depths:
+            raise InputError(f"{where}: no depth image topic (16UC1 or 32FC1); topics: {sorted(kinds)}")
+        if not colors:
+            raise InputError(f"{where}: no colour image topic; topics: {sorted(kinds)}")
+        self._color = max(colors, key=lambda c: ("color" in c.topic or "rgb" in c.topic, -len(c.topic)))
+        self._depth = max(depths, key=lambda c: ("aligned_depth_to_color" in c.topic, "depth" in c.topic))
+        color_info = self._info_for(self._color.topic)
+        depth_info = self._info_for(self._depth.topic)
+        if color_info is None:
+            raise InputError(f"{where}: no intrinsics: no CameraInfo beside {self._color.topic}")
+        color_camera, notes = camera_from_info(color_info, f"{where} {self._color.topic}")
+        depth_scale = 0.001 if self._depth_dtypes[self._depth.topic] == np.uint16 else FLOAT_DEPTH_SCALE_M
+        color_camera = Camera(**{**color_camera.model_dump(), "depth_scale_m": depth_scale})
+        setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=notes)
+        registered = "aligned_depth_to_color" in self._depth.topic or (
+            depth_info is not None
+            and depth_info.header.frame_id == color_info.header.frame_id
+            and (depth_info.width, depth_info.height) == (color_info.width, color_info.height)
+        )
+        if not registered:
+            if depth_info is None:
+                raise InputError(f"{where}: no intrinsics for the unregistered depth: no CameraInfo beside {self._depth.topic}")
+            setup.depth_camera, depth_notes = camera_from_info(depth_info, f"{where} {self._depth.topic}")
+            setup.notes += depth_notes
+            setup.color_from_depth = self._static_tf().a_from_b(color_info.header.frame_id, depth_info.header.frame_id)
+            if setup.color_from_depth is None:
+                setup.notes.append(
+                    f"no /tf_static from {depth_info.header.frame_id} to {color_info.header.frame_id}: "
+                    "depth reprojected as if the two cameras sat at one point"
+                )
+        return setup
+
+    def close(self) -> None:
+        if self._reader is not None:
+            self._reader.close()
+
+    def _first(self, topic: str) -> object | None:
+        connections = [c for c in self._reader.connections if c.topic == topic]
+        for connection, _, raw in self._reader.messages(connections=connections):
+            return self._reader.deserialize(raw, connection.msgtype)
+        return None
+
+    def _kind(self, connection: object) -> str | None:
+        message = self._first(connection.topic)
+        if message is None:
+            return None
+        if connection.msgtype.endswith("CompressedImage"):
+            form = str(message.format).lower()
+            depth = "compresseddepth" in form or "16uc1" in form or "depth" in connection.topic
+            if depth:
+                self._depth_dtypes[connection.topic] = np.uint16
+            return "depth" if depth else "color"
+        encoding = str(message.encoding)
+        if is_depth_encoding(encoding):
+            self._depth_dtypes[connection.topic] = np.uint16 if encoding.lower() != "32fc1" else np.float32
+            return "depth"
+        return "color" if is_color_encoding(encoding) else None
+
+    def _info_for(self, image_topic: str) -> object | None:
+        namespace = image_topic.rsplit("/", 1)[0]
+        infos = [c for c in self._reader.connections if c.msgtype == INFO_TYPE and c.topic.rsplit("/", 1)[0] == namespace]
+        return self._first(infos[0].topic) if infos else None
+
+    def _static_tf(self) -> _TfTree:
+        tree = _TfTree()
+        connections = [c for c in self._reader.connections if c.msgtype == TF_TYPE and c.topic.endswith("tf_static")]
+        for connection, _, raw in self._reader.messages(connections=connections) if connections else ():
+            for stamped in self._reader.deserialize(raw, connection.msgtype).transforms:
+                tree.add(stamped.header.frame_id, stamped.child_frame_id, _transform_matrix(stamped.transform))
+        return tree
+
+    def _messages(self) -> Iterator[tuple[str, int, object]]:
+        counters = {"color": 0, "depth": 0}
+        kind_of = {id(self._color): "color", id(self._depth): "depth"}
+        for connection, _, raw in self._reader.messages(connections=[self._color, self._depth]):
+            kind = kind_of[id(connection)]
+            index = counters[kind]
+            counters[kind] += 1
+            yield kind, index, (connection, raw)
+
+    def stream_times(self) -> tuple[np.ndarray, np.ndarray]:
+        times: dict[str, list[float]] = {"color": [], "depth": []}
+        for kind, _, (connection, raw) in self._messages():
+            times[kind].append(_stamp_s(self._reader.deserialize(raw, connection.msgtype)))
+        return np.array(times["color"]), np.array(times["depth"])
+
+    def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
+        wanted = {("color", i) for i, _ in chosen} | {("depth", j) for _, j in chosen}
+        for kind, index, (connection, raw) in self._messages():
+            if (kind, index) not in wanted:
+                continue
+            message = self._reader.deserialize(raw, connection.msgtype)
+            where = f"{self.path} {connection.topic}"
+            if connection.msgtype.endswith("CompressedImage"):
+                yield kind, index, decode_compressed_message(message, where)
+            else:
+                yield kind, index, decode_image_message(message, where)

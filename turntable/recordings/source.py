@@ -1,0 +1,74 @@
+"""The one frame-source interface: colour and depth frames paired in time, as a live camera
+delivers them or a recording plays them back. The importer (`turntable.recordings.importer`)
+and the live capture (`turntable.capture_live`) both read through it."""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from homemodel.geometry.camera import Camera
+
+
+@dataclass(kw_only=True)
+class StreamSetup:
+    """What a source knows about its two streams once opened."""
+
+    format: str  # realsense-bag, realsense-live, ros1, ros2, tum, open3d
+    color_camera: Camera  # intrinsics and distortion of the colour images, with depth_scale_m of the depth
+    # None when the depth comes registered to colour (same pixels); else the depth stream's
+    # own camera, its images to be reprojected into colour's with `color_from_depth`.
+    depth_camera: Camera | None = None
+    color_from_depth: np.ndarray | None = None  # 4x4; None: not in the recording (identity assumed)
+    intrinsics_from: str = "recording"  # or "--camera"
+    notes: list[str] = field(default_factory=list)  # what the reader had to assume or approximate
+
+
+@dataclass(kw_only=True)
+class RgbdPair:
+    """One colour image and the depth image associated with it in time."""
+
+    time_s: float  # the colour frame's, from the recording's start
+    color: np.ndarray  # (H, W, 3) uint8 RGB
+    depth: np.ndarray  # (h, w) uint16 in units of depth_scale_m, or float32 metres (NaN or 0: none)
+    depth_offset_s: float  # depth's time minus colour's
+
+
+@dataclass(kw_only=True)
+class StreamCounts:
+    color_frames: int = 0
+    depth_frames: int = 0
+    pairs: int = 0  # colour frames that found a depth partner
+    dropped_color: int = 0  # colour frames without one (or a gap in the frame numbers)
+    dropped_depth: int = 0
+    max_offset_s: float = 0.0  # the largest |depth - colour| time of a pair
+
+
+class FrameSource(abc.ABC):
+    """Open with `with`; `setup` is known after entering; `pairs()` yields the pairs in time
+    order; `counts` is final once `pairs()` is exhausted (or the caller stops)."""
+
+    setup: StreamSetup
+    counts: StreamCounts
+
+    def __enter__(self) -> FrameSource:
+        self.counts = StreamCounts()
+        self.setup = self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @abc.abstractmethod
+    def open(self) -> StreamSetup:
+        """Read the streams' description; raises InputError naming what is missing."""
+
+    @abc.abstractmethod
+    def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
+        """The associated pairs whose colour frame lies in [start_s, end_s] from the start."""
+
+    def close(self) -> None:  # noqa: B027 (most sources hold nothing open)
+        """Release the device or file."""

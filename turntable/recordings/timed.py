@@ -1,0 +1,58 @@
+"""The recordings whose colour and depth are two separately timed streams (TUM folders, ROS
+bags, Open3D folders): read the times, associate them, then load only the paired images."""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from turntable.recordings.associate import associate, default_tolerance_s
+from turntable.recordings.source import FrameSource, RgbdPair
+
+
+class TimedStreamsSource(FrameSource):
+    def __init__(self, path: Path, *, tolerance_s: float | None = None, every: int = 1) -> None:
+        self.path = Path(path)
+        self.tolerance_s = tolerance_s
+        self.every = every
+
+    @abc.abstractmethod
+    def stream_times(self) -> tuple[np.ndarray, np.ndarray]:
+        """Colour and depth frame times in seconds (any common origin)."""
+
+    @abc.abstractmethod
+    def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
+        """("color" | "depth", index, image) for the frames of the chosen (colour, depth) pairs,
+        in any order (a file reader goes pair by pair, a bag in its own time order); colour RGB
+        uint8, depth uint16 in the setup's units or float32 metres."""
+
+    def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
+        color_t, depth_t = self.stream_times()
+        tolerance = self.tolerance_s if self.tolerance_s is not None else default_tolerance_s(color_t, depth_t)
+        matched = associate(color_t, depth_t, tolerance, where=str(self.path))
+        origin = min(color_t.min(), depth_t.min())
+        counts = self.counts
+        counts.color_frames, counts.depth_frames, counts.pairs = len(color_t), len(depth_t), len(matched)
+        counts.dropped_color, counts.dropped_depth = len(color_t) - len(matched), len(depth_t) - len(matched)
+        counts.max_offset_s = max(abs(depth_t[j] - color_t[i]) for i, j in matched)
+        in_span = [
+            (i, j) for i, j in matched if color_t[i] - origin >= start_s and (end_s is None or color_t[i] - origin <= end_s)
+        ]
+        chosen = in_span[:: self.every]
+        depth_of = dict(chosen)
+        color_of = {j: i for i, j in chosen}
+        held: dict[tuple[str, int], np.ndarray] = {}
+        for kind, index, image in self.stream_images(chosen):
+            held[(kind, index)] = image
+            i = index if kind == "color" else color_of[index]
+            j = depth_of[i]
+            if ("color", i) in held and ("depth", j) in held:
+                yield RgbdPair(
+                    time_s=float(color_t[i] - origin),
+                    color=held.pop(("color", i)),
+                    depth=held.pop(("depth", j)),
+                    depth_offset_s=float(depth_t[j] - color_t[i]),
+                )
