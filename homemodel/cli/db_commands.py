@@ -202,8 +202,7 @@ def serve(
             "database's models and input paths (there is no login)",
             err=True,
         )
-    # One line per request and per refused or failed one, on stderr.
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(message)s")
+    # Every refused or failed request is one line on stderr (the command line's logging).
     shown = f"[{host.strip('[]')}]" if ":" in host else host
     typer.echo(f"serving {db} at http://{shown}:{server.port}/ (Ctrl-C to stop)")
     try:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import ipaddress
 import json
-import logging
 import re
 import socket
 from dataclasses import dataclass, field
@@ -25,6 +24,7 @@ from homemodel.app.database.entry_build import ENTRY_FILE
 from homemodel.app.database.index import MODELS_DIR, ModelIndex
 from homemodel.app.database.listing import Listing, ListQuery, finite_number, summary
 from homemodel.app.database.server_security import (
+    REASON_KEY,
     DeadlineH11Protocol,
     Guard,
     allowed_hosts,
@@ -36,7 +36,6 @@ from homemodel.app.database.server_security import (
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.core.node_packages import find_node_package, install_hint
 
-logger = logging.getLogger(__name__)
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
 WEB_FILES = ("index.html", "app.js", "style.css")
@@ -104,8 +103,14 @@ def map_tree(map_path: Path, db_dir: Path, entry_ids: set[str]) -> dict:
     return {"id": apartment.id, "kind": "apartment", "type": apartment.name, "model": None, "children": rooms}
 
 
-def _json(data: object, status: int = 200) -> JSONResponse:
-    return JSONResponse(data, status, headers={"cache-control": "no-store"})
+def _json(data: object) -> JSONResponse:
+    return JSONResponse(data, headers={"cache-control": "no-store"})
+
+
+def _error(request: Request, message: str, status: int) -> JSONResponse:
+    """{"error": message} with `status`; the message is the reason in the log line."""
+    request.scope[REASON_KEY] = message
+    return JSONResponse({"error": message}, status, headers={"cache-control": "no-store"})
 
 
 def _validation_report(db_dir: Path, row_path: object) -> str | None:
@@ -156,15 +161,15 @@ def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int |
             )
             return _json(listing.query(query))
         except ValueError as exc:
-            return _json({"error": f"not a number: {exc}"}, 400)
+            return _error(request, f"not a number: {exc}", 400)
         except InputError as exc:
-            return _json({"error": str(exc)}, 400)
+            return _error(request, str(exc), 400)
 
     def model(request: Request) -> Response:
         with ModelIndex(db_dir) as index:
             row = index.get(request.path_params["entry_id"])
         if row is None:
-            return _json({"error": "no such entry"}, 404)
+            return _error(request, "no such entry", 404)
         checks = [
             {"name": str(c.get("name")), "passed": bool(c.get("passed")), "detail": str(c.get("detail"))}
             for c in row.checks if isinstance(c, dict)
@@ -181,7 +186,7 @@ def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int |
             }
         )
 
-    def map_view(_: Request) -> Response:
+    def map_view(request: Request) -> Response:
         if map_path is None:
             return _json(None)
         with ModelIndex(db_dir) as index:
@@ -189,8 +194,7 @@ def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int |
         try:
             return _json(map_tree(map_path, db_dir, ids))
         except HomemodelError as exc:
-            logger.error("GET /api/map: %s", exc)
-            return _json({"error": str(exc)}, 500)
+            return _error(request, str(exc), 500)
 
     def db_file(request: Request) -> Response:
         return file_response(request.headers, safe_file(db_dir / MODELS_DIR, request.path_params["path"]))
@@ -201,7 +205,7 @@ def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int |
 
     async def http_error(request: Request, exc: Exception) -> Response:
         assert isinstance(exc, HTTPException)
-        logger.info("%s %s: %d %s", request.method, request.url.path, exc.status_code, exc.detail)
+        request.scope[REASON_KEY] = exc.detail
         return PlainTextResponse(exc.detail, exc.status_code)
 
     routes = [
@@ -252,6 +256,7 @@ class DatabaseServer:
             h11_max_incomplete_event_size=16 * 1024,  # a request line and headers
             server_header=False,
             log_config=None,
+            access_log=False,  # the Guard logs each refused or failed request, once
         )
         self._server = uvicorn.Server(config)
 

@@ -52,6 +52,7 @@ MIME_TYPES = {
     ".txt": "text/plain; charset=utf-8",
     ".wasm": "application/wasm",
 }
+REASON_KEY = "homemodel.reason"  # where a handler leaves the reason for its 4xx, for the log line
 MAX_NAME_BYTES = 255  # one path component, as file systems allow
 MAX_PATH_BYTES = 1024
 _BAD_CHARS = re.compile(r"[\x00-\x1f\x7f\\]")
@@ -183,25 +184,29 @@ class Guard:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        started = False
+        status = None
 
         async def send_with_headers(message: Message) -> None:
-            nonlocal started
+            nonlocal status
             if message["type"] == "http.response.start":
-                started = True
+                status = message["status"]
                 message["headers"] = [*message.get("headers", []), *self.extra_headers]
             await send(message)
 
+        request = f"{scope['method']} {scope['path']!r}"
         if not self._host_allowed(scope):
-            logger.warning("%s %s: refused Host %r", scope["method"], scope["path"], Headers(scope=scope).get("host"))
+            logger.warning("%s 421: refused Host %r", request, Headers(scope=scope).get("host"))
             await PlainTextResponse("Misdirected Request: this Host is not served here", 421)(scope, receive, send_with_headers)
             return
         try:
             await self.app(scope, receive, send_with_headers)
         except Exception as exc:  # noqa: BLE001 (any failure becomes a 500 and one line)
-            logger.error("%s %s: %s: %s", scope["method"], scope["path"], type(exc).__name__, exc)
-            if not started:
+            logger.error("%s 500: %s: %s", request, type(exc).__name__, exc)
+            if status is None:
                 await PlainTextResponse("Internal Server Error", 500)(scope, receive, send_with_headers)
+            return
+        if status is not None and status >= 400:
+            logger.warning("%s %d: %s", request, status, scope.get(REASON_KEY, "refused"))
 
 
 class DeadlineH11Protocol(H11Protocol):
