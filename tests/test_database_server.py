@@ -109,7 +109,7 @@ def server(tmp_path_factory):  # noqa: ANN201
     lines = [line for line in stderr.splitlines() if line != "interrupted"]
     pattern = r"(WARNING|ERROR) homemodel\.app\.database\.server_security: (GET|HEAD|POST) '\S*' [45]\d\d: .+"
     unexpected = [line for line in lines if not re.fullmatch(pattern, line) and "Invalid HTTP request received." not in line]
-    assert unexpected == [] and len(lines) >= 20, stderr
+    assert unexpected == [], stderr
 
 
 def test_a_foreign_host_is_refused(server: Server) -> None:
@@ -298,6 +298,9 @@ def test_other_listen_addresses(tmp_path: Path) -> None:
         assert wide.request("GET", "/api/models", {"Host": f"127.0.0.1:{wide.port}"})[0].status == 200
         assert wide.request("GET", "/api/models", {"Host": "models.lab"})[0].status == 200
         assert wide.request("GET", "/api/models", {"Host": "evil.example"})[0].status == 421
+        # An address (as a user on another machine types it) is no rebinding: allowed.
+        assert wide.request("GET", "/api/models", {"Host": f"192.168.7.9:{wide.port}"})[0].status == 200
+        assert wide.request("GET", "/api/models", {"Host": "192.168.7.9:1"})[0].status == 421
     finally:
         assert "warning: --host 0.0.0.0 is reachable from other machines" in wide.stop()
     if not socket.has_ipv6:

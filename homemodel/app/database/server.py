@@ -27,6 +27,7 @@ from homemodel.app.database.server_security import (
     REASON_KEY,
     DeadlineH11Protocol,
     Guard,
+    HostAllowList,
     allowed_hosts,
     content_security_policy,
     file_response,
@@ -133,7 +134,7 @@ def three_dir() -> Path:
     return folder
 
 
-def make_app(db_dir: Path, *, map_path: Path | None, hosts: set[tuple[str, int | None]]) -> Guard:
+def make_app(db_dir: Path, *, map_path: Path | None, hosts: HostAllowList) -> Guard:
     """The ASGI app: the page, the API (`/api/models?q=&status=&sort=&order=&offset=&limit=`,
     `/api/models/ID`, `/api/map`), model files under `/db/` and three.js under `/vendor/three/`."""
     three = three_dir()

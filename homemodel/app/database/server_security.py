@@ -14,6 +14,7 @@ import posixpath
 import re
 import socket
 from collections.abc import Iterable
+from dataclasses import dataclass
 from email.utils import parsedate
 from pathlib import Path
 
@@ -135,10 +136,39 @@ def _host_port(value: str) -> tuple[str, int | None]:
     return host.rstrip("."), int(port) if port else None
 
 
-def allowed_hosts(listen_host: str, port: int, extra: Iterable[str] = ()) -> set[tuple[str, int | None]]:
-    """(host, port) pairs a request's Host may name: the address listened on (a wildcard
-    address: loopback and this machine's names), `localhost` for loopback, and `extra` (as
-    `name` or `name:port`), each with or without the port."""
+@dataclass(frozen=True)
+class HostAllowList:
+    """The Host headers a request may carry: (host, port) pairs (port None: no port given)
+    and, for a server on a wildcard address, any IP address with its port (DNS rebinding
+    needs a name: an address typed by a user is never an attacker's)."""
+
+    pairs: frozenset[tuple[str, int | None]]
+    any_address_port: int | None = None
+
+    def allows(self, host_header: str | None) -> bool:
+        if host_header is None:
+            return False
+        try:
+            host, port = _host_port(host_header)
+        except ValueError:
+            return False
+        if (host, port) in self.pairs:
+            return True
+        return self.any_address_port is not None and port in (None, self.any_address_port) and _is_address(host)
+
+
+def _is_address(host: str) -> bool:
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+def allowed_hosts(listen_host: str, port: int, extra: Iterable[str] = ()) -> HostAllowList:
+    """The address listened on (a wildcard address: loopback, this machine's names and any
+    address), `localhost` for loopback, and `extra` (as `name` or `name:port`), each with or
+    without the port."""
     names = {listen_host.strip("[]").lower()}
     try:
         address = ipaddress.ip_address(listen_host.strip("[]"))
@@ -152,7 +182,7 @@ def allowed_hosts(listen_host: str, port: int, extra: Iterable[str] = ()) -> set
     for item in extra:
         host, item_port = _host_port(item)
         pairs |= {(host, item_port)} if item_port else {(host, None), (host, port)}
-    return pairs
+    return HostAllowList(frozenset(pairs), port if address is not None and address.is_unspecified else None)
 
 
 class Guard:
@@ -160,7 +190,7 @@ class Guard:
     security headers to every response, and turns any exception into a 500 with one log line
     (never a dropped connection or a traceback)."""
 
-    def __init__(self, app: ASGIApp, *, hosts: set[tuple[str, int | None]], csp: str) -> None:
+    def __init__(self, app: ASGIApp, *, hosts: HostAllowList, csp: str) -> None:
         self.app = app
         self.hosts = hosts
         self.extra_headers = [
@@ -170,15 +200,6 @@ class Guard:
             (b"x-frame-options", b"DENY"),
             (b"cross-origin-resource-policy", b"same-origin"),
         ]
-
-    def _host_allowed(self, scope: Scope) -> bool:
-        host = Headers(scope=scope).get("host")
-        if host is None:
-            return False
-        try:
-            return _host_port(host) in self.hosts
-        except ValueError:
-            return False
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -194,7 +215,7 @@ class Guard:
             await send(message)
 
         request = f"{scope['method']} {scope['path']!r}"
-        if not self._host_allowed(scope):
+        if not self.hosts.allows(Headers(scope=scope).get("host")):
             logger.warning("%s 421: refused Host %r", request, Headers(scope=scope).get("host"))
             await PlainTextResponse("Misdirected Request: this Host is not served here", 421)(scope, receive, send_with_headers)
             return
