@@ -73,7 +73,7 @@ def test_the_example_builds_with_the_readme_command(tmp_path) -> None:
     # The PartNet cabinet is repaired because its entry asks, and each repair is stated.
     cabinet = rows["partnet_cabinet"]
     assert cabinet.category == "cupboard" and cabinet.grasp_points == 1
-    assert any("inertial computed" in r for r in cabinet.repairs) and any("effort set to 10" in r for r in cabinet.repairs)
+    assert any("no <inertial>;" in r and "at 500 kg/m^3" in r for r in cabinet.repairs) and any("effort set to 10" in r for r in cabinet.repairs)
     assert "repaired joint 'joint_0': effort set to 10, velocity set to 1" in done.stdout
     assert not [word for word in CRASH_WORDS if word in done.stderr], done.stderr
     again = db_build(manifest, tmp_path / "db", tmp_path / "tmp")
