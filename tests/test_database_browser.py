@@ -146,6 +146,7 @@ def test_search_open_a_cupboard_and_move_its_door(page) -> None:
     markers = "return window.homemodel.joints['joint_0'].children.filter(c => c.name.startsWith('grasp:')).length"
     assert driver.execute_script(markers) == 1  # the handle's grasp point rides on the door
     assert driver.current_url.endswith("#cabinet")
+    driver.save_screenshot(str(db / "page.png"))  # the README's picture
 
 
 def test_a_fast_second_choice_draws_the_second_model_and_frees_the_first(page) -> None:
