@@ -18,6 +18,7 @@ from lxml import etree
 
 from articulation.inertia import link_mass
 from articulation.gate.mesh_geometry import VOLUME_TOLERANCE
+from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from articulation.model import Box, Collision, Link, MeshGeometry, Model
 from homemodel.core.checks import require_positive
 from homemodel.core.safe_xml import parse_xml_file
@@ -57,6 +58,7 @@ class AssetGaps:
     # ... and of open meshes whose hull is mostly air (a cabinet's sheets in one file): the
     # hull a simulator collides fills the cavity, and the drawers inside collide with it
     hollow_collisions: list[str] = field(default_factory=list)
+    axes_not_unit: list[str] = field(default_factory=list)  # joints whose axis is not of length 1
 
     def __bool__(self) -> bool:
         return bool(
@@ -65,6 +67,7 @@ class AssetGaps:
             or self.limits_without_velocity
             or self.flat_collisions
             or self.hollow_collisions
+            or self.axes_not_unit
         )
 
     def describe(self) -> list[str]:
@@ -79,6 +82,8 @@ class AssetGaps:
             said.append(f"flat collision meshes (no volume): {', '.join(self.flat_collisions)}")
         if self.hollow_collisions:
             said.append(f"open collision meshes whose hull fills a cavity: {', '.join(self.hollow_collisions)}")
+        if self.axes_not_unit:
+            said.append(f"joint axes not of length 1: {', '.join(self.axes_not_unit)}")
         return said
 
 
@@ -175,7 +180,8 @@ def _panels(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray) -> li
 
 
 def find_gaps(urdf: Path, model: Model | None = None) -> AssetGaps:
-    """What the URDF lacks; with its `model` loaded, also its flat collision meshes."""
+    """What the URDF lacks; with its `model` loaded, also its flat or hollow collision meshes
+    and its joint axes not of unit length."""
     robot = parse_xml_file(Path(urdf)).getroot()
     no_inertial = [
         link.get("name")
@@ -191,6 +197,9 @@ def find_gaps(urdf: Path, model: Model | None = None) -> AssetGaps:
         limits_without_velocity=[name for name, el in limits if el.get("velocity") is None],
         flat_collisions=model_flat_collisions(model) if model is not None else [],
         hollow_collisions=model_hollow_collisions(model) if model is not None else [],
+        axes_not_unit=[
+            j.name for j in (model.joints if model is not None else []) if j.is_movable and abs(np.linalg.norm(j.axis) - 1) >= AXIS_UNIT_TOLERANCE
+        ],
     )
 
 
@@ -290,6 +299,10 @@ def repair(model: Model, gaps: AssetGaps, options: RepairOptions) -> tuple[Model
             changes["effort"] = options.effort
         if joint.name in gaps.limits_without_velocity and joint.limits is not None:
             changes["velocity"] = options.velocity
+        if joint.name in gaps.axes_not_unit:
+            length = float(np.linalg.norm(joint.axis))
+            joint = dataclasses.replace(joint, axis=joint.axis / length)
+            done.append(f"joint {joint.name!r}: axis of length {length:.6g} made of length 1 (its direction kept)")
         if changes:
             joint = dataclasses.replace(joint, limits=dataclasses.replace(joint.limits, **changes))
             done.append(f"joint {joint.name!r}: " + ", ".join(f"{k} set to {v:g}" for k, v in changes.items()))

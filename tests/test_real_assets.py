@@ -239,3 +239,13 @@ def test_the_gate_refuses_nan_and_infinity_anywhere(ros_workspace: Path, tmp_pat
     checks = {c.name: c for c in report.checks}
     assert not checks["finite numbers"].passed and re.search(said, checks["finite numbers"].detail), report.format()
     assert checks["pybullet"].detail.startswith("not run: a simulation with NaN")
+
+
+def test_an_axis_not_of_unit_length_is_made_so_and_said(ros_workspace: Path, tmp_path: Path) -> None:
+    urdf = ros_workspace / "arm_description" / "urdf" / "arm.urdf"
+    urdf.write_text(urdf.read_text().replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0.9999"/>'))
+    imported = import_asset(urdf, ImportOptions(package_paths=[ros_workspace]))
+    assert imported.gaps.axes_not_unit == ["shoulder"]
+    model, done = repair(imported.model, imported.gaps, RepairOptions())
+    np.testing.assert_allclose(model.joint("shoulder").axis, [0, 0, 1])
+    assert "joint 'shoulder': axis of length 0.9999 made of length 1 (its direction kept)" in done
