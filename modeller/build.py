@@ -4,6 +4,7 @@ the model beside each photo."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,10 +52,14 @@ from modeller.joint_physics import set_joint_physics
 from modeller.photo_texture import FaceTextureOptions, texture_folder
 from modeller.spec_loading import load_spec
 from modeller.specs import Spec
+from modeller.specs.cabinets import CabinetSpec
+from modeller.specs.cabinet_geometry import hinge_tape_warnings
 
 if TYPE_CHECKING:
     from articulation.gate.validate import ValidationReport
     from modeller.comparison_picture import PictureOptions, PictureRow
+
+logger = logging.getLogger(__name__)
 
 _BUILDERS: dict[str, Callable[..., Assembly]] = {"cupboard": build_cupboard, "table": build_table, "cup": build_cup}
 _BUILDERS |= {"chair": build_chair, "sofa": build_sofa, "bed": build_bed, "shelving": build_shelving, "mug": build_cup, "glass": build_glass, "plate": build_plate, "bowl": build_bowl, "bottle": build_bottle, "box": build_box, "jar": build_jar, "pill_box": build_pill_box, "spoon": build_spoon, "fork": build_fork, "knife": build_knife, "remote_control": build_remote_control}
@@ -144,6 +149,7 @@ class SpecBuild:
     pictures: list[PictureRow]
     times_s: dict[str, float]  # build, export, validate (and render)
     summary: dict
+    warnings: list[str] = field(default_factory=list)  # what the spec's readings disagree on
 
     @property
     def valid(self) -> bool:
@@ -181,6 +187,9 @@ def build(
     with atomic_dir(out_dir, force=force, inputs=[spec_path]) as tmp:
         clock.start("build")
         spec = load_spec(spec_path)
+        warnings = spec_warnings(spec)
+        for warning in warnings:
+            logger.warning("%s: %s", spec_path, warning)
         if options.pictures is not None and not spec.photos:
             raise SpecError(f"{spec_path}: photos: the spec gives no photos to compare with")
         built = build_textured(
@@ -219,11 +228,24 @@ def build(
             "times_s": dict(clock.times_s),
             "pictures": [vars(row) for row in pictures],
             "validation": validation.format(),
+            "warnings": warnings,
         }
         write_json(tmp / "summary.json", summary)
     return SpecBuild(
-        out_dir=out_dir, model=model, validation=validation, pictures=pictures, times_s=clock.times_s, summary=summary
+        out_dir=out_dir,
+        model=model,
+        validation=validation,
+        pictures=pictures,
+        times_s=clock.times_s,
+        summary=summary,
+        warnings=warnings,
     )
+
+
+def spec_warnings(spec: Spec) -> list[str]:
+    """What a spec's measurements disagree on without being impossible (a door's tape
+    readings against its thickness); the model is built all the same."""
+    return hinge_tape_warnings(spec) if isinstance(spec, CabinetSpec) else []
 
 
 def failed_checks(validation: ValidationReport) -> list[str]:

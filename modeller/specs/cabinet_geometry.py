@@ -14,7 +14,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from homemodel.core.yaml_specs import FieldError
-from modeller.specs.hinges import check_hinge_offsets, solve_free_corner, solve_open_at_90
+from modeller.specs.hinges import (
+    TAPE_AGREEMENT_M,
+    check_hinge_offsets,
+    open_at_90_inner_face_m,
+    solve_free_corner,
+    solve_open_at_90,
+)
 
 # A cup hinge's door keeps at least this gap to the carcass' front (its axis' depth grows as
 # the gap shrinks, see `hinge_offsets_m`).
@@ -213,10 +219,10 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
     tape = door.hinge_measured
     if tape is not None:
         edge_in = door_edge_in_m(spec, door)
-        if tape.open_at_90 is not None:
+        if tape.free_corner is None:
             offsets = solve_open_at_90(tape.open_at_90, face_forward_m=face_forward, edge_in_m=edge_in, thickness_m=thick)
             check_hinge_offsets(offsets, "open_at_90")
-        else:
+        else:  # needs no thickness, so it wins when both are given (`hinge_tape_warnings` compares)
             across = door.width_m if door.side_hinged else door.height_m
             offsets = solve_free_corner(tape.free_corner, face_forward_m=face_forward, edge_in_m=edge_in, width_m=across)
             check_hinge_offsets(offsets, "free_corner")
@@ -246,6 +252,38 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
     if door.hinge_type == "pivot":
         return thick / 2, thick / 2 if door.pivot_in_from_edge_m is None else door.pivot_in_from_edge_m
     return 0.0, 0.0
+
+
+def hinge_tape_warnings(spec: CabinetSpec) -> list[str]:
+    """What the solver has to say about doors measured both ways: `open_at_90` relies on the
+    door's thickness (outer face to inner face), `free_corner` does not. Where they put the
+    hinge line more than `TAPE_AGREEMENT_M` apart, the thickness that reconciles them."""
+    warnings = []
+    for i, door in enumerate(spec.doors):
+        tape = door.hinge_measured
+        if door.hinge_line is not None or tape is None or tape.open_at_90 is None or tape.free_corner is None:
+            continue
+        face_forward = door_face_x_m(spec, door) - spec.depth_m / 2
+        edge_in = door_edge_in_m(spec, door)
+        thick = spec.door_board_m(door)
+        behind, inward = solve_open_at_90(tape.open_at_90, face_forward_m=face_forward, edge_in_m=edge_in, thickness_m=thick)
+        corner_behind, corner_inward = hinge_offsets_m(spec, door)
+        apart = math.hypot(behind - corner_behind, inward - corner_inward)
+        if apart <= TAPE_AGREEMENT_M:
+            continue
+        inner = open_at_90_inner_face_m(
+            tape.open_at_90,
+            axis_forward_m=face_forward - corner_behind,
+            axis_in_m=edge_in + corner_inward,
+            edge_in_m=edge_in,
+        )
+        warnings.append(
+            f"doors.{i}.hinge_measured: open_at_90 puts the hinge line {apart * 1000:.1f} mm from where free_corner "
+            f"puts it; they agree for a door {(face_forward - inner) * 1000:.0f} mm thick from its outer face to its "
+            f"inner face, and the spec says {thick * 1000:.0f} mm. Measure the door across its hinge-side edge, the "
+            "part inside the opening included (thickness_m, in_opening_m); free_corner's line is used"
+        )
+    return warnings
 
 
 def door_hinge_point_m(spec: CabinetSpec, door: DoorSpec) -> np.ndarray:

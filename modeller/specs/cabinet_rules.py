@@ -311,7 +311,7 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
     left, right, bottom, _ = opening_around_m(spec, middle, drawer.bottom_m + drawer.height_m / 2)
     if y_min < -spec.width_m / 2 + left - _EPS_M or y_max > -spec.width_m / 2 + right + _EPS_M:
         raise FieldError(
-            ("drawers", i, "box_offset_m" if drawer.box_width_m is None else "box_width_m"),
+            ("drawers", i, "box_offset_m" if drawer.box_offset_m or drawer.box_width_m is None else "box_width_m"),
             f"drawer {i}'s box spans {y_min + spec.width_m / 2:.3f}..{y_max + spec.width_m / 2:.3f} m from the left, "
             f"outside its opening {left:.3f}..{right:.3f} m",
         )
