@@ -67,7 +67,7 @@ def import_asset(path: Path, options: ImportOptions | None = None, *, texture_di
         imported = import_partnet(path)
         note = f"frame: PartNet-Mobility's y up turned to z up, the front (found from its {imported.front_from}) to +x, on the floor"
         return ImportedAsset(model=imported.model, kind="partnet", gaps=find_gaps(urdf, imported.model), urdf=urdf, notes=[note])
-    if path.is_file() and path.suffix.lower() not in (".urdf",):
+    if path.is_file() and path.suffix.lower() not in (".urdf", ".xacro"):
         raise InputError(f"{path}: expected a model folder, a .urdf or a mesh file ({', '.join(MESH_FILE_SUFFIXES)})")
     urdf = find_urdf(path)
     model = load_urdf(urdf, package_paths=options.package_paths)

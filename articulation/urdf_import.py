@@ -346,6 +346,8 @@ def find_urdf(path: Path) -> Path:
         raise InputError(f"{path}: a model folder must contain {' or '.join(URDF_NAMES)}")
     if not path.exists():
         raise InputError(f"{path}: no such file or folder")
+    if path.suffix.lower() == ".xacro":
+        raise InputError(f"{path}: a xacro macro file, not a URDF: expand it first (`xacro {path.name} > robot.urdf`)")
     if path.suffix.lower() != ".urdf":
         raise InputError(f"{path}: expected a model folder or a .urdf file")
     return path

@@ -249,3 +249,35 @@ def test_an_axis_not_of_unit_length_is_made_so_and_said(ros_workspace: Path, tmp
     model, done = repair(imported.model, imported.gaps, RepairOptions())
     np.testing.assert_allclose(model.joint("shoulder").axis, [0, 0, 1])
     assert "joint 'shoulder': axis of length 0.9999 made of length 1 (its direction kept)" in done
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".obj"])
+def test_a_textured_mesh_file_keeps_its_texture(tmp_path: Path, suffix: str) -> None:
+    from PIL import Image
+
+    box = trimesh.creation.box(extents=(0.1, 0.06, 0.04))
+    gradient = Image.fromarray(np.tile(np.arange(256, dtype=np.uint8)[:, None, None], (1, 16, 3)))
+    uv = np.random.default_rng(0).random((len(box.vertices), 2))
+    box.visual = trimesh.visual.TextureVisuals(uv=uv, image=gradient)
+    path = tmp_path / f"box{suffix}"
+    if suffix == ".glb":
+        path.write_bytes(trimesh.Scene(box).export(file_type="glb"))
+    else:
+        box.export(path)  # writes material.mtl and material_0.png beside it
+    (tmp_path / "textures").mkdir()
+    imported = import_asset(path, texture_dir=tmp_path / "textures")
+    [visual] = imported.model.link("body").visuals
+    assert visual.material.texture is not None and visual.uv is not None
+    np.testing.assert_allclose(visual.uv, uv, atol=1e-6)
+    kept = np.asarray(Image.open(visual.material.texture).convert("RGB"))
+    assert kept.shape == (256, 16, 3) and kept[200, 0, 0] == 200  # the image itself, not a colour
+    model, _ = repair(imported.model, imported.gaps, RepairOptions())
+    write_model_files(model, tmp_path / "out")
+    assert any(p.name.endswith("_texture.png") for p in (tmp_path / "out" / "meshes").iterdir())
+
+
+def test_a_xacro_file_is_refused_with_what_to_do(tmp_path: Path) -> None:
+    xacro = tmp_path / "robot.urdf.xacro"
+    xacro.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="r"><xacro:property name="w" value="1"/></robot>')
+    with pytest.raises(InputError, match=r"robot\.urdf\.xacro: a xacro macro file, not a URDF: expand it first"):
+        import_asset(xacro)
