@@ -281,3 +281,32 @@ def test_a_xacro_file_is_refused_with_what_to_do(tmp_path: Path) -> None:
     xacro.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="r"><xacro:property name="w" value="1"/></robot>')
     with pytest.raises(InputError, match=r"robot\.urdf\.xacro: a xacro macro file, not a URDF: expand it first"):
         import_asset(xacro)
+
+
+def test_link_mass_never_nan_and_each_way_measured() -> None:
+    from articulation.inertia import link_mass
+    from partnet_sample import _open_box
+
+    kwargs = {"density_kg_m3": 500.0, "voxel_size_m": 0.01, "default_mass_kg": 2.0, "default_size_m": 0.1}
+    # Closed: the mesh's own volume, exactly.
+    box = trimesh.creation.box(extents=(0.4, 0.3, 0.2))
+    closed = link_mass([box], **kwargs)
+    assert closed.inertial.mass_kg == pytest.approx(500.0 * 0.024) and "closed meshes" in closed.method
+    np.testing.assert_allclose(closed.inertial.inertia_kgm2, box.moment_inertia * 500.0, rtol=1e-9)
+    # Open sheets: a voxel shell; symmetric sheets give a centre of mass on the symmetry axis.
+    sheets = _open_box((-0.4, -0.3, -0.2), (0.4, 0.3, 0.2), "+z")
+    shell = link_mass(sheets, **kwargs)
+    area = sum(s.area for s in sheets)
+    assert 0.9 <= shell.volume_m3 / (area * 0.01) <= 1.6 and "voxel fill" in shell.method
+    np.testing.assert_allclose(shell.inertial.com_m[:2], [0, 0], atol=1e-9)
+    assert shell.inertial.com_m[2] < 0  # the open top pulls it down
+    # Closed by six separate sheets: filled, within the voxels' staircase.
+    filled = link_mass(_open_box((-0.4, -0.3, -0.2), (0.4, 0.3, 0.2), None), **kwargs)
+    assert filled.volume_m3 == pytest.approx(0.8 * 0.6 * 0.4, rel=0.12)
+    # Nothing with area: the stated default, centred on what there is.
+    line = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], process=False)
+    default = link_mass([line], **kwargs)
+    assert default.inertial.mass_kg == 2.0 and "stated default 2 kg" in default.method
+    np.testing.assert_allclose(default.inertial.com_m, [1, 0, 0])
+    for found in (closed, shell, filled, default):
+        assert np.all(np.isfinite(found.inertial.inertia_kgm2)) and np.all(np.linalg.eigvalsh(found.inertial.inertia_kgm2) > 0)
