@@ -188,12 +188,15 @@ def serve(
         [], "--allow-host", help="another name (or name:port) browsers may reach this server by (repeatable)"
     ),
     client_timeout_s: float = typer.Option(10.0, "--client-timeout-s", help="seconds a client has to send a request"),
+    max_connections: int = typer.Option(1000, "--max-connections", help="connections open at once (idle ones make room)"),
 ) -> None:
     """Serve a page to browse the database: a table, a 3D view with joint sliders, the gate's
     report, and a home's semantic map. Ctrl-C stops it."""
     from homemodel.app.database.server import ServeOptions, make_server
 
-    options = ServeOptions(host=host, port=port, allow_hosts=allow_host, client_timeout_s=client_timeout_s)
+    options = ServeOptions(
+        host=host, port=port, allow_hosts=allow_host, client_timeout_s=client_timeout_s, max_connections=max_connections
+    )
     with exit_on_error():
         server = make_server(db, options, map_path=map_path)
     if not options.is_loopback:

@@ -48,8 +48,9 @@ _IMPORT_MAP = re.compile(r'<script type="importmap">(.*?)</script>', re.S)
 @dataclass(kw_only=True)
 class ServeOptions:
     """Where and how `db serve` listens. A client has `client_timeout_s` to send a request's
-    headers (after connecting or its last response) and is then closed; at most
-    `max_connections` are open at once (more get 503)."""
+    headers (after connecting or its last response) and is then closed. Past 80 % of
+    `max_connections` open at once, those waiting longest for a request are closed to make
+    room; past `max_connections` busy ones, requests get 503."""
 
     host: str = "127.0.0.1"
     port: int = 8765  # 0: any free port

@@ -233,20 +233,41 @@ class Guard:
 class DeadlineH11Protocol(H11Protocol):
     """uvicorn's HTTP/1.1 protocol with a deadline for each request's headers (uvicorn times
     out only idle keep-alive connections): a client that has not sent a whole request
-    `timeout_keep_alive` seconds after connecting, or after its last response, is closed."""
+    `timeout_keep_alive` seconds after connecting, or after its last response, is closed.
+    And when the connections near uvicorn's `limit_concurrency` (past it, every request gets
+    503), the ones waiting longest for a request are closed to make room, so clients that
+    hold connections half-sent cannot stop the service for others."""
+
+    ROOM = 0.8  # the share of limit_concurrency past which waiting connections make room
 
     def connection_made(self, transport) -> None:  # noqa: ANN001 (asyncio.Transport)
         super().connection_made(transport)
         self._arm_deadline()
+        self._make_room()
 
     def _arm_deadline(self) -> None:
+        self._waiting_since = self.loop.time()
         self._deadline = self.loop.call_later(self.timeout_keep_alive, self._deadline_passed)
 
+    def _waiting(self) -> bool:
+        """No request of this connection is being answered (it waits for the client)."""
+        return (self.cycle is None or self.cycle.response_complete) and not self.transport.is_closing()
+
     def _deadline_passed(self) -> None:
-        if self.cycle is not None and not self.cycle.response_complete:
-            self._arm_deadline()  # the app is answering: that is not the client's delay
-        elif not self.transport.is_closing():
+        if self._waiting():
             self.transport.close()
+        elif not self.transport.is_closing():
+            self._arm_deadline()  # the app is answering: that is not the client's delay
+
+    def _make_room(self) -> None:
+        if self.limit_concurrency is None:
+            return
+        excess = len(self.connections) - int(self.limit_concurrency * self.ROOM)
+        if excess <= 0:
+            return
+        waiting = [c for c in self.connections if c is not self and isinstance(c, DeadlineH11Protocol) and c._waiting()]
+        for connection in sorted(waiting, key=lambda c: c._waiting_since)[:excess]:
+            connection.transport.close()
 
     def on_response_complete(self) -> None:
         self._deadline.cancel()
