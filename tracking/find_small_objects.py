@@ -21,7 +21,7 @@ from homemodel.core.checks import require_between, require_positive
 from semantic_map.nodes import SmallObject
 from tracking.fit_pose import fit_quality, icp_correction
 from tracking.fit_state import FitState
-from tracking.fit_view import FitView
+from tracking.fit_view import FitView, chromaticity
 from tracking.report import SmallObjectReport
 
 
@@ -30,7 +30,9 @@ class SmallObjectSearch:
     """How small objects are looked for."""
 
     search_radius_m: float = 0.5  # around the map pose, on the parent: the object has not moved
-    yaw_candidates: int = 12
+    yaw_candidates: int = 8
+    sure: float = 0.97  # a candidate explaining this much of both ends the search
+    max_colour_difference: float = 0.12  # L1 distance of chromaticities, when there is a colour image
     cluster_gap_m: float = 0.02  # points closer than this belong to one cluster
     min_cluster_points: int = 15  # full-resolution points
     min_explained: float = 0.6  # of the model's visible pixels, observed where it renders them
@@ -40,7 +42,7 @@ class SmallObjectSearch:
     def check(self) -> None:
         for name in ("search_radius_m", "yaw_candidates", "cluster_gap_m", "min_cluster_points"):
             require_positive(name, getattr(self, name))
-        for name in ("min_explained", "min_cluster_explained"):
+        for name in ("min_explained", "min_cluster_explained", "sure", "max_colour_difference"):
             require_between(name, getattr(self, name), 0.0, 1.0)
 
 
@@ -63,6 +65,10 @@ class _Candidate:
     explained: float
     cluster_explained: float
     rmse_m: float
+
+    @property
+    def score(self) -> float:
+        return min(self.explained, self.cluster_explained)
 
 
 def find_small_objects(
@@ -202,19 +208,23 @@ def _planar_pose(x: float, y: float, z: float, yaw: float) -> np.ndarray:
 def _fit_on_cluster(
     state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, cluster: _Cluster, search: SmallObjectSearch
 ) -> _Candidate | None:
-    """The object on the cluster's surface at its best yaw, or None when no yaw explains it."""
-    # The camera sees the near side: start the centre half a footprint beyond the points' centroid.
+    """The object on the cluster's surface at its best yaw, or None when no yaw explains it.
+
+    The camera sees the near side, so the centre lies beyond the points' centroid by up to
+    half a footprint (a cup) or about on it (a bowl, whose inside is seen too): both start."""
     model_xy = state.scene.object(object_id).model.world_mesh().bounds[:, :2]
     radius = float(np.linalg.norm(model_xy[1] - model_xy[0])) / 4
     away = cluster.centre_xy - view.map_from_camera[:2, 3]
     away /= max(np.linalg.norm(away), 1e-9)
-    start_xy = cluster.centre_xy + radius * away
     best: _Candidate | None = None
-    for yaw in np.linspace(0, 2 * np.pi, search.yaw_candidates, endpoint=False):
-        pose = _planar_pose(*start_xy, cluster.height_m, yaw)
-        candidate = _refine(state, view, scene_depth, object_id, pose, cluster, search)
-        if candidate is not None and (best is None or candidate.explained > best.explained):
-            best = candidate
+    for start_xy in (cluster.centre_xy, cluster.centre_xy + radius * away):
+        for yaw in np.linspace(0, 2 * np.pi, search.yaw_candidates, endpoint=False):
+            pose = _planar_pose(*start_xy, cluster.height_m, yaw)
+            candidate = _refine(state, view, scene_depth, object_id, pose, cluster, search)
+            if candidate is not None and (best is None or candidate.score > best.score):
+                best = candidate
+            if best is not None and best.score > search.sure:
+                break
     if best is None or best.explained < search.min_explained or best.cluster_explained < search.min_cluster_explained:
         return None
     return best
@@ -241,6 +251,8 @@ def _refine(
         if len(source) < 4:
             return None
         correction = icp_correction(source, target, normals, gate_m=gate, kernel_m=kernel, planar=True)
+        if correction is None:
+            return None
         pose = np.linalg.inv(correction) @ pose
         pose[2, 3] = cluster.height_m
     rendering = _render_object(state, view, object_id, pose)
@@ -254,6 +266,15 @@ def _refine(
     judged = np.isfinite(observed) & ~covered
     if judged.sum() < 4:
         return None
+    if view.color_rgb is not None:
+        # A red cup is not the white bowl of the same size: the colour image tells them apart.
+        seen = judged & explained
+        if seen.any():
+            difference = np.abs(
+                chromaticity(view.color_rgb[visible][seen]).mean(axis=0) - chromaticity(rendering.rgb[visible][seen]).mean(axis=0)
+            ).sum()
+            if difference > search.max_colour_difference:
+                return None
     target = view.points_map(rendering.depth_m, visible)
     normals = rendering.normals_camera[visible] @ rotation.T
     quality = fit_quality(cluster.points, target, normals, np.eye(4), kernel)

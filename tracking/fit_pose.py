@@ -59,6 +59,8 @@ def refine_pose(
         target = view.points_map(rendering.depth_m, mine)
         target_normals = rendering.normals_camera[mine] @ rotation.T
         target_from_source = icp_correction(source, target, target_normals, gate_m=gate_m, kernel_m=kernel_m, planar=planar)
+        if target_from_source is None:
+            return fit
         # The source is the object where it is, the target where the map has it.
         state.map_from_objects[object_id] = np.linalg.inv(target_from_source) @ state.map_from_objects[object_id]
         fit = fit_quality(source, target, target_normals, target_from_source, kernel_m)
@@ -67,14 +69,19 @@ def refine_pose(
 
 def icp_correction(
     source: np.ndarray, target: np.ndarray, target_normals: np.ndarray, *, gate_m: float, kernel_m: float, planar: bool
-) -> np.ndarray:
+) -> np.ndarray | None:
     """`target_from_source`: Open3D's point-to-plane ICP with a Tukey kernel of width
-    `kernel_m`, correspondences up to `gate_m` apart, from the identity."""
+    `kernel_m`, correspondences up to `gate_m` apart, from the identity; None when it moved
+    the points implausibly far.
+
+    It runs about the target's centroid: about the map's origin, metres away, a turn the
+    points leave free (a cylinder about its axis) would come out as a shift."""
     import open3d as o3d
 
     reg = o3d.pipelines.registration
-    source_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(source))
-    target_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(target))
+    centre = target.mean(axis=0)
+    source_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(source - centre))
+    target_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(target - centre))
     target_cloud.normals = o3d.utility.Vector3dVector(target_normals)
     result = reg.registration_icp(
         source_cloud,
@@ -84,18 +91,56 @@ def icp_correction(
         reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=kernel_m)),
         reg.ICPConvergenceCriteria(max_iteration=30, relative_fitness=1e-7, relative_rmse=1e-7),
     )
-    return _planar(result.transformation) if planar else np.asarray(result.transformation)
+    if planar:
+        local = _constrained(_planar(result.transformation), target - centre, target_normals)
+    else:
+        local = np.asarray(result.transformation)
+    if not _plausible(local, source - centre, gate_m):
+        return None
+    shift = np.eye(4)
+    shift[:3, 3] = centre
+    return shift @ local @ np.linalg.inv(shift)
+
+
+# A planar motion (x, y, yaw) the surfaces constrain less than this (the share of their
+# points whose normals oppose it, yaw counted at a lever of LEVER_M) is left out.
+MIN_CONSTRAINT = 0.03
+LEVER_M = 0.3
+
+
+def _constrained(local: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """The planar correction `local` (about the points' centroid) without its part along the
+    motions the surfaces do not pin down: a cupboard seen only from the front cannot tell a
+    slide sideways, and ICP's answer along it is noise (degeneracy-aware remapping)."""
+    jacobian = np.column_stack([normals[:, 0], normals[:, 1], np.cross(points, normals)[:, 2] / LEVER_M])
+    information = jacobian.T @ jacobian / max(len(points), 1)
+    values, vectors = np.linalg.eigh(information)
+    yaw = np.arctan2(local[1, 0], local[0, 0])
+    motion = np.array([local[0, 3], local[1, 3], yaw * LEVER_M])
+    kept = vectors[:, values >= MIN_CONSTRAINT]
+    x, y, lever_yaw = kept @ (kept.T @ motion)
+    return _planar_transform(x, y, lever_yaw / LEVER_M)
+
+
+def _planar_transform(x: float, y: float, yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    m = np.eye(4)
+    m[:2, :2] = [[c, -s], [s, c]]
+    m[:2, 3] = (x, y)
+    return m
+
+
+def _plausible(correction: np.ndarray, points: np.ndarray, gate_m: float) -> bool:
+    """Whether a correction moves no point further than the gate: beyond it the points did
+    not pin the motion down (too few, or the wrong ones) and ICP wandered off."""
+    moved = points @ correction[:3, :3].T + correction[:3, 3]
+    return bool(np.isfinite(correction).all() and np.linalg.norm(moved - points, axis=1).max() <= gate_m)
 
 
 def _planar(a_from_b: np.ndarray) -> np.ndarray:
     """The x, y, yaw part of a rigid transform (a rotation about the vertical and a shift in the floor's plane)."""
     m = np.asarray(a_from_b, dtype=np.float64)
-    yaw = np.arctan2(m[1, 0] - m[0, 1], m[0, 0] + m[1, 1])
-    c, s = np.cos(yaw), np.sin(yaw)
-    planar = np.eye(4)
-    planar[:2, :2] = [[c, -s], [s, c]]
-    planar[:2, 3] = m[:2, 3]
-    return planar
+    return _planar_transform(m[0, 3], m[1, 3], np.arctan2(m[1, 0] - m[0, 1], m[0, 0] + m[1, 1]))
 
 
 def fit_quality(

@@ -25,6 +25,7 @@ class FitView:
     map_from_camera: np.ndarray
     depth_m: np.ndarray  # (H, W) float64
     tolerance_m: np.ndarray  # (H, W) float64: a residual beyond it is not noise
+    color_rgb: np.ndarray | None = None  # (H, W, 3) uint8, registered to the depth; full resolution only
 
     @classmethod
     def from_depth(
@@ -36,9 +37,11 @@ class FitView:
         factor: int,
         min_tolerance_m: float,
         tolerance_sigmas: float,
+        color_rgb: np.ndarray | None = None,
     ) -> FitView:
         """The view of a full-resolution depth image (NaN or 0 = no reading) in blocks of
-        `factor` x `factor` pixels; the edge rows and columns that fill no block are dropped."""
+        `factor` x `factor` pixels; the edge rows and columns that fill no block are dropped.
+        The colour image is kept at full resolution (`factor` 1) only."""
         depth = np.asarray(depth_m, dtype=np.float64)
         depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
         if factor > 1:
@@ -50,7 +53,7 @@ class FitView:
             camera = _scaled(camera, factor, w, h)
         tolerance = np.maximum(min_tolerance_m, tolerance_sigmas * axial_sigma_m(np.nan_to_num(depth, nan=0.0)))
         return cls(camera=camera, map_from_camera=np.asarray(map_from_camera, dtype=np.float64), depth_m=depth,
-                   tolerance_m=tolerance)
+                   tolerance_m=tolerance, color_rgb=color_rgb if factor == 1 else None)
 
     @property
     def valid(self) -> np.ndarray:
@@ -70,3 +73,11 @@ class FitView:
 def _scaled(camera: Camera, factor: int, width: int, height: int) -> Camera:
     # Camera.scaled rounds the size; blocks drop the edge pixels that fill no block.
     return Camera(**{**camera.scaled(1.0 / factor).model_dump(), "width": width, "height": height})
+
+
+def chromaticity(rgb: np.ndarray) -> np.ndarray:
+    """(..., 3) colour with its brightness divided out (r, g, b over their sum), so shading
+    does not change it; black gives grey."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    total = rgb.sum(axis=-1, keepdims=True)
+    return np.where(total > 1e-9, rgb / np.maximum(total, 1e-9), 1.0 / 3.0)

@@ -55,7 +55,11 @@ class ObserveOptions:
     min_tolerance_m: float = 0.01
     tolerance_sigmas: float = 3.0
     min_object_pixels: int = 40  # observed pixels of the coarse view for an object to be in view
-    pose_gates_m: tuple[float, ...] = (0.08, 0.04, 0.025)
+    pose_gates_m: tuple[float, ...] = (0.05, 0.03, 0.02)
+    # The fixed links refine the pose first when they make up this share of the object's
+    # observed pixels; fewer (a fridge seen from the front is mostly door) pin it down too
+    # weakly, so the joints are fitted first, at the map's pose.
+    min_fixed_share: float = 0.1
     min_pose_points: int = 150  # fine-view points for a pose refinement
     min_pose_inliers: float = 0.5  # of those, the share the refined pose must explain
     revolute_coarse_step_deg: float = 4.0
@@ -78,7 +82,7 @@ class ObserveOptions:
             require_positive(name, getattr(self, name))
         if not self.pose_gates_m or any(not g > 0 for g in self.pose_gates_m):
             raise InputError(f"pose_gates_m: {self.pose_gates_m!r} must be one or more positive distances")
-        for name in ("min_pose_inliers", "min_visible_fraction", "min_contrast"):
+        for name in ("min_pose_inliers", "min_visible_fraction", "min_contrast", "min_fixed_share"):
             require_between(name, getattr(self, name), 0.0, 1.0)
         self.small_objects.check()
 
@@ -125,6 +129,7 @@ def observe(
         factor: FitView.from_depth(
             observation.camera, observation.map_from_camera, depth, factor=factor,
             min_tolerance_m=options.min_tolerance_m, tolerance_sigmas=options.tolerance_sigmas,
+            color_rgb=getattr(observation, "color_rgb", None),
         )
         for factor in {options.coarse_factor, options.fine_factor, 1}
     }
@@ -178,14 +183,18 @@ def _fit_large_object(
     pose_kwargs = dict(gates_m=options.pose_gates_m, kernel_m=kernel, min_points=options.min_pose_points, planar=planar)
     background = state.background_depth(fine, object_id)
     joint_views = [(coarse, state.background_depth(coarse, object_id)), (fine, background)]
+    fit = None
     fixed = state.object_parts(object_id, fixed_only=True)
-    fit = refine_pose(state, fine, object_id, fixed, background, **pose_kwargs)
+    if _share_seen(state, fine, object_id, fixed, background) >= options.min_fixed_share:
+        fit = refine_pose(state, fine, object_id, fixed, background, **pose_kwargs)
     joints = _joint_order(state, object_id)
     results = {joint: _fit_one_joint(state, joint_views, object_id, joint, options) for joint in joints}
     if joints:
-        # Again with every part at its fitted position (the moving parts constrain the pose
-        # too), then the fitted joints once more, near where they are.
-        fit = refine_pose(state, fine, object_id, state.object_parts(object_id), background, **pose_kwargs) or fit
+        # Again with the turning parts at their fitted angles (a door constrains the pose
+        # too; a drawer front, parallel to the body's, would trade its slide for the body's
+        # shift), then the fitted joints once more, near where they are.
+        steady = [i for i in state.object_parts(object_id) if not _slides(state, object_id, i)]
+        fit = refine_pose(state, fine, object_id, steady, background, **pose_kwargs) or fit
         for joint in joints:
             if results[joint][0] == "fitted":
                 results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=True)
@@ -217,6 +226,27 @@ def _fit_large_object(
         )
     report.seconds = time.perf_counter() - start
     return report
+
+
+def _slides(state: FitState, object_id: str, part: int) -> bool:
+    """Whether a prismatic joint carries the part."""
+    model = state.scene.object(object_id).model
+    parent_joint = {j.child: j for j in model.joints}
+    link = state.scene.parts[part].link
+    while link in parent_joint:
+        if parent_joint[link].type == "prismatic":
+            return True
+        link = parent_joint[link].parent
+    return False
+
+
+def _share_seen(state: FitState, view: FitView, object_id: str, parts: list[int], background: np.ndarray) -> float:
+    """The share of the object's observed pixels (at the map's joint states) that `parts` cover."""
+    rendering = state.renderer.render(
+        state.map_from_parts(), view.camera, view.map_from_camera, only=state.object_parts(object_id)
+    )
+    seen = rendering.hit & (rendering.depth_m < background) & view.valid
+    return float(np.isin(rendering.part_index[seen], parts).mean()) if seen.any() else 0.0
 
 
 def _kernel_m(state: FitState, view: FitView, object_id: str, options: ObserveOptions) -> float:
@@ -305,8 +335,6 @@ def write_observed(
 ) -> None:
     """Save the updated map as `out_path` (atomically; an existing file only with `force`),
     its model references rewritten relative to the new file's folder, and the report JSON."""
-    import os
-
     from homemodel.core.atomic import write_json
     from homemodel.core.errors import OutputExistsError
     from semantic_map.xml_io import save_map
@@ -315,10 +343,18 @@ def write_observed(
     for path in (out_path, report_path):
         if path is not None and path.exists() and not force:
             raise OutputExistsError(f"{path}: exists (use --force to replace it)")
-    for node in result.smap.objects():
-        if node.model_ref is not None:
-            model = (map_path.parent / node.model_ref).resolve()
-            node.model_ref = Path(os.path.relpath(model, out_path.resolve().parent)).as_posix()
+    rebase_model_refs(result.smap, map_path, out_path)
     save_map(result.smap, out_path)
     if report_path is not None:
         write_json(Path(report_path), result.report.to_json())
+
+
+def rebase_model_refs(smap: SemanticMap, map_path: Path, out_path: Path) -> None:
+    """Make the model references of `smap`, read from `map_path`, relative to `out_path`'s
+    folder, so the map still finds its models when saved there."""
+    import os
+
+    for node in smap.objects():
+        if node.model_ref is not None:
+            model = (Path(map_path).parent / node.model_ref).resolve()
+            node.model_ref = Path(os.path.relpath(model, Path(out_path).resolve().parent)).as_posix()
