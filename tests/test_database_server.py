@@ -302,6 +302,7 @@ def test_connections_held_half_sent_make_room_for_new_clients(tmp_path: Path) ->
             sock = socket.create_connection((small.host, small.port), timeout=10)
             sock.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n")
             held.append(sock)
+        time.sleep(0.6)  # past the moment a new client gets to send its request
         for _ in range(5):
             started = time.monotonic()
             assert small.request("GET", "/api/models")[0].status == 200

@@ -239,6 +239,7 @@ class DeadlineH11Protocol(H11Protocol):
     hold connections half-sent cannot stop the service for others."""
 
     ROOM = 0.8  # the share of limit_concurrency past which waiting connections make room
+    GRACE_S = 0.5
 
     def connection_made(self, transport) -> None:  # noqa: ANN001 (asyncio.Transport)
         super().connection_made(transport)
@@ -262,10 +263,16 @@ class DeadlineH11Protocol(H11Protocol):
     def _make_room(self) -> None:
         if self.limit_concurrency is None:
             return
-        excess = len(self.connections) - int(self.limit_concurrency * self.ROOM)
+        still_open = [c for c in self.connections if not c.transport.is_closing()]
+        excess = len(still_open) - int(self.limit_concurrency * self.ROOM)
         if excess <= 0:
             return
-        waiting = [c for c in self.connections if c is not self and isinstance(c, DeadlineH11Protocol) and c._waiting()]
+        # A client that has just connected gets a moment to send its request.
+        since = self.loop.time() - self.GRACE_S
+        waiting = [
+            c for c in still_open
+            if isinstance(c, DeadlineH11Protocol) and c._waiting() and c._waiting_since < since
+        ]  # fmt: skip
         for connection in sorted(waiting, key=lambda c: c._waiting_since)[:excess]:
             connection.transport.close()
 
