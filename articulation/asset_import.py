@@ -16,7 +16,7 @@ import trimesh
 
 from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
 from articulation.partnet import import_partnet, is_partnet_folder
-from articulation.repair import AssetGaps, find_gaps
+from articulation.repair import AssetGaps, find_gaps, model_flat_collisions, model_hollow_collisions
 from articulation.scan_model import LINK
 from articulation.urdf_import import find_urdf, load_urdf, read_mesh_parts
 from homemodel.core.checks import require_choice
@@ -80,8 +80,10 @@ def _up_axis(path: Path, options: ImportOptions) -> str:
     return "y" if path.suffix.lower() in _GLTF else "z"
 
 
-def _material(name: str, mesh: trimesh.Trimesh, texture_dir: Path | None, notes: list[str]) -> tuple[Material, np.ndarray | None]:
-    """The part's colour, and its texture (written into `texture_dir`) with its UVs."""
+def _material(
+    name: str, index: int, mesh: trimesh.Trimesh, texture_dir: Path | None, notes: list[str]
+) -> tuple[Material, np.ndarray | None]:
+    """Part `index`'s colour, and its texture (written into `texture_dir`) with its UVs."""
     visual = mesh.visual
     material = getattr(visual, "material", None)
     rgba = (0.8, 0.8, 0.8, 1.0)
@@ -96,7 +98,7 @@ def _material(name: str, mesh: trimesh.Trimesh, texture_dir: Path | None, notes:
     if texture_dir is None:
         notes.append(f"part {name!r}: its texture dropped (no folder to keep it in)")
         return Material(name=name, rgba=rgba), None
-    texture = Path(texture_dir) / f"{name}.png"
+    texture = Path(texture_dir) / f"part{index}.png"  # not the part's name: it may hold any character
     image.convert("RGBA" if image.mode in ("RGBA", "LA", "P") else "RGB").save(texture)
     return Material(name=name, rgba=(1.0, 1.0, 1.0, rgba[3]), texture=texture), np.asarray(uv, dtype=np.float64)
 
@@ -125,13 +127,19 @@ def _import_mesh_file(path: Path, options: ImportOptions, texture_dir: Path | No
     for index, (name, mesh) in enumerate(parts):
         label = name if name and name not in used else f"part{index}"
         used.add(label)
-        material, uv = _material(label, mesh, texture_dir, notes)
+        material, uv = _material(label, index, mesh, texture_dir, notes)
         plain = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, process=False)
         visuals.append(Visual(name=label, mesh=plain, material=material, uv=uv, link_from_visual=floor_from_file))
     whole.apply_translation(floor_from_file[:3, 3])
     # One convex collision shape (the exporters write the mesh's hull); the inertial is left
     # for the repair, which states the density and how the volume was had.
     link = Link(name=LINK, visuals=visuals, collisions=[Collision(name="hull", geometry=MeshGeometry(mesh=whole))])
-    gaps = AssetGaps(links_without_inertial=[LINK], limits_without_effort=[], limits_without_velocity=[])
     model = Model(name=path.stem, links=[link])
+    gaps = AssetGaps(
+        links_without_inertial=[LINK],
+        limits_without_effort=[],
+        limits_without_velocity=[],
+        flat_collisions=model_flat_collisions(model),
+        hollow_collisions=model_hollow_collisions(model),
+    )
     return ImportedAsset(model=model, kind="mesh", gaps=gaps, urdf=None, notes=notes)

@@ -88,26 +88,32 @@ class AssetGaps:
 
 
 def _flat_box(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray | None = None) -> tuple[Box, np.ndarray] | None:
-    """A box on a mesh with no volume (a sheet), `thickness_m` thick on the side of the point
-    `inside` (the link's centre: parts that abut, a door on a cabinet's front edge, stay
-    apart), and `mesh_from_box`; None when the mesh has volume."""
+    """The smallest box on a mesh with no volume (a sheet), `thickness_m` thick on the side
+    of the point `inside` (the link's centre: parts that abut, a door on a cabinet's front
+    edge, stay apart), and `mesh_from_box`; None when the mesh has volume."""
     points = np.asarray(mesh.vertices, dtype=np.float64)
     centre = points.mean(axis=0)
     _, _, axes = np.linalg.svd(points - centre)  # rows: principal directions, thinnest last
-    axes[2] = np.cross(axes[0], axes[1])  # a proper rotation
     local = (points - centre) @ axes.T
-    low, high = local.min(axis=0), local.max(axis=0)
-    size = high - low
-    if size[2] > VOLUME_TOLERANCE ** (1 / 3) * float(np.linalg.norm(size)):
+    if np.ptp(local[:, 2]) > VOLUME_TOLERANCE ** (1 / 3) * float(np.linalg.norm(np.ptp(local, axis=0))):
         return None
-    middle = (low + high) / 2
-    if inside is not None:
-        side = 1.0 if float((np.asarray(inside) - centre) @ axes[2]) >= 0 else -1.0
-        middle[2] = high[2] + side * thickness_m / 2 if side > 0 else low[2] - thickness_m / 2
-    size = np.maximum(size, thickness_m)
+    in_plane = axes[:2]
+    middle = (local[:, :2].min(axis=0) + local[:, :2].max(axis=0)) / 2
+    sides = np.ptp(local[:, :2], axis=0)
+    try:
+        # The plane's smallest enclosing rectangle (principal axes are not its sides in general).
+        to_rectangle, sides = trimesh.bounds.oriented_bounds_2D(local[:, :2])
+        in_plane = to_rectangle[:2, :2] @ axes[:2]
+        middle = -to_rectangle[:2, :2].T @ to_rectangle[:2, 2]
+    except Exception:  # qhull refuses a line: the principal axes do
+        pass
+    normal = np.cross(in_plane[0], in_plane[1])
+    plane_point = centre + axes[:2].T @ middle + axes[2] * (local[:, 2].min() + local[:, 2].max()) / 2
+    side = 1.0 if inside is None or float((np.asarray(inside) - plane_point) @ normal) >= 0 else -1.0
     mesh_from_box = np.eye(4)
-    mesh_from_box[:3, :3] = axes.T
-    mesh_from_box[:3, 3] = centre + axes.T @ middle
+    mesh_from_box[:3, :3] = np.vstack([in_plane, normal]).T
+    mesh_from_box[:3, 3] = plane_point + (side * thickness_m / 2 if inside is not None else 0.0) * normal
+    size = np.maximum([*sides, 0.0], thickness_m)
     return Box(size_m=tuple(float(v) for v in size)), mesh_from_box
 
 

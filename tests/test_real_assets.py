@@ -310,3 +310,20 @@ def test_link_mass_never_nan_and_each_way_measured() -> None:
     np.testing.assert_allclose(default.inertial.com_m, [1, 0, 0])
     for found in (closed, shell, filled, default):
         assert np.all(np.isfinite(found.inertial.inertia_kgm2)) and np.all(np.linalg.eigvalsh(found.inertial.inertia_kgm2) > 0)
+
+
+def test_a_flat_mesh_file_gets_a_thin_collision_box(tmp_path: Path) -> None:
+    """A sheet (a poster, a place mat) has no volume to collide with: its collision becomes a box."""
+    from partnet_sample import _sheet
+
+    mat = _sheet((0, 0, 0), (0.4, 0, 0), (0, 0.3, 0))
+    mat.export(tmp_path / "place mat.stl")
+    imported = import_asset(tmp_path / "place mat.stl")
+    assert imported.gaps.flat_collisions == ["body/hull"]
+    model, done = repair(imported.model, imported.gaps, RepairOptions(voxel_size_m=0.005))
+    [collision] = model.link("body").collisions
+    assert sorted(collision.geometry.size_m) == pytest.approx([0.005, 0.3, 0.4])
+    assert any("1 flat collision mesh(es)" in line for line in done)
+    write_model_files(model, tmp_path / "out")
+    report = validate_path(tmp_path / "out")
+    assert report.ok, report.format()
