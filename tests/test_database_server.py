@@ -57,6 +57,7 @@ def write_database(db: Path, count: int = 12) -> None:
     (folder / "model.urdf").write_text("<robot name='r'/>")
     (folder / "thumbnail.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(20))
     (folder / "loop").symlink_to(folder / "loop")
+    (folder / "big.glb").write_bytes(bytes(24 * 1024 * 1024))  # more than the sockets' buffers
     (db.parent / "secret.txt").write_text("outside the database")
     (folder / "escape.txt").symlink_to(db.parent / "secret.txt")
 
@@ -289,6 +290,24 @@ def test_half_sent_requests_time_out_without_threads_or_stopping_service(server:
         sock.settimeout(max(0.1, deadline - time.monotonic()))
         assert sock.recv(1024) == b"", "a half-sent request was answered or kept open"
         sock.close()
+    assert server.request("GET", "/")[0].status == 200
+
+
+def test_a_client_that_does_not_read_is_closed(server: Server) -> None:
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.connect((server.host, server.port))
+    sock.sendall(b"GET /db/base_unit_1/big.glb HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+    time.sleep(CLIENT_TIMEOUT_S * 2 + 1.5)  # reading nothing
+    sock.settimeout(10)
+    received = 0
+    try:
+        while chunk := sock.recv(1 << 20):
+            received += len(chunk)
+    except ConnectionResetError:
+        pass
+    sock.close()
+    assert 0 < received < 24 * 1024 * 1024  # cut off, not held open for ever
     assert server.request("GET", "/")[0].status == 200
 
 

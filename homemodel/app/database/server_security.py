@@ -233,7 +233,8 @@ class Guard:
 class DeadlineH11Protocol(H11Protocol):
     """uvicorn's HTTP/1.1 protocol with a deadline for each request's headers (uvicorn times
     out only idle keep-alive connections): a client that has not sent a whole request
-    `timeout_keep_alive` seconds after connecting, or after its last response, is closed.
+    `timeout_keep_alive` seconds after connecting, or after its last response, is closed, as is
+    one that has read nothing of a response for that long.
     And when the connections near uvicorn's `limit_concurrency` (past it, every request gets
     503), the ones waiting longest for a request are closed to make room, so clients that
     hold connections half-sent cannot stop the service for others."""
@@ -243,6 +244,7 @@ class DeadlineH11Protocol(H11Protocol):
 
     def connection_made(self, transport) -> None:  # noqa: ANN001 (asyncio.Transport)
         super().connection_made(transport)
+        self._write_paused_at: float | None = None  # since when the client reads nothing we send
         self._arm_deadline()
         self._make_room()
 
@@ -255,10 +257,19 @@ class DeadlineH11Protocol(H11Protocol):
         return (self.cycle is None or self.cycle.response_complete) and not self.transport.is_closing()
 
     def _deadline_passed(self) -> None:
-        if self._waiting():
+        stalled = self._write_paused_at is not None and self.loop.time() - self._write_paused_at >= self.timeout_keep_alive
+        if self._waiting() or stalled:  # no request sent, or a response not read, in time
             self.transport.close()
         elif not self.transport.is_closing():
             self._arm_deadline()  # the app is answering: that is not the client's delay
+
+    def pause_writing(self) -> None:
+        super().pause_writing()
+        self._write_paused_at = self.loop.time()
+
+    def resume_writing(self) -> None:
+        super().resume_writing()
+        self._write_paused_at = None
 
     def _make_room(self) -> None:
         if self.limit_concurrency is None:
