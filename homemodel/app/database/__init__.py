@@ -6,7 +6,7 @@
 - `entry_build`: one entry in a worker (pipeline, gate, thumbnail, atomic store);
 - `build`: the whole build on a Dask cluster;
 - `index`: the SQLite index; `queries`: list, find, remove, export, `db:ID` references;
-- `server` and `web/`: the page `homemodel db serve` shows.
+- `server` (with `server_security` and `listing`) and `web/`: the page `homemodel db serve` shows.
 """
 
 from homemodel.app.database.build import DatabaseBuild, DatabaseBuildOptions, build_database
