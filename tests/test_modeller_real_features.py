@@ -413,3 +413,89 @@ def yaml_data(path: Path) -> dict:
     from spec_edits import read_spec
 
     return read_spec(path)
+
+
+# ---------------------------------------------------------------------------- the catalogue's examples, built
+
+
+def _box_bounds(model, link: str, name: str) -> np.ndarray:
+    """(2, 3) low and high corners of a box collision, in the link's frame."""
+    collision = next(c for c in model.link(link).collisions if c.name == name)
+    half = np.asarray(collision.geometry.size_m) / 2
+    centre = collision.link_from_collision[:3, 3]
+    return np.stack([centre - half, centre + half])
+
+
+@pytest.mark.bpy
+def test_the_face_frame_example_has_its_members_bottom_shelf_and_top_rails_where_measured() -> None:
+    from modeller import build_model
+
+    path = REPO / "examples" / "catalogue" / "base_unit_face_frame_stile.yaml"
+    model, w, d = build_model(path), 0.9, 0.56
+    y = lambda left: -w / 2 + left  # noqa: E731
+    expected = {
+        "frame_left": [(d / 2 - 0.019, y(-0.01), 0.1), (d / 2, y(0.03), 0.87)],  # 10 mm out past the side
+        "frame_right": [(d / 2 - 0.019, y(0.87), 0.1), (d / 2, y(0.91), 0.87)],
+        "frame_rail_0": [(d / 2 - 0.019, y(0.03), 0.66), (d / 2, y(0.87), 0.70)],
+        "frame_stile_0": [(d / 2 - 0.019, y(0.43), 0.14), (d / 2, y(0.47), 0.66)],
+        "carcass_bottom": [(-d / 2, y(0.018), 0.145), (d / 2, y(0.882), 0.163)],  # 45 mm over a void
+        "shelf_0": [(-d / 2 + 0.018, y(0.018), 0.392), (d / 2, y(0.882), 0.42)],  # 28 mm thick
+        "top_rail_0": [(d / 2 - 0.1, y(0.018), 0.852), (d / 2, y(0.882), 0.87)],
+        "top_rail_1": [(d / 2 - 0.54, y(0.018), 0.852), (d / 2 - 0.44, y(0.882), 0.87)],
+    }
+    for name, corners in expected.items():
+        assert np.allclose(_box_bounds(model, "body", name), corners, atol=1e-9), name
+    # Nothing of the carcass under the raised bottom but the sides, the back and the plinth.
+    names = [c.name for c in model.link("body").collisions]
+    assert names.count("carcass_bottom") == 1 and "carcass_top" not in names
+    # The drawer: the second board behind the front, the box behind it 30 mm above the front's
+    # bottom edge, 0.8 m wide and 10 mm right of the front's middle (drawer frame: origin on
+    # the front plane at the front's middle, its bottom edge).
+    board = _box_bounds(model, "drawer_0", "drawer_0_inner_board")
+    assert np.allclose(board[:, 0], [0.002 - 0.018, 0.002], atol=1e-9)
+    floor = _box_bounds(model, "drawer_0", "drawer_0_box_bottom")
+    assert np.allclose([floor[0, 0], floor[1, 0]], [0.002 - 0.018 - 0.45, 0.002 - 0.018], atol=1e-9)
+    assert np.allclose([floor[0, 1], floor[1, 1]], [0.01 - 0.4, 0.01 + 0.4], atol=1e-9)
+    assert floor[0, 2] == pytest.approx(0.03, abs=1e-9)
+    # The right door hangs on the stile: its hinge line on the stile (the default edge hinge).
+    hinge = model.joint("door_1_hinge").parent_from_joint[:3, 3]
+    assert y(0.43) <= hinge[1] <= y(0.47)
+
+
+@pytest.mark.bpy
+def test_the_thick_door_microwave_has_its_plug_pockets_buttons_knob_and_plate() -> None:
+    from modeller import build_model
+
+    path = REPO / "examples" / "catalogue" / "microwave_thick_door.yaml"
+    model, w, d = build_model(path), 0.5, 0.4
+    y = lambda left: -w / 2 + left  # noqa: E731
+    world = model.world_from_links()
+    # The door: 65 mm from its face (49 mm out) to its inner part's face (16 mm in).
+    door_points = np.concatenate(
+        [trimesh.transform_points(v.mesh.vertices, world["door_0"] @ v.link_from_visual) for v in model.link("door_0").visuals]
+    )
+    assert door_points[:, 0].max() == pytest.approx(d / 2 + 0.049 + 0.0005, abs=1e-6)  # the glass 0.5 mm proud
+    assert door_points[:, 0].min() == pytest.approx(d / 2 - 0.016, abs=1e-6)
+    # The inner part stays 3 mm clear of the cavity's walls and divider.
+    plug = _box_bounds(model, "door_0", "door_0_inner") + world["door_0"][:3, 3]
+    assert plug[0, 1] == pytest.approx(y(0.012 + 0.003)) and plug[1, 1] == pytest.approx(y(0.375))
+    # The button: pressed in 8 mm, its face 1 mm below the panel's (20 mm thick) in a 16 mm pocket.
+    press = model.joint("button_0_press")
+    assert press.type == "prismatic" and press.limits.upper == pytest.approx(0.008)
+    button = _box_bounds(model, "button_0", "button_0")
+    assert button[1, 0] == pytest.approx(-0.001) and button[0, 0] == pytest.approx(-0.016 + 0.008)
+    assert np.allclose(button[:, 1:], [[-0.041, -0.031], [0.041, 0.031]])
+    # Its pocket: the panel's collision round it is the pocket's floor, 16 mm down, 4 mm clear.
+    panel = [c for c in model.link("body").collisions if c.name.startswith("panel_0_")]
+    at_button = [
+        _box_bounds(model, "body", c.name) for c in panel
+        if abs(c.link_from_collision[1, 3] - y(0.44)) < 1e-6 and abs(c.link_from_collision[2, 3] - 0.07) < 1e-6
+    ]
+    (floor,) = at_button
+    assert floor[1, 0] == pytest.approx(d / 2 - 0.016) and floor[0, 0] == pytest.approx(d / 2 - 0.02)
+    assert floor[1, 1] - floor[0, 1] == pytest.approx(0.082 + 0.008)
+    # The knob turns without stops, keeping its named states; the plate is 17 mm right of the cavity's middle.
+    turn = model.joint("knob_0_turn")
+    assert turn.type == "continuous" and turn.limits is None and [s.name for s in turn.states][:2] == ["off", "1 min"]
+    spin = model.joint("turntable_spin").parent_from_joint[:3, 3]
+    assert spin[1] == pytest.approx(y((0.012 + 0.38) / 2 + 0.017))

@@ -1,7 +1,9 @@
 """Draw `tape_guide.png`: where an installer holds the tape to find a concealed hinge's axis
 (README, "Measuring a door's hinge line"). Seen from above, a left-hinged overlay door on a
 carcass' left side; the readings are simulated from a known axis and solved with the
-modeller's own solver, so the picture shows the numbers the spec would get.
+modeller's own solver, so the picture shows the numbers the spec would get. The third
+panel is a thick appliance door with part of it inside the opening: the thickness
+`open_at_90` needs, and how far the door reaches in.
 
     .venv/bin/python docs/images/tape_guide.py
 """
@@ -61,8 +63,43 @@ def dimension(ax, start, end, label, colour, label_at) -> None:
     ax.text(*label_at, label, color=colour, fontsize=8)
 
 
+def thick_door(ax) -> None:
+    """A microwave's door, 65 mm from its outer face to its inner part's face, 16 mm of it
+    inside the cavity's recess when closed; opened square about its axis."""
+    thick, inside, gap, wall, width = 65.0, 16.0, 3.0, 12.0, 120.0
+    face = thick - inside
+    axis = np.array([face - 31.0, 3.0 + 12.0])
+    slab = np.array([[face, 3.0], [face, 3.0 + width], [gap, 3.0 + width], [gap, 3.0]])
+    plug = np.array([[gap, wall + gap], [gap, 3.0 + width], [-inside, 3.0 + width], [-inside, wall + gap]])
+
+    def opened(points: np.ndarray) -> np.ndarray:
+        rel = points - axis
+        return axis + np.stack([rel[:, 1], -rel[:, 0]], 1)  # turned 90 degrees outward
+
+    ax.add_patch(plt.Rectangle((-wall, -80), wall, 80, color="0.75", zorder=1))
+    ax.axhline(0, color="0.4", ls="--", lw=0.8)
+    ax.axvline(0, color="0.4", ls="--", lw=0.8)
+    ax.text(-wall / 2, -40, "side", ha="center", va="center", fontsize=8, rotation=90)
+    for part in (slab, plug):
+        ax.fill(*plot_xy(part), facecolor="none", edgecolor="0.5", ls=":", zorder=2)
+        ax.fill(*plot_xy(opened(part)), color="#8c8c8c" if part is slab else "#b0b0b0", zorder=3)
+    ax.plot(*plot_xy(axis[None]), "o", color="red", zorder=5)
+    open_slab, open_plug = opened(slab), opened(plug)
+    across = -open_slab[0, 1], -open_plug[2, 1]
+    dimension(ax, (across[0], 140), (across[1], 140), "", "tab:orange", (0, 0))
+    ax.text(-95, 150, f"thickness_m = {thick / 1000:.3f}: across the hinge-side\nedge, outer face to the innermost face", color="tab:orange", fontsize=8)
+    dimension(ax, (60, 0), (60, face), "", "tab:brown", (0, 0))
+    ax.text(64, 8, f"closed, the face stands\n{face / 1000:.3f} out: in_opening_m =\n{thick / 1000:.3f} - {face / 1000:.3f} = {inside / 1000:.3f}", color="tab:brown", fontsize=8)
+    inner_out = -open_plug[2:, 1].max()
+    dimension(ax, (0, -6), (inner_out, -6), "", "tab:blue", (0, 0))
+    ax.text(-95, -65, f"inner_face_out_m\n= {inner_out / 1000:.3f} (to the\ninnermost face)", color="tab:blue", fontsize=8)
+    ax.set_title("a thick door, part of it in the opening", fontsize=10)
+    ax.set_xlim(-100, 165)
+    ax.set_ylim(-80, 175)
+
+
 def main() -> None:
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 5.2))
+    fig, (left, right, third) = plt.subplots(1, 3, figsize=(16, 5.4))
     # Left: opened square. Readings from the true axis, then solved as the spec solves them.
     carcass(left)
     open_door = door(90)
@@ -105,7 +142,8 @@ def main() -> None:
     left.set_ylim(-60, 60)
     right.set_xlim(-420, 60)
     right.set_ylim(-125, 440)
-    for ax in (left, right):
+    thick_door(third)
+    for ax in (left, right, third):
         ax.set_aspect("equal")
         ax.set_xlabel("mm, out from the side's outer face (into the cabinet: negative)", fontsize=8)
         ax.set_ylabel("mm, forward of the carcass front", fontsize=8)

@@ -283,15 +283,23 @@ def _slab_round_pockets(
     ys = sorted({y0, y1, *(min(max(v, y0), y1) for p in pockets for v in p[:2])})
     zs = sorted({z0, z1, *(min(max(v, z0), z1) for p in pockets for v in p[2:4])})
     boxes = []
-    for a, b in zip(ys, ys[1:]):
-        for c, d in zip(zs, zs[1:]):
-            if b - a < 1e-6 or d - c < 1e-6:
+    for c, d in zip(zs, zs[1:]):
+        if d - c < 1e-6:
+            continue
+        # Along the row, neighbouring cells of one depth become one box.
+        runs: list[list[float]] = []  # [start, end, depth]
+        for a, b in zip(ys, ys[1:]):
+            if b - a < 1e-6:
                 continue
             inside = [p for p in pockets if p[0] <= a + 1e-9 and b <= p[1] + 1e-9 and p[2] <= c + 1e-9 and d <= p[3] + 1e-9]
             depth = max((p[4] for p in inside), default=0.0)
-            front = x_face - depth
+            if runs and runs[-1][2] == depth:
+                runs[-1][1] = b
+            else:
+                runs.append([a, b, depth])
+        for a, b, depth in runs:
             size = (thickness - depth, b - a, d - c)
-            centre = (front - size[0] / 2, (a + b) / 2, (c + d) / 2)
+            centre = (x_face - depth - size[0] / 2, (a + b) / 2, (c + d) / 2)
             boxes.append(box_collision(f"{name}_{len(boxes)}", size, centre))
     return boxes
 
