@@ -1,17 +1,19 @@
 """The rendered photo set with ground truth that the photogrammetry tests share: 36 views of
 the vase on three rings, their file names shuffled, rendered once with Blender (the longest
-part of those tests) and cached in build/test-cache/ until the rendering code changes."""
+part of those tests) and cached in build/test-cache/ until the rendering code changes. A lock
+keeps two pytest-xdist workers from rendering into the folder at once."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from fixture_cache import CACHE_ROOT, locked
 
-CACHE = Path(__file__).resolve().parents[1] / "build" / "test-cache" / "photogrammetry_rings"
+NAME = "photogrammetry_rings"
 
 
 def rendered_photo_set():  # noqa: ANN201 (photogrammetry.synthetic_scene imports Blender's helpers)
     from photogrammetry.synthetic_scene import SceneOptions, render_scene
 
-    return render_scene(
-        CACHE, SceneOptions(n_views=36, rings=3, shuffled=True, width_px=640, height_px=480, samples=4)
-    )
+    with locked(NAME):
+        return render_scene(
+            CACHE_ROOT / NAME, SceneOptions(n_views=36, rings=3, shuffled=True, width_px=640, height_px=480, samples=4)
+        )

@@ -31,6 +31,7 @@ def db_build(manifest: Path, db: Path, tmp: Path) -> subprocess.CompletedProcess
     return subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.shared_data
 def test_the_example_needs_no_prior_step() -> None:
     """Every input of the example is in the repository, but the shared Kermit photos (which the
     project reads from ../shared/data, never copies), and every source is there."""

@@ -34,6 +34,7 @@ def kermit_model(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.shared_data
 def test_kermit_registers_every_photo_and_gives_a_dense_textured_mesh(kermit_model: Path) -> None:
     summary = json.loads((kermit_model / "summary.json").read_text())
     assert summary["photos"] == 11 and summary["registered"] == 11 and summary["unregistered"] == []
@@ -49,6 +50,7 @@ def test_kermit_registers_every_photo_and_gives_a_dense_textured_mesh(kermit_mod
     assert (kermit_model / "cameras.png").stat().st_size > 10_000
 
 
+@pytest.mark.shared_data
 def test_kermit_mesh_is_what_the_cameras_converge_on(kermit_model: Path) -> None:
     # No markers, no table: the mesh is what the views converge on (the arrangement on the
     # chair), not the room, which reaches past the cameras (it measured 2.0 camera distances).
@@ -60,6 +62,7 @@ def test_kermit_mesh_is_what_the_cameras_converge_on(kermit_model: Path) -> None
     assert np.linalg.norm(mesh.extents) < 1.3 * distance
 
 
+@pytest.mark.shared_data
 def test_kermit_model_passes_the_validation_gate(kermit_model: Path) -> None:
     from articulation.gate.validate import validate_path
 
@@ -67,6 +70,7 @@ def test_kermit_model_passes_the_validation_gate(kermit_model: Path) -> None:
     assert report.ok, report.format()
 
 
+@pytest.mark.shared_data
 def test_unreadable_photo_is_refused_by_name_and_nothing_is_written(tmp_path: Path) -> None:
     photos = tmp_path / "photos"
     shutil.copytree(KERMIT, photos)
@@ -91,6 +95,7 @@ def test_too_few_registered_photos_are_refused(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+@pytest.mark.shared_data
 def test_unrelated_scenes_are_refused(tmp_path: Path) -> None:
     photos = tmp_path / "mixed"
     photos.mkdir()
@@ -101,6 +106,7 @@ def test_unrelated_scenes_are_refused(tmp_path: Path) -> None:
     assert "unrelated scenes" in result.output and "kermit000.jpg" in result.output
 
 
+@pytest.mark.shared_data
 def test_bad_options_are_refused_before_any_work(tmp_path: Path) -> None:
     result = _reconstruct(str(KERMIT), "--out", str(tmp_path / "o"), "--marker-size-m", "-0.04")
     assert result.exit_code == 2 and "marker size must be a positive length" in result.output

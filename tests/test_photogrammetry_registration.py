@@ -175,6 +175,7 @@ def test_preemptive_pairs_are_each_photos_best_partners_and_never_leave_a_photo_
 # ---------------------------------------------------------------- real photos, default command
 
 
+@pytest.mark.shared_data
 def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: Path, capfd) -> None:
     """Three Kermit photos stored lying on their side with an EXIF turn (as phones store
     portrait photos) register with the rest, and matching by image retrieval with a
@@ -200,6 +201,7 @@ def test_portrait_photos_and_retrieval_matching_register_kermit_whole(tmp_path: 
     assert "feature_extraction" not in captured.err + captured.out and "Elapsed time" not in captured.err
 
 
+@pytest.mark.shared_data
 def test_image_ids_follow_the_names_whatever_order_the_features_were_found_in(tmp_path: Path) -> None:
     """Features found in the reverse order of the names (as a busy extraction thread may
     finish them) are renumbered by name with their frames, pose priors and keypoints, and
@@ -235,6 +237,7 @@ def test_image_ids_follow_the_names_whatever_order_the_features_were_found_in(tm
     assert max(m.num_reg_images() for m in models.values()) == 4
 
 
+@pytest.mark.shared_data
 def test_structure_from_motion_repeats_itself(tmp_path: Path) -> None:
     """Two runs on the same photos give the very same cameras and points (run to run, the
     extraction threads numbered the photos differently, the matching threads drew RANSAC
@@ -283,6 +286,7 @@ def buddha_subset(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.shared_data
 @pytest.mark.timeout(1200)  # the fixture's run, when the two cores are shared with other jobs
 def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_subset: Path) -> None:
     """14 real photos of one side of the Buddha, default command: every photo registers, and
@@ -294,6 +298,7 @@ def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_sub
     assert agreement.max_centre_error < 0.02 and agreement.max_rotation_error_deg < 1.0, agreement
 
 
+@pytest.mark.shared_data
 def test_buddha_subset_gives_an_unscaled_textured_mesh(buddha_subset: Path) -> None:
     """From one side only, what lies behind the head stays in every frame, so the convergence
     cut cannot drop all of it (the whole set, below, comes out as the head alone)."""
@@ -301,6 +306,7 @@ def test_buddha_subset_gives_an_unscaled_textured_mesh(buddha_subset: Path) -> N
     assert summary["scaled"] is False and summary["faces"] > 5000 and summary["texture_covered_share"] > 0.3
 
 
+@pytest.mark.shared_data
 @pytest.mark.slow
 @pytest.mark.timeout(3600)  # about 10 minutes on two idle cores; much more when they are shared
 def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_path: Path) -> None:
