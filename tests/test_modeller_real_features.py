@@ -499,3 +499,26 @@ def test_the_thick_door_microwave_has_its_plug_pockets_buttons_knob_and_plate() 
     assert turn.type == "continuous" and turn.limits is None and [s.name for s in turn.states][:2] == ["off", "1 min"]
     spin = model.joint("turntable_spin").parent_from_joint[:3, 3]
     assert spin[1] == pytest.approx(y((0.012 + 0.38) / 2 + 0.017))
+
+
+@pytest.mark.bpy
+@pytest.mark.parametrize(("meeting_gap_m", "passes"), [(0.0, False), (0.002, True)])
+def test_the_gate_refuses_inset_doors_without_clearance(tmp_path: Path, meeting_gap_m: float, passes: bool) -> None:
+    """The catalogue's inset unit (2 mm all round) with its two doors meeting without a gap:
+    each door's free corner cuts its neighbour in its first degrees (the last round passed it)."""
+    from spec_edits import read_spec, with_field
+
+    from articulation.export import export_model
+    from articulation.gate.validate import validate_path
+    from modeller import build_model
+
+    data = read_spec(REPO / "examples" / "catalogue" / "base_unit_inset.yaml")
+    # Doors 0.02..0.3 - g/2 and 0.3 + g/2..0.58 (the opening is 0.018..0.582, 2 mm clear).
+    width = round(0.28 - meeting_gap_m / 2, 4)
+    data = with_field(with_field(data, "doors.0.width_m", width), "doors.1.width_m", width)
+    data = with_field(data, "doors.1.left_m", round(0.58 - width, 4))
+    export_model(build_model(write_spec(tmp_path, data)), tmp_path / "model")
+    collisions = next(c for c in validate_path(tmp_path / "model").checks if c.name == "collisions")
+    assert collisions.passed == passes, collisions.detail
+    if not passes:
+        assert "'door_0' and 'door_1'" in collisions.detail and "deg from rest" in collisions.detail
