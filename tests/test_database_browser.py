@@ -200,8 +200,10 @@ def test_layout_at_1024_px(page, tmp_path: Path) -> None:
     boxes = driver.execute_script(
         "const r = (id) => document.getElementById(id).getBoundingClientRect().toJSON();"
         "return {table: r('models'), viewer: r('viewer'), width: document.documentElement.clientWidth,"
-        " scroll: document.documentElement.scrollWidth}"
+        " scroll: document.documentElement.scrollWidth,"
+        " detail: [document.getElementById('detail').scrollWidth, document.getElementById('detail').clientWidth]}"
     )
+    assert boxes["detail"][0] <= boxes["detail"][1], boxes  # no sideways scrolling in the view's column
     assert boxes["table"]["right"] <= boxes["viewer"]["left"], boxes  # side by side, no overlap
     assert boxes["viewer"]["right"] <= boxes["width"] and boxes["scroll"] <= boxes["width"], boxes
     assert boxes["viewer"]["width"] > 400 and boxes["table"]["width"] > 400, boxes

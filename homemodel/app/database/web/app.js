@@ -60,6 +60,7 @@ const fixed = (value, digits) => (typeof value === 'number' ? value.toFixed(digi
 function cell(value, className) {
   const td = document.createElement('td');
   td.textContent = value;
+  td.title = value; // the whole text where the column cuts it
   if (className) td.className = className;
   return td;
 }
