@@ -127,6 +127,13 @@ def _validation_report(db_dir: Path, row_path: object) -> str | None:
     return report if isinstance(report, str) else None
 
 
+def _glb_url(row_path: object) -> str | None:
+    """The URL of an entry's model.glb when the index names a folder under models/."""
+    if not isinstance(row_path, str) or not row_path.startswith(f"{MODELS_DIR}/"):
+        return None
+    return "/db/" + quote(row_path.removeprefix(f"{MODELS_DIR}/") + "/model.glb")
+
+
 def three_dir() -> Path:
     """The installed three.js package; an InputError saying how to install it when it is absent."""
     folder = find_node_package("three")
@@ -221,12 +228,6 @@ def make_app(db_dir: Path, *, map_path: Path | None, hosts: HostAllowList) -> Gu
     ]
     app = Starlette(routes=routes, exception_handlers={HTTPException: http_error})
     return Guard(app, hosts=hosts, csp=csp)
-
-
-def _glb_url(row_path: object) -> str | None:
-    if not isinstance(row_path, str) or not row_path.startswith(f"{MODELS_DIR}/"):
-        return None
-    return "/db/" + quote(row_path.removeprefix(f"{MODELS_DIR}/") + "/model.glb")
 
 
 class DatabaseServer:
