@@ -30,9 +30,11 @@ APT_PACKAGES += blender xvfb
 demo: setup
 	$(VENV)/bin/homemodel build examples/kitchen --out build/kitchen --force
 
+# Tests run on every core (pytest-xdist), a test file per worker at a time: a file's module
+# fixtures are made once, and the costly session fixtures are shared through tests/fixture_cache.py.
 test: setup
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q --durations=15
+	$(PY) -m pytest -q --durations=15 -n auto --dist loadfile
 
 setup: $(APT_STAMP) $(STAMP) $(NODE_TOOLS)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
+import importlib.metadata
 import importlib.util
 import os
 import shutil
@@ -32,10 +33,15 @@ def _files(path: Path) -> Iterator[Path]:
         yield path
 
 
-def content_key(*, inputs: Iterable[Path] = (), packages: Iterable[str] = (), settings: str = "") -> str:
-    """A hash of `settings`, every input file's path and bytes (folders walked), and every
-    source file of `packages` (found without importing them)."""
+def content_key(
+    *, inputs: Iterable[Path] = (), packages: Iterable[str] = (), distributions: Iterable[str] = (), settings: str = ""
+) -> str:
+    """A hash of `settings`, every input file's path and bytes (folders walked), every source
+    file of `packages` (found without importing them) and the installed versions of
+    `distributions` (bpy, whose renderer makes the pictures)."""
     digest = hashlib.sha256(settings.encode())
+    for name in distributions:
+        digest.update(f"{name}=={importlib.metadata.version(name)}".encode())
     for item in inputs:
         for path in _files(Path(item)):
             digest.update(path.relative_to(REPO).as_posix().encode() if path.is_relative_to(REPO) else path.name.encode())
