@@ -252,3 +252,26 @@ def test_a_map_whose_models_are_missing_is_refused(map_path: Path, tmp_path: Pat
     assert result.exit_code == 2, result.output
     assert "its model" in result.output and "does not exist" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "obs").exists()
+
+
+@pytest.mark.parametrize("distortion", [None, (0.12, -0.05, 0.001, -0.002, 0.0)])
+def test_per_part_rendering_is_one_mesh_cast_whole(simulator: ViewSimulator, distortion) -> None:
+    """The renderer casts each part's rays in its own frame, only where its clipped bounds
+    project: the same depth as one mesh of the whole posed scene ray-cast at every pixel."""
+    import trimesh
+
+    from homemodel.geometry.raycast import RayCaster
+
+    camera = Camera(**{**CAMERA.model_dump(), "distortion": distortion})
+    scene = simulator.scene
+    map_from_parts = scene.pose({"cupboard_1": {"door_1_hinge": 1.2, "drawer_0_slide": 0.25}})
+    meshes = [
+        trimesh.Trimesh(p.vertices_link @ m[:3, :3].T + m[:3, 3], p.faces, process=False)
+        for p, m in zip(scene.parts, map_from_parts)
+    ]
+    # The camera stands inside the room, so the walls behind it cross its image plane.
+    map_from_camera = simulator.camera_looking_at("cupboard_1", distance_m=1.6, height_m=1.2, bearing_deg=25)
+    whole = RayCaster(trimesh.util.concatenate(meshes)).depth(camera, np.linalg.inv(map_from_camera))
+    parts = simulator.renderer.render(map_from_parts, camera, map_from_camera).depth_m
+    assert np.isfinite(whole).all() and (parts > 0).all()
+    assert np.abs(parts - whole).max() < 1e-4

@@ -360,11 +360,12 @@ class Renderer:
 
     def _cast(self, index: int, camera: Camera, camera_from_part: np.ndarray) -> tuple[np.ndarray, Hits] | None:
         """(flat pixel indices, their hits) of the rays that may reach part `index`, or None."""
-        pixels = _pixels_in_view(camera, camera_from_part, self._corners[index])
+        rays = self.pixel_rays(camera)
+        pixels = _pixels_in_view(camera, rays, camera_from_part, self._corners[index])
         if pixels is None:
             return None
         part_from_camera = np.linalg.inv(camera_from_part)
-        rays = self.pixel_rays(camera)[pixels] @ part_from_camera[:3, :3].T
+        rays = rays[pixels] @ part_from_camera[:3, :3].T
         return pixels, self._casters[index].first_hits(part_from_camera[:3, 3], rays)
 
 
@@ -377,21 +378,28 @@ def _box_corners(vertices: np.ndarray) -> np.ndarray:
     return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
 
 
-def _pixels_in_view(camera: Camera, camera_from_part: np.ndarray, corners_part: np.ndarray) -> np.ndarray | None:
-    """Flat indices of the pixels whose rays may hit the part in front of the near plane
-    (inside the projection of its bounding box clipped there), or None when there are none."""
+def _pixels_in_view(
+    camera: Camera, rays: np.ndarray, camera_from_part: np.ndarray, corners_part: np.ndarray
+) -> np.ndarray | None:
+    """Flat indices of the pixels whose rays (`rays`, z = 1) may hit the part in front of the
+    near plane (inside the projection of its bounding box clipped there), or None when there
+    are none."""
     corners = corners_part @ camera_from_part[:3, :3].T + camera_from_part[:3, 3]
     z = corners[:, 2]
     if (z < NEAR_M).all():
         return None
-    if camera.has_distortion:
-        return np.arange(camera.width * camera.height)  # a distorted lens bends the box's outline
     # The box clipped at the near plane is the hull of its corners in front of the plane and
     # of its edges' crossings of the plane.
     a, b = corners[_BOX_EDGES[:, 0]], corners[_BOX_EDGES[:, 1]]
     crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
     s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
     points = np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
+    if camera.has_distortion:
+        # A lens bends the box's outline in the image, not on the plane z = 1 the rays cross.
+        xy = points[:, :2] / points[:, 2:]
+        (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+        inside = (rays[:, 0] >= x0) & (rays[:, 0] <= x1) & (rays[:, 1] >= y0) & (rays[:, 1] <= y1)
+        return np.flatnonzero(inside) if inside.any() else None
     uv = camera.project(points)
     u0, v0 = np.floor(uv.min(axis=0)).astype(int) - 1
     u1, v1 = np.ceil(uv.max(axis=0)).astype(int) + 1
