@@ -18,12 +18,11 @@ from articulation.model import Collision, Link, Material, MeshGeometry, Model, V
 from articulation.partnet import import_partnet, is_partnet_folder
 from articulation.repair import AssetGaps, find_gaps, model_flat_collisions, model_hollow_collisions
 from articulation.scan_model import LINK
-from articulation.urdf_import import find_urdf, load_urdf, read_mesh_parts
+from articulation.urdf_import import MESH_FILE_SUFFIXES, find_urdf, load_urdf, read_mesh_parts
 from homemodel.core.checks import require_choice
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import Y_UP_FROM_Z_UP
 
-MESH_FILE_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".dae")
 _GLTF = (".glb", ".gltf")
 
 

@@ -332,6 +332,8 @@ def _joints(ctx: _Context, robot: etree._Element, states: dict[str, list[JointSt
     return joints
 
 
+# Mesh files `articulation.asset_import` makes one-link models of.
+MESH_FILE_SUFFIXES = (".glb", ".gltf", ".obj", ".stl", ".ply", ".dae")
 # A model folder holds homemodel's model.urdf, or PartNet-Mobility's mobility.urdf.
 URDF_NAMES: tuple[str, ...] = ("model.urdf", "mobility.urdf")
 
@@ -348,6 +350,11 @@ def find_urdf(path: Path) -> Path:
         raise InputError(f"{path}: no such file or folder")
     if path.suffix.lower() == ".xacro":
         raise InputError(f"{path}: a xacro macro file, not a URDF: expand it first (`xacro {path.name} > robot.urdf`)")
+    if path.suffix.lower() in MESH_FILE_SUFFIXES:
+        raise InputError(
+            f"{path}: a mesh file, not a model: import it first (a manifest entry `source: urdf` with "
+            "`repair: true`, `homemodel db build`), then use the model folder or db:ID"
+        )
     if path.suffix.lower() != ".urdf":
         raise InputError(f"{path}: expected a model folder or a .urdf file")
     return path

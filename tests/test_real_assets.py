@@ -327,3 +327,11 @@ def test_a_flat_mesh_file_gets_a_thin_collision_box(tmp_path: Path) -> None:
     write_model_files(model, tmp_path / "out")
     report = validate_path(tmp_path / "out")
     assert report.ok, report.format()
+
+
+def test_a_mesh_file_where_a_model_is_needed_says_how_to_import_it(tmp_path: Path) -> None:
+    from articulation.urdf_import import find_urdf
+
+    trimesh.creation.box().export(tmp_path / "cup.glb")
+    with pytest.raises(InputError, match=r"cup\.glb: a mesh file, not a model: import it first"):
+        find_urdf(tmp_path / "cup.glb")
