@@ -42,6 +42,8 @@ class _Unresolved:
 
 
 def _hints(cls: type) -> dict[str, Any]:
+    """Field name -> type hint. When a hint names a type imported only for type checkers
+    (modeller.build's `PictureOptions`), the others are still resolved, one by one."""
     try:
         return typing.get_type_hints(cls)
     except NameError:
