@@ -269,10 +269,9 @@ def test_injected_script_in_every_field_runs_nothing(driver, synthetic) -> None:
 
 
 def test_10000_rows_list_and_search_quickly(driver, synthetic) -> None:
-    started = time.monotonic()
     driver.get(synthetic)
     _until(driver, "return window.homemodel && window.homemodel.listed")
-    listed_s = time.monotonic() - started
+    listed_s = driver.execute_script("return window.homemodel.listedMs") / 1000  # from the navigation's start
     assert driver.execute_script("return window.homemodel.shown.matched") == ROWS + len(PAYLOADS)
     ids = driver.execute_script(IDS)
     assert len(ids) == 100 and [i for i in ids if i.startswith("base_unit")][:11] == [f"base_unit_{i}" for i in range(11)]

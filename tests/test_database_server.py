@@ -174,7 +174,7 @@ def test_paths_are_checked_after_normalising(server: Server, path: str, status: 
 
 
 def test_head_answers_where_get_does(server: Server) -> None:
-    for path in ("/", "/app.js", "/style.css", "/api/models", "/api/models/base_unit_1", "/db/base_unit_1/model.glb",
+    for path in ("/", "/app.js", "/viewer.js", "/style.css", "/api/models", "/api/models/base_unit_1", "/db/base_unit_1/model.glb",
                  "/vendor/three/build/three.module.js"):  # fmt: skip
         got, got_body = server.request("GET", path)
         head, head_body = server.request("HEAD", path)

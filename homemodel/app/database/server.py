@@ -39,7 +39,7 @@ from homemodel.core.node_packages import find_node_package, install_hint
 
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
-WEB_FILES = ("index.html", "app.js", "style.css")
+WEB_FILES = ("index.html", "app.js", "viewer.js", "style.css")
 # Only these parts of three.js are served: the module build and the example add-ons' modules.
 THREE_PARTS = ("build", "examples/jsm")
 _IMPORT_MAP = re.compile(r'<script type="importmap">(.*?)</script>', re.S)

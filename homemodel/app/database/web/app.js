@@ -1,58 +1,22 @@
-// The database page: a table of the models (searched, sorted and paged by the server), a 3D
-// view with a slider per joint (moving the node as the glTF's extras.joint says), the gate's
-// report, and a home's semantic map. Every value from the index goes into the DOM as text or
-// as an attribute, never as HTML. The view is drawn only when something changed.
-import * as THREE from 'three';
-import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-
+// The database page: a table of the models (searched, sorted and paged by the server), the
+// chosen model in a 3D view (`viewer.js`, imported beside the list so the list need not wait
+// for three.js), the gate's report, and a home's semantic map. Every value from the index
+// goes into the DOM as text or as an attribute, never as HTML.
 const PAGE_ROWS = 100;
 const SEARCH_DELAY_MS = 120;
 const STATUSES = new Set(['valid', 'invalid', 'failed']);
 const list = { q: '', status: '', sort: 'id', descending: false, offset: 0, matched: 0 };
 // What the browser tests read: the chosen and the drawn model, its joint nodes, whether it
 // has loaded, how many frames were drawn, and what the table shows.
-const hm = { ready: false, chosen: null, drawn: null, joints: {}, frames: 0, listed: false, shown: null };
+const hm = { ready: false, chosen: null, drawn: null, joints: {}, frames: 0, listed: false, listedMs: null, shown: null };
 window.homemodel = hm;
 
 const $ = (id) => document.getElementById(id);
-const viewer = $('viewer');
-const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
-renderer.setPixelRatio(window.devicePixelRatio);
-viewer.prepend(renderer.domElement);
-const scene = new THREE.Scene();
-scene.background = new THREE.Color(0xf4f4f4);
-scene.add(new THREE.HemisphereLight(0xffffff, 0x888888, 2.0));
-const sun = new THREE.DirectionalLight(0xffffff, 1.5);
-sun.position.set(3, 5, 4);
-scene.add(sun);
-const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 100);
-const controls = new OrbitControls(camera, renderer.domElement);
-hm.memory = () => renderer.info.memory; // geometries and textures held on the GPU
-let current = null;
-const graspMarkers = [];
-
-let frameQueued = false;
-function render() {
-  if (frameQueued) return;
-  frameQueued = true;
-  requestAnimationFrame(() => {
-    frameQueued = false;
-    renderer.render(scene, camera);
-    hm.frames += 1;
-  });
-}
-controls.addEventListener('change', render);
-
-function resize() {
-  const { clientWidth: w, clientHeight: h } = viewer;
-  if (!w || !h) return;
-  renderer.setSize(w, h);
-  camera.aspect = w / h;
-  camera.updateProjectionMatrix();
-  render();
-}
-new ResizeObserver(resize).observe(viewer);
+const viewing = import('/viewer.js').then(({ createViewer }) => {
+  const viewer = createViewer($('viewer'), $('sliders'), hm);
+  viewer.showGrasps($('show-grasps').checked);
+  return viewer;
+});
 
 const text = (value) => (value === null || value === undefined ? '-' : String(value));
 const fixed = (value, digits) => (typeof value === 'number' ? value.toFixed(digits) : '-');
@@ -129,90 +93,6 @@ async function loadList() {
   }
 }
 
-function jointSlider(node, joint) {
-  const rest = { position: node.position.clone(), quaternion: node.quaternion.clone() };
-  const axis = new THREE.Vector3(...joint.axis).normalize();
-  const [lower, upper] = joint.type === 'continuous' ? [-Math.PI, Math.PI] : [Number(joint.lower), Number(joint.upper)];
-  const label = document.createElement('label');
-  const name = Object.assign(document.createElement('span'), { textContent: `${joint.name} (${joint.type})` });
-  const input = Object.assign(document.createElement('input'), { type: 'range', min: lower, max: upper, step: (upper - lower) / 200 });
-  input.value = 0;
-  input.dataset.joint = joint.name;
-  const output = Object.assign(document.createElement('output'), { textContent: '0' });
-  label.append(name, input, output);
-  // The joint frame is the child link's frame: move the node about its rest transform.
-  input.addEventListener('input', () => {
-    const q = Number(input.value);
-    if (joint.type === 'prismatic') {
-      node.position.copy(rest.position).add(axis.clone().multiplyScalar(q).applyQuaternion(rest.quaternion));
-    } else {
-      node.quaternion.copy(rest.quaternion).multiply(new THREE.Quaternion().setFromAxisAngle(axis, q));
-    }
-    output.textContent = joint.type === 'prismatic' ? `${q.toFixed(3)} m` : `${(q * 180 / Math.PI).toFixed(0)}°`;
-    render();
-  });
-  return label;
-}
-
-function addGraspMarkers(root) {
-  const info = root.userData.homemodel || {};
-  for (const g of Array.isArray(info.grasp_points) ? info.grasp_points : []) {
-    const link = root.getObjectByName(g.link);
-    if (!link) continue;
-    const marker = new THREE.Mesh(new THREE.SphereGeometry(0.012), new THREE.MeshBasicMaterial({ color: 0xff2266 }));
-    marker.add(new THREE.AxesHelper(0.05));
-    marker.position.fromArray(g.translation || [0, 0, 0]);
-    marker.quaternion.fromArray(g.rotation || [0, 0, 0, 1]);
-    marker.name = `grasp:${g.name}`;
-    marker.visible = $('show-grasps').checked;
-    link.add(marker);
-    graspMarkers.push(marker);
-  }
-}
-
-function frame(object) {
-  const box = new THREE.Box3().setFromObject(object);
-  const centre = box.getCenter(new THREE.Vector3());
-  const radius = box.getSize(new THREE.Vector3()).length() / 2 || 1;
-  controls.target.copy(centre);
-  // The front is +x of the model, which glTF's y-up root turns to three.js's +x.
-  camera.position.copy(centre).add(new THREE.Vector3(1.6, 0.9, 1.2).multiplyScalar(radius * 1.4));
-  camera.near = radius / 100;
-  camera.far = radius * 100;
-  camera.updateProjectionMatrix();
-  controls.update();
-}
-
-// Frees what a model holds on the GPU: geometries, materials and their textures.
-function dispose(root) {
-  root.traverse((object) => {
-    object.geometry?.dispose();
-    const materials = Array.isArray(object.material) ? object.material : object.material ? [object.material] : [];
-    for (const material of materials) {
-      for (const value of Object.values(material)) {
-        if (value && value.isTexture) {
-          value.source?.data?.close?.(); // an ImageBitmap
-          value.dispose();
-        }
-      }
-      material.dispose();
-    }
-  });
-}
-
-function clearModel() {
-  if (current) {
-    scene.remove(current);
-    dispose(current);
-  }
-  current = null;
-  hm.drawn = null;
-  graspMarkers.length = 0;
-  hm.joints = {};
-  $('sliders').replaceChildren();
-  render();
-}
-
 function showFacts(row) {
   $('title').textContent = `${row.id} — ${row.category} (${row.source}, ${row.status})`;
   const facts = [`built ${text(row.built_at)} in ${fixed(row.build_s, 2)} s`, `links ${text(row.links)}, joints ${text(row.joints)}, `
@@ -252,12 +132,16 @@ async function choose(id) {
   const stale = () => controller !== modelController;
   hm.ready = false;
   hm.chosen = id;
+  hm.drawn = null;
   document.querySelectorAll('#models tbody tr').forEach((tr) => tr.classList.toggle('chosen', tr.dataset.id === id));
   if (decodeURIComponent(location.hash.slice(1)) !== id) history.pushState(null, '', `#${encodeURIComponent(id)}`);
-  clearModel();
   showMessage($('message'), '');
   const progress = $('progress');
+  let viewer = null;
   try {
+    viewer = await viewing;
+    if (stale()) return;
+    viewer.clear();
     const response = await fetch(`/api/models/${encodeURIComponent(id)}`, { signal: controller.signal });
     if (!response.ok) throw new Error(response.status === 404 ? `no model ${id} in the database` : `HTTP ${response.status}`);
     const row = await response.json();
@@ -268,23 +152,7 @@ async function choose(id) {
     progress.hidden = false;
     const data = await fetchModel(row.glb, controller.signal);
     if (stale()) return;
-    const gltf = await new GLTFLoader().parseAsync(data, '');
-    if (stale()) {
-      dispose(gltf.scene);
-      return;
-    }
-    current = gltf.scene;
-    scene.add(current);
-    current.traverse((node) => {
-      const joint = node.userData.joint;
-      if (joint && joint.type !== 'fixed' && Array.isArray(joint.axis)) {
-        hm.joints[joint.name] = node;
-        $('sliders').appendChild(jointSlider(node, joint));
-      }
-    });
-    addGraspMarkers(current.children.find((c) => c.userData.homemodel) || current);
-    frame(current);
-    hm.drawn = id;
+    if (await viewer.show(data, stale)) hm.drawn = id;
   } catch (error) {
     if (error.name === 'AbortError' || stale()) return;
     showMessage($('message'), `cannot show ${id}: ${error.message}`);
@@ -292,7 +160,7 @@ async function choose(id) {
     if (!stale()) {
       progress.hidden = true;
       hm.ready = true;
-      render();
+      viewer?.render();
     }
   }
 }
@@ -359,13 +227,11 @@ tbody.addEventListener('keydown', (event) => {
     (event.key === 'ArrowDown' ? tr.nextElementSibling : tr.previousElementSibling)?.focus();
   }
 });
-$('show-grasps').addEventListener('change', (event) => {
-  graspMarkers.forEach((m) => { m.visible = event.target.checked; });
-  render();
-});
+$('show-grasps').addEventListener('change', async (event) => { (await viewing).showGrasps(event.target.checked); });
 
 await loadList();
 hm.listed = true;
+hm.listedMs = performance.now(); // since the page was asked for
 fromHash();
 const tree = await (await fetch('/api/map')).json();
 if (tree && !tree.error) {
