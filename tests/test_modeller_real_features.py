@@ -448,13 +448,13 @@ def test_the_face_frame_example_has_its_members_bottom_shelf_and_top_rails_where
     # Nothing of the carcass under the raised bottom but the sides, the back and the plinth.
     names = [c.name for c in model.link("body").collisions]
     assert names.count("carcass_bottom") == 1 and "carcass_top" not in names
-    # The drawer: the second board behind the front, the box behind it 30 mm above the front's
+    # The drawer: the second board inside the opening, the box behind it 30 mm above the front's
     # bottom edge, 0.8 m wide and 10 mm right of the front's middle (drawer frame: origin on
     # the front plane at the front's middle, its bottom edge).
-    board = _box_bounds(model, "drawer_0", "drawer_0_inner_board")
-    assert np.allclose(board[:, 0], [0.002 - 0.018, 0.002], atol=1e-9)
+    board = _box_bounds(model, "drawer_0", "drawer_0_inner_board")  # 26 mm inside the opening
+    assert np.allclose(board[:, 0], [-0.026 - 0.018, -0.026], atol=1e-9)
     floor = _box_bounds(model, "drawer_0", "drawer_0_box_bottom")
-    assert np.allclose([floor[0, 0], floor[1, 0]], [0.002 - 0.018 - 0.45, 0.002 - 0.018], atol=1e-9)
+    assert np.allclose([floor[0, 0], floor[1, 0]], [-0.044 - 0.45, -0.044], atol=1e-9)
     assert np.allclose([floor[0, 1], floor[1, 1]], [0.01 - 0.4, 0.01 + 0.4], atol=1e-9)
     assert floor[0, 2] == pytest.approx(0.03, abs=1e-9)
     # The right door hangs on the stile: its hinge line on the stile (the default edge hinge).

@@ -59,7 +59,9 @@ from modeller.specs.cabinet_geometry import (
     door_plug_bounds_m,
     door_shelf_box_m,
     door_slab_m,
+    drawer_board_front_x_m,
     drawer_box_bounds_m,
+    drawer_box_front_x_m,
     drawer_front_x_m,
     frame_members_m,
     opening_around_m,
@@ -487,7 +489,12 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
         # The second board, across the box, from the box's floor to the front's top inside the opening.
         top = min(drawer.top_m, opening_around_m(spec, drawer.left_m + drawer.width_m / 2, z_min)[3]) - spec.door_gap_m
         board_size = (drawer.inner_board_m, y_max - y_min, top - z_min)
-        board_centre = (inner - drawer.inner_board_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + top) / 2 - drawer.bottom_m)
+        board_front = drawer_board_front_x_m(spec, drawer) - spec.depth_m / 2
+        board_centre = (
+            board_front - drawer.inner_board_m / 2,
+            (y_min + y_max) / 2 - middle_y,
+            (z_min + top) / 2 - drawer.bottom_m,
+        )
         add_object(
             f"{link}.inner_board",
             box_mesh(f"{link}.inner_board", board_size),
@@ -498,7 +505,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
         )
         collisions.append(box_collision(f"{link}_inner_board", board_size, board_centre))
     face = inner + thick
-    inner -= drawer.inner_board_m
+    inner = drawer_box_front_x_m(spec, drawer) - spec.depth_m / 2
     box_size = (drawer.depth_m, y_max - y_min, z_max - z_min)
     box_centre = (inner - drawer.depth_m / 2, (y_min + y_max) / 2 - middle_y, (z_min + z_max) / 2 - drawer.bottom_m)
     open_box = box_mesh(f"{link}.box", box_size)

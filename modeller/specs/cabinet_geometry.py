@@ -121,9 +121,16 @@ def drawer_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
     return spec.depth_m / 2 + spec.door_gap_m
 
 
+def drawer_board_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+    """x of a closed drawer's second board's front face: right behind the front, or where measured."""
+    if drawer.inner_board_inside_m is None:
+        return drawer_front_x_m(spec, drawer)
+    return spec.depth_m / 2 - drawer.inner_board_inside_m
+
+
 def drawer_box_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
     """x of a closed drawer box's front face (behind the front and its inner board)."""
-    return drawer_front_x_m(spec, drawer) - drawer.inner_board_m
+    return drawer_board_front_x_m(spec, drawer) - drawer.inner_board_m
 
 
 def panel_at(spec: CabinetSpec, left_m: float, height_m: float) -> Panel | None:

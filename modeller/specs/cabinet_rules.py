@@ -19,8 +19,10 @@ from modeller.specs.cabinet_geometry import (
     door_plug_bounds_m,
     door_shelf_box_m,
     door_slab_m,
+    drawer_board_front_x_m,
     drawer_box_bounds_m,
     drawer_box_front_x_m,
+    drawer_front_x_m,
     drawer_reach_m,
     frame_members_m,
     hinge_offsets_m,
@@ -307,6 +309,11 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
         )
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     t = spec.wall_thickness_m
+    if drawer.inner_board_inside_m is not None and drawer_board_front_x_m(spec, drawer) > drawer_front_x_m(spec, drawer) + _EPS_M:
+        raise FieldError(
+            ("drawers", i, "inner_board_inside_m"),
+            f"a second board {drawer.inner_board_inside_m} m inside the opening is in the inset front",
+        )
     middle = drawer.left_m + drawer.width_m / 2
     left, right, bottom, _ = opening_around_m(spec, middle, drawer.bottom_m + drawer.height_m / 2)
     if y_min < -spec.width_m / 2 + left - _EPS_M or y_max > -spec.width_m / 2 + right + _EPS_M:

@@ -142,6 +142,11 @@ class DrawerSpec(Front):
         description="a second board behind the front, inside the opening, this thick (the box's own front, "
         "across the box); the box starts behind it",
     )
+    inner_board_inside_m: Offset | None = Field(
+        None,
+        description="how far behind the carcass' front plane the second board's front face is (inside the opening); "
+        "default: right behind the front",
+    )
     box_bottom_m: Offset | None = Field(
         None,
         description="from the front's bottom edge up to the box's underside; default: as low as the opening allows",
