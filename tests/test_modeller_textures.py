@@ -182,7 +182,7 @@ GOOD_CORNERS = [[90, 30], [394, 66], [381, 529], [110, 599]]
         ({"corners_px": None, "region_px": [5, 5, 60, 60]}, "region_px", "no convex four-cornered outline"),
         ({"photo": "missing.png"}, "photo", "no such file"),
         ({"photo": "garbage.png"}, "photo", "not an image file"),
-        ({"photo": "truncated.png"}, "photo", "cannot decode"),
+        ({"photo": "truncated.png"}, "photo", "not a readable image: truncated"),
         ({"face": "inside"}, "face", "'front'"),
         ({"wrap_span_deg": 90}, "wrap_span_deg", "only for face: wrap"),
         ({"face": "wrap", "wrap_span_deg": 270}, "wrap_span_deg", "at most 180 deg"),
