@@ -16,12 +16,13 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from articulation.inertia import link_mass
 from articulation.gate.mesh_geometry import VOLUME_TOLERANCE
 from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
+from articulation.inertia import link_mass
 from articulation.model import Box, Collision, Link, MeshGeometry, Model
 from homemodel.core.checks import require_positive
 from homemodel.core.safe_xml import parse_xml_file
+from homemodel.geometry.mesh_ops import zero_area_faces
 
 LIMITED_TYPES = ("revolute", "prismatic")
 
@@ -167,6 +168,7 @@ def _panels(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray) -> li
     is its own region), each on the side of `inside`; None when a region is not flat or there
     are more than MAX_PANELS."""
     merged = _merged(mesh)
+    merged.update_faces(~zero_area_faces(merged.vertices, merged.faces))  # they bound nothing
     groups = [np.asarray(f) for f in merged.facets]
     grouped = np.zeros(len(merged.faces), dtype=bool)
     for group in groups:

@@ -108,6 +108,7 @@ def _write_obj(path: Path, mesh: trimesh.Trimesh, texture: str | None) -> None:
     lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in mesh.vertices]
     lines += [f"vt {u:.3f} {v:.3f}" for u, v in ((0, 0), (1, 0), (1, 1), (0, 1))[: len(mesh.vertices)]]
     lines += ["f " + " ".join(f"{i + 1}/{i % 4 + 1}" for i in face) for face in mesh.faces]
+    lines.append("f 1/1 2/2 2/2")  # a zero-area triangle, as real scans and CAD exports hold
     path.write_text("\n".join(lines) + "\n")
     material = ["newmtl material_0", "Kd 0.70 0.55 0.40"] + ([f"map_Kd ../images/{texture}"] if texture else [])
     path.with_suffix(".mtl").write_text("\n".join(material) + "\n")
