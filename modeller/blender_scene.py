@@ -163,6 +163,23 @@ def add_solidify(obj: bpy.types.Object, thickness_m: float) -> None:
     modifier.use_rim = True
 
 
+def subtract(obj: bpy.types.Object, modifier: str, cutter_name: str, mesh: bpy.types.Mesh, obj_from_cutter) -> None:
+    """Cut `mesh`, placed at `obj_from_cutter` in `obj`'s frame, out of `obj` (a boolean
+    difference, applied on export); the cutter is a hidden wire object parented to `obj`."""
+    import bpy
+    from mathutils import Matrix
+
+    cutter = bpy.data.objects.new(cutter_name, mesh)
+    bpy.context.scene.collection.objects.link(cutter)
+    cutter.parent = obj
+    cutter.matrix_basis = Matrix(np.asarray(obj_from_cutter, dtype=np.float64).tolist())
+    cutter.hide_render = True
+    cutter.display_type = "WIRE"
+    boolean = obj.modifiers.new(modifier, "BOOLEAN")
+    boolean.operation = "DIFFERENCE"
+    boolean.object = cutter
+
+
 def colour_material(name: str, rgb: Sequence[float]) -> bpy.types.Material:
     """The material named `name`, made with base colour `rgb` on first use: one per colour."""
     import bpy

@@ -40,6 +40,7 @@ from modeller.blender_scene import (
     colour_material,
     cylinder_mesh,
     remove_faces,
+    subtract,
 )
 from modeller.blender_to_model import Assembly
 from modeller.builders import FACE_NORMALS, box_collision, wall_collisions
@@ -261,21 +262,6 @@ def _pockets(spec: CabinetSpec, panel: Panel) -> list[tuple[float, float, float,
     return pockets
 
 
-def _cut(obj: bpy.types.Object, name: str, mesh: bpy.types.Mesh, obj_from_cutter: np.ndarray) -> None:
-    """Subtract `mesh`, placed at `obj_from_cutter`, from `obj` (a boolean difference)."""
-    import bpy
-
-    cutter = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(cutter)
-    cutter.parent = obj
-    cutter.matrix_basis = blender_matrix(obj_from_cutter)
-    cutter.hide_render = True
-    cutter.display_type = "WIRE"
-    modifier = obj.modifiers.new(name, "BOOLEAN")
-    modifier.operation = "DIFFERENCE"
-    modifier.object = cutter
-
-
 def _slab_round_pockets(
     name: str, x_face: float, thickness: float, bounds: tuple[float, float, float, float], pockets: list
 ) -> list:
@@ -309,8 +295,6 @@ def _slab_round_pockets(
 def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
     """A slab in the front plane, inside the carcass' edges (they show round it), with its hole
     and the pockets of the knobs and buttons on it cut."""
-    import bpy
-
     spec = cabinet.spec
     t = spec.wall_thickness_m
     y0 = max(-spec.width_m / 2 + panel.left_m, -spec.width_m / 2 + t)
@@ -333,7 +317,7 @@ def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
             else:
                 cutter = box_mesh(cutter_name, (2 * depth, b - a, d - c))
             at = translation_transform((face - centre[0], (a + b) / 2 - centre[1], (c + d) / 2 - centre[2]))
-            _cut(obj, cutter_name, cutter, at)
+            subtract(obj, cutter_name, cutter_name, cutter, at)
         cabinet.body_collisions.extend(_slab_round_pockets(f"panel_{i}", face, t, (y0, y1, z0, z1), pockets))
         return
     hole = panel.hole
@@ -341,16 +325,9 @@ def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
         cabinet.body_collisions.append(box_collision(f"panel_{i}", size, centre))
         return
     r = hole.diameter_m / 2
-    cutter = bpy.data.objects.new(f"body.panel_{i}.cutter", cylinder_mesh(f"body.panel_{i}.cutter", r, 4 * t, axis="x"))
-    bpy.context.scene.collection.objects.link(cutter)
-    cutter.parent = obj
     hole_y, hole_z = -spec.width_m / 2 + hole.centre_left_m, hole.centre_height_m
-    cutter.location = (0.0, hole_y - centre[1], hole_z - centre[2])
-    cutter.hide_render = True
-    cutter.display_type = "WIRE"
-    modifier = obj.modifiers.new("hole", "BOOLEAN")
-    modifier.operation = "DIFFERENCE"
-    modifier.object = cutter
+    cutter = cylinder_mesh(f"body.panel_{i}.cutter", r, 4 * t, axis="x")
+    subtract(obj, "hole", f"body.panel_{i}.cutter", cutter, translation_transform((0.0, hole_y - centre[1], hole_z - centre[2])))
     # Collision: the slab round the hole's bounding square, as four boxes.
     x = centre[0]
     pieces = [

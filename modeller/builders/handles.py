@@ -21,7 +21,7 @@ from articulation.model import (
     JointState,
 )
 from homemodel.core.transforms import axis_angle_transform, translation_transform
-from modeller.blender_scene import add_object, box_mesh, colour_material, cylinder_mesh
+from modeller.blender_scene import add_object, box_mesh, colour_material, cylinder_mesh, subtract
 from modeller.blender_to_model import Assembly
 from modeller.builders import box_collision, grasp_frame
 from modeller.joint_physics import spec_dynamics
@@ -187,19 +187,9 @@ def _pocket(
     assembly: Assembly,
 ) -> None:
     """A pocket cut into the front (a boolean difference), lined at its bottom by the link's plate."""
-    import bpy
-
     length, width, depth = handle.length_m, handle.recess_width_m, handle.recess_depth_m
     size = np.array([2 * depth, width, length] if orientation == "vertical" else [2 * depth, length, width])
-    cutter = bpy.data.objects.new(f"{link}.cutter", box_mesh(f"{link}.cutter", size))
-    bpy.context.scene.collection.objects.link(cutter)
-    cutter.parent = front
-    cutter.matrix_basis = blender_matrix(front_from_handle)
-    cutter.hide_render = True
-    cutter.display_type = "WIRE"
-    modifier = front.modifiers.new(f"{link} pocket", "BOOLEAN")
-    modifier.operation = "DIFFERENCE"
-    modifier.object = cutter
+    subtract(front, f"{link} pocket", f"{link}.cutter", box_mesh(f"{link}.cutter", size), front_from_handle)
     lining_size = (_POCKET_LINING_M, *size[1:])
     lining_centre = (-depth + _POCKET_LINING_M / 2, 0.0, 0.0)
     add_object(
