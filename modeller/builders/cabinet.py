@@ -71,6 +71,7 @@ from modeller.specs.cabinet_geometry import (
     shelf_span_m,
 )
 from modeller.specs.cabinets import CabinetSpec, Panel
+from modeller.specs.handles import PushButton
 
 if TYPE_CHECKING:
     import bpy
@@ -257,7 +258,7 @@ def _pockets(spec: CabinetSpec, panel: Panel) -> list[tuple[float, float, float,
             continue
         across, up = part.half_size_m
         y = -spec.width_m / 2 + part.left_m
-        is_round = getattr(part, "shape", "round") == "round"
+        is_round = not isinstance(part, PushButton) or part.shape == "round"
         pockets.append((y - across, y + across, part.height_m - up, part.height_m + up, part.pocket.depth_m, is_round))
     return pockets
 

@@ -190,15 +190,16 @@ def _check_frame_and_top(spec: CabinetSpec) -> None:
         left, right = members[0][2], members[1][1]
         bottom, top = members[2][4], members[3][3]
         for name, m_left, m_right, m_bottom, m_top in members[4:]:
-            group, k = ("stiles", int(name.rsplit("_", 1)[1])) if "stile" in name else ("rails", int(name.rsplit("_", 1)[1]))
+            _, member, k = name.split("_")  # frame_stile_<k>, frame_rail_<k>
+            where = ("face_frame", f"{member}s", int(k))
             if m_left < left - _EPS_M or m_right > right + _EPS_M or m_right - m_left <= 0:
                 raise FieldError(
-                    ("face_frame", group, k, "left_m"),
+                    (*where, "left_m"),
                     f"spans {m_left:.3f}..{m_right:.3f} m, not inside the frame's opening {left:.3f}..{right:.3f} m",
                 )
             if m_bottom < bottom - _EPS_M or m_top > top + _EPS_M or m_top - m_bottom <= 0:
                 raise FieldError(
-                    ("face_frame", group, k, "bottom_m"),
+                    (*where, "bottom_m"),
                     f"spans {m_bottom:.3f}..{m_top:.3f} m up, not inside the frame's opening {bottom:.3f}..{top:.3f} m",
                 )
     if spec.top_rails and spec.top_panel:
