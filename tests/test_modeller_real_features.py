@@ -522,3 +522,13 @@ def test_the_gate_refuses_inset_doors_without_clearance(tmp_path: Path, meeting_
     assert collisions.passed == passes, collisions.detail
     if not passes:
         assert "'door_0' and 'door_1'" in collisions.detail and "deg from rest" in collisions.detail
+
+
+def test_the_face_frame_unit_measured_at_the_free_corner_has_its_hinge_lines_too(tmp_path: Path) -> None:
+    """The same doors read the guide's other way: the free corner at 45 and 90 degrees."""
+    from modeller.specs.cabinet_geometry import door_hinge_point_m
+
+    _, axes = _real_unit()
+    spec = load_spec(write_spec(tmp_path, _unit_spec("free_corner")))
+    for k, door in enumerate(spec.doors):
+        assert np.linalg.norm(door_hinge_point_m(spec, door)[:2] - axes[k]) < 0.005  # 0.9 and 0.8 mm measured
