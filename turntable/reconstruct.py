@@ -184,10 +184,10 @@ def estimate_poses(
     # Blur: a turntable's frames see the same scene, so a frame far less sharp than the
     # median is blurred (auto exposure, motion); its tag corners and colours would smear.
     median = float(np.nanmedian(list(sharpness_of.values()))) if sharpness_of else 0.0
-    for stem in list(poses):
-        if sharpness_of[stem] < options.blur_ratio * median:
-            del poses[stem]
-            skipped[stem] = f"blur: sharpness {sharpness_of[stem]:.0f} below {options.blur_ratio} x the median {median:.0f}"
+    for stem, sharp in sharpness_of.items():  # blur is the reason, also where it cost the pose
+        if sharp < options.blur_ratio * median:
+            poses.pop(stem, None)
+            skipped[stem] = f"blur: sharpness {sharp:.0f} below {options.blur_ratio} x the median {median:.0f}"
     if len(poses) < options.min_frames:
         examples = "; ".join(f"{s}: {r}" for s, r in list(skipped.items())[:3])
         raise ModelError(

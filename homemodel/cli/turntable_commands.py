@@ -1,4 +1,5 @@
-"""`homemodel turntable board|simulate|reconstruct`: the AprilTag turntable (D3.1 section 3.3.3)."""
+"""`homemodel turntable board|simulate|reconstruct|import|capture`: the AprilTag turntable (D3.1
+section 3.3.3), and real cameras' recordings and live streams as its captures."""
 
 from __future__ import annotations
 
@@ -32,6 +33,18 @@ class LightingChoice(str, enum.Enum):
 class DepthFormatChoice(str, enum.Enum):
     png = "png"
     exr = "exr"
+
+
+class RecordingFormat(str, enum.Enum):
+    realsense_bag = "realsense-bag"
+    ros1 = "ros1"
+    ros2 = "ros2"
+    tum = "tum"
+    open3d = "open3d"
+
+
+class DeviceChoice(str, enum.Enum):
+    realsense = "realsense"
 
 
 class DetectorChoice(str, enum.Enum):
@@ -221,3 +234,105 @@ def reconstruct(
     typer.echo(f"model: {out}")
     if result.registration is not None:
         echo_registration(result.registration)
+
+
+@turntable_app.command("import")
+def import_(
+    recording: Path = typer.Argument(..., help="RealSense .bag, ROS 1 .bag, ROS 2 bag folder, TUM or Open3D folder"),
+    board_yaml: Path = typer.Option(..., "--board", help="the turntable's board.yaml"),
+    out: Path = typer.Option(..., "--out", help="capture folder to write"),
+    camera_yaml: Path | None = typer.Option(
+        None, "--camera", help="camera.yaml for recordings without intrinsics (TUM); a file's own intrinsics win"
+    ),
+    form: RecordingFormat | None = typer.Option(None, "--format", help="default: told from the recording's layout"),
+    every: int = typer.Option(1, "--every", help="keep every N-th associated frame"),
+    start_s: float = typer.Option(0.0, "--start", help="seconds from the recording's start"),
+    end_s: float | None = typer.Option(None, "--end", help="seconds from the recording's start"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Turn a real RGB-D camera's recording into a capture folder (depth registered to colour)."""
+    from homemodel.core.errors import InputError
+    from turntable.recordings import ImportOptions, import_recording
+
+    console = make_console()
+    with exit_on_error():
+        options = ImportOptions(
+            format=None if form is None else form.value,
+            camera_path=camera_yaml,
+            every=every,
+            start_s=start_s,
+            end_s=end_s,
+        )
+        try:
+            options.check()
+        except ValueError as exc:
+            raise InputError(f"import: {exc}") from None
+        with stage_bars(console) as progress:
+            report = import_recording(recording, board_yaml, out, options, progress=progress, force=force)
+    dropped = report.frames_dropped
+    rows = [
+        ("format", report.format),
+        ("frames read", f"{report.color_frames} colour, {report.depth_frames} depth"),
+        ("pairs associated", f"{report.pairs_associated} (largest offset {report.max_time_offset_ms:.1f} ms)"),
+        ("frames dropped", f"{dropped['color']} colour, {dropped['depth']} depth"),
+        ("frames written", str(report.frames_written)),
+        ("depth registration", report.registration),
+        ("depth units", f"{report.depth_scale_m * 1000:g} mm"),
+        ("intrinsics from", report.intrinsics_from),
+        ("time", f"{report.time_s:.1f} s"),
+    ]
+    console.print(figures_table(f"homemodel turntable import {recording}", rows))
+    for line in report.intrinsics_disagreement + report.notes:
+        console.print(f"warning: {line}")
+    typer.echo(f"capture: {out}")
+
+
+@turntable_app.command()
+def capture(
+    out: Path = typer.Option(..., "--out", help="capture folder to write"),
+    board_yaml: Path = typer.Option(..., "--board", help="the turntable's board.yaml"),
+    device: DeviceChoice = typer.Option(DeviceChoice.realsense, "--device"),
+    serial: str | None = typer.Option(None, "--serial", help="the camera's serial number (default: the only one)"),
+    playback: Path | None = typer.Option(None, "--playback", help="play this RealSense .bag instead of a camera"),
+    step_deg: float = typer.Option(5.0, "--step-deg", help="keep a frame each time the table turned this much"),
+    force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
+) -> None:
+    """Record one turn of the table from a connected camera; stops by itself once the circle is covered."""
+    from rich.live import Live
+
+    from homemodel.core.errors import InputError
+    from turntable.board import load_board
+    from turntable.capture_live import LiveCaptureOptions, LiveStatus, capture_turn
+    from turntable.recordings.realsense import RealSenseSource
+
+    console = make_console()
+
+    def view(status: LiveStatus) -> str:
+        bar = "".join("#" if seen else "." for seen in status.covered)
+        lines = [
+            f"frames {status.frames_seen}, kept {status.frames_kept}; turned {status.turned_deg:6.1f} deg",
+            f"circle [{bar}] {status.covered.mean() * 100:.0f} %",
+            f"tags seen: {len(status.tag_ids)} {status.tag_ids[:12]}",
+        ]
+        if status.warning:
+            lines.append(f"[yellow]warning: {status.warning}[/]")
+        return "\n".join(lines)
+
+    with exit_on_error():
+        options = LiveCaptureOptions(step_deg=step_deg)
+        try:
+            options.check()
+        except ValueError as exc:
+            raise InputError(f"capture: {exc}") from None
+        board = load_board(board_yaml)
+        source = RealSenseSource(bag=playback, serial=serial)
+        with Live("waiting for frames", console=console, refresh_per_second=8, transient=True) as live:
+            result = capture_turn(source, board, out, options, on_status=lambda s: live.update(view(s)), force=force)
+    rows = [
+        ("frames seen / kept", f"{result.frames_seen} / {result.frames_kept}"),
+        ("turned", f"{result.turned_deg:.1f} deg"),
+        ("circle covered", f"{result.coverage * 100:.0f} %" + ("" if result.complete else " (stopped early)")),
+        ("warnings", f"{result.warnings['blur']} blurred, {result.warnings['tags']} with too few tags"),
+    ]
+    console.print(figures_table(f"homemodel turntable capture --device {device.value}", rows))
+    typer.echo(f"capture: {out}")

@@ -105,7 +105,7 @@ def intrinsics_disagreement(given: Camera, found: Camera) -> list[str]:
     return [f"--camera: {line} (the recording's kept)" for line in lines]
 
 
-def _depth_image(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
+def registered_depth_m(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
     """The pair's depth in colour's pixels, in metres (NaN: none)."""
     depth = pair.depth.astype(np.float64)
     if pair.depth.dtype == np.uint16:
@@ -163,7 +163,7 @@ def import_recording(
             if not cv2.imwrite(str(tmp / "color" / f"{stem}.png"), cv2.cvtColor(pair.color, cv2.COLOR_RGB2BGR)):
                 raise InputError(f"{tmp}: cannot write a colour frame")
             try:
-                depth = _depth_image(pair, setup)
+                depth = registered_depth_m(pair, setup)
             except InputError as exc:
                 raise InputError(f"{recording}: {exc}") from None
             write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
@@ -184,9 +184,9 @@ def import_recording(
             frames_dropped={"color": counts.dropped_color, "depth": counts.dropped_depth},
             max_time_offset_ms=1000 * counts.max_offset_s,
             mean_time_offset_ms=1000 * float(np.mean(offsets)),
-            registration="sdk"
-            if setup.format.startswith("realsense")
-            else ("reprojected" if setup.depth_camera is not None else "recording"),
+            registration="reprojected"
+            if setup.depth_camera is not None
+            else ("sdk" if setup.format.startswith("realsense") else "recording"),
             intrinsics_from=setup.intrinsics_from,
             intrinsics_disagreement=disagreement,
             notes=setup.notes,

@@ -150,6 +150,18 @@ class RealSenseSource(FrameSource):
             raise InputError(f"{self.where}: the colour stream has no intrinsics")
         camera, notes = camera_from_intrinsics(intrinsics, depth_scale)
         self._align = rs.align(rs.stream.color)
+        setup = StreamSetup(format="realsense-bag" if self.bag else "realsense-live", color_camera=camera, notes=notes)
+        if intrinsics.model in (rs.distortion.brown_conrady, rs.distortion.kannala_brandt4) and any(intrinsics.coeffs):
+            # The SDK's align lands depth up to mm off the truth under a forward-distorting colour
+            # lens here (measured against ray-cast depth); D400 colour uses inverse Brown-Conrady.
+            depth_intrinsics = streams[rs.stream.depth].as_video_stream_profile().get_intrinsics()
+            setup.depth_camera, depth_notes = camera_from_intrinsics(depth_intrinsics, depth_scale)
+            extrinsics = streams[rs.stream.depth].get_extrinsics_to(streams[rs.stream.color])
+            setup.color_from_depth = np.eye(4)
+            setup.color_from_depth[:3, :3] = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T
+            setup.color_from_depth[:3, 3] = extrinsics.translation
+            setup.notes += depth_notes + ["a distorting colour lens: depth reprojected here, not by the SDK's align"]
+            self._align = None
         # The SDK's align keeps each depth pixel's own z (the depth camera's), not the z in
         # colour's frame: off by the cameras' relative tilt (mm at a metre for half a degree).
         # The point lies on its colour pixel's ray r at z_c: z_d = z_c (R^T r)_z - (R^T t)_z.
@@ -161,7 +173,7 @@ class RealSenseSource(FrameSource):
         self._z_offset_m = float((rotation.T @ translation)[2])
         if self.tolerance_s is None:  # half a frame interval
             self.tolerance_s = min(0.5 / max(streams[rs.stream.color].fps(), 1), MAX_TOLERANCE_S)
-        return StreamSetup(format="realsense-bag" if self.bag else "realsense-live", color_camera=camera, notes=notes)
+        return setup
 
     def _colour_z(self, units: np.ndarray) -> np.ndarray:
         """Aligned depth units to float32 metres along colour's axis (NaN: none)."""
@@ -210,13 +222,13 @@ class RealSenseSource(FrameSource):
                 kept += 1
                 if (kept - 1) % self.every:
                     continue
-                aligned = self._align.process(frames)
-                yield RgbdPair(
-                    time_s=time_s,
-                    color=_rgb(aligned.get_color_frame()),
-                    depth=self._colour_z(np.asanyarray(aligned.get_depth_frame().get_data())),
-                    depth_offset_s=offset_s,
-                )
+                if self._align is None:  # registered by the reader of the pairs (setup.depth_camera)
+                    color_image, depth_image = _rgb(color), np.asanyarray(depth.get_data()).copy()
+                else:
+                    aligned = self._align.process(frames)
+                    color_image = _rgb(aligned.get_color_frame())
+                    depth_image = self._colour_z(np.asanyarray(aligned.get_depth_frame().get_data()))
+                yield RgbdPair(time_s=time_s, color=color_image, depth=depth_image, depth_offset_s=offset_s)
         finally:
             for kind in ("color", "depth"):
                 numbers = seen[kind]
