@@ -385,3 +385,42 @@ def test_an_inset_door_without_clearance_cuts_its_frame_with_its_free_corner(
 def test_collision_options_refuse_negative_tolerances() -> None:
     with pytest.raises(ValueError, match="hinge_rub_tolerance_m=-0.001"):
         CollisionOptions(hinge_rub_tolerance_m=-0.001).check()
+
+
+# The inset door on a cup hinge's axis, 4 mm behind its face and 4 mm in from its edge: its
+# outer hinge-side corner swings out by (sqrt(2) - 1) x 4 = 1.66 mm, into the side if the
+# reveal there is smaller.
+INSET_CUP = """<?xml version="1.0"?>
+<robot name="inset_cup">
+  <link name="body">{inertial}
+    <collision name="left"><origin xyz="-0.15 -0.009 0.4"/><geometry><box size="0.3 0.018 0.8"/></geometry></collision>
+    <collision name="right"><origin xyz="-0.15 0.411 0.4"/><geometry><box size="0.3 0.018 0.8"/></geometry></collision>
+  </link>
+  <link name="door">{inertial}
+    <collision><origin xyz="-0.005 {door_y} 0.35"/><geometry><box size="0.018 {door_w} 0.7"/></geometry></collision>
+  </link>
+  <joint name="door_hinge" type="revolute">
+    <parent link="body"/><child link="door"/><origin xyz="-0.004 {axis_y} 0.05"/><axis xyz="0 0 -1"/>
+    <limit lower="0" upper="1.9" effort="10" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.mark.parametrize(("reveal_m", "verdict"), [(0.0, "fails"), (0.001, "rubs"), (0.002, "clear")])
+def test_an_inset_door_touching_its_side_when_shut_fails_and_one_with_a_reveal_rubs_or_clears(
+    tmp_path: Path, reveal_m: float, verdict: str
+) -> None:
+    width = 0.4 - reveal_m - 0.002  # 2 mm clear on the free side
+    axis_y = reveal_m + 0.004
+    urdf = tmp_path / "model.urdf"
+    urdf.write_text(INSET_CUP.format(inertial=INERTIAL, axis_y=axis_y, door_y=reveal_m + width / 2 - axis_y, door_w=width))
+    check = collisions_check(urdf)
+    assert check.passed == (verdict != "fails"), check.detail
+    assert ("WARNING" in check.detail) == (verdict == "rubs"), check.detail
+    if verdict == "fails":
+        assert "touching it at rest (no clearance)" in check.detail
+        assert max(_depths_mm(check.detail)) == pytest.approx(1.66, abs=0.25)
+    if verdict == "rubs":
+        (depth,) = _depths_mm(check.detail.split("WARNING")[1])
+        assert depth == pytest.approx(0.66, abs=0.25)

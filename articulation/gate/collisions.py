@@ -25,8 +25,9 @@ a real frame, rubs the frame at its hinge-side edge by a millimetre or two as it
 real hinge's linkage is not one fixed axis. A contact between a revolute joint's child and
 its parent that lies within `hinge_zone_m` of the joint's axis and goes at most
 `hinge_rub_tolerance_m` deep (3 mm) is reported as a warning with its depth, and the check
-passes; deeper, or anywhere else (a door's free edge, a drawer, a part going through the
-body), it fails. A door swung the wrong way goes centimetres in and still fails.
+passes; deeper, anywhere else (a door's free edge, a drawer, a part going through the
+body), or by a part that touches the body when shut (an inset door without clearance), it
+fails. A door swung the wrong way goes centimetres in and still fails.
 
 Why 0.05 mm elsewhere: parts that are meant to touch (a closed door on its frame, a drawer on
 its floor) meet at distance zero, which pybullet's GJK/EPA reports to about a micrometre for
@@ -234,11 +235,11 @@ def _contacts(pb: Any, client: int, body: int, links: _Links) -> dict[tuple[int,
     return contacts
 
 
-def _close_at_rest(pb: Any, client: int, body: int, links: _Links) -> set[int]:
-    """The movable joints whose child (with the parts welded to it) lies within
-    `_CLOSE_AT_REST_M` of a part it is not welded to, everything at rest."""
+def _gaps_at_rest(pb: Any, client: int, body: int, links: _Links) -> dict[frozenset[int], float]:
+    """Everything at rest, the gap between each moving part (a joint's child with the parts
+    welded to it) and each part it is not welded to, where under `_CLOSE_AT_REST_M`."""
     moving = {links.group[joint.index] for joint in links.joints}
-    close_groups = set()
+    gaps: dict[frozenset[int], float] = {}
     for index in links.with_shapes:
         if links.group[index] not in moving:
             continue
@@ -246,10 +247,11 @@ def _close_at_rest(pb: Any, client: int, body: int, links: _Links) -> set[int]:
         reach = _CLOSE_AT_REST_M + 2 * BULLET_MESH_MARGIN_M
         for point in pb.getClosestPoints(body, body, reach, linkIndexA=index, physicsClientId=client):
             a, b = point[3], point[4]
-            if links.group[a] != links.group[b] and point[8] - links.margin_m[a] - links.margin_m[b] < _CLOSE_AT_REST_M:
-                close_groups.add(links.group[index])
-                break
-    return {joint.index for joint in links.joints if links.group[joint.index] in close_groups}
+            gap = point[8] - links.margin_m[a] - links.margin_m[b]
+            pair = frozenset((links.group[a], links.group[b]))
+            if len(pair) == 2 and gap < min(_CLOSE_AT_REST_M, gaps.get(pair, math.inf)):
+                gaps[pair] = gap
+    return gaps
 
 
 def _world_from_link(pb: Any, client: int, body: int, index: int) -> np.ndarray:
@@ -314,7 +316,9 @@ def collision_problems(
     links = _Links(pb, client, body)
     for joint in links.joints:
         pb.resetJointState(body, joint.index, joint.rest, physicsClientId=client)
-    configurations = _configurations(links.joints, _close_at_rest(pb, client, body, links))
+    gaps_at_rest = _gaps_at_rest(pb, client, body, links)
+    close_at_rest = {joint.index for joint in links.joints if any(links.group[joint.index] in pair for pair in gaps_at_rest)}
+    configurations = _configurations(links.joints, close_at_rest)
     problems: list[str] = []
     rubs: dict[str, tuple[float, str]] = {}  # the deepest rub of each joint
     at_rest: dict = {}
@@ -337,7 +341,11 @@ def collision_problems(
             if _at_hinge(links, moved, (a, b)):
                 off_line = _from_hinge_line_m(pb, client, body, moved, contact.where_m)
                 said += f" {_where(contact)}, {off_line * 1000:.0f} mm from its hinge line"
-                if off_line <= options.hinge_zone_m and contact.depth_m <= options.hinge_rub_tolerance_m:
+                # A front touching the body when shut has no clearance to rub with: that fails.
+                touching = gaps_at_rest.get(frozenset((links.group[a], links.group[b])), math.inf) <= allowed
+                if touching:
+                    said += ", touching it at rest (no clearance)"
+                elif off_line <= options.hinge_zone_m and contact.depth_m <= options.hinge_rub_tolerance_m:
                     if contact.depth_m > rubs.get(moved.name, (0.0, ""))[0]:
                         rubs[moved.name] = (contact.depth_m, f"{configuration.label}: {said}")
                     continue
