@@ -63,7 +63,7 @@ PENETRATION_TOLERANCE_M = 5e-5
 MESH_PENETRATION_TOLERANCE_M = 1e-3
 HINGE_RUB_TOLERANCE_M = 3e-3
 # A contact this close to a hinge's axis is at its hinge line: the hinge-side edge of a door
-# up to 40 mm thick, with its axis up to the modeller's 10 cm from the edge.
+# up to 65 mm thick (a microwave's) with its axis inside it or a few centimetres behind.
 HINGE_ZONE_M = 0.05
 # pybullet's URDF importer gives every convex mesh collision shape this margin (Bullet's
 # gUrdfDefaultCollisionMargin); boxes, cylinders and spheres have their margin inside.
