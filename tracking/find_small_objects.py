@@ -25,6 +25,10 @@ from tracking.fit_view import FitView, chromaticity
 from tracking.report import SmallObjectReport
 
 
+# A small object stands at most this high on its surface.
+MAX_HEIGHT_M = 0.35
+
+
 @dataclass(kw_only=True)
 class SmallObjectSearch:
     """How small objects are looked for."""
@@ -72,30 +76,30 @@ class _Candidate:
 
 
 def find_small_objects(
-    state: FitState, full: FitView, fine: FitView, in_view: list[str], search: SmallObjectSearch
+    state: FitState, full: FitView, in_view: list[str], search: SmallObjectSearch
 ) -> list[SmallObjectReport]:
-    """A report for each small object whose parent is in view; found ones get their pose in
-    `state`."""
-    smalls = [
-        obj for obj in state.scene.objects.values()
-        if isinstance(obj.node, SmallObject) and obj.node.parent in in_view
-    ]
-    if not smalls:
+    """A report for each small object whose parent is in view, and for each found on an
+    object in view though its parent is not; found ones get their pose in `state`."""
+    smalls = [obj for obj in state.scene.objects.values() if isinstance(obj.node, SmallObject)]
+    if not smalls or not in_view:
         return []
     poses = state.map_from_parts()
     context = state.renderer.render(poses, full.camera, full.map_from_camera, only=state.context_parts)
     scene_depth = np.where(context.hit, context.depth_m, np.inf)
     clusters = _clusters(state, full, scene_depth, in_view, search)
     reports: dict[str, SmallObjectReport] = {}
-    # Where the map has them first, for all of them; then the moved ones anywhere else.
+    # Where the map has them first, for all of them; then the moved ones anywhere else (an
+    # object whose parent is out of view can only have moved into view).
     for moved in (False, True):
         for obj in smalls:
-            if obj.id in reports:
+            if obj.id in reports or (not moved and obj.node.parent not in in_view):
                 continue
             home = state.map_from_objects[obj.id][:2, 3]
+            size = obj.model.world_mesh().extents
             choices = [
                 c for c in clusters
-                if not c.used and (c.owner == obj.node.parent and np.linalg.norm(c.centre_xy - home) < search.search_radius_m) != moved
+                if not c.used and _fits(c, size)
+                and (c.owner == obj.node.parent and np.linalg.norm(c.centre_xy - home) < search.search_radius_m) != moved
             ]
             choices.sort(key=lambda c: np.linalg.norm(c.centre_xy - home))
             for cluster in choices:
@@ -113,11 +117,19 @@ def find_small_objects(
                 )
                 break
     for obj in smalls:
-        if obj.id not in reports:
+        if obj.id not in reports and obj.node.parent in in_view:
             status = "not found" if _place_in_view(state, full, scene_depth, obj.id, search) else "not seen"
             reports[obj.id] = SmallObjectReport(id=obj.id, status=status, parent=obj.node.parent,
                                                 previous_parent=obj.node.parent, relation=obj.node.relation)
-    return [reports[obj.id] for obj in smalls]
+    return [reports[obj.id] for obj in smalls if obj.id in reports]
+
+
+def _fits(cluster: _Cluster, size_m: np.ndarray, margin_m: float = 0.05) -> bool:
+    """Whether the cluster could be the object: no wider than its footprint's diagonal, no
+    taller than it (a box in front of a cupboard is not a cup)."""
+    low, high = cluster.points.min(axis=0), cluster.points.max(axis=0)
+    wide = np.hypot(*size_m[:2]) + margin_m
+    return bool((high[:2] - low[:2] <= wide).all() and high[2] - cluster.height_m <= size_m[2] + margin_m)
 
 
 def _render_object(state: FitState, view: FitView, object_id: str, map_from_object: np.ndarray):
@@ -178,13 +190,18 @@ def _clusters(
         if not len(triangles):
             continue
         heights = triangles[:, :, 2].mean(axis=1)
-        above = (points[:, 2:3] - heights[None, :] > 0.003) & (points[:, 2:3] - heights[None, :] < 0.35)
-        over = _under(points[:, :2], triangles) & above
+        low, high = triangles.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).max(axis=0)
+        near = points[
+            (points[:, 0] >= low[0]) & (points[:, 0] <= high[0]) & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1])
+            & (points[:, 2] > low[2]) & (points[:, 2] < high[2] + MAX_HEIGHT_M)
+        ]
+        above = (near[:, 2:3] - heights[None, :] > 0.003) & (near[:, 2:3] - heights[None, :] < MAX_HEIGHT_M)
+        over = _under(near[:, :2], triangles) & above
         # Each point stands on the highest surface beneath it.
         support = np.where(over, heights[None, :], -np.inf).max(axis=1)
         on = np.isfinite(support)
         for height in np.unique(np.round(support[on], 3)):
-            chosen = points[on & (np.abs(support - height) < 0.0015)]
+            chosen = near[on & (np.abs(support - height) < 0.0015)]
             if len(chosen) < search.min_cluster_points:
                 continue
             cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(chosen))
@@ -250,7 +267,7 @@ def _refine(
         source = cluster.points[distance < gate]
         if len(source) < 4:
             return None
-        correction = icp_correction(source, target, normals, gate_m=gate, kernel_m=kernel, planar=True)
+        correction = icp_correction(source, target, normals, gate_m=gate, kernel_m=max(kernel, gate / 2), planar=True)
         if correction is None:
             return None
         pose = np.linalg.inv(correction) @ pose

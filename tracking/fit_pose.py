@@ -58,7 +58,11 @@ def refine_pose(
         source = view.points_map(view.depth_m, source_mask)
         target = view.points_map(rendering.depth_m, mine)
         target_normals = rendering.normals_camera[mine] @ rotation.T
-        target_from_source = icp_correction(source, target, target_normals, gate_m=gate_m, kernel_m=kernel_m, planar=planar)
+        # A kernel narrower than the misalignment gives every point zero weight: it narrows
+        # with the gate, down to the noise.
+        target_from_source = icp_correction(
+            source, target, target_normals, gate_m=gate_m, kernel_m=max(kernel_m, gate_m / 2), planar=planar
+        )
         if target_from_source is None:
             return fit
         # The source is the object where it is, the target where the map has it.
@@ -89,7 +93,7 @@ def icp_correction(
         gate_m,
         np.eye(4),
         reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=kernel_m)),
-        reg.ICPConvergenceCriteria(max_iteration=30, relative_fitness=1e-7, relative_rmse=1e-7),
+        reg.ICPConvergenceCriteria(max_iteration=20, relative_fitness=1e-6, relative_rmse=1e-6),
     )
     if planar:
         local = _constrained(_planar(result.transformation), target - centre, target_normals)

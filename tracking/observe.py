@@ -55,7 +55,7 @@ class ObserveOptions:
     min_tolerance_m: float = 0.01
     tolerance_sigmas: float = 3.0
     min_object_pixels: int = 40  # observed pixels of the coarse view for an object to be in view
-    pose_gates_m: tuple[float, ...] = (0.05, 0.03, 0.02)
+    pose_gates_m: tuple[float, ...] = (0.05, 0.02)
     # The fixed links refine the pose first when they make up this share of the object's
     # observed pixels; fewer (a fridge seen from the front is mostly door) pin it down too
     # weakly, so the joints are fitted first, at the map's pose.
@@ -113,8 +113,19 @@ def observe(
     """Fit the map's models (a map file, or its loaded `HomeScene`) to one observation (an
     observation folder, or one read) and return the updated map and the report; `time`
     (default now, UTC) stamps the history records of what changed. Nothing is written."""
+    from threadpoolctl import threadpool_limits
+
     options = options or ObserveOptions()
     options.check()
+    # Thousands of 4x4 inversions: BLAS threads only cost wake-ups (2 ms each under load).
+    with threadpool_limits(1, user_api="blas"):
+        return _observe(map, observation, options, progress, time)
+
+
+def _observe(
+    map: Path | HomeScene, observation: Path | Observation, options: ObserveOptions, progress: Progress | None,
+    time: datetime | None,
+) -> ObserveResult:
     clock = StageClock(progress)
     clock.start("read")
     name, observation = _read(observation)
@@ -141,7 +152,7 @@ def observe(
         reports.append(_fit_large_object(state, coarse, fine, object_id, pixels, options))
         clock.tick(done + 1, len(in_view))
     clock.start("small objects")
-    small = find_small_objects(state, views[1], fine, [r.id for r in reports], options.small_objects)
+    small = find_small_objects(state, views[1], [r.id for r in reports], options.small_objects)
     for report in reports:
         report.small_objects = [s for s in small if s.parent == report.id or s.previous_parent == report.id]
     clock.stop()
@@ -192,12 +203,13 @@ def _fit_large_object(
     if joints:
         # Again with the turning parts at their fitted angles (a door constrains the pose
         # too; a drawer front, parallel to the body's, would trade its slide for the body's
-        # shift), then the fitted joints once more, near where they are.
+        # shift), then the fitted joints once more, near where they are, and the others
+        # searched again at the better pose.
         steady = [i for i in state.object_parts(object_id) if not _slides(state, object_id, i)]
         fit = refine_pose(state, fine, object_id, steady, background, **pose_kwargs) or fit
         for joint in joints:
-            if results[joint][0] == "fitted":
-                results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=True)
+            refit = results[joint][0] == "fitted"
+            results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=refit)
     refined = fit is not None and fit.inlier_fraction >= options.min_pose_inliers
     if not refined:
         state.map_from_objects[object_id] = previous_pose
@@ -314,14 +326,13 @@ def _updated_map(scene: HomeScene, state: FitState, reports: list[ObjectReport],
                 node = smap.node(report.id)
                 assert isinstance(node, LargeObject) and isinstance(node, Jointed)
                 smap.set_joint_state(report.id, joint.name, float(np.clip(joint.position, *_limits(node, joint.name))), at)
-        for small in report.small_objects:
-            if small.status != "found" or small.previous_parent != report.id:
-                continue
-            if small.parent == small.previous_parent:
-                smap.update_pose(small.id, small.parent_from_object, at)
-            else:
-                smap.move_object(small.id, parent_id=small.parent, relation=small.relation,
-                                 parent_from_object=small.parent_from_object, time=at)
+    found = {s.id: s for report in reports for s in report.small_objects if s.status == "found"}
+    for small in found.values():
+        if small.parent == small.previous_parent:
+            smap.update_pose(small.id, small.parent_from_object, at)
+        else:
+            smap.move_object(small.id, parent_id=small.parent, relation=small.relation,
+                             parent_from_object=small.parent_from_object, time=at)
     return smap
 
 
