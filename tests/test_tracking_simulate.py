@@ -14,6 +14,7 @@ import yaml
 from typer.testing import CliRunner
 
 from homemodel.cli import app
+from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_along
 from homemodel.geometry.camera import Camera
 from tracking.observation_files import read_observation, save_observation_camera
@@ -236,7 +237,7 @@ def test_an_observation_whose_depth_disagrees_with_its_camera_is_refused(
     map_from_camera = simulator.camera_looking_at("fridge_1")
     write_view(simulator.render(CAMERA, map_from_camera), tmp_path / "obs")
     save_observation_camera(tmp_path / "obs" / "camera.yaml", CAMERA.scaled(2.0), map_from_camera)
-    with pytest.raises(Exception, match=r"depth.png: the image is 160x120 but camera.yaml says 320x240"):
+    with pytest.raises(InputError, match=r"depth.png: the image is 160x120 but camera.yaml says 320x240"):
         read_observation(tmp_path / "obs")
     # An existing folder is kept unless --force.
     save_observation_camera(tmp_path / "camera.yaml", CAMERA, map_from_camera)
