@@ -15,7 +15,8 @@ from semantic_map.nodes import Jointed, MapObject, Room
 from semantic_map.xml_io import load_map
 
 
-def _model_path(map_path: Path, obj: MapObject) -> Path:
+def model_path(map_path: Path, obj: MapObject) -> Path:
+    """The model (URDF) of a map object: its `model` reference, relative to the map's folder."""
     if obj.model_ref is None:
         raise InputError(f"{map_path}: object {obj.id!r} has no model (its 'model' attribute is missing)")
     path = (map_path.parent / obj.model_ref).resolve()
@@ -27,7 +28,7 @@ def _model_path(map_path: Path, obj: MapObject) -> Path:
 def _scene_object(map_path: Path, smap: SemanticMap, obj: MapObject, *, free: bool) -> SceneObject:
     from articulation.urdf_import import load_urdf
 
-    model = load_urdf(_model_path(map_path, obj))
+    model = load_urdf(model_path(map_path, obj))
     positions = {j.name: j.position for j in obj.joints} if isinstance(obj, Jointed) else {}
     try:
         return SceneObject(
@@ -73,7 +74,7 @@ def _scene_and_sources(map_path: Path, room_id: str | None) -> tuple[Scene, list
         for large in room.objects:
             for obj, free in ((large, False), *((small, True) for small in large.small_objects)):
                 objects.append(_scene_object(map_path, smap, obj, free=free))
-                sources.append(_model_path(map_path, obj).parent)
+                sources.append(model_path(map_path, obj).parent)
     if not objects:
         where = f"room {room_id!r}" if room_id else "the apartment"
         raise InputError(f"{map_path}: {where} has no objects to export")

@@ -30,6 +30,7 @@ from homemodel.core.transforms import as_transform
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import Hits, RayCaster
 from semantic_map.hierarchy import SemanticMap
+from semantic_map.home_scene import model_path
 from semantic_map.nodes import Jointed, MapObject, ObjectJoint, SmallObject
 from semantic_map.xml_io import load_map
 
@@ -108,7 +109,7 @@ class HomeScene:
         objects: dict[str, SceneObject] = {}
         parts: list[Part] = []
         for node in smap.objects():
-            model = load_urdf(_model_path(map_path, node))
+            model = load_urdf(model_path(map_path, node))
             objects[node.id] = SceneObject(node=node, model=model)
             parts.extend(_model_parts(node.id, model))
         if not objects:
@@ -235,15 +236,6 @@ def _named_state(joint: ObjectJoint, text: str) -> float:
         ) from None
 
 
-def _model_path(map_path: Path, obj: MapObject) -> Path:
-    if obj.model_ref is None:
-        raise InputError(f"{map_path}: object {obj.id!r} has no model (its 'model' attribute is missing)")
-    path = (map_path.parent / obj.model_ref).resolve()
-    if not path.is_file():
-        raise InputError(f"{map_path}: object {obj.id!r}: its model {obj.model_ref!r} does not exist")
-    return path
-
-
 def _model_parts(object_id: str, model: Model) -> list[Part]:
     parts = []
     for link in model.links:
@@ -351,6 +343,22 @@ class Renderer:
             rgb=rgb.reshape(*shape, 3),
         )
 
+
+    def depth(
+        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int]
+    ) -> np.ndarray:
+        """(H, W) depth of the parts `only` alone, inf where none is hit: what a fitter
+        scoring many poses of one part needs, without `render`'s normals and colours."""
+        depth = np.full(camera.width * camera.height, np.inf)
+        camera_from_map = np.linalg.inv(as_transform(map_from_camera))
+        for i in only:
+            cast = self._cast(i, camera, camera_from_map @ as_transform(map_from_parts[i]))
+            if cast is None:
+                continue
+            pixels, hits = cast
+            t = np.where(hits.hit & (hits.t >= NEAR_M), hits.t.astype(np.float64), np.inf)
+            depth[pixels] = np.minimum(depth[pixels], t)
+        return depth.reshape(camera.height, camera.width)
 
     def pixels_alone(self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray) -> int:
         """How many pixels part `index` at `map_from_part` covers with nothing else in the scene."""
