@@ -35,7 +35,9 @@ MAX_HOLE_EDGES = 100  # holes bounded by more edges than this are openings, not 
 def to_open3d(mesh: trimesh.Trimesh):  # noqa: ANN201 (open3d is imported lazily)
     import open3d as o3d
 
-    return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(mesh.faces))
+    # int32: Open3D copies int64 faces element by element (5.7 s against 0.03 s for 330k faces).
+    faces = np.ascontiguousarray(mesh.faces, dtype=np.int32)
+    return o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mesh.vertices), o3d.utility.Vector3iVector(faces))
 
 
 def from_open3d(o3d_mesh) -> trimesh.Trimesh:  # noqa: ANN001
