@@ -83,9 +83,7 @@ def find_small_objects(
     smalls = [obj for obj in state.scene.objects.values() if isinstance(obj.node, SmallObject)]
     if not smalls or not in_view:
         return []
-    poses = state.map_from_parts()
-    context = state.renderer.render(poses, full.camera, full.map_from_camera, only=state.context_parts)
-    scene_depth = np.where(context.hit, context.depth_m, np.inf)
+    scene_depth = state.renderer.depth(state.map_from_parts(), full.camera, full.map_from_camera, state.context_parts)
     clusters = _clusters(state, full, scene_depth, in_view, search)
     reports: dict[str, SmallObjectReport] = {}
     # Where the map has them first, for all of them; then the moved ones anywhere else (an

@@ -104,17 +104,12 @@ def _parabola_minimum(values: np.ndarray, costs: np.ndarray) -> float:
     return float(values[k] + 0.5 * step * (c0 - c2) / curvature)
 
 
-def _depth(rendering_depth: np.ndarray) -> np.ndarray:
-    return np.where(rendering_depth > 0, rendering_depth, np.inf)
-
-
 def _static_depth(state: FitState, view: FitView, background: np.ndarray, object_id: str, moving: list[int]) -> np.ndarray:
     """The scene's depth without the moving part."""
     others = [i for i in state.object_parts(object_id) if i not in set(moving)]
     if not others:
         return background
-    rendering = state.renderer.render(state.map_from_parts(), view.camera, view.map_from_camera, only=others)
-    return np.minimum(background, _depth(rendering.depth_m))
+    return np.minimum(background, state.renderer.depth(state.map_from_parts(), view.camera, view.map_from_camera, others))
 
 
 def _moving_depths(
@@ -126,7 +121,7 @@ def _moving_depths(
     for value in values:
         for i, pose in zip(moving, state.part_poses_at(object_id, joint, value, moving)):
             poses[i] = pose
-        depths.append(_depth(state.renderer.render(poses, view.camera, view.map_from_camera, only=moving).depth_m))
+        depths.append(state.renderer.depth(poses, view.camera, view.map_from_camera, moving))
     return np.stack(depths)
 
 

@@ -46,8 +46,7 @@ class FitState:
         """Depth of everything large-object fits render but `object_id` (inf where nothing is
         hit): what stays put while that object is fitted."""
         others = [i for i in self.context_parts if self.scene.parts[i].object_id != object_id]
-        rendering = self.renderer.render(self.map_from_parts(), view.camera, view.map_from_camera, only=others)
-        return np.where(rendering.hit, rendering.depth_m, np.inf)
+        return self.renderer.depth(self.map_from_parts(), view.camera, view.map_from_camera, others)
 
     def map_from_parts(self) -> list[np.ndarray]:
         """`map_from_link` of every part at the current estimates."""
