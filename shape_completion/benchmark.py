@@ -143,15 +143,33 @@ def oracle_mesh(truth: trimesh.Trimesh, library: Library) -> trimesh.Trimesh:
 
 
 def run_benchmark(library: Library, options: BenchmarkOptions, progress: Progress | None = None) -> BenchmarkResult:
+    """Train on the first `train_per_class` meshes of each class, score the next `test_per_class`."""
     options.check()
-    report = progress or no_progress
     train, test = split_library(library, options)
+    return benchmark_split(train, test, options, progress)
+
+
+def benchmark_split(
+    train: Library,
+    test: Library,
+    options: BenchmarkOptions,
+    progress: Progress | None = None,
+    *,
+    completer: ShapeCompleter | None = None,
+) -> BenchmarkResult:
+    """Train on `train` (`completer`, when given, is the one fitted, so a caller can keep it),
+    score every mesh of `test` (whose classes `train` must hold)."""
+    report = progress or no_progress
+    unknown = sorted(set(test.class_names) - set(train.class_names))
+    if unknown:
+        raise InputError(f"test classes {unknown} are not among the training classes {train.class_names}")
     started = time.perf_counter()
-    completer = ShapeCompleter(
+    completer = completer or ShapeCompleter(
         n_views=options.n_views,
         filler_queries_per_class=options.filler_queries_per_class,
         random_state=options.random_state,
-    ).fit(train, progress=report)
+    )
+    completer.fit(train, progress=report)
     training_seconds = time.perf_counter() - started
     rng = np.random.default_rng(options.random_state + 7)
     scores, examples = [], []

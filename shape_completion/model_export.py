@@ -2,14 +2,18 @@
 
 `complete(model_file_or_completer, depth_png, out_dir, CompletionOptions(camera_path=...))`
 reads the query (the depth image, its camera.yaml and an optional mask), completes it with a
-trained `ShapeCompleter` and writes model.urdf, model.glb, meshes/ and summary.json, in the
-query camera's frame (OpenCV: x right, y down, z forward), metres.
+trained `ShapeCompleter` and writes model.urdf, model.glb, meshes/ and summary.json: upright in
+the object frame (+z up, origin on the support under the object) when camera.yaml gives the
+camera's pose or a support plane is seen (`shape_completion.upright`), else in the query
+camera's frame (OpenCV: x right, y down, z forward); summary.json names the frame. Metres.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from articulation.export import write_model_files
 from articulation.scan_model import scan_model
@@ -18,6 +22,8 @@ from homemodel.core.atomic import atomic_dir, prepare_out_dir, write_json
 from homemodel.core.checks import require_positive
 from homemodel.core.progress import Progress, StageClock
 from shape_completion.pipeline import Completion, ShapeCompleter
+from shape_completion.support import SupportPlane
+from shape_completion.upright import object_frame
 
 GREY = (0.7, 0.7, 0.75, 1.0)  # a completed shape has no colour
 
@@ -34,9 +40,17 @@ class CompletionOptions:
         require_positive("density_kg_m3", self.density_kg_m3)
 
 
-def completion_summary(completion: Completion) -> dict:
-    """The figures summary.json holds (and the command prints)."""
+def _matrix(m: np.ndarray | None) -> list[list[float]] | None:
+    return None if m is None else [[float(v) for v in row] for row in m]
+
+
+def completion_summary(completion: Completion, support: SupportPlane | None = None) -> dict:
+    """The figures summary.json holds (and the command prints), in the written mesh's frame."""
     fit = completion.fit
+    frame = completion.frame or object_frame(completion.mesh, map_from_camera=None, support=None, axis=None)
+    object_from_camera = np.linalg.inv(frame.camera_from_object)
+    mesh = completion.object_mesh
+    axis = None if fit.axis is None else fit.axis.transformed(object_from_camera)
     return {
         "class": completion.class_name,
         "retrieved": completion.retrieved_name,
@@ -46,13 +60,19 @@ def completion_summary(completion: Completion) -> dict:
         "symmetry_planes": len(fit.planes_camera),
         # a revolved match's axis fitted to the query (e.g. a cup's, to grasp it around)
         "revolution_axis": None
-        if fit.axis is None
-        else {"point_m": fit.axis.point.tolist(), "direction": fit.axis.direction.tolist()},
-        "triangles": int(len(completion.mesh.faces)),
-        "extents_m": [float(v) for v in completion.mesh.extents],
-        "watertight": bool(completion.mesh.is_watertight),
+        if axis is None
+        else {"point_m": axis.point.tolist(), "direction": axis.direction.tolist()},
+        "triangles": int(len(mesh.faces)),
+        "extents_m": [float(v) for v in mesh.extents],
+        "watertight": bool(mesh.is_watertight),
         "times_s": dict(completion.times_s),
-        "frame": "query camera, OpenCV (x right, y down, z forward), metres",
+        "frame": frame.description,
+        "up_from": frame.up_from,
+        "camera_from_object": _matrix(frame.camera_from_object),
+        "map_from_object": _matrix(frame.map_from_object),
+        "support_plane": None
+        if support is None
+        else {"normal_camera": support.normal.tolist(), "offset_m": support.offset_m, "pixels": support.inlier_pixels},
     }
 
 
@@ -86,16 +106,19 @@ def complete(
     if model_path is not None:
         expected = fingerprint_files(library_files(options.library_dir)) if options.library_dir is not None else None
         model = load_model(model_path, library_fingerprint=expected)
-    depth, pinhole = load_query(depth_png, camera_path, options.mask_path)
+    query = load_query(depth_png, camera_path, options.mask_path)
     clock.stop()
     with errors_naming(depth_png):
-        completion = model.complete(depth, pinhole, progress=progress)
+        completion = model.complete(query.depth_m, query.camera, progress=progress)
     completion.times_s = {**clock.times_s, **completion.times_s}
+    completion.frame = object_frame(
+        completion.mesh, map_from_camera=query.map_from_camera, support=query.support, axis=completion.fit.axis
+    )
     clock.start("export", 1)
     with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:
         write_model_files(
             scan_model(
-                completion.mesh,
+                completion.object_mesh,
                 name=options.name or depth_png.stem,
                 density_kg_m3=options.density_kg_m3,
                 rgba=GREY,
@@ -106,5 +129,5 @@ def complete(
         )
         clock.stop()
         completion.times_s["export"] = clock.times_s["export"]
-        write_json(tmp / "summary.json", completion_summary(completion))
+        write_json(tmp / "summary.json", completion_summary(completion, query.support))
     return completion

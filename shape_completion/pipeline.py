@@ -24,7 +24,6 @@ from sklearn.base import BaseEstimator
 
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.progress import Progress, StageClock, no_progress
-from homemodel.evaluation.surface import distances_to_surface
 from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
@@ -35,7 +34,13 @@ from shape_completion.library import Library, training_fingerprint, working_mesh
 from shape_completion.matching import ViewForest, aligned_chamfer, quarter_turned
 from shape_completion.queries import FILLER_CAMERA, random_query_pose
 from shape_completion.query_input import MIN_QUERY_PIXELS, check_query
-from shape_completion.registration import apply, camera_facing_normals, subsample, trimmed_icp
+from shape_completion.registration import (
+    apply,
+    camera_facing_normals,
+    mean_distance_to_surface_m,
+    subsample,
+    trimmed_icp,
+)
 from shape_completion.render import camera_from_object_on_sphere, sphere_directions
 from shape_completion.shape_codes import ObjectOccupancy, ShapeBasis
 from shape_completion.spin_images import spin_image_alignment
@@ -45,6 +50,7 @@ from shape_completion.symmetry import (
     revolution_axis,
     symmetry_planes,
 )
+from shape_completion.upright import ObjectFrame
 
 logger = logging.getLogger(__name__)
 
@@ -108,6 +114,15 @@ class Completion:
     class_name: str
     retrieved_name: str
     times_s: dict[str, float]  # query, matching, rigid_fit, deformation, filling
+    # Set by the entry (`shape_completion.complete`): the frame the model folder is written in.
+    frame: ObjectFrame | None = None
+
+    @property
+    def object_mesh(self) -> trimesh.Trimesh:
+        """The completed mesh in `frame` (the camera's when no frame is set)."""
+        if self.frame is None:
+            return self.mesh
+        return self.mesh.copy().apply_transform(np.linalg.inv(self.frame.camera_from_object))
 
     @property
     def retrieved(self) -> trimesh.Trimesh:
@@ -319,7 +334,7 @@ class ShapeCompleter(BaseEstimator):
 
         clock.start("deformation")
         deformed = self._deform(query, shape, camera_from_object, planes, size, rng)
-        fit_distance = float(distances_to_surface(query, deformed).mean())
+        fit_distance = mean_distance_to_surface_m(query, deformed)
         clock.stop()
         return Fit(
             query=query,

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
-from homemodel.geometry.camera import Camera, load_camera
+from homemodel.geometry.camera import Camera, load_camera_and_pose
 from homemodel.geometry.depth_io import read_depth_m
 from shape_completion.features import clean_object_depth
+from shape_completion.support import SupportPlane, find_support
 
 MIN_QUERY_PIXELS = 30  # fewer valid pixels on the object: no query
 
@@ -36,10 +38,23 @@ def read_mask(path: Path) -> np.ndarray:
     return image > 0
 
 
-def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = None) -> tuple[np.ndarray, Camera]:
-    """The object-only depth (metres, NaN elsewhere) and the distortion-free camera it is seen
-    with; every problem is an InputError naming the file."""
-    camera = load_camera(Path(camera_path))
+@dataclass(kw_only=True)
+class Query:
+    """A query read from its files: the object-only depth (metres, NaN elsewhere) and the
+    distortion-free camera it is seen with, the camera's pose in the map when camera.yaml gives
+    one, and the support plane seen under the object, if any."""
+
+    depth_m: np.ndarray
+    camera: Camera
+    map_from_camera: np.ndarray | None
+    support: SupportPlane | None
+
+
+def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = None, *, seed: int = 0) -> Query:
+    """The query of a depth image, its camera.yaml and an optional mask; every problem is an
+    InputError naming the file. Without a mask the object is the blob standing on the support
+    plane when one is seen, else every measured pixel."""
+    camera, map_from_camera = load_camera_and_pose(Path(camera_path))
     depth = read_depth_m(Path(depth_path), depth_scale_m=camera.depth_scale_m)
     if depth.shape != (camera.height, camera.width):
         raise InputError(
@@ -54,14 +69,20 @@ def load_query(depth_path: Path, camera_path: Path, mask_path: Path | None = Non
                 f"{mask_path}: the mask is {mask.shape[1]}x{mask.shape[0]} px, the depth image is"
                 f" {depth.shape[1]}x{depth.shape[0]}"
             )
-        depth[~mask] = np.nan
     if camera.has_distortion:
         depth = undistorted_depth(depth, camera)
+        if mask is not None:
+            mask = undistorted_depth(mask.astype(np.float32), camera) > 0.5
     camera = camera.without_distortion()
+    support, on_support = find_support(depth, camera, mask, np.random.default_rng(seed))
+    object_pixels = mask if mask is not None else on_support
+    if object_pixels is not None:
+        depth = np.where(object_pixels, depth, np.nan).astype(np.float32)
     try:
-        return check_query(depth, camera, None), camera
+        depth = check_query(depth, camera, None)
     except InputError as exc:
         raise InputError(f"{depth_path}: {exc}") from None
+    return Query(depth_m=depth, camera=camera, map_from_camera=map_from_camera, support=support)
 
 
 def check_query(depth_m: np.ndarray, camera: Camera, mask: np.ndarray | None) -> np.ndarray:

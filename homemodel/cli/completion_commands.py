@@ -77,14 +77,21 @@ def train_command(
 def run_command(
     model_file: Path = typer.Argument(..., help="a model file from `homemodel completion train`"),
     depth_png: Path = typer.Argument(..., help="16-bit depth PNG (units of depth_scale_m) or float EXR in metres"),
-    camera: Path = typer.Option(..., "--camera", help="camera.yaml: width, height, fx, fy, cx, cy, depth_scale_m"),
+    camera: Path = typer.Option(
+        ...,
+        "--camera",
+        help="camera.yaml: width, height, fx, fy, cx, cy, depth_scale_m; optional map_from_camera (4x4, the"
+        " camera's pose, OpenCV axes) to write the model upright",
+    ),
     out: Path = typer.Option(..., "--out", help="model folder to write"),
     mask: Path | None = typer.Option(None, "--mask", help="8-bit mask PNG, non-zero on the object"),
     library: Path | None = typer.Option(None, "--library", help="refuse the model unless trained on this library"),
     density_kg_m3: float = typer.Option(700.0, "--density", min=1.0, help="for the inertial, kg/m^3"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
-    """Complete the object seen in one depth image into a model folder, in the camera's frame (OpenCV)."""
+    """Complete the object seen in one depth image into a model folder: upright (+z up, origin on the
+    support under the object) when camera.yaml gives the camera's pose or the depth image shows the
+    support plane, else in the camera's frame (OpenCV); summary.json names the frame."""
     from shape_completion import CompletionOptions, complete
 
     console = make_console()
@@ -99,7 +106,8 @@ def run_command(
         ("fit distance mm", f"{1000 * fit.fit_distance_m:.2f}"),
         ("symmetry planes", str(len(fit.planes_camera))),
         ("triangles", str(len(completion.mesh.faces))),
-        ("size mm", " x ".join(f"{1000 * v:.0f}" for v in completion.mesh.extents)),
+        ("size mm", " x ".join(f"{1000 * v:.0f}" for v in completion.object_mesh.extents)),
+        ("up from", completion.frame.up_from or "[yellow]nothing: in the camera's frame[/]"),
     ] + [(f"{stage} s", f"{seconds:.2f}") for stage, seconds in completion.times_s.items()]
     rows.append(("total s", f"{sum(completion.times_s.values()):.2f}"))
     console.print(figures_table(f"homemodel completion run {depth_png}", rows))

@@ -20,13 +20,14 @@ from homemodel.core.limits import Limit
 ZIP_MAGIC = b"PK\x03\x04"
 
 
-def write_npz(path: Path, arrays: dict[str, np.ndarray], *, overwrite: bool = True) -> None:
-    """Compressed `.npz` of numeric arrays, written atomically (`overwrite=False`: never over a file)."""
+def write_npz(path: Path, arrays: dict[str, np.ndarray], *, overwrite: bool = True, compressed: bool = True) -> None:
+    """`.npz` of numeric arrays, written atomically (`overwrite=False`: never over a file);
+    `compressed=False` for files read often, where inflating costs more than the bytes save."""
     for key, array in arrays.items():
         if np.asarray(array).dtype.hasobject:
             raise ValueError(f"{key}: object arrays cannot be stored without pickle")
     buffer = io.BytesIO()
-    np.savez_compressed(buffer, **arrays)
+    (np.savez_compressed if compressed else np.savez)(buffer, **arrays)
     write_bytes_atomic(Path(path), buffer.getvalue(), overwrite=overwrite)
 
 
