@@ -37,11 +37,6 @@ class TurntableFit:
     accepted: bool
 
 
-def _rz(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 def _rigid(rvec: np.ndarray, t: np.ndarray) -> np.ndarray:
     import cv2
 
@@ -51,16 +46,17 @@ def _rigid(rvec: np.ndarray, t: np.ndarray) -> np.ndarray:
     return m
 
 
-def _unpack(params: np.ndarray, n_frames: int) -> list[np.ndarray]:
+def _unpack(params: np.ndarray, n_frames: int) -> np.ndarray:
+    """(n_frames, 4, 4) `camera_from_table` of every frame, all at once."""
     camera_from_world = _rigid(params[0:3], params[3:6])
     world_from_board = _rigid([params[6], params[7], 0.0], [params[8], params[9], 0.0])
     angles = np.concatenate([[0.0], params[_SHARED : _SHARED + n_frames - 1]])
-    poses = []
-    for angle in angles:
-        turn = np.eye(4)
-        turn[:3, :3] = _rz(angle)
-        poses.append(camera_from_world @ turn @ world_from_board)
-    return poses
+    turns = np.zeros((n_frames, 4, 4))
+    turns[:, 0, 0] = turns[:, 1, 1] = np.cos(angles)
+    turns[:, 1, 0] = np.sin(angles)
+    turns[:, 0, 1] = -turns[:, 1, 0]
+    turns[:, 2, 2] = turns[:, 3, 3] = 1.0
+    return camera_from_world @ turns @ world_from_board
 
 
 def _initial_params(poses: list[np.ndarray], orbit: Circle3D) -> np.ndarray:
@@ -95,19 +91,19 @@ def _initial_params(poses: list[np.ndarray], orbit: Circle3D) -> np.ndarray:
 
 def _levenberg_marquardt(
     residuals: Callable[[np.ndarray], np.ndarray],
-    jacobian: Callable[[np.ndarray], np.ndarray],
+    normal_equations: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
     params: np.ndarray,
     max_iterations: int = 50,
 ) -> tuple[np.ndarray, bool]:
-    """Levenberg-Marquardt on the normal equations. The Jacobian is tall and thin (every corner
-    of every frame by a few hundred parameters): JᵀJ is small and quick to solve, where
-    MINPACK's QR of J took seconds per iteration for 200 frames."""
+    """Levenberg-Marquardt on the normal equations (JᵀJ, Jᵀr at `params`, given the residuals
+    there). The Jacobian is tall and thin (every corner of every frame by a few hundred
+    parameters): JᵀJ is small and quick to solve, where MINPACK's QR of J took seconds per
+    iteration for 200 frames."""
     r = residuals(params)
     cost = float(r @ r)
     damping = 1e-3
     for _ in range(max_iterations):
-        J = jacobian(params)
-        normal, gradient = J.T @ J, J.T @ r
+        normal, gradient = normal_equations(params, r)
         while True:
             step = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12), -gradient)
             trial = params + step
@@ -137,34 +133,47 @@ def fit_turntable(frames: dict[str, FramePose], orbit: Circle3D, camera: Camera)
     image_points = np.concatenate([frames[s].image_points for s in stems])
 
     def residuals(params: np.ndarray) -> np.ndarray:
-        stacked = np.stack(_unpack(params, len(stems)))[frame_of_corner]  # (N, 4, 4)
+        stacked = _unpack(params, len(stems))[frame_of_corner]  # (N, 4, 4)
         points_camera = np.einsum("nij,nj->ni", stacked[:, :3, :3], table_points) + stacked[:, :3, 3]
         return (camera.project(points_camera) - image_points).ravel()
 
-    rows_of_angle = [np.nonzero(frame_of_corner.repeat(2) == k)[0] for k in range(1, len(stems))]
+    frame_of_row = frame_of_corner.repeat(2) - 1  # the angle each residual depends on; -1: frame 0's, fixed
+    moving = frame_of_row >= 0
+    n_angles = len(stems) - 1
 
-    def jacobian(params: np.ndarray) -> np.ndarray:
-        """Forward differences in 11 evaluations: one per shared parameter, and one for all
-        the angles at once (each frame's angle moves only that frame's corners)."""
-        base = residuals(params)
+    def normal_equations(params: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """JᵀJ and Jᵀr from forward differences in 11 evaluations: one per shared parameter,
+        and one for all the angles at once (each frame's angle moves only that frame's
+        corners). The angles' block of J has one entry per row, so its products are sums per
+        frame: never the dense (rows x frames) matrix."""
         step = 1e-7
-        columns = np.zeros((len(base), len(params)))
+        shared = np.empty((len(base), _SHARED))
         for j in range(_SHARED):
             moved = params.copy()
             moved[j] += step
-            columns[:, j] = (residuals(moved) - base) / step
+            shared[:, j] = (residuals(moved) - base) / step
         moved = params.copy()
         moved[_SHARED:] += step
-        change = (residuals(moved) - base) / step
-        for k, rows in enumerate(rows_of_angle):
-            columns[rows, _SHARED + k] = change[rows]
-        return columns
+        angle = (residuals(moved) - base) / step  # row i's derivative by its frame's angle
+        rows, angle_of_row = np.nonzero(moving)[0], frame_of_row[moving]
+        normal = np.zeros((len(params), len(params)))
+        normal[:_SHARED, :_SHARED] = shared.T @ shared
+        cross = np.stack(
+            [np.bincount(angle_of_row, shared[rows, j] * angle[rows], minlength=n_angles) for j in range(_SHARED)]
+        )
+        normal[:_SHARED, _SHARED:] = cross
+        normal[_SHARED:, :_SHARED] = cross.T
+        normal[_SHARED:, _SHARED:] = np.diag(np.bincount(angle_of_row, angle[rows] ** 2, minlength=n_angles))
+        gradient = np.concatenate(
+            [shared.T @ base, np.bincount(angle_of_row, angle[rows] * base[rows], minlength=n_angles)]
+        )
+        return normal, gradient
 
-    params, converged = _levenberg_marquardt(residuals, jacobian, _initial_params(poses, orbit))
+    params, converged = _levenberg_marquardt(residuals, normal_equations, _initial_params(poses, orbit))
     rms = float(np.sqrt(2 * np.mean(residuals(params) ** 2)))  # per corner, as PnP's
     pnp_rms = float(
         np.sqrt(np.sum(counts * np.array([frames[s].reprojection_error_px ** 2 for s in stems])) / counts.sum())
     )
     accepted = converged and rms <= _ACCEPT_RATIO * pnp_rms + _ACCEPT_MARGIN_PX
-    refined = _unpack(params, len(stems)) if accepted else poses
+    refined = list(_unpack(params, len(stems))) if accepted else poses
     return TurntableFit(camera_from_tables=dict(zip(stems, refined)), rms_px=rms, pnp_rms_px=pnp_rms, accepted=accepted)
