@@ -60,6 +60,7 @@ class ObserveOptions:
     # observed pixels; fewer (a fridge seen from the front is mostly door) pin it down too
     # weakly, so the joints are fitted first, at the map's pose.
     min_fixed_share: float = 0.1
+    rounds: int = 3  # of pose and joints refitted after the first fit of the joints
     min_pose_points: int = 150  # fine-view points for a pose refinement
     min_pose_inliers: float = 0.5  # of those, the share the refined pose must explain
     revolute_coarse_step_deg: float = 4.0
@@ -77,7 +78,7 @@ class ObserveOptions:
         for name in (
             "min_tolerance_m", "tolerance_sigmas", "revolute_coarse_step_deg", "revolute_fine_step_deg",
             "prismatic_coarse_step_m", "prismatic_fine_step_m", "min_object_pixels", "min_pose_points",
-            "min_joint_pixels",
+            "min_joint_pixels", "rounds",
         ):
             require_positive(name, getattr(self, name))
         if not self.pose_gates_m or any(not g > 0 for g in self.pose_gates_m):
@@ -108,10 +109,10 @@ def observe(
     options: ObserveOptions | None = None,
     *,
     progress: Progress | None = None,
-    time: datetime | None = None,
+    at: datetime | None = None,
 ) -> ObserveResult:
     """Fit the map's models (a map file, or its loaded `HomeScene`) to one observation (an
-    observation folder, or one read) and return the updated map and the report; `time`
+    observation folder, or one read) and return the updated map and the report; `at`
     (default now, UTC) stamps the history records of what changed. Nothing is written."""
     from threadpoolctl import threadpool_limits
 
@@ -119,12 +120,12 @@ def observe(
     options.check()
     # Thousands of 4x4 inversions: BLAS threads only cost wake-ups (2 ms each under load).
     with threadpool_limits(1, user_api="blas"):
-        return _observe(map, observation, options, progress, time)
+        return _observe(map, observation, options, progress, at)
 
 
 def _observe(
     map: Path | HomeScene, observation: Path | Observation, options: ObserveOptions, progress: Progress | None,
-    time: datetime | None,
+    at: datetime | None,
 ) -> ObserveResult:
     clock = StageClock(progress)
     clock.start("read")
@@ -156,7 +157,7 @@ def _observe(
     for report in reports:
         report.small_objects = [s for s in small if s.parent == report.id or s.previous_parent == report.id]
     clock.stop()
-    smap = _updated_map(scene, state, reports, time or datetime.now(timezone.utc))
+    smap = _updated_map(scene, state, reports, at or datetime.now(timezone.utc))
     return ObserveResult(smap=smap, report=ObservationReport(observation=name, nothing_seen=False, objects=reports,
                                                              times_s=clock.times_s))
 
@@ -206,10 +207,11 @@ def _fit_large_object(
         # shift), then the fitted joints once more, near where they are, and the others
         # searched again at the better pose.
         steady = [i for i in state.object_parts(object_id) if not _slides(state, object_id, i)]
-        fit = refine_pose(state, fine, object_id, steady, background, **pose_kwargs) or fit
-        for joint in joints:
-            refit = results[joint][0] == "fitted"
-            results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=refit)
+        for _ in range(options.rounds):
+            fit = refine_pose(state, fine, object_id, steady, background, **pose_kwargs) or fit
+            for joint in joints:
+                refit = results[joint][0] == "fitted"
+                results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=refit)
     refined = fit is not None and fit.inlier_fraction >= options.min_pose_inliers
     if not refined:
         state.map_from_objects[object_id] = previous_pose
