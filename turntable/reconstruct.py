@@ -281,9 +281,18 @@ def reconstruct_capture(
     capture: Capture, options: ReconstructionOptions | None = None, progress: Progress | None = None
 ) -> Reconstruction:
     """Run the pipeline on a loaded capture (see `turntable.capture.load_capture`), in memory."""
+    from threadpoolctl import threadpool_limits
+
+    # The stages' BLAS calls are small (points by 3 x 3 rotations, 4 x 4 inverses) and the
+    # frames already run on `workers` threads: OpenBLAS's own threads only wait on each other
+    # (a 4 x 4 inverse took 4 ms instead of 4 us on a busy 2-core machine).
+    with threadpool_limits(1, user_api="blas"):
+        return _run_stages(capture, options or ReconstructionOptions(), progress)
+
+
+def _run_stages(capture: Capture, options: ReconstructionOptions, progress: Progress | None) -> Reconstruction:
     from turntable.texture import bake_vertex_colors, decimated
 
-    options = options or ReconstructionOptions()
     clock = StageClock(progress)
     clock.start("poses")
     poses, skipped = estimate_poses(capture, options, clock.progress)
