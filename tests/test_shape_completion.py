@@ -5,9 +5,13 @@ truth with the shared metrics."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
+import yaml
+from fixture_cache import cached_folder, content_key
 from typer.testing import CliRunner
 
 from articulation.gate.validate import validate_path
@@ -15,6 +19,7 @@ from homemodel.cli import app
 from homemodel.core.errors import InputError
 from homemodel.core.limits import MODEL_BYTES
 from homemodel.core.safe_npz import read_npz, write_npz
+from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.evaluation import rock_surface_distance, rock_voxel_iou
 from homemodel.geometry.mesh_io import load_mesh
 from homemodel.evaluation.surface import distances_to_surface
@@ -26,6 +31,8 @@ from homemodel.geometry.raycast import RayCaster
 from homemodel.geometry.depth_io import write_depth
 
 CLASSES = ("bottle", "cup", "spoon")
+# What writes the library and trains the model: a change to any of it trains again.
+COMPLETION_CODE = ("shape_completion", "homemodel")
 TRAIN, TEST = 6, 2
 runner = CliRunner()
 
@@ -35,16 +42,18 @@ def invoke(*args: str):
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory) -> dict:
-    root = tmp_path_factory.mktemp("completion")
-    result = invoke(
-        "completion", "library", "--out", root / "library", "--classes", ",".join(CLASSES), "--per-class", TRAIN
-    )
-    assert result.exit_code == 0, result.output
-    result = invoke(
-        "completion", "train", root / "library", "--out", root / "model.npz", "--views", 20, "--filler-queries", 6
-    )
-    assert result.exit_code == 0, result.output
+def trained() -> dict:
+    """The library and the model trained on it, made once per content of the code that makes
+    them (tests/fixture_cache.py); tests only read them."""
+    settings = ["--classes", ",".join(CLASSES), "--per-class", TRAIN, "--views", 20, "--filler-queries", 6]
+
+    def train(root: Path) -> None:
+        result = invoke("completion", "library", "--out", root / "library", *settings[:4])
+        assert result.exit_code == 0, result.output
+        result = invoke("completion", "train", root / "library", "--out", root / "model.npz", *settings[4:])
+        assert result.exit_code == 0, result.output
+
+    root = cached_folder("completion_trained", content_key(packages=COMPLETION_CODE, settings=repr(settings)), train)
     return {"root": root, "library": root / "library", "model": root / "model.npz"}
 
 
@@ -104,8 +113,9 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert validate_path(tmp_path / "out").ok
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
-    assert summary["class"] == "bottle" and summary["times_s"]["filling"] > 0
+    written = json.loads((tmp_path / "out" / "summary.json").read_text())
+    summary = written["completion"]
+    assert summary["class"] == "bottle" and written["kind"] == "bottle" and written["times_s"]["filling"] > 0
     # The generator revolves a bottle about its z axis: the axis fitted to the query is that one.
     axis = summary["revolution_axis"]
     direction, point = np.array(axis["direction"]), np.array(axis["point_m"])
@@ -121,6 +131,37 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     seen = FILLER_CAMERA.depth_to_points(RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object))
     assert np.median(distances_to_surface(seen, completed)) < 0.003
     assert rock_voxel_iou(completed, truth) > 0.3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("posed", [True, False], ids=["camera pose", "support plane"])
+def test_run_writes_the_cup_upright_on_its_table(trained, tmp_path, posed: bool):
+    """A robot's view of an unseen cup on a table (the table in the depth image, no mask): the
+    model folder holds the cup standing on z = 0, z up, as high as the true cup."""
+    cup = generate_instances("cup", TRAIN + 2, seed=0)[TRAIN + 1]
+    table = trimesh.creation.box(extents=(1.2, 1.2, 0.03)).apply_translation((0.1, 0.2, -0.015))
+    world_from_camera = world_from_camera_looking_at((0.4, -0.3, 0.35), (0.0, 0.0, 0.04))
+    camera_from_world = np.linalg.inv(world_from_camera)
+    depth = RayCaster(trimesh.util.concatenate([cup, table])).depth(FILLER_CAMERA, camera_from_world)
+    write_depth(tmp_path / "depth.png", depth, depth_scale_m=FILLER_CAMERA.depth_scale_m)
+    camera = FILLER_CAMERA.model_dump(exclude_none=True) | ({"map_from_camera": world_from_camera.tolist()} if posed else {})
+    (tmp_path / "camera.yaml").write_text(yaml.safe_dump(camera))
+    result = invoke("completion", "run", trained["model"], tmp_path / "depth.png", "--out", tmp_path / "out",
+                    "--camera", tmp_path / "camera.yaml")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())["completion"]
+    assert summary["up_from"] == ("camera pose" if posed else "support plane")
+    assert summary["frame"].startswith("object: +z up")
+    camera_from_object = np.array(summary["camera_from_object"])
+    completed = load_mesh(tmp_path / "out")
+    truth = cup.copy().apply_transform(np.linalg.inv(camera_from_object) @ camera_from_world)
+    # Up is the table's normal, the origin on the table: the truth stands on z = 0 in this frame.
+    assert abs(truth.bounds[0, 2]) < 0.002 and abs(truth.extents[2] - cup.extents[2]) < 0.001
+    assert abs(completed.bounds[0, 2]) < 0.005
+    assert abs(completed.extents[2] / cup.extents[2] - 1) < 0.2
+    assert rock_voxel_iou(completed, truth) > 0.3
+    if posed:  # the map's axes, so the model drops into the map by a translation
+        np.testing.assert_allclose(np.array(summary["map_from_object"])[:3, :3], np.eye(3), atol=1e-6)
 
 
 @pytest.mark.slow
@@ -200,7 +241,7 @@ def test_models_are_refused_for_another_library_or_format(trained, completer, tm
 def test_library_errors_name_the_folder(tmp_path):
     (tmp_path / "lib" / "cup").mkdir(parents=True)
     result = invoke("completion", "train", tmp_path / "lib", "--out", tmp_path / "m.npz")
-    assert result.exit_code == 2 and "no class folders with mesh files" in result.output
+    assert result.exit_code == 2 and "cup: an empty class: no mesh files" in result.output
     mesh = generate_instances("cup", 1)[0]
     mesh.apply_scale(1000.0)  # millimetres
     mesh.export(tmp_path / "lib" / "cup" / "a.ply")
