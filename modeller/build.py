@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from articulation.model import Model
-from homemodel.core.atomic import atomic_dir, write_json
+from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.progress import Progress, StageClock
@@ -57,6 +57,7 @@ from modeller.specs.cabinet_geometry import hinge_tape_warnings
 
 if TYPE_CHECKING:
     from articulation.gate.validate import ValidationReport
+    from homemodel.core.model_summary import ModelSummary
     from modeller.comparison_picture import PictureOptions, PictureRow
 
 logger = logging.getLogger(__name__)
@@ -148,7 +149,7 @@ class SpecBuild:
     validation: ValidationReport
     pictures: list[PictureRow]
     times_s: dict[str, float]  # build, export, validate (and render)
-    summary: dict
+    summary: ModelSummary
     warnings: list[str] = field(default_factory=list)  # what the spec's readings disagree on
 
     @property
@@ -157,7 +158,7 @@ class SpecBuild:
 
     @property
     def failed_checks(self) -> list[str]:
-        return failed_checks(self.validation)
+        return self.summary.gate.failed_checks
 
 
 def build(
@@ -177,67 +178,60 @@ def build(
     appears whole or not at all. Raises `SpecError` for a bad spec or photo. Progress
     stages: build, export, validate, render.
     """
-    from articulation.export import write_model_files
-    from articulation.gate.validate import validate_path
+    from articulation.model_folder import PipelineSummary, write_model_folder
 
     options = options or BuildOptions()
     options.check()
     spec_path, out_dir = Path(spec_path), Path(out_dir)
+    prepare_out_dir(out_dir, force=force, inputs=[spec_path])  # before the build, not after it
     clock = StageClock(progress)
-    with atomic_dir(out_dir, force=force, inputs=[spec_path]) as tmp:
-        clock.start("build")
-        spec = load_spec(spec_path)
-        warnings = spec_warnings(spec)
-        for warning in warnings:
-            logger.warning("%s: %s", spec_path, warning)
-        if options.pictures is not None and not spec.photos:
-            raise SpecError(f"{spec_path}: photos: the spec gives no photos to compare with")
-        built = build_textured(
-            spec,
-            spec.name or spec_path.stem,
-            blend_path=tmp / "model.blend",
-            spec_path=spec_path,
-            texture_options=options.texture,
-        )
-        model = built.model
-        if options.name is not None:
-            model.name = options.name
-        clock.start("export")
-        write_model_files(model, tmp)
-        clock.start("validate")
-        validation = validate_path(tmp)
-        validation.path = out_dir  # where the files will be, not the temporary folder
-        pictures = []
+    clock.start("build")
+    spec = load_spec(spec_path)
+    warnings = spec_warnings(spec)
+    for warning in warnings:
+        logger.warning("%s: %s", spec_path, warning)
+    if options.pictures is not None and not spec.photos:
+        raise SpecError(f"{spec_path}: photos: the spec gives no photos to compare with")
+    built = build_textured(spec, spec.name or spec_path.stem, spec_path=spec_path, texture_options=options.texture)
+    model = built.model
+    if options.name is not None:
+        model.name = options.name
+    clock.stop()
+    times_s = dict(clock.times_s)
+    pictures: list[PictureRow] = []
+    figures: dict = {
+        "spec": str(spec_path),
+        "grasp_points": len(model.grasp_points),
+        "masses_kg": {link.name: round(link.inertial.mass_kg, 4) for link in model.links if link.inertial},
+        "pictures": [],
+    }
+
+    def add_files(tmp: Path) -> None:
+        save_blend(tmp / "model.blend")  # the scene is still the one built above
         if options.pictures is not None:
             from modeller.comparison_picture import comparison_pictures
 
             clock.start("render")
-            pictures = comparison_pictures(model, built.photos, tmp, options.pictures)
-        clock.stop()
-        summary = {
-            "model": model.name,
-            "spec": str(spec_path),
-            "category": model.category,
-            "links": len(model.links),
-            "joints": len(model.movable_joints),
-            "grasp_points": len(model.grasp_points),
-            "triangles": sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
-            "masses_kg": {link.name: round(link.inertial.mass_kg, 4) for link in model.links if link.inertial},
-            "valid": validation.ok,
-            "failed_checks": failed_checks(validation),
-            "times_s": dict(clock.times_s),
-            "pictures": [vars(row) for row in pictures],
-            "validation": validation.format(),
-            "warnings": warnings,
-        }
-        write_json(tmp / "summary.json", summary)
+            pictures.extend(comparison_pictures(model, built.photos, tmp, options.pictures))
+            clock.stop()
+            figures["pictures"] = [vars(row) for row in pictures]
+            times_s["render"] = clock.times_s["render"]
+
+    folder = write_model_folder(
+        model,
+        out_dir,
+        PipelineSummary(source="modeller", figures=figures, times_s=times_s, inputs={"spec": spec_path}, warnings=warnings),
+        force=force,
+        add_files=add_files,
+        progress=progress,
+    )
     return SpecBuild(
         out_dir=out_dir,
         model=model,
-        validation=validation,
+        validation=folder.validation,
         pictures=pictures,
-        times_s=clock.times_s,
-        summary=summary,
+        times_s=folder.summary.times_s,
+        summary=folder.summary,
         warnings=warnings,
     )
 
@@ -246,8 +240,3 @@ def spec_warnings(spec: Spec) -> list[str]:
     """What a spec's measurements disagree on without being impossible (a door's tape
     readings against its thickness); the model is built all the same."""
     return hinge_tape_warnings(spec) if isinstance(spec, CabinetSpec) else []
-
-
-def failed_checks(validation: ValidationReport) -> list[str]:
-    """`name: detail` of every check the model failed."""
-    return [f"{c.name}: {c.detail}" for c in validation.checks if not c.passed]

@@ -18,7 +18,7 @@ import numpy as np
 import trimesh
 
 from articulation.naming import check_model_name
-from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
+from homemodel.core.atomic import prepare_out_dir, write_bytes_atomic, write_json
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.images import read_image
@@ -254,26 +254,32 @@ def reconstruct(
     options.check()
     if options.map_entry is not None:
         options.map_entry.check()  # a bad map or parent fails now, not after the reconstruction
-    with temporary_work_dir() as work, atomic_dir(Path(out_dir), force=force, inputs=[Path(photos_dir)]) as tmp:
+    prepare_out_dir(Path(out_dir), force=force, inputs=[Path(photos_dir)])  # a full --out fails now, not at the end
+    with temporary_work_dir() as work:
         result = reconstruct_photos(photos_dir, options, progress, work_dir=Path(work))
-        write_reconstruction(result, tmp, options, progress=progress)
+        write_reconstruction(result, out_dir, options, photos_dir=Path(photos_dir), force=force, progress=progress)
     if options.map_entry is not None:
         result.registration = add_model_folder(out_dir, options.map_entry)
     return result
 
 
 def write_reconstruction(
-    result: Reconstruction, folder: Path, options: ReconstructOptions, *, progress: Progress | None = None
+    result: Reconstruction,
+    out_dir: Path,
+    options: ReconstructOptions,
+    *,
+    photos_dir: Path,
+    force: bool = False,
+    progress: Progress | None = None,
 ) -> None:
-    """Write the model files, cameras.json, cameras.png (`options.picture`) and summary.json
-    into an existing (temporary) folder; `result.summary` gains mass_kg and the export's time."""
+    """Write the model folder (`write_model_folder`: model files, the gate, summary.json) with
+    cameras.json and cameras.png (`options.picture`); `result.summary` gains mass_kg and the
+    export's and the gate's times."""
     import cv2
 
-    from articulation.export import write_model_files
+    from articulation.model_folder import PipelineSummary, write_model_folder
     from articulation.scan_model import scan_model
 
-    clock = StageClock(progress)
-    clock.start("export", 1)
     texture_path = result.work_dir / "texture.png"
     ok, png = cv2.imencode(".png", cv2.cvtColor(result.textured.texture, cv2.COLOR_RGB2BGR))
     if not ok:
@@ -287,24 +293,42 @@ def write_reconstruction(
         uv=result.textured.uv,
         properties={"source": "photogrammetry", "scaled": str(result.frame.scaled).lower()},
     )
-    write_model_files(model, folder)
-    cameras = [
-        {"name": v.name, "intrinsics": v.camera.matrix.tolist(), "camera_from_model": v.camera_from_world.tolist(),
-         "width_px": v.camera.width, "height_px": v.camera.height}
-        for v in result.views
-    ]  # fmt: skip
-    write_json(folder / "cameras.json", cameras)
-    if options.picture:
-        from photogrammetry.picture import draw_cameras
 
-        draw_cameras(
-            result.mesh, result.views, folder / "cameras.png", title=f"{options.name}: {len(result.views)} cameras"
-        )
-    clock.stop()
-    # Without markers the volume is in cubed SfM units: a mass from it would be a made-up number.
-    result.summary["mass_kg"] = round(model.links[0].inertial.mass_kg, 6) if result.frame.scaled else None
-    result.summary["times_s"].update({k: round(v, 3) for k, v in clock.times_s.items()})
-    write_json(folder / "summary.json", result.summary)
+    def add_files(folder: Path) -> None:
+        cameras = [
+            {"name": v.name, "intrinsics": v.camera.matrix.tolist(), "camera_from_model": v.camera_from_world.tolist(),
+             "width_px": v.camera.width, "height_px": v.camera.height}
+            for v in result.views
+        ]  # fmt: skip
+        write_json(folder / "cameras.json", cameras)
+        if options.picture:
+            from photogrammetry.picture import draw_cameras
+
+            draw_cameras(
+                result.mesh, result.views, folder / "cameras.png", title=f"{options.name}: {len(result.views)} cameras"
+            )
+
+    # The summary's top level holds units, extents_m, mass_kg and times_s; without markers
+    # the size stays here, in SfM units.
+    figures = {k: v for k, v in result.summary.items() if k not in ("units", "extents", "mass_kg", "times_s")}
+    if not result.frame.scaled:
+        figures["extents_sfm_units"] = result.summary["extents"]
+    written = write_model_folder(
+        model,
+        out_dir,
+        PipelineSummary(
+            source="photogrammetry",
+            figures=figures,
+            metric=result.frame.scaled,
+            times_s=result.summary["times_s"],
+            inputs={"photos": photos_dir},
+        ),
+        force=force,
+        add_files=add_files,
+        progress=progress,
+    )
+    result.summary["mass_kg"] = written.summary.mass_kg
+    result.summary["times_s"] = {k: round(v, 3) for k, v in written.summary.times_s.items()}
 
 
 def temporary_work_dir() -> tempfile.TemporaryDirectory:

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from articulation.export import write_model_files
+from articulation.model_folder import PipelineSummary, write_model_folder
 from articulation.scan_model import scan_model
 from homemodel.core.errors import errors_naming
-from homemodel.core.atomic import atomic_dir, prepare_out_dir, write_json
+from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import require_positive
 from homemodel.core.progress import Progress, StageClock
 from shape_completion.pipeline import Completion, ShapeCompleter
@@ -45,7 +45,8 @@ def _matrix(m: np.ndarray | None) -> list[list[float]] | None:
 
 
 def completion_summary(completion: Completion, support: SupportPlane | None = None) -> dict:
-    """The figures summary.json holds (and the command prints), in the written mesh's frame."""
+    """The completion's own figures in summary.json (under `completion`), in the written
+    mesh's frame; the size, triangles and times are the summary's common ones."""
     fit = completion.fit
     frame = completion.frame or object_frame(completion.mesh, map_from_camera=None, support=None, axis=None)
     object_from_camera = np.linalg.inv(frame.camera_from_object)
@@ -62,10 +63,7 @@ def completion_summary(completion: Completion, support: SupportPlane | None = No
         "revolution_axis": None
         if axis is None
         else {"point_m": axis.point.tolist(), "direction": axis.direction.tolist()},
-        "triangles": int(len(mesh.faces)),
-        "extents_m": [float(v) for v in mesh.extents],
         "watertight": bool(mesh.is_watertight),
-        "times_s": dict(completion.times_s),
         "frame": frame.description,
         "up_from": frame.up_from,
         "camera_from_object": _matrix(frame.camera_from_object),
@@ -114,20 +112,25 @@ def complete(
     completion.frame = object_frame(
         completion.mesh, map_from_camera=query.map_from_camera, support=query.support, axis=completion.fit.axis
     )
-    clock.start("export", 1)
-    with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:
-        write_model_files(
-            scan_model(
-                completion.object_mesh,
-                name=options.name or depth_png.stem,
-                density_kg_m3=options.density_kg_m3,
-                rgba=GREY,
-                category=completion.class_name,
-                properties={"source": "shape_completion"},
-            ),
-            tmp,
-        )
-        clock.stop()
-        completion.times_s["export"] = clock.times_s["export"]
-        write_json(tmp / "summary.json", completion_summary(completion, query.support))
+    model_inputs = {"completion_model": model_path} if model_path is not None else {}
+    mask_input = {"mask": Path(options.mask_path)} if options.mask_path is not None else {}
+    write_model_folder(
+        scan_model(
+            completion.object_mesh,
+            name=options.name or depth_png.stem,
+            density_kg_m3=options.density_kg_m3,
+            rgba=GREY,
+            category=completion.class_name,
+            properties={"source": "shape_completion"},
+        ),
+        out_dir,
+        PipelineSummary(
+            source="completion",
+            figures=completion_summary(completion, query.support),
+            times_s=completion.times_s,  # gains the export's and the gate's
+            inputs={**model_inputs, "depth": depth_png, "camera": camera_path, **mask_input},
+        ),
+        force=force,
+        progress=progress,
+    )
     return completion

@@ -586,7 +586,7 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
     assert exported.node("kitchen_light").type == "rotational"
     assert {o.id: o.properties for o in exported.objects()} == {o.id: o.properties for o in original.objects()}
     assert exported.node("fridge_1").joint(fridge_door[rig.JOINT]).position == pytest.approx(0.4)
-    assert all(json.loads((tmp_path / "home" / "models" / o.id / "summary.json").read_text())["valid"] for o in original.objects())
+    assert all(json.loads((tmp_path / "home" / "models" / o.id / "summary.json").read_text())["gate"]["valid"] for o in original.objects())
 
 
 @pytest.mark.slow

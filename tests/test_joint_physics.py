@@ -94,9 +94,10 @@ def test_the_summary_lists_every_part_s_mass(catalogue_dir: Path, tmp_path: Path
     built = build(catalogue_dir / "fridge.yaml", tmp_path / "fridge", BuildOptions())
     assert built.valid, built.validation.format()
     summary = json.loads((tmp_path / "fridge" / "summary.json").read_text())
-    assert set(summary["masses_kg"]) == {link.name for link in built.model.links}
-    assert sum(summary["masses_kg"].values()) == pytest.approx(70.0, abs=1e-3)
-    assert "physics" in summary["validation"]
+    assert set(summary["modeller"]["masses_kg"]) == {link.name for link in built.model.links}
+    assert sum(summary["modeller"]["masses_kg"].values()) == pytest.approx(70.0, abs=1e-3)
+    assert summary["mass_kg"] == pytest.approx(70.0, abs=1e-3)
+    assert "physics" in {check["name"] for check in summary["gate"]["checks"]}
 
 
 def _oven_door_after(urdf: Path, start_deg: float, *, with_dynamics: bool) -> list[float]:

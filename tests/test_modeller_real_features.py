@@ -354,7 +354,7 @@ def test_the_rebuilt_microwave_opens_like_the_real_one_and_passes_the_gate(tmp_p
     # Readings that disagree with the thickness: the build says so in its summary.
     both = write_spec(tmp_path, _microwave_spec(MW_DOOR["thick"], 0.0, ("open_at_90", "free_corner")), "both.yaml")
     built = build(both, tmp_path / "both")
-    assert len(built.warnings) == 1 and built.summary["warnings"] == built.warnings
+    assert len(built.warnings) == 1 and built.summary.gate.warnings == built.warnings
 
 
 # ---------------------------------------------------------------------------- the new fields' rules

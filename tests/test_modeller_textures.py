@@ -421,7 +421,7 @@ def test_render_writes_a_validated_model_and_pictures_that_match_the_photo(tmp_p
     assert {"model.urdf", "model.glb", "model.blend", "summary.json", "comparison_0.png", "comparison_1.png"} <= {
         p.name for p in out.iterdir()
     }
-    assert json.loads((out / "summary.json").read_text())["valid"] is True
+    assert json.loads((out / "summary.json").read_text())["gate"]["valid"] is True
     for row in result.pictures:
         assert abs(row.focal_px - FOCAL_PX) < 0.01 * FOCAL_PX and row.reprojection_px < 0.5
     # The middle panel (the model through the recovered camera) shows the door where the photo does.

@@ -36,13 +36,15 @@ def kermit_model(tmp_path_factory) -> Path:
 
 @pytest.mark.shared_data
 def test_kermit_registers_every_photo_and_gives_a_dense_textured_mesh(kermit_model: Path) -> None:
-    summary = json.loads((kermit_model / "summary.json").read_text())
+    written = json.loads((kermit_model / "summary.json").read_text())
+    assert written["units"] == "unscaled" and written["mass_kg"] is None and written["gate"]["valid"], written["gate"]
+    summary = written["photogrammetry"]
     assert summary["photos"] == 11 and summary["registered"] == 11 and summary["unregistered"] == []
     assert summary["reprojection_error_px"] < 1.0
     assert summary["dense_points"] > 100_000  # dense: far more than the ~650 sparse points
     assert summary["dense_points"] > 100 * summary["sparse_points"]
     assert summary["faces"] > 5000
-    assert summary["scaled"] is False and "unscaled" in summary["units"]
+    assert summary["scaled"] is False
     mesh = trimesh.load(kermit_model / "meshes" / "body_body.obj", force="mesh")
     assert len(mesh.faces) == summary["faces"]
     texture = cv2.imread(str(kermit_model / "meshes" / "object_material_texture.png"))
@@ -169,9 +171,10 @@ def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Pat
     scale = np.sqrt(((true - true.mean(0)) ** 2).sum() / ((estimated - estimated.mean(0)) ** 2).sum())
     assert abs(scale - 1) < 0.01
     summary = json.loads((rendered_model / "summary.json").read_text())
-    assert summary["scaled"] and summary["levelled"] and summary["markers"] == [0, 1, 2, 3, 4, 5]
+    figures = summary["photogrammetry"]
+    assert figures["scaled"] and figures["levelled"] and figures["markers"] == [0, 1, 2, 3, 4, 5]
     true_height = rendered_scene.truth_mesh.extents[2]
-    assert abs(summary["extents"][2] / true_height - 1) < 0.01
+    assert summary["metric"] and abs(summary["extents_m"][2] / true_height - 1) < 0.01
 
 
 @pytest.mark.bpy
@@ -191,7 +194,7 @@ def test_rendered_set_mesh_matches_the_truth_without_the_table(rendered_scene, r
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     _, uses = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
     assert (uses == 1).sum() == 0
-    assert json.loads((rendered_model / "summary.json").read_text())["watertight"]
+    assert json.loads((rendered_model / "summary.json").read_text())["photogrammetry"]["watertight"]
 
 
 @pytest.mark.bpy

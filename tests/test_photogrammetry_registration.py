@@ -258,7 +258,7 @@ def _assert_object_without_background(model: Path, max_size_share: float) -> dic
     """The mesh is the object the cameras circle, not the room: its bounding-box diagonal is
     under `max_size_share` of the cameras' median distance to it (the room reaches past the
     cameras), and the texture is a photo's, not a flat colour."""
-    summary = json.loads((model / "summary.json").read_text())
+    summary = json.loads((model / "summary.json").read_text())["photogrammetry"]
     mesh = trimesh.load(model / "meshes" / "body_body.obj", force="mesh")
     centres = np.array([-p[:3, :3].T @ p[:3, 3] for p in _cameras(model).values()])
     distance = float(np.median(np.linalg.norm(centres - mesh.bounding_box.centroid, axis=1)))
@@ -291,7 +291,7 @@ def buddha_subset(tmp_path_factory) -> Path:
 def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_subset: Path) -> None:
     """14 real photos of one side of the Buddha, default command: every photo registers, and
     the cameras agree with the source's reference cameras up to a similarity."""
-    summary = json.loads((buddha_subset / "summary.json").read_text())
+    summary = json.loads((buddha_subset / "summary.json").read_text())["photogrammetry"]
     assert summary["registered"] == summary["photos"] == 14 and summary["unregistered"] == []
     agreement = pose_agreement(_cameras(buddha_subset), load_reference_cameras(BUDDHA / "reference_cameras_P.json"))
     assert agreement.views == 14
@@ -302,7 +302,7 @@ def test_buddha_subset_registers_whole_with_poses_like_the_references(buddha_sub
 def test_buddha_subset_gives_an_unscaled_textured_mesh(buddha_subset: Path) -> None:
     """From one side only, what lies behind the head stays in every frame, so the convergence
     cut cannot drop all of it (the whole set, below, comes out as the head alone)."""
-    summary = json.loads((buddha_subset / "summary.json").read_text())
+    summary = json.loads((buddha_subset / "summary.json").read_text())["photogrammetry"]
     assert summary["scaled"] is False and summary["faces"] > 5000 and summary["texture_covered_share"] > 0.3
 
 
@@ -313,7 +313,7 @@ def test_buddha_all_67_photos_in_no_order_register_with_the_default_command(tmp_
     out = tmp_path / "model"
     result = _reconstruct(str(BUDDHA / "images"), "--out", str(out))
     assert result.exit_code == 0, result.output
-    summary = json.loads((out / "summary.json").read_text())
+    summary = json.loads((out / "summary.json").read_text())["photogrammetry"]
     assert summary["registered"] == summary["photos"] == 67 and summary["unregistered"] == []
     agreement = pose_agreement(_cameras(out), load_reference_cameras(BUDDHA / "reference_cameras_P.json"))
     assert agreement.views == 67

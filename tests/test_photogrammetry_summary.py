@@ -33,11 +33,15 @@ def test_mass_is_null_for_an_unscaled_model_and_density_times_volume_for_a_metri
     tmp_path: Path, scaled: bool
 ) -> None:
     out = tmp_path / "model"
-    out.mkdir()
+    photos = tmp_path / "photos"
+    photos.mkdir()
     options = ReconstructOptions(density_kg_m3=500.0)
-    write_reconstruction(_reconstruction(scaled, tmp_path), out, options)
+    write_reconstruction(_reconstruction(scaled, tmp_path), out, options, photos_dir=photos)
     summary = json.loads((out / "summary.json").read_text())
+    assert summary["metric"] is scaled and summary["units"] == ("m" if scaled else "unscaled")
     if scaled:
         assert summary["mass_kg"] == pytest.approx(500.0 * 0.2 * 0.1 * 0.3, rel=1e-3)
+        assert summary["extents_m"] == pytest.approx([0.2, 0.1, 0.3], abs=1e-6)
     else:
-        assert summary["mass_kg"] is None
+        assert summary["mass_kg"] is None and summary["extents_m"] is None
+        assert summary["photogrammetry"]["extents_sfm_units"] == [0.2, 0.1, 0.3]

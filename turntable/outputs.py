@@ -4,17 +4,17 @@ summary.json and, on request, a picture of the mesh with the camera orbit."""
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
 
-from articulation.export import write_model_files
 from articulation.scan_model import scan_model
-from homemodel.core.atomic import atomic_dir, write_bytes_atomic, write_json
+from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import ModelError
-from homemodel.core.progress import Progress, StageClock
+from homemodel.core.progress import Progress
 from turntable.poses_io import write_poses
 
 if TYPE_CHECKING:
@@ -33,19 +33,19 @@ def write_reconstruction(
     force: bool = False,
     progress: Progress | None = None,
 ) -> Path:
-    """Everything into `out_dir` at once (atomic: a failure leaves it as it was); the
-    export's time joins `result.times_s` before summary.json is written."""
+    """Everything into `out_dir` at once (atomic: a failure leaves it as it was) through
+    `write_model_folder`; the export's and the gate's times join `result.times_s`. `inputs`
+    holds the capture folder."""
     import cv2
 
-    clock = StageClock(progress)
-    clock.start("export", 1)
-    with atomic_dir(Path(out_dir), force=force, inputs=inputs) as tmp:
+    from articulation.model_folder import PipelineSummary, write_model_folder
+
+    (capture_dir,) = inputs
+    with tempfile.TemporaryDirectory(prefix="homemodel-turntable-") as staging:
         texture_path = None
         if result.texture is not None:
-            # Staged outside meshes/: the URDF exporter copies it in under its own name.
-            staging = tmp / ".texture"
-            staging.mkdir()
-            texture_path = staging / TEXTURE_PNG
+            # Staged outside the folder: the URDF exporter copies it in under its own name.
+            texture_path = Path(staging) / TEXTURE_PNG
             ok, encoded = cv2.imencode(".png", cv2.cvtColor(result.texture, cv2.COLOR_RGB2BGR))
             if not ok:
                 raise ModelError("could not encode the texture as PNG")
@@ -62,40 +62,41 @@ def write_reconstruction(
             uv=result.uv,
             properties={"source": "turntable"},
         )
-        write_model_files(model, tmp)
-        if texture_path is not None:
-            texture_path.unlink()
-            texture_path.parent.rmdir()
-        colors = np.round(np.clip(result.vertex_colors, 0, 1) * 255).astype(np.uint8)
-        ply = trimesh.Trimesh(result.mesh.vertices, result.mesh.faces, vertex_colors=colors, process=False)
-        write_bytes_atomic(tmp / MESH_PLY, ply.export(file_type="ply"))
-        write_poses(
-            tmp / "poses.json",
-            {s: p.camera_from_table for s, p in result.poses.items()},
-            figures={
-                s: {
-                    "tags": p.tags,
-                    "corners": p.inlier_corners,
-                    "reprojection_error_px": round(p.reprojection_error_px, 4),
-                }
-                for s, p in result.poses.items()
-            },
-            skipped=result.skipped,
-        )
-        if options.picture:
-            from turntable.picture import draw_mesh_and_orbit
 
-            cameras_from_table = [p.camera_from_table for p in result.poses.values()]
-            draw_mesh_and_orbit(
-                result.mesh, result.vertex_colors, cameras_from_table, result.axis.axis_xy_m, tmp / "picture.png"
+        def add_files(tmp: Path) -> None:
+            colors = np.round(np.clip(result.vertex_colors, 0, 1) * 255).astype(np.uint8)
+            ply = trimesh.Trimesh(result.mesh.vertices, result.mesh.faces, vertex_colors=colors, process=False)
+            write_bytes_atomic(tmp / MESH_PLY, ply.export(file_type="ply"))
+            write_poses(
+                tmp / "poses.json",
+                {s: p.camera_from_table for s, p in result.poses.items()},
+                figures={
+                    s: {
+                        "tags": p.tags,
+                        "corners": p.inlier_corners,
+                        "reprojection_error_px": round(p.reprojection_error_px, 4),
+                    }
+                    for s, p in result.poses.items()
+                },
+                skipped=result.skipped,
             )
-        clock.stop()
-        result.times_s.update(clock.times_s)
-        summary = result.summary()
-        summary["model"] = {
-            "name": options.name,
-            "mass_kg": model.links[0].inertial.mass_kg,
-            "density_kg_m3": options.density_kg_m3,
-        }
-        write_json(tmp / "summary.json", summary)
+            if options.picture:
+                from turntable.picture import draw_mesh_and_orbit
+
+                cameras_from_table = [p.camera_from_table for p in result.poses.values()]
+                draw_mesh_and_orbit(
+                    result.mesh, result.vertex_colors, cameras_from_table, result.axis.axis_xy_m, tmp / "picture.png"
+                )
+
+        figures = result.summary()
+        del figures["times_s"], figures["extent_m"]  # the summary's own times_s and extents_m
+        figures["density_kg_m3"] = options.density_kg_m3
+        write_model_folder(
+            model,
+            out_dir,
+            PipelineSummary(source="turntable", figures=figures, times_s=result.times_s, inputs={"capture": capture_dir}),
+            force=force,
+            add_files=add_files,
+            progress=progress,
+        )
     return Path(out_dir)

@@ -306,7 +306,10 @@ def spec_of_model_folder(folder: Path) -> dict | None:
     summary_path = Path(folder) / "summary.json"
     if not summary_path.is_file():
         return None
-    spec = read_document(summary_path).get("spec")
+    summary = read_document(summary_path)
+    # The spec is an input of the summary's schema; folders from before it name it at the top.
+    specs = [i.get("path") for i in summary.get("inputs") or [] if isinstance(i, dict) and i.get("role") == "spec"]
+    spec = specs[0] if specs else summary.get("spec")
     return read_yaml_mapping(Path(spec)) if isinstance(spec, str) and Path(spec).is_file() else None
 
 

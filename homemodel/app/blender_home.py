@@ -99,8 +99,7 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
     """Write `out_dir/map.xml` (checked against the XSD on save), `out_dir/models/<id>/`
     (URDF, glb, meshes, summary.json with the gate's report) for every object of the home
     document, and `out_dir/summary.json`. Atomic: on any error `out_dir` is left as it was."""
-    from articulation.export import write_model_files
-    from articulation.gate.validate import validate_path
+    from articulation.model_folder import PipelineSummary, write_model_folder
     from semantic_map import ParkingPosition, SemanticMap, save_map
 
     home_path = Path(home_path)
@@ -127,14 +126,12 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
             model_file = home_path.parent / _field(obj, "model", where, home_path)
             model = model_from_document(read_document(model_file), str(model_file))
             model.name = object_id
-            folder = tmp / "models" / object_id
-            write_model_files(model, folder)
-            report = validate_path(folder)
-            report.path = Path(out_dir) / "models" / object_id
-            bad = [f"{c.name}: {c.detail}" for c in report.checks if not c.passed]
+            written = write_model_folder(
+                model, tmp / "models" / object_id, PipelineSummary(source="blender", inputs={"document": model_file})
+            )
+            bad = written.summary.gate.failed_checks
             if bad:
                 failed[object_id] = bad
-            write_json(folder / "summary.json", {"model": object_id, "valid": report.ok, "failed_checks": bad, "validation": report.format()})
             parking = [
                 ParkingPosition(name=p["name"], world_from_base=np.asarray(p["world_from_base"], dtype=float), default=bool(p.get("default")))
                 for p in obj.get("parking", [])
@@ -152,7 +149,7 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
                 properties=obj.get("properties") or None,
                 joint_positions=obj.get("joint_positions") or None,
             )
-            rows.append({"id": object_id, "valid": report.ok, "failed_checks": bad})
+            rows.append({"id": object_id, "valid": written.valid, "failed_checks": bad})
         save_map(smap, tmp / "map.xml")
         write_json(tmp / "summary.json", rows)
     return HomeExport(map_path=Path(out_dir) / "map.xml", failed=failed)

@@ -15,7 +15,6 @@ bytes, its name and the code that builds it) is unchanged, as `homemodel db buil
 
 from __future__ import annotations
 
-import json
 import logging
 import shutil
 from dataclasses import asdict, dataclass, field
@@ -37,6 +36,7 @@ from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import confined_path
 from homemodel.core.interrupts import raise_if_interrupted
 from homemodel.core.limits import HOME_OBJECTS
+from homemodel.core.model_summary import read_summary
 from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
 
@@ -169,10 +169,14 @@ def _cached_object(previous: Path, key: str, folder: Path):  # noqa: ANN202 (a M
     from articulation.urdf_import import load_urdf
 
     key_file = previous / KEY_FILE
-    if not (key_file.is_file() and key_file.read_text() == key and (previous / "summary.json").is_file()):
+    if not (key_file.is_file() and key_file.read_text() == key):
+        return None
+    try:
+        summary = read_summary(previous)
+    except InputError:  # absent, or written before the summary's schema: build it again
         return None
     shutil.copytree(previous, folder)
-    return load_urdf(folder / "model.urdf"), json.loads((folder / "summary.json").read_text())
+    return load_urdf(folder / "model.urdf"), summary
 
 
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
@@ -249,10 +253,10 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 links=len(model.links),
                 joints=len(model.movable_joints),
                 grasp_points=len(model.grasp_points),
-                triangles=summary["triangles"],
-                valid=summary["valid"],
-                times_s={stage: round(seconds, 3) for stage, seconds in summary["times_s"].items()},
-                failed_checks=summary["failed_checks"],
+                triangles=summary.triangles,
+                valid=summary.gate.valid,
+                times_s={stage: round(seconds, 3) for stage, seconds in summary.times_s.items()},
+                failed_checks=summary.gate.failed_checks,
                 cached=cached is not None,
             )
             rows.append(row)

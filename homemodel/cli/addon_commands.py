@@ -91,20 +91,14 @@ def export(
 ) -> None:
     """Write the model folder (URDF, glb, meshes) of a model document and run the validation
     gate on it; print the gate's report; exit 1 when a check failed."""
-    from articulation.export import write_model_files
-    from articulation.gate.validate import validate_path
+    from articulation.model_folder import PipelineSummary, write_model_folder
     from homemodel.app.blender_exchange import model_from_document, read_document
-    from homemodel.core.atomic import atomic_dir, write_json
 
     with exit_on_error():
         model = model_from_document(read_document(document), str(document))
-        with atomic_dir(out, force=force, inputs=[document]) as tmp:
-            write_model_files(model, tmp)
-            report = validate_path(tmp)
-            report.path = out
-            write_json(tmp / "summary.json", {"model": model.name, "valid": report.ok, "validation": report.format()})
-    typer.echo(report.format())
-    raise typer.Exit(0 if report.ok else 1)
+        written = write_model_folder(model, out, PipelineSummary(source="blender", inputs={"document": document}), force=force)
+    typer.echo(written.validation.format())
+    raise typer.Exit(0 if written.valid else 1)
 
 
 @addon_app.command("describe-map")

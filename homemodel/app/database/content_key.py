@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from homemodel.app.database.manifest import Job
+from homemodel.core.content_hash import content_files, file_sha256
 
 # The packages whose code builds each source (all of them export through articulation and
 # end in the database's own entry build, thumbnail and the core helpers).
@@ -26,7 +27,6 @@ SOURCE_PACKAGES = {
     "completion": ("shape_completion",),
     "urdf": (),
 }
-CHUNK_BYTES = 1 << 20
 
 # (path, size, mtime_ns) -> sha256 hex, or None when not remembered: the index's file cache.
 HashLookup = Callable[[str, int, int], str | None]
@@ -54,20 +54,6 @@ def code_version(source: str) -> str:
     return digest.hexdigest()
 
 
-def file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        while chunk := f.read(CHUNK_BYTES):
-            digest.update(chunk)
-    return digest.hexdigest()
-
-
-def _files(path: Path) -> list[Path]:
-    if path.is_file():
-        return [path]
-    return sorted(p for p in path.rglob("*") if p.is_file() and not any(part.startswith(".") for part in p.relative_to(path).parts))
-
-
 def inputs_digest(job: Job, lookup: HashLookup, store: HashStore) -> str:
     digest = hashlib.sha256()
     for role in sorted(job.inputs):
@@ -76,7 +62,7 @@ def inputs_digest(job: Job, lookup: HashLookup, store: HashStore) -> str:
         if not root.exists():
             digest.update(b"missing")  # the build will fail and say so; the key still changes when it appears
             continue
-        for path in _files(root):
+        for path in content_files(root):
             stat = path.stat()
             name = str(path)
             sha = lookup(name, stat.st_size, stat.st_mtime_ns)

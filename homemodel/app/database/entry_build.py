@@ -29,6 +29,7 @@ from homemodel.app.database.thumbnail import write_thumbnail
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.errors import HomemodelError, SpecError
+from homemodel.core.model_summary import read_summary
 from homemodel.core.options_data import options_from_dict
 from homemodel.core.yaml_specs import read_yaml_mapping
 
@@ -112,41 +113,41 @@ def _build_spec(job: Job, out: Path) -> _Built:
     return _Built(report=built.validation, times_s=dict(built.times_s), repairs=[], model=built.model)
 
 
-def _gated(out: Path, times_s: dict[str, float], repairs: list[str] | None = None) -> _Built:
-    from articulation.gate import validate_path
+def _written(out: Path, repairs: list[str] | None = None) -> _Built:
+    """What the pipeline's model folder says of itself: the gate ran when it was written."""
+    from articulation.model_folder import report_from_summary
 
-    start = time.perf_counter()
-    report = validate_path(out)
-    return _Built(report=report, times_s={**times_s, "validate": time.perf_counter() - start}, repairs=repairs or [])
+    summary = read_summary(out)
+    return _Built(report=report_from_summary(summary, out), times_s=dict(summary.times_s), repairs=repairs or [])
 
 
 def _build_turntable(job: Job, out: Path) -> _Built:
     from turntable import ReconstructionOptions, reconstruct
 
-    result = reconstruct(job.inputs["path"], out, _options(ReconstructionOptions, job, name=job.id, workers=1), force=True)
-    return _gated(out, result.times_s)
+    reconstruct(job.inputs["path"], out, _options(ReconstructionOptions, job, name=job.id, workers=1), force=True)
+    return _written(out)
 
 
 def _build_photos(job: Job, out: Path) -> _Built:
     from photogrammetry import ReconstructOptions, reconstruct
 
     options = _options(ReconstructOptions, job, name=job.id, marker_size_m=job.marker_size_m)
-    result = reconstruct(job.inputs["path"], out, options, force=True)
-    return _gated(out, result.summary["times_s"])
+    reconstruct(job.inputs["path"], out, options, force=True)
+    return _written(out)
 
 
 def _build_completion(job: Job, out: Path) -> _Built:
     from shape_completion import CompletionOptions, complete
 
     options = _options(CompletionOptions, job, name=job.id, camera_path=job.inputs["camera"])
-    result = complete(job.inputs["completion_model"], job.inputs["path"], out, options, force=True)
-    return _gated(out, result.times_s)
+    complete(job.inputs["completion_model"], job.inputs["path"], out, options, force=True)
+    return _written(out)
 
 
 def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
     from articulation.asset_import import ImportOptions, import_asset
-    from articulation.export import write_model_files
     from articulation.gate import validate_path
+    from articulation.model_folder import PipelineSummary, write_model_folder
     from articulation.repair import RepairOptions
     from articulation.repair import repair as repaired
 
@@ -165,8 +166,14 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
         if imported.gaps and repair is not None:
             model, done = repaired(model, imported.gaps, RepairOptions(**repair.model_dump()))
             repairs += done
-        write_model_files(model, out)
-    return _gated(out, {"import": time.perf_counter() - start}, repairs)
+        summary = PipelineSummary(
+            source="imported",
+            figures={"repairs": repairs},
+            times_s={"import": time.perf_counter() - start},
+            inputs={"asset": job.inputs["path"]},
+        )
+        written = write_model_folder(model, out, summary, force=True)
+    return _Built(report=written.validation, times_s=dict(written.summary.times_s), repairs=repairs, model=model)
 
 
 def _run_source(request: BuildRequest, out: Path) -> _Built:

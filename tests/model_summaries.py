@@ -1,0 +1,42 @@
+"""Every model folder's summary.json the tests write is checked against the published JSON
+Schema (homemodel/schemas/model_summary.schema.json) with jsonschema, a client that never
+sees the pydantic model it was generated from (conftest's module-scoped autouse fixture)."""
+
+from __future__ import annotations
+
+import functools
+import json
+from collections.abc import Iterable
+from pathlib import Path
+
+import jsonschema
+
+from homemodel.core.model_summary import SUMMARY_FILE, schema_path
+
+
+@functools.cache
+def validator() -> jsonschema.Draft202012Validator:
+    return jsonschema.Draft202012Validator(json.loads(schema_path().read_text()))
+
+
+def model_summary_files(roots: Iterable[Path]) -> list[Path]:
+    """summary.json files of model folders (beside model.urdf and model.glb) under `roots`;
+    a home's or a simulator export's summary.json is another document."""
+    found = []
+    for root in roots:
+        for path in Path(root).rglob(SUMMARY_FILE):
+            if (path.parent / "model.urdf").is_file() and (path.parent / "model.glb").is_file():
+                found.append(path)
+    return found
+
+
+def schema_problems(path: Path) -> list[str]:
+    """`path: field: message` of every way the file breaks the schema."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        return [f"{path}: {exc}"]
+    return [
+        f"{path}: {'.'.join(str(p) for p in error.absolute_path) or 'summary'}: {error.message}"
+        for error in validator().iter_errors(data)
+    ]

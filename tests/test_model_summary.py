@@ -1,0 +1,105 @@
+"""The model contract: one summary schema (published as JSON Schema, kept in step with the
+pydantic model) and one model-folder writer (export, gate, summary.json, atomically)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import runpy
+from pathlib import Path
+
+import pytest
+import trimesh
+from model_summaries import schema_problems, validator
+
+from articulation.model_folder import PipelineSummary, report_from_summary, write_model_folder
+from articulation.scan_model import scan_model
+from homemodel.core.errors import InputError, OutputExistsError
+from homemodel.core.model_summary import ModelSummary, read_summary, schema_path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _box_model(name: str = "box"):
+    return scan_model(trimesh.creation.box(extents=(0.2, 0.1, 0.3)), name=name, density_kg_m3=500.0, category="box")
+
+
+def test_the_published_schema_is_the_one_the_model_generates():
+    expected = runpy.run_path(str(REPO / "tools" / "write_summary_schema.py"))["schema_text"]()
+    assert schema_path().read_text() == expected, "stale: run .venv/bin/python tools/write_summary_schema.py"
+
+
+def test_a_written_folder_holds_the_model_its_gate_result_and_figures_from_ground_truth(tmp_path: Path):
+    spec = tmp_path / "input.yaml"
+    spec.write_text("kind: box\n")
+    out = tmp_path / "out"
+    written = write_model_folder(
+        _box_model(),
+        out,
+        PipelineSummary(source="turntable", figures={"frames_used": 3}, times_s={"merge": 1.5}, inputs={"capture": spec}),
+    )
+    assert {"model.urdf", "model.glb", "summary.json"} <= {p.name for p in out.iterdir()}
+    data = json.loads((out / "summary.json").read_text())
+    assert schema_problems(out / "summary.json") == []
+    assert data["name"] == "box" and data["kind"] == "box" and data["source"] == "turntable"
+    assert data["metric"] is True and data["units"] == "m"
+    assert data["extents_m"] == pytest.approx([0.2, 0.1, 0.3], abs=1e-6)
+    assert data["mass_kg"] == pytest.approx(500.0 * 0.2 * 0.1 * 0.3, rel=1e-3)
+    assert data["triangles"] == 12 and data["links"] == 1 and data["joints"] == 0
+    assert data["gate"]["valid"] is True and data["gate"]["failed_checks"] == [] and len(data["gate"]["checks"]) >= 5
+    assert set(data["times_s"]) == {"merge", "export", "validate"} and data["times_s"]["merge"] == 1.5
+    assert data["inputs"] == [{"role": "capture", "path": str(spec), "sha256": hashlib.sha256(b"kind: box\n").hexdigest()}]
+    assert data["turntable"] == {"frames_used": 3} and "modeller" not in data
+    assert read_summary(out) == written.summary
+    assert report_from_summary(written.summary, out).format() == written.validation.format()
+
+
+def test_an_unscaled_model_has_no_size_or_mass(tmp_path: Path):
+    written = write_model_folder(_box_model(), tmp_path / "out", PipelineSummary(source="photogrammetry", metric=False))
+    assert written.summary.units == "unscaled" and written.summary.extents_m is None and written.summary.mass_kg is None
+    assert schema_problems(tmp_path / "out" / "summary.json") == []
+
+
+def test_the_folder_appears_whole_or_not_at_all(tmp_path: Path):
+    out = tmp_path / "out"
+
+    def fail(folder: Path) -> None:
+        (folder / "half.txt").write_text("half")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError):
+        write_model_folder(_box_model(), out, PipelineSummary(source="blender"), add_files=fail)
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    write_model_folder(_box_model(), out, PipelineSummary(source="blender"))
+    with pytest.raises(OutputExistsError):
+        write_model_folder(_box_model(), out, PipelineSummary(source="blender"))
+
+
+def _good() -> dict:
+    return {
+        "schema_version": 1, "name": "mug", "kind": "mug", "source": "completion", "units": "m", "metric": True,
+        "extents_m": [0.1, 0.1, 0.12], "links": 1, "joints": 0, "triangles": 100, "mass_kg": 0.3,
+        "gate": {"valid": True, "failed_checks": [], "checks": [], "warnings": []},
+        "times_s": {"export": 0.1}, "inputs": [], "completion": {"class": "mug"},
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"metric": False, "units": "unscaled"},  # an unscaled model with a size and a mass
+        {"units": "unscaled"},
+        {"turntable": {"frames_used": 3}},  # figures under another source's key
+        {"extent_m": [1, 1, 1]},  # the old spellings are refused
+        {"schema_version": 2},
+        {"links": 0},
+    ],
+)
+def test_both_the_json_schema_and_the_model_refuse_drifted_summaries(tmp_path: Path, change: dict):
+    assert list(validator().iter_errors(_good())) == [] and ModelSummary.model_validate(_good())
+    bad = {**_good(), **change}
+    assert list(validator().iter_errors(bad)), f"the JSON Schema accepts {change}"
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps(bad))
+    with pytest.raises(InputError, match=r"summary\.json: "):
+        read_summary(tmp_path)
