@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from fixture_cache import cached_folder, content_key
 from typer.testing import CliRunner
 
 from homemodel.evaluation import camera_pose_errors, mean_surface_distance_m, voxel_iou
@@ -29,6 +30,8 @@ CAPTURE = dict(
     frames=30, width_px=320, height_px=240, samples=4, camera_distance_m=0.3, camera_height_m=0.55, tag_size_m=0.04
 )
 NOISE_AT_0_7_M = 0.0015
+# What renders a capture: a change to any of it (or to this module) renders the captures again.
+SIMULATOR_CODE = ("turntable", "homemodel.geometry", "homemodel.core")
 
 
 def _coloured(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -63,14 +66,19 @@ def make_mesh(name: str) -> trimesh.Trimesh:
 
 
 @pytest.fixture(scope="module")
-def captures(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    root = tmp_path_factory.mktemp("turntable")
-    result = {}
-    for name in OBJECTS:
-        mesh_path = root / f"{name}.ply"
-        make_mesh(name).export(mesh_path)
-        result[name] = simulate_capture(mesh_path, root / name, SimulationOptions(**CAPTURE)).out_dir
-    return result
+def captures() -> dict[str, Path]:
+    """The three captures, rendered once per content of this module and of the simulator
+    (tests/fixture_cache.py); tests read them, and copy one to change it."""
+
+    def simulate(root: Path) -> None:
+        for name in OBJECTS:
+            mesh_path = root / f"{name}.ply"
+            make_mesh(name).export(mesh_path)
+            simulate_capture(mesh_path, root / name, SimulationOptions(**CAPTURE))
+
+    key = content_key(inputs=[Path(__file__)], packages=SIMULATOR_CODE, distributions=["bpy"], settings=repr(CAPTURE))
+    root = cached_folder("turntable_accuracy", key, simulate)
+    return {name: root / name for name in OBJECTS}
 
 
 @pytest.fixture(scope="module")
@@ -213,8 +221,9 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
     report = validate_path(out)
     assert report.ok, report.format()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["frames_used"] == CAPTURE["frames"] and summary["triangles"] > 1000
-    assert set(summary["times_s"]) == {"poses", "axis", "merge", "mesh", "texture", "export"}
+    assert summary["turntable"]["frames_used"] == CAPTURE["frames"] and summary["triangles"] > 1000
+    assert set(summary["times_s"]) == {"poses", "axis", "merge", "mesh", "texture", "export", "validate"}
+    assert summary["gate"]["valid"] and summary["mass_kg"] > 0 and summary["inputs"][0]["role"] == "capture"
     poses = read_poses(out / "poses.json")
     assert len(poses) == CAPTURE["frames"]
     textures = list((out / "meshes").glob("*.png"))
