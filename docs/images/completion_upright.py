@@ -76,7 +76,7 @@ def main() -> None:
         (tmp / "camera.yaml").write_text(yaml.safe_dump(camera))
         _homemodel("completion", "run", model, tmp / "depth.png", "--camera", tmp / "camera.yaml", "--out", tmp / "out")
         completed = load_mesh(tmp / "out")
-        summary = json.loads((tmp / "out" / "summary.json").read_text())
+        summary = json.loads((tmp / "out" / "summary.json").read_text())["completion"]
     object_from_world = np.linalg.inv(np.array(summary["camera_from_object"])) @ camera_from_world
     truth = mug.copy().apply_transform(object_from_world)
     scaled = np.clip((np.nan_to_num(depth, nan=2.0) - 0.3) / 0.6, 0, 1)
