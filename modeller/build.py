@@ -200,7 +200,6 @@ def build(
     times_s = dict(clock.times_s)
     pictures: list[PictureRow] = []
     figures: dict = {
-        "spec": str(spec_path),
         "grasp_points": len(model.grasp_points),
         "masses_kg": {link.name: round(link.inertial.mass_kg, 4) for link in model.links if link.inertial},
         "pictures": [],
