@@ -15,8 +15,16 @@ from articulation.gate.report import Check, ValidationReport
 from articulation.model import Model
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.content_hash import content_sha256
+from homemodel.core.model_summary import (
+    SUMMARY_FILE,
+    GateCheck,
+    GateResult,
+    InputFile,
+    ModelSummary,
+    Source,
+    failed_check_lines,
+)
 from homemodel.core.progress import Progress, StageClock
-from homemodel.core.model_summary import SUMMARY_FILE, GateCheck, GateResult, InputFile, ModelSummary, Source
 
 
 @dataclass(kw_only=True)
@@ -46,7 +54,7 @@ class ModelFolder:
 
 def failed_checks(report: ValidationReport) -> list[str]:
     """`name: detail` of every check the model failed."""
-    return [f"{c.name}: {c.detail}" for c in report.checks if not c.passed]
+    return failed_check_lines((c.name, c.passed, c.detail) for c in report.checks)
 
 
 def report_from_summary(summary: ModelSummary, path: Path) -> ValidationReport:

@@ -10,7 +10,7 @@ under one key named after its source (`turntable: {...}`), the other sources' ke
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -112,6 +112,12 @@ class ModelSummary(_Strict):
 
     def to_json(self) -> dict[str, Any]:
         return self.model_dump(mode="json", exclude_none=False, exclude={s for s in SOURCES if s != self.source})
+
+
+def failed_check_lines(checks: Iterable[tuple[str, bool, str]]) -> list[str]:
+    """`name: detail` of every failed one of (name, passed, detail): how summaries, the
+    database's index and the commands list a gate's failures."""
+    return [f"{name}: {detail}" for name, passed, detail in checks if not passed]
 
 
 def summary_schema() -> dict[str, Any]:

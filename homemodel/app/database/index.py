@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from homemodel.core.errors import InputError
+from homemodel.core.model_summary import failed_check_lines
 
 INDEX_FILE = "index.sqlite"
 MODELS_DIR = "models"
@@ -78,7 +79,7 @@ class EntryRow:
 
     @property
     def failed_checks(self) -> list[str]:
-        return [f"{c['name']}: {c['detail']}" for c in self.checks if not c["passed"]]
+        return failed_check_lines((c["name"], c["passed"], c["detail"]) for c in self.checks)
 
 
 class ModelIndex:
