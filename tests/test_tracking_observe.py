@@ -186,8 +186,15 @@ def test_command_writes_the_map_and_report_and_leaves_objects_out_of_view_unchan
     assert new.node("oven_1").joint("door_0_hinge").position == old.node("oven_1").joint("door_0_hinge").position
     assert new.node("oven_1").history == [] and new.node("oven_1").world_from_object == old.node("oven_1").world_from_object
     assert (out.parent / new.node("oven_1").model_ref).resolve() == (map_path.parent / old.node("oven_1").model_ref).resolve()
-    again = _cli(map_path, obs, "--out", out)
-    assert again.exit_code == 2 and "exists" in again.output
+    # The fixed interface writes over an existing map, the input map itself included.
+    own = tmp_path / "own" / "map.xml"
+    shutil.copytree(map_path.parent, own.parent)
+    for target in (out, own):
+        again = _cli(own, obs, "--out", target, "--report", tmp_path / "report.json")
+        assert again.exit_code == 0, again.output
+        rewritten = load_map(target)
+        assert rewritten.node("fridge_1").joint("door_0_hinge").position == pytest.approx(0.7, abs=np.radians(2.0))
+        assert (target.parent / rewritten.node("oven_1").model_ref).is_file()
 
 
 def test_all_zero_depth_is_nothing_seen_and_the_map_unchanged(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:

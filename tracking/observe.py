@@ -343,19 +343,14 @@ def _limits(node: Jointed, joint: str) -> tuple[float, float]:
     return (-np.pi, np.pi) if limits is None else limits
 
 
-def write_observed(
-    result: ObserveResult, map_path: Path, out_path: Path, report_path: Path | None = None, *, force: bool = False
-) -> None:
-    """Save the updated map as `out_path` (atomically; an existing file only with `force`),
-    its model references rewritten relative to the new file's folder, and the report JSON."""
+def write_observed(result: ObserveResult, map_path: Path, out_path: Path, report_path: Path | None = None) -> None:
+    """Save the updated map as `out_path`, its model references rewritten relative to the new
+    file's folder, and the report JSON; each atomically, replacing what is there (the robot
+    writes each observation's map over the last, or over `map_path` itself)."""
     from homemodel.core.atomic import write_json
-    from homemodel.core.errors import OutputExistsError
     from semantic_map.xml_io import save_map
 
     out_path, map_path = Path(out_path), Path(map_path)
-    for path in (out_path, report_path):
-        if path is not None and path.exists() and not force:
-            raise OutputExistsError(f"{path}: exists (use --force to replace it)")
     rebase_model_refs(result.smap, map_path, out_path)
     save_map(result.smap, out_path)
     if report_path is not None:

@@ -18,21 +18,15 @@ def observe_command(
     obs_dir: Path = typer.Argument(..., metavar="OBS_DIR", help="observation folder: depth.png, camera.yaml (with map_from_camera), optional color.png"),
     out: Path = typer.Option(..., "--out", help="the updated map file (NEW_MAP.xml)"),
     report: Path | None = typer.Option(None, "--report", help="write what was seen, per object in view, as JSON here"),
-    force: bool = typer.Option(False, "--force", help="replace existing --out and --report files"),
 ) -> None:
     """Fit the map's models to one depth image; write the map with the joints and small objects it saw."""
     from tracking import observe, write_observed
 
     console = make_console()
     with exit_on_error():
-        for path in (out, report):
-            if path is not None and path.exists() and not force:
-                from homemodel.core.errors import OutputExistsError
-
-                raise OutputExistsError(f"{path}: exists (use --force to replace it)")
         with stage_bars(console) as progress:
             result = observe(map_path, obs_dir, progress=progress)
-        write_observed(result, map_path, out, report, force=force)
+        write_observed(result, map_path, out, report)
     if result.report.nothing_seen:
         typer.echo(f"nothing seen: {obs_dir} holds no depth reading; {out} is the map unchanged")
         return
