@@ -21,7 +21,7 @@ from homemodel.geometry.camera import save_camera
 from homemodel.geometry.depth_io import write_depth
 from turntable.board import Board, save_board
 from turntable.pose import PoseOptions, PoseSkip, estimate_camera_from_table
-from turntable.real_frames import sharpness
+from turntable.real_frames import sharpness, table_turn_rad
 from turntable.recordings.importer import RECORDING_JSON, registered_depth_m
 from turntable.recordings.source import FrameSource
 from turntable.tags import DetectionOptions, detect_tags
@@ -66,12 +66,6 @@ class LiveCaptureResult:
     warnings: dict[str, int]  # "blur", "tags": frames warned about
 
 
-def table_turn_rad(first_camera_from_table: np.ndarray, camera_from_table: np.ndarray) -> float:
-    """The table's rotation about its own z between two poses of the fixed camera."""
-    first_from_now = np.linalg.inv(first_camera_from_table) @ camera_from_table
-    return math.atan2(first_from_now[1, 0], first_from_now[0, 0])
-
-
 def capture_turn(
     source: FrameSource,
     board: Board,
@@ -94,6 +88,7 @@ def capture_turn(
     turned = last_angle = 0.0
     kept_at = -math.inf
     seen = kept = 0
+    frames = []  # stem, time, depth offset: for the pipeline's depth-time compensation
     start = time.monotonic()
     with source, atomic_dir(Path(out_dir), force=force) as tmp:
         camera = source.setup.color_camera
@@ -129,6 +124,7 @@ def capture_turn(
                         cv2.imwrite(str(tmp / "color" / f"{stem}.png"), cv2.cvtColor(pair.color, cv2.COLOR_RGB2BGR))
                         depth = registered_depth_m(pair, source.setup)
                         write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
+                        frames.append({"stem": stem, "time_s": pair.time_s, "depth_offset_s": pair.depth_offset_s})
                         kept += 1
             if on_status is not None:
                 on_status(
@@ -155,5 +151,6 @@ def capture_turn(
             complete=bool(covered.all()),
             warnings=warnings,
         )
-        write_json(tmp / RECORDING_JSON, {"format": source.setup.format, "live_capture": result.__dict__})
+        record = {"format": source.setup.format, "live_capture": result.__dict__, "frames": frames}
+        write_json(tmp / RECORDING_JSON, record)
     return result

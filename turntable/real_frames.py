@@ -1,10 +1,12 @@
 """What real sensors' frames need before merging, each measured for summary.json: flying
 pixels at depth edges dropped (holes are left as they are: no filling), blurred colour frames
-found, and the depth-to-colour misregistration estimated from where depth edges and colour
-edges fall."""
+found, the depth-to-colour misregistration estimated from where depth edges and colour edges
+fall, and each depth frame moved to its own time (the table turns on between a colour frame
+and the depth frame associated with it)."""
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -54,9 +56,14 @@ def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: i
     depth = np.nan_to_num(np.asarray(depth_m, dtype=np.float32), nan=0.0)
     valid = depth > 0
     # Depth edges: jumps over 1 cm between valid neighbours (silhouettes against the background).
-    gx = np.abs(np.diff(depth, axis=1, append=depth[:, -1:])) > 0.01
-    gy = np.abs(np.diff(depth, axis=0, append=depth[-1:])) > 0.01
-    edges = (gx | gy) & valid & np.roll(valid, -1, 1) & np.roll(valid, -1, 0)
+    # Both pixels of a jump are marked, so the edge sits between them, where colour's gradient peaks.
+    gx = (np.abs(np.diff(depth, axis=1)) > 0.01) & valid[:, 1:] & valid[:, :-1]
+    gy = (np.abs(np.diff(depth, axis=0)) > 0.01) & valid[1:] & valid[:-1]
+    edges = np.zeros(depth.shape, dtype=bool)
+    edges[:, 1:] |= gx
+    edges[:, :-1] |= gx
+    edges[1:] |= gy
+    edges[:-1] |= gy
     ys, xs = np.nonzero(edges[max_shift_px:-max_shift_px, max_shift_px:-max_shift_px])
     if len(xs) < 50:
         return None
@@ -75,3 +82,28 @@ def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: i
         return float(i)
 
     return np.array([vertex(score[iy], ix), vertex(score[:, ix], iy)]) - max_shift_px
+
+
+def table_turn_rad(first_camera_from_table: np.ndarray, camera_from_table: np.ndarray) -> float:
+    """The table's rotation about its own z between two poses of the fixed camera."""
+    first_from_now = np.linalg.inv(first_camera_from_table) @ camera_from_table
+    return math.atan2(first_from_now[1, 0], first_from_now[0, 0])
+
+
+def turn_rate_rad_s(camera_from_tables: list[np.ndarray], times_s: list[float]) -> float | None:
+    """The table's angular speed: the least-squares slope of its unwrapped angle over time
+    (frames in time order, each less than half a turn from the last); None below 3 frames."""
+    if len(times_s) < 3:
+        return None
+    angles = np.unwrap([table_turn_rad(camera_from_tables[0], c) for c in camera_from_tables])
+    return float(np.polyfit(np.asarray(times_s), angles, 1)[0])
+
+
+def turned_table(axis_xy_m: np.ndarray, angle_rad: float) -> np.ndarray:
+    """table_from_turned_table: the table turned by `angle_rad` about its axis, so that
+    camera_from_table at a later time is camera_from_table @ this."""
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    rotation = np.array([[c, -s, 0.0, 0.0], [s, c, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    shift = np.eye(4)
+    shift[:2, 3] = axis_xy_m
+    return shift @ rotation @ np.linalg.inv(shift)

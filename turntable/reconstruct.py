@@ -10,6 +10,7 @@ Poisson with density trimming; colour baked into a texture on xatlas UVs; then t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -29,7 +30,13 @@ from turntable.fusion import Cylinder, MergedCloud, VoxelAccumulator, frame_poin
 from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
 from turntable.outputs import write_reconstruction
 from turntable.orbit import TableAxis, table_axis
-from turntable.real_frames import depth_color_offset_px, drop_flying_pixels, sharpness
+from turntable.real_frames import (
+    depth_color_offset_px,
+    drop_flying_pixels,
+    sharpness,
+    turn_rate_rad_s,
+    turned_table,
+)
 from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table
 from turntable.tags import DetectionOptions, detect_tags
 from turntable.turntable_model import TurntableFit, fit_turntable
@@ -184,10 +191,14 @@ def estimate_poses(
     # Blur: a turntable's frames see the same scene, so a frame far less sharp than the
     # median is blurred (auto exposure, motion); its tag corners and colours would smear.
     median = float(np.nanmedian(list(sharpness_of.values()))) if sharpness_of else 0.0
-    for stem, sharp in sharpness_of.items():  # blur is the reason, also where it cost the pose
+    for stem, sharp in sharpness_of.items():
         if sharp < options.blur_ratio * median:
-            poses.pop(stem, None)
-            skipped[stem] = f"blur: sharpness {sharp:.0f} below {options.blur_ratio} x the median {median:.0f}"
+            blur = f"sharpness {sharp:.0f} below {options.blur_ratio} x the median {median:.0f}"
+            if stem in poses:
+                del poses[stem]
+                skipped[stem] = f"blur: {blur}"
+            elif stem in skipped:  # no pose anyway: say it was blurred too
+                skipped[stem] += f" (blurred: {blur})"
     if len(poses) < options.min_frames:
         examples = "; ".join(f"{s}: {r}" for s, r in list(skipped.items())[:3])
         raise ModelError(
@@ -222,8 +233,27 @@ def merge_frames(
     figures (flying pixels, holes, misregistration)."""
     rays = capture.camera.pixel_rays()
     accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
-    frames = [f for f in capture.frames if f.stem in poses]
-
+    # A depth frame taken `depth_offset_s` after its colour frame sees the table turned on by
+    # the turn rate times that: its points go back by as much (recordings with frame times).
+    timing = {
+        f["stem"]: f
+        for f in (capture.recording or {}).get("frames", [])
+        if isinstance(f, dict) and isinstance(f.get("stem"), str)
+        and all(isinstance(f.get(k), (int, float)) for k in ("time_s", "depth_offset_s"))
+    }
+    ordered = sorted((s for s in timing if s in poses), key=lambda stem: timing[stem]["time_s"])
+    rate = turn_rate_rad_s([poses[s].camera_from_table for s in ordered], [timing[s]["time_s"] for s in ordered])
+    camera_from_tables = {s: p.camera_from_table for s, p in poses.items()}
+    if rate is not None:
+        # A frame whose colour gave no pose (blurred, too few tags) keeps its depth: the table's
+        # pose at its time follows from the nearest posed frame and the turn rate.
+        for frame in capture.frames:
+            if frame.stem not in poses and frame.stem in timing and skipped.get(frame.stem, "").startswith(("blur:", "pose:")):
+                t = float(timing[frame.stem]["time_s"])
+                nearest = min(ordered, key=lambda s: abs(timing[s]["time_s"] - t))
+                turn = turned_table(cylinder.axis_xy_m, rate * (t - timing[nearest]["time_s"]))
+                camera_from_tables[frame.stem] = poses[nearest].camera_from_table @ turn
+    frames = [f for f in capture.frames if f.stem in camera_from_tables]
     # The misregistration is measured on a few frames spread over the turn.
     probes = {f.stem for f in frames[:: max(1, len(frames) // _MISREGISTRATION_FRAMES)]}
 
@@ -242,7 +272,10 @@ def merge_frames(
         flying = 0
         if options.drop_flying_pixels:
             depth, flying = drop_flying_pixels(depth)
-        table_from_camera = np.linalg.inv(poses[frame.stem].camera_from_table)
+        table_from_camera = np.linalg.inv(camera_from_tables[frame.stem])
+        if rate is not None and frame.stem in timing:
+            angle = rate * float(timing[frame.stem]["depth_offset_s"])
+            table_from_camera = np.linalg.inv(turned_table(cylinder.axis_xy_m, angle)) @ table_from_camera
         return frame.stem, frame_points(depth, rgb, rays, table_from_camera, cylinder), flying, valid, offset
 
     flying_total = valid_total = 0
@@ -250,7 +283,7 @@ def merge_frames(
     for done, (stem, result, flying, valid, offset) in enumerate(_parallel(options.workers, one, frames), start=1):
         if isinstance(result, str):
             skipped[stem] = result
-            del poses[stem]
+            poses.pop(stem, None)
         else:
             accumulator.add(*result)
             flying_total += flying
@@ -267,6 +300,9 @@ def merge_frames(
             "depth_valid_fraction": valid_total / max(len(frames) * capture.camera.width * capture.camera.height, 1),
             "depth_to_color_offset_px": None if offset_px is None else [round(float(v), 2) for v in offset_px],
             "misregistration_frames": len(offsets),
+            "turn_rate_deg_s": None if rate is None else math.degrees(rate),
+            "depth_time_compensated_frames": len(timing) if rate is not None else 0,
+            "frames_posed_by_turn_rate": len(camera_from_tables) - len(poses),
             "misregistration_warning": bool(
                 offset_px is not None and np.hypot(*offset_px) > options.misregistration_warning_px
             ),
@@ -296,7 +332,10 @@ def _run_stages(capture: Capture, options: ReconstructionOptions, progress: Prog
     clock = StageClock(progress)
     clock.start("poses")
     poses, skipped = estimate_poses(capture, options, clock.progress)
-    real_frames = {"blurred_frames_skipped": sum(r.startswith("blur:") for r in skipped.values())}
+    real_frames = {
+        "blurred_frames_skipped": sum(r.startswith("blur:") for r in skipped.values()),
+        "blurred_frames": sum(r.startswith("blur:") or "(blurred:" in r for r in skipped.values()),
+    }
 
     clock.start("axis", 1)
     axis = table_axis([p.camera_from_table for p in poses.values()])

@@ -153,6 +153,7 @@ def import_recording(
         (tmp / "depth").mkdir()
         written = 0
         offsets = []
+        frames = []
         for pair in source.pairs(start_s=options.start_s, end_s=options.end_s):
             if pair.color.shape[:2] != (camera.height, camera.width):
                 raise InputError(
@@ -168,6 +169,7 @@ def import_recording(
                 raise InputError(f"{recording}: {exc}") from None
             write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
             offsets.append(pair.depth_offset_s)
+            frames.append({"stem": stem, "time_s": pair.time_s, "depth_offset_s": pair.depth_offset_s})
             written += 1
             report("import", written, None)
         if written == 0:
@@ -194,5 +196,5 @@ def import_recording(
             color_size=(camera.width, camera.height),
             time_s=time.perf_counter() - start,
         )
-        write_json(tmp / RECORDING_JSON, result.as_json())
+        write_json(tmp / RECORDING_JSON, {**result.as_json(), "frames": frames})
     return result
