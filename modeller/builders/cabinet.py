@@ -496,9 +496,10 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
         parent=drawer_obj,
         parent_from_object=translation_transform(box_centre),
     )
-    add_solidify(box, spec.wall_thickness_m)
+    box_wall = spec.wall_thickness_m if drawer.box_wall_m is None else drawer.box_wall_m
+    add_solidify(box, box_wall)
     walls = ["+x", "-x", "+y", "-y", "-z"]
-    collisions += wall_collisions(f"{link}_box", box_size, box_centre, walls, spec.wall_thickness_m)
+    collisions += wall_collisions(f"{link}_box", box_size, box_centre, walls, box_wall)
     assembly.collisions[link] = collisions
     assembly.joints.append(
         Joint(

@@ -310,6 +310,7 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
         )
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     t = spec.wall_thickness_m
+    box_wall = t if drawer.box_wall_m is None else drawer.box_wall_m
     if drawer.inner_board_inside_m is not None and drawer_board_front_x_m(spec, drawer) > drawer_front_x_m(spec, drawer) + _EPS_M:
         raise FieldError(
             ("drawers", i, "inner_board_inside_m"),
@@ -327,11 +328,11 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
         raise FieldError(
             ("drawers", i, "box_bottom_m"), f"drawer {i}'s box starts at {z_min:.3f} m, below its opening at {bottom:.3f} m"
         )
-    if y_max - y_min <= 2 * t:
+    if y_max - y_min <= 2 * box_wall:
         raise FieldError(
             ("drawers", i, "width_m"), f"drawer front leaves a box {y_max - y_min:.3f} m wide inside the body"
         )
-    if z_max - z_min <= t:
+    if z_max - z_min <= box_wall:
         raise FieldError(
             ("drawers", i, "height_m"), f"drawer front leaves a box {z_max - z_min:.3f} m high inside the body"
         )

@@ -157,6 +157,9 @@ class DrawerSpec(Front):
     box_width_m: Length | None = Field(
         None, description="the box's outer width; default: as wide as the opening allows, less runner_clearance_m"
     )
+    box_wall_m: Length | None = Field(
+        None, description="thickness of the box's sides, back and floor (often thinner than the carcass); default: wall_thickness_m"
+    )
     dynamics: JointDynamicsSpec | None = Field(None, description="the slide's damping and friction; default: by its kind")
 
     def handle_orientation(self) -> Orientation:
