@@ -4,7 +4,9 @@ folder the first one made. A change to an input file or to the source of a liste
 makes a new key, so a stale result is never used.
 
 The cache is `build/test-cache/` (gitignored), or HOMEMODEL_TEST_CACHE. A clean clone starts
-empty, so CI measures the cold time. Each fixture keeps only its newest entry.
+empty, so CI measures the cold time. Each fixture keeps its entries used in the last
+KEEP_UNUSED_S, at most KEEP_ENTRIES of them: another run (another checkout state) may be
+reading an older key's folder at the same time, so no entry is removed as soon as it is old.
 """
 
 from __future__ import annotations
@@ -16,13 +18,16 @@ import importlib.util
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 CACHE_ROOT = Path(os.environ.get("HOMEMODEL_TEST_CACHE", REPO / "build" / "test-cache"))
-DONE = ".complete"
+DONE = ".complete"  # written last; its mtime is the entry's last use
+KEEP_ENTRIES = 3
+KEEP_UNUSED_S = 6 * 3600
 SOURCE_SUFFIXES = (".py", ".js", ".yaml", ".xsd")
 
 
@@ -77,12 +82,26 @@ def cached_folder(name: str, key: str, make: Callable[[Path], None]) -> Path:
     with locked(name) as root:
         entry = root / key
         if (entry / DONE).is_file():
+            (entry / DONE).touch()
             return entry
-        for old in root.iterdir():  # another key's entry, or a build that died half-way
-            if old.is_dir():
-                shutil.rmtree(old, ignore_errors=True)
+        _prune(root)
         work = Path(tempfile.mkdtemp(prefix=".making-", dir=root))
         make(work)
         (work / DONE).touch()
         work.rename(entry)
         return entry
+
+
+def _prune(root: Path) -> None:
+    """Under the lock: remove builds that died half-way (no one else is making), entries unused
+    for KEEP_UNUSED_S, and the least recently used beyond KEEP_ENTRIES - 1 (one is being made)."""
+    entries = []
+    for folder in (p for p in root.iterdir() if p.is_dir()):
+        if not (folder / DONE).is_file():
+            shutil.rmtree(folder, ignore_errors=True)
+        else:
+            entries.append(((folder / DONE).stat().st_mtime, folder))
+    entries.sort(reverse=True)
+    for rank, (used, folder) in enumerate(entries):
+        if rank >= KEEP_ENTRIES - 1 or time.time() - used > KEEP_UNUSED_S:
+            shutil.rmtree(folder, ignore_errors=True)

@@ -1,6 +1,6 @@
 """The on-disk fixture cache the expensive fixtures share (tests/fixture_cache.py): a key
 changes with any input byte or source file, two processes asking at once make the folder
-once, and a new key's folder replaces the old one."""
+once, and old keys' folders go only when many or long unused."""
 
 from __future__ import annotations
 
@@ -48,5 +48,9 @@ def test_two_processes_asking_at_once_make_it_once(tmp_path: Path, monkeypatch: 
     monkeypatch.setattr(fixture_cache, "CACHE_ROOT", tmp_path / "cache")
     again = cached_folder("shared", "k1", lambda folder: pytest.fail("made again"))
     assert str(again) == folders[0]
+    # Another checkout state's key: the older entry stays, for a run that may be reading it.
     newer = cached_folder("shared", "k2", lambda folder: (folder / "result.txt").write_text("k2"))
-    assert (newer / "result.txt").read_text() == "k2" and not Path(folders[0]).exists()
+    assert (newer / "result.txt").read_text() == "k2" and Path(folders[0]).is_dir()
+    for key in ("k3", "k4"):  # beyond KEEP_ENTRIES the least recently used goes
+        cached_folder("shared", key, lambda folder: None)
+    assert sorted(p.name for p in (tmp_path / "cache" / "shared").iterdir() if p.is_dir()) == ["k2", "k3", "k4"]
