@@ -105,13 +105,9 @@ class ModelSummary(_Strict):
             raise ValueError(f"source is {self.source!r} but figures are given under {others}")
         return self
 
-    @property
-    def figures(self) -> dict[str, Any]:
-        """The source's own figures (empty when it has none)."""
-        return getattr(self, self.source) or {}
-
     def to_json(self) -> dict[str, Any]:
-        return self.model_dump(mode="json", exclude_none=False, exclude={s for s in SOURCES if s != self.source})
+        """The JSON document, without the other sources' (absent) keys."""
+        return self.model_dump(mode="json", exclude={s for s in SOURCES if s != self.source})
 
 
 def failed_check_lines(checks: Iterable[tuple[str, bool, str]]) -> list[str]:
@@ -124,11 +120,12 @@ def summary_schema() -> dict[str, Any]:
     """The JSON Schema published as homemodel/schemas/model_summary.schema.json."""
     schema = ModelSummary.model_json_schema()
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-    schema["$id"] = f"https://homemodel/schemas/model_summary/{SCHEMA_VERSION}"
+    schema["$id"] = f"urn:homemodel:model-summary:{SCHEMA_VERSION}"
     return schema
 
 
 def schema_path() -> Path:
+    """Where the package holds the published schema (package data)."""
     return Path(__file__).resolve().parent.parent / "schemas" / "model_summary.schema.json"
 
 
