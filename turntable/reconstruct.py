@@ -190,7 +190,8 @@ def estimate_poses(
         report("poses", done, len(capture.frames))
     # Blur: a turntable's frames see the same scene, so a frame far less sharp than the
     # median is blurred (auto exposure, motion); its tag corners and colours would smear.
-    median = float(np.nanmedian(list(sharpness_of.values()))) if sharpness_of else 0.0
+    readable = [v for v in sharpness_of.values() if np.isfinite(v)]  # unreadable images have none
+    median = float(np.median(readable)) if readable else 0.0
     for stem, sharp in sharpness_of.items():
         if sharp < options.blur_ratio * median:
             blur = f"sharpness {sharp:.0f} below {options.blur_ratio} x the median {median:.0f}"
