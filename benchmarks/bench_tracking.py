@@ -164,6 +164,9 @@ def main() -> None:
                     error = np.linalg.inv(true_pose) @ estimate
                     rows["pose_m"][key].append(float(np.linalg.norm(error[:2, 3])))
                     rows["pose_deg"][key].append(abs(float(np.degrees(np.arctan2(error[1, 0], error[0, 0])))))
+                if rows["pose_m"]["fit"][-1] > 0.01:
+                    print(f"  pose miss: {obj.id} {rows['pose_m']['fit'][-1] * 1000:.0f} mm "
+                          f"({'refined' if obj.pose_refined else 'kept'}: {obj.pose_note})")
                 for joint in obj.joints:
                     if joint.name.startswith("knob") or visible.get((obj.id, joint.name), 0.0) < 0.5:
                         continue

@@ -32,6 +32,7 @@ from tracking.fit_joints import JointSearch, fit_joint
 from tracking.fit_pose import refine_pose
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
+from tracking.pose_gate import PoseGate, judge_pose
 from tracking.report import JointReport, ObjectReport, ObservationReport
 from tracking.scene import HomeScene
 
@@ -62,7 +63,7 @@ class ObserveOptions:
     min_fixed_share: float = 0.1
     rounds: int = 3  # of pose and joints refitted after the first fit of the joints
     min_pose_points: int = 150  # fine-view points for a pose refinement
-    min_pose_inliers: float = 0.5  # of those, the share the refined pose must explain
+    pose_gate: PoseGate = field(default_factory=PoseGate)  # when a refined pose replaces the map's
     revolute_coarse_step_deg: float = 4.0
     revolute_fine_step_deg: float = 1.0
     prismatic_coarse_step_m: float = 0.015
@@ -83,9 +84,10 @@ class ObserveOptions:
             require_positive(name, getattr(self, name))
         if not self.pose_gates_m or any(not g > 0 for g in self.pose_gates_m):
             raise InputError(f"pose_gates_m: {self.pose_gates_m!r} must be one or more positive distances")
-        for name in ("min_pose_inliers", "min_visible_fraction", "min_contrast", "min_fixed_share"):
+        for name in ("min_visible_fraction", "min_contrast", "min_fixed_share"):
             require_between(name, getattr(self, name), 0.0, 1.0)
         self.small_objects.check()
+        self.pose_gate.check()
 
     def search(self, joint_type: str) -> JointSearch:
         if joint_type == "prismatic":
@@ -212,8 +214,11 @@ def _fit_large_object(
             for joint in joints:
                 refit = results[joint][0] == "fitted"
                 results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=refit)
-    refined = fit is not None and fit.inlier_fraction >= options.min_pose_inliers
-    if not refined:
+    verdict = judge_pose(state, fine, object_id, previous_pose, fit.inlier_fraction if fit else None, background,
+                         options.pose_gate)
+    if not verdict.accepted:
+        # The joints keep the angles fitted at the refined pose: relative to the body the
+        # parts were seen at, they are the better estimate even where the pose is in doubt.
         state.map_from_objects[object_id] = previous_pose
     report = ObjectReport(
         id=object_id,
@@ -221,7 +226,8 @@ def _fit_large_object(
         pixels=pixels,
         map_from_object=state.map_from_objects[object_id].copy(),
         previous_map_from_object=previous_pose,
-        pose_refined=refined,
+        pose_refined=verdict.accepted,
+        pose_note=verdict.note,
         pose_inlier_fraction=fit.inlier_fraction if fit else 0.0,
         pose_rmse_m=fit.rmse_m if fit else float("nan"),
     )

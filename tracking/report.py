@@ -87,6 +87,7 @@ class ObjectReport:
     map_from_object: np.ndarray
     previous_map_from_object: np.ndarray
     pose_refined: bool
+    pose_note: str = ""  # why the refined pose was taken or the map's kept
     pose_inlier_fraction: float = 0.0
     pose_rmse_m: float = float("nan")
     seconds: float = 0.0
@@ -108,6 +109,7 @@ class ObjectReport:
             "type": self.type,
             "pixels": self.pixels,
             "pose_refined": self.pose_refined,
+            "pose_note": self.pose_note,
             "map_from_object": pose_json(self.map_from_object),
             "previous_map_from_object": pose_json(self.previous_map_from_object),
             "shift_m": _number(self.shift_m),
@@ -141,7 +143,7 @@ class ObservationReport:
         """(object, what, estimate, support) rows for the command's table."""
         rows = []
         for obj in self.objects:
-            pose = f"moved {obj.shift_m * 100:.1f} cm, {obj.turn_deg:.1f} deg" if obj.pose_refined else "pose kept"
+            pose = f"moved {obj.shift_m * 100:.1f} cm, {obj.turn_deg:.1f} deg" if obj.pose_refined else f"kept: {obj.pose_note}"
             rows.append((obj.id, "pose", pose, f"{obj.pixels} px"))
             for joint in obj.joints:
                 if joint.status == "fitted":

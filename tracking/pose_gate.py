@@ -1,0 +1,101 @@
+"""Whether a large object's refined pose may replace the map's: only when the observation
+pins it down and it explains the observed depth clearly better than the map's pose does.
+A wrong pose written into the map is worse than an old one kept, so doubt keeps the old one.
+
+Both poses are scored on the same pixels (the object rendered at either pose, in front of
+the rest of the scene, and not covered by something nearer), by the mean truncated squared
+depth residual: 0 = every pixel explained, 1 = none.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from homemodel.core.checks import require_between
+from tracking.fit_state import FitState
+from tracking.fit_view import FitView
+
+
+@dataclass(kw_only=True)
+class PoseGate:
+    """The refined pose goes into the map when its ICP inlier share is at least
+    `min_inliers`, its depth cost is at most `max_cost_ratio` of the map pose's and lower by
+    at least `min_cost_drop`, and the object's silhouette keeps `edge_margin_px` pixels off
+    the image's left and right edges (cut there, nothing pins its slide along the image)."""
+
+    min_inliers: float = 0.5
+    max_cost_ratio: float = 0.9
+    min_cost_drop: float = 0.005
+    edge_margin_px: int = 1
+
+    def check(self) -> None:
+        for name in ("min_inliers", "max_cost_ratio", "min_cost_drop"):
+            require_between(name, getattr(self, name), 0.0, 1.0)
+        require_between("edge_margin_px", self.edge_margin_px, 0, 64)
+
+
+@dataclass(kw_only=True)
+class PoseVerdict:
+    accepted: bool
+    note: str  # why, for the report
+    cost_before: float = float("nan")
+    cost_after: float = float("nan")
+
+
+def judge_pose(
+    state: FitState,
+    view: FitView,
+    object_id: str,
+    map_from_object_before: np.ndarray,
+    inlier_fraction: float | None,
+    background_m: np.ndarray,
+    gate: PoseGate,
+) -> PoseVerdict:
+    """Judge `state`'s pose of `object_id` (refined, ICP inlier share `inlier_fraction`; None
+    when no refinement ran) against `map_from_object_before`, the joints at their estimates."""
+    if inlier_fraction is None:
+        return PoseVerdict(accepted=False, note="too little of it seen to refine")
+    if inlier_fraction < gate.min_inliers:
+        return PoseVerdict(accepted=False, note=f"only {inlier_fraction:.0%} of its points fit")
+    after = _object_depth(state, view, object_id)
+    refined = state.map_from_objects[object_id]
+    state.map_from_objects[object_id] = map_from_object_before
+    before = _object_depth(state, view, object_id)
+    state.map_from_objects[object_id] = refined
+    mine_after, mine_before = after < background_m, before < background_m
+    if _cut(mine_after | mine_before, gate.edge_margin_px):
+        return PoseVerdict(accepted=False, note="cut by the image's edge")
+    cost_before, cost_after = _costs(view, [np.minimum(d, background_m) for d in (before, after)], mine_before | mine_after)
+    verdict = PoseVerdict(accepted=False, note="", cost_before=cost_before, cost_after=cost_after)
+    if not (cost_after <= gate.max_cost_ratio * cost_before and cost_before - cost_after >= gate.min_cost_drop):
+        verdict.note = f"no clearly better fit (depth cost {cost_before:.3f} -> {cost_after:.3f})"
+        return verdict
+    verdict.accepted, verdict.note = True, f"depth cost {cost_before:.3f} -> {cost_after:.3f}"
+    return verdict
+
+
+def _object_depth(state: FitState, view: FitView, object_id: str) -> np.ndarray:
+    return state.renderer.depth(state.map_from_parts(), view.camera, view.map_from_camera, state.object_parts(object_id))
+
+
+def _cut(silhouette: np.ndarray, margin_px: int) -> bool:
+    edge = max(margin_px, 1)
+    return bool(silhouette[:, :edge].any() or silhouette[:, -edge:].any())
+
+
+def _costs(view: FitView, depths: list[np.ndarray], considered: np.ndarray) -> tuple[float, ...]:
+    """The mean truncated squared residual of each rendered depth over `considered`'s
+    observed pixels, leaving out those where the observation is in front of both renderings
+    (an occluder the map does not hold)."""
+    observed = view.depth_m[considered]
+    tolerance = view.tolerance_m[considered]
+    model = np.stack([d[considered] for d in depths])
+    usable = np.isfinite(observed) & (observed >= model.min(axis=0) - tolerance)
+    if not usable.any():
+        return tuple(1.0 for _ in depths)
+    residual = (observed[usable] - model[:, usable]) / tolerance[usable]
+    with np.errstate(invalid="ignore"):
+        costs = np.minimum(np.nan_to_num(residual**2, nan=1.0, posinf=1.0), 1.0).mean(axis=1)
+    return tuple(float(c) for c in costs)
