@@ -377,3 +377,23 @@ def test_the_unseen_pieces_build_fast(tmp_path: Path) -> None:
         build_model(path)
     mean_s = (time.perf_counter() - start) / len(paths)
     assert mean_s < 1.0, mean_s  # 0.5 s asked on average: 0.3-0.45 s measured; a loaded machine gets slack
+
+
+def test_a_drawer_box_has_the_walls_measured_and_refuses_walls_that_leave_no_box(tmp_path: Path) -> None:
+    from homemodel.core.errors import SpecError
+    from modeller import build_model
+    from modeller.spec_loading import load_spec
+
+    spec = larder().spec
+    model = build_model(write_spec(tmp_path, spec))
+    walls = [c for c in model.link("drawer_0").collisions if c.name.startswith("drawer_0_box")]
+    # Four walls and a floor, each 15 mm through (the carcass' walls are 18 mm).
+    assert len(walls) == 5 and all(min(c.geometry.size_m) == pytest.approx(0.015) for c in walls)
+    # The visual box (the mesh solidified inward) holds as much board as five 15 mm slabs.
+    box = next(v for v in model.link("drawer_0").visuals if v.name.endswith(".box"))
+    w, d, h, t = 0.2, 0.45, 0.15, 0.015
+    boards = d * w * t + 2 * d * t * (h - t) + 2 * (w - 2 * t) * t * (h - t)
+    assert box.mesh.volume == pytest.approx(boards, rel=0.02)
+    spec["drawers"][0]["box_wall_m"] = 0.1
+    with pytest.raises(SpecError, match=r"drawers\.0\.width_m: drawer front leaves a box 0\.200 m wide"):
+        load_spec(write_spec(tmp_path, spec, "thick_walls.yaml"))
