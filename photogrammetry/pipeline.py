@@ -148,6 +148,11 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         share = in_frame_share(points, sparse.views, margin=options.cleaning.in_frame_margin)
         keep &= share >= options.cleaning.min_in_frame_share
     points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
+    if len(points) < 100:
+        raise ModelError(
+            f"{photos_dir}: only {len(points)} dense points lie where the photos look and stay in frame: "
+            "no one object is seen from all round (take the photos circling the object, or give --marker-size-m)"
+        )
     camera_up = -np.mean([v.camera_from_world[1, :3] for v in sparse.views], axis=0)
     plane = find_support_plane(
         points,
