@@ -22,8 +22,9 @@ from tracking.fit_view import FitView
 class PoseGate:
     """The refined pose goes into the map when its ICP inlier share is at least
     `min_inliers`, its depth cost is at most `max_cost_ratio` of the map pose's and lower by
-    at least `min_cost_drop`, and the object's silhouette keeps `edge_margin_px` pixels off
-    the image's left and right edges (cut there, nothing pins its slide along the image)."""
+    at least `min_cost_drop`. An object whose silhouette comes within `edge_margin_px` pixels of
+    the image's left or right edge (cut there, nothing pins its slide across the image) is
+    judged with only the turn and the shift along the view."""
 
     min_inliers: float = 0.5
     max_cost_ratio: float = 0.9
@@ -59,21 +60,39 @@ def judge_pose(
         return PoseVerdict(accepted=False, note="too little of it seen to refine")
     if inlier_fraction < gate.min_inliers:
         return PoseVerdict(accepted=False, note=f"only {inlier_fraction:.0%} of its points fit")
-    after = _object_depth(state, view, object_id)
     refined = state.map_from_objects[object_id]
     state.map_from_objects[object_id] = map_from_object_before
     before = _object_depth(state, view, object_id)
     state.map_from_objects[object_id] = refined
-    mine_after, mine_before = after < background_m, before < background_m
-    if _cut(mine_after | mine_before, gate.edge_margin_px):
-        return PoseVerdict(accepted=False, note="cut by the image's edge")
-    cost_before, cost_after = _costs(view, [np.minimum(d, background_m) for d in (before, after)], mine_before | mine_after)
+    after = _object_depth(state, view, object_id)
+    cut = _cut((after < background_m) | (before < background_m), gate.edge_margin_px)
+    if cut:
+        # Its slide across the image is not pinned: only the turn and the shift along the
+        # view are kept, and judged like any refined pose.
+        state.map_from_objects[object_id] = _along_view(refined, map_from_object_before, view.map_from_camera)
+        after = _object_depth(state, view, object_id)
+    considered = (after < background_m) | (before < background_m)
+    scene_depths = [np.minimum(d, background_m) for d in (before, after)]
+    cost_before, cost_after = _costs(view, scene_depths, considered)
     verdict = PoseVerdict(accepted=False, note="", cost_before=cost_before, cost_after=cost_after)
+    costs = f"depth cost {cost_before:.3f} -> {cost_after:.3f}"
+    if cut:
+        costs += ", cut by the image's edge: turn and shift along the view only"
     if not (cost_after <= gate.max_cost_ratio * cost_before and cost_before - cost_after >= gate.min_cost_drop):
-        verdict.note = f"no clearly better fit (depth cost {cost_before:.3f} -> {cost_after:.3f})"
+        verdict.note = f"no clearly better fit ({costs})"
         return verdict
-    verdict.accepted, verdict.note = True, f"depth cost {cost_before:.3f} -> {cost_after:.3f}"
+    verdict.accepted, verdict.note = True, costs
     return verdict
+
+
+def _along_view(map_from_refined: np.ndarray, map_from_before: np.ndarray, map_from_camera: np.ndarray) -> np.ndarray:
+    """The refined pose with its shift kept only along the camera's horizontal viewing direction."""
+    forward = np.array([map_from_camera[0, 2], map_from_camera[1, 2], 0.0])
+    forward /= max(np.linalg.norm(forward), 1e-9)
+    shift = map_from_refined[:3, 3] - map_from_before[:3, 3]
+    out = map_from_refined.copy()
+    out[:3, 3] = map_from_before[:3, 3] + forward * (forward @ shift)
+    return out
 
 
 def _object_depth(state: FitState, view: FitView, object_id: str) -> np.ndarray:
