@@ -11,6 +11,7 @@ import pytest
 import modeller
 import photogrammetry
 import shape_completion
+import tracking
 import turntable
 from homemodel.core.errors import InputError
 from modeller.build import BuildOptions
@@ -24,9 +25,13 @@ from photogrammetry.synthetic_scene import SceneOptions
 from photogrammetry.texturing import TextureBakingOptions
 from shape_completion.benchmark import BenchmarkOptions
 from shape_completion.model_export import CompletionOptions
+from tracking.observe import ObserveOptions
+from tracking.simulate_view import ViewOptions
+from turntable.capture_live import LiveCaptureOptions
 from turntable.meshing import MeshingOptions
 from turntable.pose import PoseOptions
 from turntable.reconstruct import ReconstructionOptions
+from turntable.recordings.importer import ImportOptions
 from turntable.simulate import SimulationOptions
 from turntable.tags import DetectionOptions
 
@@ -51,6 +56,11 @@ BAD_OPTIONS = [
     (DetectionOptions(decimate=-2.0), "decimate"),
     (ReconstructionOptions(voxel_size_m=0.0), "voxel_size_m"),
     (ReconstructionOptions(pose=PoseOptions(ransac_threshold_px=float("nan"))), "pose.ransac_threshold_px"),
+    (LiveCaptureOptions(sectors=1), "sectors"),
+    (ImportOptions(every=0), "every"),
+    (ImportOptions(start_s=2.0, end_s=1.0), "end_s"),
+    (ObserveOptions(rounds=0), "rounds"),
+    (ViewOptions(occlude={"fridge": 2.0}), "occlude.fridge"),
 ]
 
 
@@ -67,7 +77,7 @@ def test_the_defaults_pass(options: type) -> None:
 
 def test_every_options_class_is_covered() -> None:
     classes = {type(o) for o, _ in BAD_OPTIONS}
-    for package in (modeller, turntable, photogrammetry, shape_completion):
+    for package in (modeller, turntable, photogrammetry, shape_completion, tracking):
         root = Path(package.__file__).parent
         for path in root.rglob("*.py"):
             for line in path.read_text().splitlines():

@@ -40,7 +40,7 @@ class ImportOptions:
         require_at_least("every", self.every, 1)
         require_at_least("start_s", self.start_s, 0.0)
         if self.end_s is not None and self.end_s < self.start_s:
-            raise ValueError(f"end_s ({self.end_s}) is before start_s ({self.start_s})")
+            raise InputError(f"end_s: {self.end_s} is before start_s ({self.start_s})")
         if self.tolerance_s is not None:
             require_positive("tolerance_s", self.tolerance_s)
 
