@@ -17,14 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[2]
-SIMULATE = [
-    "map", "simulate-view", "build/kitchen/map.xml", "--camera", "examples/cameras/kinect_v1.yaml",
-    "--look-at", "fridge_1", "--distance-m", "2.3", "--height-m", "1.5", "--bearing-deg", "-30",
-    "--joint", "fridge_1/door_0_hinge=0.9", "--joint", "cupboard_1/drawer_0_slide=0.2",
-    "--move", "red_cup=cupboard_1:0.0,0.1,0.5", "--occlude", "fridge_1=0.3",
-]  # fmt: skip
-NEAR_M, FAR_M = 0.5, 4.0
+from simulate_view import COMMAND, REPO, depth_picture  # the same view, beside this script
 
 
 def _homemodel(*args: str) -> None:
@@ -37,16 +30,13 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         obs, new_map, report_path = Path(tmp) / "obs", Path(tmp) / "new_map.xml", Path(tmp) / "report.json"
-        _homemodel(*SIMULATE, "--out", str(obs))
+        _homemodel(*COMMAND, "--out", str(obs))
         _homemodel("map", "observe", "build/kitchen/map.xml", str(obs), "--out", str(new_map), "--report", str(report_path))
         observation = read_observation(obs)
         report = json.loads(report_path.read_text())
         scene = HomeScene.load(new_map, structure=False)
         rendering = Renderer(scene.parts).render(scene.pose(), observation.camera, observation.map_from_camera)
-    scaled = np.clip((observation.depth_m - NEAR_M) / (FAR_M - NEAR_M), 0, 1)
-    picture = cv2.applyColorMap((255 * (1 - scaled)).astype(np.uint8), cv2.COLORMAP_TURBO)
-    picture[observation.depth_m == 0] = 0
-    picture = (0.6 * picture).astype(np.uint8)  # dimmed, so the outlines stand out
+    picture = (0.6 * depth_picture(observation.depth_m)).astype(np.uint8)  # dimmed, so the outlines stand out
     index = rendering.part_index
     edges = np.zeros(index.shape, dtype=bool)
     edges[:, 1:] |= index[:, 1:] != index[:, :-1]

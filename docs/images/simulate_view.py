@@ -26,18 +26,25 @@ COMMAND = [
 NEAR_M, FAR_M = 0.5, 4.0
 
 
+def depth_picture(depth_m: np.ndarray) -> np.ndarray:
+    """Depth in colour: near red, far blue, no reading black."""
+    scaled = np.clip((depth_m - NEAR_M) / (FAR_M - NEAR_M), 0, 1)
+    picture = cv2.applyColorMap((255 * (1 - scaled)).astype(np.uint8), cv2.COLORMAP_TURBO)
+    picture[depth_m == 0] = 0
+    return picture
+
+
 def main() -> None:
+    from tracking.observation_files import read_observation
+
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "obs"
         subprocess.run([sys.executable, "-m", "homemodel", *COMMAND, "--out", str(out)], cwd=REPO, check=True)
+        observation = read_observation(out)
         colour = cv2.imread(str(out / "color.png"))
-        depth_m = cv2.imread(str(out / "depth.png"), cv2.IMREAD_UNCHANGED) * 0.001
-    scaled = np.clip((depth_m - NEAR_M) / (FAR_M - NEAR_M), 0, 1)
-    depth = cv2.applyColorMap((255 * (1 - scaled)).astype(np.uint8), cv2.COLORMAP_TURBO)
-    depth[depth_m == 0] = 0
-    picture = cv2.resize(np.hstack([colour, depth]), None, fx=0.75, fy=0.75, interpolation=cv2.INTER_AREA)
+    both = np.hstack([colour, depth_picture(observation.depth_m)])
+    picture = cv2.resize(both, None, fx=0.75, fy=0.75, interpolation=cv2.INTER_AREA)
     cv2.imwrite(str(REPO / "docs" / "images" / "simulate_view.png"), picture)
-
 
 if __name__ == "__main__":
     main()
