@@ -97,6 +97,20 @@ def built_kitchen(tmp_path_factory: pytest.TempPathFactory, kitchen_dir: Path) -
     return out
 
 
+@pytest.fixture(scope="module")
+def kitchen_map(built_kitchen: Path) -> Path:
+    """The demo kitchen's map, for the tracking tests' views."""
+    return built_kitchen / "map.xml"
+
+
+@pytest.fixture(scope="module")
+def simulator(kitchen_map: Path):  # noqa: ANN201 (tracking's types stay out of every test's imports)
+    """The view simulator of the demo kitchen."""
+    from tracking.simulate_view import ViewSimulator
+
+    return ViewSimulator.load(kitchen_map)
+
+
 class Catalogue:
     """The catalogue examples by name, each built in Blender, exported and validated by the
     gate the first time a test asks for it, then kept for the session."""

@@ -33,24 +33,14 @@ PRIOR_OFF = transform_from_xyz_rpy((0.014, -0.014, 0.0), (0.0, 0.0, np.radians(2
 
 
 @pytest.fixture(scope="module")
-def map_path(built_kitchen: Path) -> Path:
-    return built_kitchen / "map.xml"
-
-
-@pytest.fixture(scope="module")
-def simulator(map_path: Path) -> ViewSimulator:
-    return ViewSimulator.load(map_path)
-
-
-@pytest.fixture(scope="module")
-def prior_map(map_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def prior_map(kitchen_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The kitchen's map with every large object 2 cm and 2 degrees off where it stands."""
-    smap = load_map(map_path)
+    smap = load_map(kitchen_map)
     for room in smap.apartment.rooms:
         for large in room.objects:
             large.world_from_object = large.world_from_object.from_matrix(large.world_from_object.matrix() @ PRIOR_OFF)
     out = tmp_path_factory.mktemp("prior") / "map.xml"
-    rebase_model_refs(smap, map_path, out)
+    rebase_model_refs(smap, kitchen_map, out)
     save_map(smap, out)
     return out
 
@@ -163,7 +153,7 @@ def test_a_box_covering_thirty_percent_leaves_the_visible_door_within_two_degree
             assert status == "fitted" and abs(error) <= (5.0 if "slide" in name else 2.0), (name, error)
 
 
-def test_small_objects_found_and_a_moved_cup_reparented(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:
+def test_small_objects_found_and_a_moved_cup_reparented(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     # The table and the cupboard, whose left door is open: the red cup now stands on the cupboard.
     map_from_camera = world_from_camera_looking_at(np.array([2.7, 3.3, 1.6]), np.array([1.1, 2.3, 0.7]))
     options = ViewOptions(
@@ -175,7 +165,7 @@ def test_small_objects_found_and_a_moved_cup_reparented(simulator: ViewSimulator
         noise=SensorNoise(seed=5),
     )
     obs = _view(simulator, tmp_path / "obs", map_from_camera, options)
-    result = observe(map_path, obs)
+    result = observe(kitchen_map, obs)
     truth = json.loads((obs / "truth.json").read_text())["objects"]
     found = {s.id: s for o in result.report.objects for s in o.small_objects if s.status == "found"}
     for object_id in ("red_cup", "blue_cup", "sugar_container", "pill_box"):
@@ -188,12 +178,12 @@ def test_small_objects_found_and_a_moved_cup_reparented(simulator: ViewSimulator
     assert np.allclose(result.smap.world_from_object("red_cup")[:3, 3], np.array(truth["red_cup"]["map_from_object"])[:3, 3], atol=0.01)
 
 
-def test_a_cup_taken_away_is_not_found_and_keeps_its_pose(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:
+def test_a_cup_taken_away_is_not_found_and_keeps_its_pose(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     moved = SmallObjectMove(object_id="red_cup", x_m=0.0, y_m=-0.2, yaw_rad=0.0, parent_id="cupboard_1")
     obs = _view(simulator, tmp_path / "obs", _in_front(simulator, "table_1", 1.5, bearing_deg=0.0),
                 ViewOptions(moves=[moved], noise=SensorNoise(seed=6)))
-    before = load_map(map_path).node("red_cup").parent_from_object
-    result = observe(map_path, obs)
+    before = load_map(kitchen_map).node("red_cup").parent_from_object
+    result = observe(kitchen_map, obs)
     table = next(o for o in result.report.objects if o.id == "table_1")
     red = next(s for s in table.small_objects if s.id == "red_cup")
     assert red.status == "not found"
@@ -205,7 +195,7 @@ def _cli(*args: object):
 
 
 def test_command_writes_the_map_and_report_and_leaves_objects_out_of_view_unchanged(
-    simulator: ViewSimulator, map_path: Path, tmp_path: Path
+    simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path
 ) -> None:
     # Facing the fridge: the oven, beside it to the east, is out of view; its door truly open.
     options = ViewOptions(joint_positions={"fridge_1": {"door_0_hinge": 0.7}, "oven_1": {"door_0_hinge": 1.0}},
@@ -213,7 +203,7 @@ def test_command_writes_the_map_and_report_and_leaves_objects_out_of_view_unchan
     obs = _view(simulator, tmp_path / "obs", _in_front(simulator, "fridge_1", 1.8, bearing_deg=-30.0), options)
     out = tmp_path / "sub" / "new_map.xml"
     out.parent.mkdir()
-    result = _cli(map_path, obs, "--out", out, "--report", tmp_path / "report.json")
+    result = _cli(kitchen_map, obs, "--out", out, "--report", tmp_path / "report.json")
     assert result.exit_code == 0, result.output
     assert "fridge_1" in result.output and "door_0_hinge" in result.output
     report = json.loads((tmp_path / "report.json").read_text())
@@ -222,14 +212,14 @@ def test_command_writes_the_map_and_report_and_leaves_objects_out_of_view_unchan
     door = next(j for j in in_view["fridge_1"]["joints"] if j["name"] == "door_0_hinge")
     assert door["status"] == "fitted" and abs(door["position"] - 0.7) < np.radians(2.0)
     assert 0.5 <= door["visible_fraction"] <= 1.0 and door["residual_m"] < 0.02
-    new, old = load_map(out), load_map(map_path)
+    new, old = load_map(out), load_map(kitchen_map)
     assert new.node("fridge_1").joint("door_0_hinge").position == pytest.approx(door["position"])
     assert new.node("oven_1").joint("door_0_hinge").position == old.node("oven_1").joint("door_0_hinge").position
     assert new.node("oven_1").history == [] and new.node("oven_1").world_from_object == old.node("oven_1").world_from_object
-    assert (out.parent / new.node("oven_1").model_ref).resolve() == (map_path.parent / old.node("oven_1").model_ref).resolve()
+    assert (out.parent / new.node("oven_1").model_ref).resolve() == (kitchen_map.parent / old.node("oven_1").model_ref).resolve()
     # The fixed interface writes over an existing map, the input map itself included.
     own = tmp_path / "own" / "map.xml"
-    shutil.copytree(map_path.parent, own.parent)
+    shutil.copytree(kitchen_map.parent, own.parent)
     for target in (out, own):
         again = _cli(own, obs, "--out", target, "--report", tmp_path / "report.json")
         assert again.exit_code == 0, again.output
@@ -238,17 +228,17 @@ def test_command_writes_the_map_and_report_and_leaves_objects_out_of_view_unchan
         assert (target.parent / rewritten.node("oven_1").model_ref).is_file()
 
 
-def test_all_zero_depth_is_nothing_seen_and_the_map_unchanged(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:
+def test_all_zero_depth_is_nothing_seen_and_the_map_unchanged(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     obs = _view(simulator, tmp_path / "obs", _in_front(simulator, "fridge_1", 1.8), ViewOptions(noise=SensorNoise(model="none")))
     depth = np.zeros((CAMERA.height, CAMERA.width), dtype=np.uint16)
     import cv2
 
     cv2.imwrite(str(obs / "depth.png"), depth)
-    result = _cli(map_path, obs, "--out", tmp_path / "new.xml")
+    result = _cli(kitchen_map, obs, "--out", tmp_path / "new.xml")
     assert result.exit_code == 0, result.output
     assert "nothing seen" in result.output
-    new, old = load_map(tmp_path / "new.xml"), load_map(map_path)
-    for smap, folder in ((new, tmp_path), (old, map_path.parent)):
+    new, old = load_map(tmp_path / "new.xml"), load_map(kitchen_map)
+    for smap, folder in ((new, tmp_path), (old, kitchen_map.parent)):
         for node in smap.objects():  # the same models, referred to from another folder
             node.model_ref = str((folder / node.model_ref).resolve())
     assert new == old
@@ -266,10 +256,10 @@ def _broken(obs: Path, tmp_path: Path, what: str) -> Path:
     return bad
 
 
-def test_bad_input_is_one_line_and_exit_2(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:
+def test_bad_input_is_one_line_and_exit_2(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     obs = _view(simulator, tmp_path / "obs", _in_front(simulator, "fridge_1", 1.8), ViewOptions())
     for what, words in (("size", "depth.png"), ("pose", "map_from_camera")):
-        result = _cli(map_path, _broken(obs, tmp_path, what), "--out", tmp_path / f"{what}.xml")
+        result = _cli(kitchen_map, _broken(obs, tmp_path, what), "--out", tmp_path / f"{what}.xml")
         assert result.exit_code == 2, (what, result.output)
         lines = [line for line in result.output.splitlines() if line.strip()]
         assert len(lines) == 1 and words in lines[0], (what, result.output)
@@ -277,7 +267,7 @@ def test_bad_input_is_one_line_and_exit_2(simulator: ViewSimulator, map_path: Pa
     # A map whose model folders are missing.
     lonely = tmp_path / "lonely" / "map.xml"
     lonely.parent.mkdir()
-    shutil.copy(map_path, lonely)
+    shutil.copy(kitchen_map, lonely)
     result = _cli(lonely, obs, "--out", tmp_path / "lonely.xml")
     assert result.exit_code == 2 and "does not exist" in result.output and str(lonely) in result.output
     assert not (tmp_path / "lonely.xml").exists()

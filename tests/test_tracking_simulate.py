@@ -26,16 +26,6 @@ CAMERA = Camera(width=160, height=120, fx=140.0, fy=140.0, cx=79.5, cy=59.5)
 EXACT = SensorNoise(model="none")
 
 
-@pytest.fixture(scope="module")
-def map_path(built_kitchen: Path) -> Path:
-    return built_kitchen / "map.xml"
-
-
-@pytest.fixture(scope="module")
-def simulator(map_path: Path) -> ViewSimulator:
-    return ViewSimulator.load(map_path)
-
-
 def _part_mask(simulator: ViewSimulator, rendering, name: str) -> np.ndarray:
     names = np.array([p.name for p in simulator.scene.parts] + ["occluder"] * 8)
     return rendering.hit & (names[np.maximum(rendering.part_index, 0)] == name)
@@ -54,13 +44,13 @@ def _run(*args: str):
     return CliRunner().invoke(app, ["map", "simulate-view", *map(str, args)])
 
 
-def test_depth_png_is_the_door_plane_within_a_millimetre(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:
+def test_depth_png_is_the_door_plane_within_a_millimetre(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     front_x, centre = _fridge_door_front(simulator)
     eye = centre.copy()
     eye[0] = front_x + 1.5
     map_from_camera = world_from_camera_looking_along(eye, (-1.0, 0.0, 0.0))
     save_observation_camera(tmp_path / "camera.yaml", CAMERA, map_from_camera)
-    result = _run(map_path, "--camera", tmp_path / "camera.yaml", "--noise", "none", "--out", tmp_path / "obs")
+    result = _run(kitchen_map, "--camera", tmp_path / "camera.yaml", "--noise", "none", "--out", tmp_path / "obs")
     assert result.exit_code == 0, result.output
     observation = read_observation(tmp_path / "obs")
     np.testing.assert_allclose(observation.map_from_camera, map_from_camera, atol=1e-9)
@@ -124,12 +114,12 @@ def test_a_joint_change_moves_only_that_parts_pixels(simulator: ViewSimulator) -
     assert drawer_0.any() and not changed[drawer_0 & ~door].any()
 
 
-def test_truth_json_holds_joints_moves_and_visibility(simulator: ViewSimulator, map_path: Path, tmp_path: Path) -> None:
+def test_truth_json_holds_joints_moves_and_visibility(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     map_from_camera = simulator.camera_looking_at("table_1", distance_m=1.6, height_m=1.6)
     save_observation_camera(tmp_path / "camera.yaml", CAMERA, map_from_camera)
     out = tmp_path / "obs"
     result = _run(
-        map_path, "--camera", tmp_path / "camera.yaml", "--out", out, "--seed", "4",
+        kitchen_map, "--camera", tmp_path / "camera.yaml", "--out", out, "--seed", "4",
         "--joint", "fridge_1/door_0_hinge=0.8", "--joint", "oven_1/knob_0_turn=2",
         "--move", "red_cup=cupboard_1:0.0,0.1,0.5", "--move", "blue_cup=0.1,-0.2,1.0",
     )  # fmt: skip
@@ -181,8 +171,8 @@ def test_a_moved_small_object_is_rendered_where_the_truth_says(simulator: ViewSi
     assert abs(points_map[:, 2].min() - expected[2]) < 0.03  # it stands on the table
 
 
-def test_renderer_repose_is_cheap_and_consistent(map_path: Path) -> None:
-    scene = HomeScene.load(map_path, structure=False)
+def test_renderer_repose_is_cheap_and_consistent(kitchen_map: Path) -> None:
+    scene = HomeScene.load(kitchen_map, structure=False)
     renderer = Renderer(scene.parts)
     map_from_camera = world_from_camera_looking_along((2.0, 3.0, 1.2), (0.0, 1.0, -0.2))
     a = renderer.render(scene.pose(), CAMERA, map_from_camera)
@@ -207,9 +197,9 @@ def test_renderer_repose_is_cheap_and_consistent(map_path: Path) -> None:
         (["--occlude", "fridge_1=2"], "occlude.fridge_1: must lie in"),
     ],
 )
-def test_bad_options_give_one_line_and_exit_2(map_path: Path, tmp_path: Path, args: list[str], message: str) -> None:
+def test_bad_options_give_one_line_and_exit_2(kitchen_map: Path, tmp_path: Path, args: list[str], message: str) -> None:
     save_observation_camera(tmp_path / "camera.yaml", CAMERA, world_from_camera_looking_along((2, 2, 1), (0, 1, 0)))
-    result = _run(map_path, "--camera", tmp_path / "camera.yaml", "--out", tmp_path / "obs", *args)
+    result = _run(kitchen_map, "--camera", tmp_path / "camera.yaml", "--out", tmp_path / "obs", *args)
     assert result.exit_code == 2, result.output
     assert message in result.output and len(result.output.strip().splitlines()) == 1, result.output
     assert not (tmp_path / "obs").exists()
@@ -223,10 +213,10 @@ def test_bad_options_give_one_line_and_exit_2(map_path: Path, tmp_path: Path, ar
         ("", "no map_from_camera"),
     ],
 )
-def test_bad_camera_gives_one_line_and_exit_2(map_path: Path, tmp_path: Path, camera_text: str, message: str) -> None:
+def test_bad_camera_gives_one_line_and_exit_2(kitchen_map: Path, tmp_path: Path, camera_text: str, message: str) -> None:
     camera = tmp_path / "camera.yaml"
     camera.write_text("width: 160\nheight: 120\nfx: 140\nfy: 140\ncx: 79.5\ncy: 59.5\n" + camera_text + "\n")
-    result = _run(map_path, "--camera", camera, "--out", tmp_path / "obs")
+    result = _run(kitchen_map, "--camera", camera, "--out", tmp_path / "obs")
     assert result.exit_code == 2, result.output
     assert message in result.output and len(result.output.strip().splitlines()) == 1, result.output
 
@@ -245,9 +235,9 @@ def test_an_observation_whose_depth_disagrees_with_its_camera_is_refused(
     assert result.exit_code == 2 and "not empty" in result.output
 
 
-def test_a_map_whose_models_are_missing_is_refused(map_path: Path, tmp_path: Path) -> None:
+def test_a_map_whose_models_are_missing_is_refused(kitchen_map: Path, tmp_path: Path) -> None:
     moved = tmp_path / "map.xml"
-    moved.write_bytes(map_path.read_bytes())  # its models' paths are relative: none beside it
+    moved.write_bytes(kitchen_map.read_bytes())  # its models' paths are relative: none beside it
     save_observation_camera(tmp_path / "camera.yaml", CAMERA, world_from_camera_looking_along((2, 2, 1), (0, 1, 0)))
     result = _run(moved, "--camera", tmp_path / "camera.yaml", "--out", tmp_path / "obs")
     assert result.exit_code == 2, result.output
