@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 
 from articulation.model import Model
 from articulation.urdf_import import load_urdf
+from turntable.reconstruct import STAGES as TURNTABLE_STAGES
 
 pytestmark = pytest.mark.bpy
 
@@ -743,7 +744,11 @@ def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_n
     assert seen["modal_results"] == [["RUNNING_MODAL"], ["RUNNING_MODAL"]]
     first = [status.removeprefix("Reconstruct turntable capture: ") for status in seen["first_statuses"]]
     assert first[0] == "starting" and first[-1] == "done", first
-    assert {"mesh", "texture", "export"} <= set(first), first  # the toolkit's stages, as they came
+    # The timer polls every 0.25 s, so a short stage (export) may come and go between two polls:
+    # what the panel showed is the toolkit's stages in their order, and the long ones were seen.
+    order = ["starting", *TURNTABLE_STAGES, "validate", "done"]
+    assert [order.index(status) for status in first] == sorted(order.index(status) for status in first), first
+    assert len(set(first) & set(TURNTABLE_STAGES)) >= 2, first
     [landed] = seen["landed"]
     assert landed["name"] == "turntable_object" and landed["meshes"] >= 1
     assert landed["location"] == pytest.approx(seen["cursor"])
