@@ -114,9 +114,9 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
         baseline = {} if args.skip_baseline else pycolmap_baselines(images, work)
         load_after = load_average()
 
-    times = result.summary["times_s"]
+    times = result.figures["times_s"]
     sfm_s = sum(times[k] for k in ("features", "matching", "mapping"))
-    n_photos = result.summary["photos"]
+    n_photos = result.figures["photos"]
 
     table = Table(title=f"photogrammetry: {title}", show_lines=False)
     for column in ("stage", "ours s", "pycolmap defaults s", "ratio"):
@@ -140,14 +140,14 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
     figures = {
         "photos": title,
         "load_average_1_5_15_min": {"before": load_before, "between": load_between, "after": load_after},
-        "registered": result.summary["registered"],
-        "matching": result.summary["matching"],
+        "registered": result.figures["registered"],
+        "matching": result.figures["matching"],
         "baseline": {k: round(v, 2) for k, v in baseline.items()},
         "times_s": times,
         "sfm_s": round(sfm_s, 2),
         "sfm_ratio_to_pycolmap": {k: round(sfm_s / v, 3) for k, v in baseline_sfm.items()},
         "total_s": round(total_s, 2),
-        "faces": result.summary["faces"],
+        "faces": result.figures["faces"],
     }
     registered_by = ", ".join(f"{k.split()[1]} {v}" for k, v in baseline.items() if k.startswith("registered"))
     console.print(

@@ -11,9 +11,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from articulation.model import Model
+from articulation.naming import check_model_name
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested
-from homemodel.core.errors import InputError, SpecError
+from homemodel.core.errors import SpecError
 from homemodel.core.progress import Progress, StageClock
 from homemodel.core.yaml_specs import FieldError
 from homemodel.geometry.cycles_scene import reset_to_empty_scene
@@ -54,6 +55,7 @@ from modeller.spec_loading import load_spec
 from modeller.specs import Spec
 from modeller.specs.cabinets import CabinetSpec
 from modeller.specs.cabinet_geometry import hinge_tape_warnings
+from semantic_map import MapEntry, Registration, add_model_folder
 
 if TYPE_CHECKING:
     from articulation.gate.validate import ValidationReport
@@ -131,10 +133,11 @@ class BuildOptions:
     texture: FaceTextureOptions = field(default_factory=FaceTextureOptions)
     # Also render comparison_<i>.png, the model beside each of the spec's photos (which it must have).
     pictures: PictureOptions | None = None
+    map_entry: MapEntry | None = None  # register the model into this map
 
     def check(self) -> None:
-        if self.name is not None and not self.name:
-            raise InputError("name: an empty model name")
+        if self.name is not None:
+            check_model_name(self.name)
         check_nested("texture", self.texture)
         if self.pictures is not None:
             check_nested("pictures", self.pictures)
@@ -151,6 +154,7 @@ class SpecBuild:
     times_s: dict[str, float]  # build, export, validate (and render)
     summary: ModelSummary
     warnings: list[str] = field(default_factory=list)  # what the spec's readings disagree on
+    registration: Registration | None = None  # set when `options.map_entry` names a map
 
     @property
     def valid(self) -> bool:
@@ -175,8 +179,8 @@ def build(
 
     The model is validated by the gate (`articulation.gate`); a model that fails it is still
     written, with `valid` false. Refuses a non-empty `out_dir` unless `force`; the folder
-    appears whole or not at all. Raises `SpecError` for a bad spec or photo. Progress
-    stages: build, export, validate, render.
+    appears whole or not at all; registered into `options.map_entry` when given. Raises
+    `SpecError` for a bad spec or photo. Progress stages: build, export, validate, render.
     """
     from articulation.model_folder import PipelineSummary, write_model_folder
 
@@ -184,6 +188,8 @@ def build(
     options.check()
     spec_path, out_dir = Path(spec_path), Path(out_dir)
     prepare_out_dir(out_dir, force=force, inputs=[spec_path])  # before the build, not after it
+    if options.map_entry is not None:
+        options.map_entry.check()  # an unknown parent or a taken id fails now, not after the work
     clock = StageClock(progress)
     clock.start("build")
     spec = load_spec(spec_path)
@@ -232,6 +238,7 @@ def build(
         times_s=folder.summary.times_s,
         summary=folder.summary,
         warnings=warnings,
+        registration=None if options.map_entry is None else add_model_folder(out_dir, options.map_entry),
     )
 
 

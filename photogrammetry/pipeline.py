@@ -22,6 +22,7 @@ from homemodel.core.atomic import prepare_out_dir, write_bytes_atomic, write_jso
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.images import read_image
+from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.mesh_ops import watertight_finish
 from photogrammetry.cleaning import (
@@ -82,9 +83,10 @@ class Reconstruction:
     textured: TexturedMesh
     views: list[View]  # poses in the model frame
     frame: ModelFrame
-    summary: dict  # what summary.json holds; `reconstruct` adds mass_kg and the export's time
+    figures: dict  # the stages' figures (summary.json's `photogrammetry` key) and their times
     work_dir: Path  # holds the texture image until the export copies it (gone after `reconstruct`)
     registration: Registration | None = None  # set by `reconstruct` when given a map
+    summary: ModelSummary | None = None  # the model folder's summary.json, set by `reconstruct`
 
     @property
     def mesh(self) -> trimesh.Trimesh:
@@ -210,7 +212,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     textured = bake_texture(mesh, views, options.texture, progress=clock.progress, workers=options.sfm.threads)
     clock.stop()
 
-    summary = {
+    figures = {
         "photos": len(photos),
         "registered": len(sparse.views),
         "unregistered": sparse.unregistered,
@@ -239,7 +241,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "texture_covered_share": round(textured.covered_share, 4),
         "times_s": {k: round(v, 3) for k, v in {**sparse.times_s, **clock.times_s}.items()},
     }
-    return Reconstruction(textured=textured, views=views, frame=frame, summary=summary, work_dir=work_dir)
+    return Reconstruction(textured=textured, views=views, frame=frame, figures=figures, work_dir=work_dir)
 
 
 def reconstruct(
@@ -278,8 +280,7 @@ def write_reconstruction(
     progress: Progress | None = None,
 ) -> None:
     """Write the model folder (`write_model_folder`: model files, the gate, summary.json) with
-    cameras.json and cameras.png (`options.picture`); `result.summary` gains mass_kg and the
-    export's and the gate's times."""
+    cameras.json and cameras.png (`options.picture`); sets `result.summary`."""
     import cv2
 
     from articulation.model_folder import PipelineSummary, write_model_folder
@@ -315,9 +316,9 @@ def write_reconstruction(
 
     # The summary's top level holds units, extents_m, mass_kg and times_s; without markers
     # the size stays here, in SfM units.
-    figures = {k: v for k, v in result.summary.items() if k not in ("units", "extents", "mass_kg", "times_s")}
+    figures = {k: v for k, v in result.figures.items() if k not in ("units", "extents", "times_s")}
     if not result.frame.scaled:
-        figures["extents_sfm_units"] = result.summary["extents"]
+        figures["extents_sfm_units"] = result.figures["extents"]
     written = write_model_folder(
         model,
         out_dir,
@@ -325,15 +326,14 @@ def write_reconstruction(
             source="photogrammetry",
             figures=figures,
             metric=result.frame.scaled,
-            times_s=result.summary["times_s"],
+            times_s=dict(result.figures["times_s"]),
             inputs={"photos": photos_dir},
         ),
         force=force,
         add_files=add_files,
         progress=progress,
     )
-    result.summary["mass_kg"] = written.summary.mass_kg
-    result.summary["times_s"] = {k: round(v, 3) for k, v in written.summary.times_s.items()}
+    result.summary = written.summary
 
 
 def temporary_work_dir() -> tempfile.TemporaryDirectory:

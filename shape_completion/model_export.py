@@ -16,11 +16,13 @@ from pathlib import Path
 import numpy as np
 
 from articulation.model_folder import PipelineSummary, write_model_folder
+from articulation.naming import check_model_name
 from articulation.scan_model import scan_model
 from homemodel.core.errors import errors_naming
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import require_positive
 from homemodel.core.progress import Progress, StageClock
+from semantic_map import MapEntry, add_model_folder
 from shape_completion.pipeline import Completion, ShapeCompleter
 from shape_completion.support import SupportPlane
 from shape_completion.upright import object_frame
@@ -35,9 +37,12 @@ class CompletionOptions:
     library_dir: Path | None = None  # refuse a model trained on another version of this library
     name: str | None = None  # the model's name; None: the depth image's file name without suffix
     density_kg_m3: float = 700.0  # for the inertial
+    map_entry: MapEntry | None = None  # register the model into this map
 
     def check(self) -> None:
         require_positive("density_kg_m3", self.density_kg_m3)
+        if self.name is not None:
+            check_model_name(self.name)
 
 
 def _matrix(m: np.ndarray | None) -> list[list[float]] | None:
@@ -86,8 +91,9 @@ def complete(
     """Complete the object seen in `depth_png` (a 16-bit PNG in units of the camera's
     depth_scale_m, or a float EXR in metres) with `model` (a model file from `homemodel
     completion train`, or a fitted completer) into a model folder at `out_dir`. Refuses a
-    non-empty `out_dir` unless `force`; the folder appears whole or not at all. Progress
-    stages: load, query, matching, rigid_fit, deformation, filling, export."""
+    non-empty `out_dir` unless `force`; the folder appears whole or not at all; registered
+    into `options.map_entry` when given. Progress stages: load, query, matching, rigid_fit,
+    deformation, filling, export."""
     from shape_completion.library import fingerprint_files, library_files
     from shape_completion.model_io import load_model
     from shape_completion.query_input import load_query
@@ -99,6 +105,8 @@ def complete(
     model_path = None if isinstance(model, ShapeCompleter) else Path(model)
     inputs = [p for p in (model_path, depth_png, camera_path) if p is not None]
     prepare_out_dir(Path(out_dir), force=force, inputs=inputs)  # before loading a large model
+    if options.map_entry is not None:
+        options.map_entry.check()  # an unknown parent or a taken id fails now, not after the work
     clock = StageClock(progress)
     clock.start("load")
     if model_path is not None:
@@ -114,7 +122,7 @@ def complete(
     )
     model_inputs = {"completion_model": model_path} if model_path is not None else {}
     mask_input = {"mask": Path(options.mask_path)} if options.mask_path is not None else {}
-    write_model_folder(
+    completion.summary = write_model_folder(
         scan_model(
             completion.object_mesh,
             name=options.name or depth_png.stem,
@@ -132,5 +140,7 @@ def complete(
         ),
         force=force,
         progress=progress,
-    )
+    ).summary
+    if options.map_entry is not None:
+        completion.registration = add_model_folder(out_dir, options.map_entry)
     return completion

@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
@@ -23,6 +24,7 @@ from scipy.spatial import cKDTree
 from sklearn.base import BaseEstimator
 
 from homemodel.core.errors import InputError, ModelError
+from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock, no_progress
 from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.camera import Camera
@@ -51,6 +53,9 @@ from shape_completion.symmetry import (
     symmetry_planes,
 )
 from shape_completion.upright import ObjectFrame
+
+if TYPE_CHECKING:
+    from semantic_map import Registration
 
 logger = logging.getLogger(__name__)
 
@@ -114,8 +119,11 @@ class Completion:
     class_name: str
     retrieved_name: str
     times_s: dict[str, float]  # query, matching, rigid_fit, deformation, filling
-    # Set by the entry (`shape_completion.complete`): the frame the model folder is written in.
+    # Set by the entry (`shape_completion.complete`): the frame the model folder is written in,
+    # the folder's summary.json and, when given a map, the model's registration into it.
     frame: ObjectFrame | None = None
+    summary: ModelSummary | None = None
+    registration: Registration | None = None
 
     @property
     def object_mesh(self) -> trimesh.Trimesh:

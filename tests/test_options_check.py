@@ -30,7 +30,6 @@ from tracking.simulate_view import ViewOptions
 from turntable.capture_live import LiveCaptureOptions
 from turntable.meshing import MeshingOptions
 from turntable.pose import PoseOptions
-from turntable.reconstruct import ReconstructionOptions
 from turntable.recordings.importer import ImportOptions
 from turntable.simulate import SimulationOptions
 from turntable.tags import DetectionOptions
@@ -54,8 +53,8 @@ BAD_OPTIONS = [
     (PoseOptions(min_tags=0), "min_tags"),
     (SimulationOptions(frames=0), "frames"),
     (DetectionOptions(decimate=-2.0), "decimate"),
-    (ReconstructionOptions(voxel_size_m=0.0), "voxel_size_m"),
-    (ReconstructionOptions(pose=PoseOptions(ransac_threshold_px=float("nan"))), "pose.ransac_threshold_px"),
+    (turntable.ReconstructOptions(voxel_size_m=0.0), "voxel_size_m"),
+    (turntable.ReconstructOptions(pose=PoseOptions(ransac_threshold_px=float("nan"))), "pose.ransac_threshold_px"),
     (LiveCaptureOptions(sectors=1), "sectors"),
     (ImportOptions(every=0), "every"),
     (ImportOptions(start_s=2.0, end_s=1.0), "end_s"),
@@ -87,7 +86,7 @@ def test_every_options_class_is_covered() -> None:
 
 
 ENTRIES = [
-    (lambda out: turntable.reconstruct(Path("no_capture"), out, replace(ReconstructionOptions(), voxel_size_m=-1.0)), "voxel_size_m"),
+    (lambda out: turntable.reconstruct(Path("no_capture"), out, replace(turntable.ReconstructOptions(), voxel_size_m=-1.0)), "voxel_size_m"),
     (lambda out: photogrammetry.reconstruct(Path("no_photos"), out, ReconstructOptions(dense=DenseOptions(neighbours=0))), "dense.neighbours"),
     (lambda out: shape_completion.complete(Path("no.model"), Path("no.png"), out, CompletionOptions(density_kg_m3=-1.0)), "density_kg_m3"),
     (lambda out: modeller.build(Path("no.yaml"), out, BuildOptions(name="")), "name"),

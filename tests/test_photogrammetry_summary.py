@@ -24,8 +24,8 @@ def _reconstruction(scaled: bool, work_dir: Path) -> Reconstruction:
         covered_share=1.0,
     )
     frame = ModelFrame(model_from_sfm=np.eye(4), scale=1.0, scaled=scaled, levelled=True)
-    summary = {"scaled": scaled, "extents": [0.2, 0.1, 0.3], "times_s": {}}
-    return Reconstruction(textured=textured, views=[], frame=frame, summary=summary, work_dir=work_dir)
+    figures = {"scaled": scaled, "extents": [0.2, 0.1, 0.3], "times_s": {}}
+    return Reconstruction(textured=textured, views=[], frame=frame, figures=figures, work_dir=work_dir)
 
 
 @pytest.mark.parametrize("scaled", [False, True])

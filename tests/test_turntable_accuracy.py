@@ -176,7 +176,7 @@ def test_bad_frames_are_skipped_and_counted(captures: dict[str, Path], tmp_path:
     assert "not a readable image" in result.skipped["000003"]
     assert "10x10 pixels but camera.yaml says 320x240" in result.skipped["000005"]
     assert "0 board tags seen" in result.skipped["000006"]
-    summary = result.summary()
+    summary = result.figures()
     assert (summary["frames_used"], summary["frames_skipped"]) == (26, 4)
     assert summary["skip_reasons"] == {"image": 3, "pose": 1}
     truth = trimesh.load(capture / "ground_truth.ply", force="mesh")

@@ -29,7 +29,7 @@ from turntable.recordings import import_recording, ImportOptions
 from turntable.recordings.associate import associate
 from turntable.recordings.realsense import RealSenseSource
 from turntable.recordings.register import register_depth
-from turntable.reconstruct import ReconstructionOptions, reconstruct_capture
+from turntable.reconstruct import ReconstructOptions, reconstruct_capture
 from turntable.simulate import SimulationOptions, render_depth, simulate_capture
 
 CAPTURE = dict(
@@ -48,7 +48,7 @@ ACCURACY_RATIO = 1.6
 
 
 def _reconstruct(folder: Path):  # noqa: ANN202
-    return reconstruct_capture(load_capture(folder), ReconstructionOptions(texture_size_px=0))
+    return reconstruct_capture(load_capture(folder), ReconstructOptions(texture_size_px=0))
 
 
 def _write_capture(recorded: rsim.Recorded, board_yaml: Path, folder: Path) -> None:
@@ -159,7 +159,7 @@ def test_import_and_reconstruct_each_format(
         assert report["pairs_associated"] == CAPTURE["frames"] - 2
         assert report["max_time_offset_ms"] <= 20.5
     reconstruction = _reconstruct(tmp_path / "capture")
-    summary = reconstruction.summary()
+    summary = reconstruction.figures()
     assert summary["real_frames"]["blurred_frames"] >= 1  # found, whether or not they also lost their tags
     assert summary["recording"]["format"] == name
     assert not summary["real_frames"]["misregistration_warning"], summary["real_frames"]

@@ -1,6 +1,6 @@
 """AprilTag turntable capture to a metric, coloured mesh (D3.1 section 3.3.3).
 
-The entry: `reconstruct(capture_dir, out_dir, ReconstructionOptions(...), progress=..., force=...)`
+The entry: `reconstruct(capture_dir, out_dir, ReconstructOptions(...), progress=..., force=...)`
 writes the model folder (and registers it into a map when the options name one).
 
 - `board`, `board_pdf`: the tag grid, board.yaml, the printable PDF;
@@ -16,6 +16,6 @@ No module here imports bpy: `blender_render` builds its Cycles scene with
 See docs/turntable.md.
 """
 
-from turntable.reconstruct import Reconstruction, ReconstructionOptions, reconstruct
+from turntable.reconstruct import Reconstruction, ReconstructOptions, reconstruct
 
-__all__ = ["Reconstruction", "ReconstructionOptions", "reconstruct"]
+__all__ = ["Reconstruction", "ReconstructOptions", "reconstruct"]

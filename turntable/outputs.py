@@ -18,7 +18,8 @@ from homemodel.core.progress import Progress
 from turntable.poses_io import write_poses
 
 if TYPE_CHECKING:
-    from turntable.reconstruct import Reconstruction, ReconstructionOptions
+    from articulation.model_folder import ModelFolder
+    from turntable.reconstruct import Reconstruction, ReconstructOptions
 
 MESH_PLY = "mesh.ply"
 TEXTURE_PNG = "texture.png"
@@ -27,12 +28,12 @@ TEXTURE_PNG = "texture.png"
 def write_reconstruction(
     result: Reconstruction,
     out_dir: Path,
-    options: ReconstructionOptions,
+    options: ReconstructOptions,
     *,
     inputs: list[Path],
     force: bool = False,
     progress: Progress | None = None,
-) -> Path:
+) -> ModelFolder:
     """Everything into `out_dir` at once (atomic: a failure leaves it as it was) through
     `write_model_folder`; the export's and the gate's times join `result.times_s`. `inputs`
     holds the capture folder."""
@@ -88,10 +89,10 @@ def write_reconstruction(
                     result.mesh, result.vertex_colors, cameras_from_table, result.axis.axis_xy_m, tmp / "picture.png"
                 )
 
-        figures = result.summary()
+        figures = result.figures()
         del figures["times_s"], figures["extent_m"]  # the summary's own times_s and extents_m
         figures["density_kg_m3"] = options.density_kg_m3
-        write_model_folder(
+        return write_model_folder(
             model,
             out_dir,
             PipelineSummary(source="turntable", figures=figures, times_s=result.times_s, inputs={"capture": capture_dir}),
@@ -99,4 +100,3 @@ def write_reconstruction(
             add_files=add_files,
             progress=progress,
         )
-    return Path(out_dir)

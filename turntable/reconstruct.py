@@ -23,6 +23,7 @@ from articulation.naming import check_model_name
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_positive
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
+from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock
 from semantic_map import MapEntry, Registration, add_model_folder
 from turntable.capture import Capture, FrameError, load_capture, read_color, read_depth
@@ -46,7 +47,7 @@ _MISREGISTRATION_FRAMES = 8
 
 
 @dataclass(kw_only=True)
-class ReconstructionOptions:
+class ReconstructOptions:
     detection: DetectionOptions = field(default_factory=DetectionOptions)
     pose: PoseOptions = field(default_factory=PoseOptions)
     meshing: MeshingOptions = field(default_factory=MeshingOptions)
@@ -109,8 +110,10 @@ class Reconstruction:
     real_frames: dict = field(default_factory=dict)  # flying pixels, blur, misregistration (turntable.real_frames)
     recording: dict | None = None  # the capture's recording.json, when imported from a recording
     registration: Registration | None = None  # set by `reconstruct` when given a map
+    summary: ModelSummary | None = None  # the model folder's summary.json, set by `reconstruct`
 
-    def summary(self) -> dict:
+    def figures(self) -> dict:
+        """The turntable's own figures (summary.json's `turntable` key, with its times and extent)."""
         tags = np.array([p.tags for p in self.poses.values()])
         errors = np.array([p.reprojection_error_px for p in self.poses.values()])
         reasons: dict[str, int] = {}
@@ -162,7 +165,7 @@ def _parallel(workers: int, function: Callable, items: list) -> Iterator:
 
 
 def estimate_poses(
-    capture: Capture, options: ReconstructionOptions, report: Progress
+    capture: Capture, options: ReconstructOptions, report: Progress
 ) -> tuple[dict[str, FramePose], dict[str, str]]:
     """Pose per frame; frames with unreadable images or too few tags are skipped with a reason."""
     import cv2
@@ -209,7 +212,7 @@ def estimate_poses(
     return poses, skipped
 
 
-def object_cylinder(capture: Capture, axis: TableAxis, options: ReconstructionOptions) -> Cylinder:
+def object_cylinder(capture: Capture, axis: TableAxis, options: ReconstructOptions) -> Cylinder:
     if options.cylinder_radius_m is not None:
         radius = options.cylinder_radius_m
     else:
@@ -226,7 +229,7 @@ def merge_frames(
     poses: dict[str, FramePose],
     skipped: dict[str, str],
     cylinder: Cylinder,
-    options: ReconstructionOptions,
+    options: ReconstructOptions,
     report: Progress,
     figures: dict,
 ) -> MergedCloud:
@@ -315,7 +318,7 @@ def merge_frames(
 
 
 def reconstruct_capture(
-    capture: Capture, options: ReconstructionOptions | None = None, progress: Progress | None = None
+    capture: Capture, options: ReconstructOptions | None = None, progress: Progress | None = None
 ) -> Reconstruction:
     """Run the pipeline on a loaded capture (see `turntable.capture.load_capture`), in memory."""
     from threadpoolctl import threadpool_limits
@@ -324,10 +327,10 @@ def reconstruct_capture(
     # frames already run on `workers` threads: OpenBLAS's own threads only wait on each other
     # (a 4 x 4 inverse took 4 ms instead of 4 us on a busy 2-core machine).
     with threadpool_limits(1, user_api="blas"):
-        return _run_stages(capture, options or ReconstructionOptions(), progress)
+        return _run_stages(capture, options or ReconstructOptions(), progress)
 
 
-def _run_stages(capture: Capture, options: ReconstructionOptions, progress: Progress | None) -> Reconstruction:
+def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
     from turntable.texture import bake_vertex_colors, decimated
 
     clock = StageClock(progress)
@@ -384,7 +387,7 @@ def _run_stages(capture: Capture, options: ReconstructionOptions, progress: Prog
 def reconstruct(
     capture_dir: Path,
     out_dir: Path,
-    options: ReconstructionOptions | None = None,
+    options: ReconstructOptions | None = None,
     *,
     progress: Progress | None = None,
     force: bool = False,
@@ -394,14 +397,16 @@ def reconstruct(
     poses.json, summary.json; picture.png on request), registered into `options.map_entry`
     when given. Refuses a non-empty `out_dir` unless `force`; the folder appears whole or
     not at all. Progress stages: poses, axis, merge, mesh, texture, export."""
-    options = options or ReconstructionOptions()
+    options = options or ReconstructOptions()
     options.check()
     prepare_out_dir(Path(out_dir), force=force, inputs=[Path(capture_dir)])  # a full --out fails now too
     if options.map_entry is not None:
         options.map_entry.check()  # an unknown parent or a taken id fails now, not after the work
     with errors_naming(capture_dir):
         result = reconstruct_capture(load_capture(capture_dir), options, progress)
-    write_reconstruction(result, out_dir, options, inputs=[Path(capture_dir)], force=force, progress=progress)
+    result.summary = write_reconstruction(
+        result, out_dir, options, inputs=[Path(capture_dir)], force=force, progress=progress
+    ).summary
     if options.map_entry is not None:
         result.registration = add_model_folder(out_dir, options.map_entry)
     return result

@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 
 from homemodel.cli.errors import exit_on_error
 from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
 from homemodel.cli.progress import figures_table, make_console, stage_bars
+
+if TYPE_CHECKING:
+    from homemodel.core.model_summary import ModelSummary
 
 photogrammetry_app = typer.Typer(no_args_is_help=True)
 
@@ -32,28 +36,32 @@ class DictionaryChoice(str, enum.Enum):
     d6x6_250 = "6x6_250"
 
 
-def _summary_rows(summary: dict) -> list[tuple[str, str]]:
-    scaled = summary["scaled"]
+def _summary_rows(summary: ModelSummary) -> list[tuple[str, str]]:
+    """The figures table: the pipeline's own figures, then the size, mass and times of the
+    model folder as summary.json records them."""
+    figures = summary.photogrammetry
+    scaled = summary.metric
     unit = "mm" if scaled else "units"
     factor = 1000 if scaled else 1
+    extents = summary.extents_m if scaled else figures["extents_sfm_units"]
     rows = [
-        ("photos registered", f"{summary['registered']} of {summary['photos']}"),
-        ("matching", f"{summary['matching']}, {summary['cameras']} camera model(s)"),
-        ("sparse points", str(summary["sparse_points"])),
-        ("reprojection error", f"{summary['reprojection_error_px']:.3f} px"),
-        ("dense method", summary["dense_method"]),
-        ("dense points (fused)", str(summary["dense_points"])),
-        ("object points", str(summary["object_points"])),
-        ("support plane points removed", str(summary["support_plane_points_removed"])),
-        ("free-space points removed", str(summary["free_space_points_removed"])),
-        ("scale", f"markers {summary['markers']}" if scaled else "[yellow]unscaled (no markers)[/]"),
-        ("levelled (z up from support)", "yes" if summary["levelled"] else "[yellow]no[/]"),
-        ("size x y z", " x ".join(f"{e * factor:.1f}" for e in summary["extents"]) + f" {unit}"),
-        ("mesh", f"{summary['faces']} faces, {'watertight' if summary['watertight'] else 'not watertight'}"),
-        ("texture", f"{summary['texture_px']} px, {summary['texture_covered_share'] * 100:.0f}% seen"),
-        ("mass", f"{summary['mass_kg']:.3f} kg" if scaled else "n/a (unscaled)"),
+        ("photos registered", f"{figures['registered']} of {figures['photos']}"),
+        ("matching", f"{figures['matching']}, {figures['cameras']} camera model(s)"),
+        ("sparse points", str(figures["sparse_points"])),
+        ("reprojection error", f"{figures['reprojection_error_px']:.3f} px"),
+        ("dense method", figures["dense_method"]),
+        ("dense points (fused)", str(figures["dense_points"])),
+        ("object points", str(figures["object_points"])),
+        ("support plane points removed", str(figures["support_plane_points_removed"])),
+        ("free-space points removed", str(figures["free_space_points_removed"])),
+        ("scale", f"markers {figures['markers']}" if scaled else "[yellow]unscaled (no markers)[/]"),
+        ("levelled (z up from support)", "yes" if figures["levelled"] else "[yellow]no[/]"),
+        ("size x y z", " x ".join(f"{e * factor:.1f}" for e in extents) + f" {unit}"),
+        ("mesh", f"{figures['faces']} faces, {'watertight' if figures['watertight'] else 'not watertight'}"),
+        ("texture", f"{figures['texture_px']} px, {figures['texture_covered_share'] * 100:.0f}% seen"),
+        ("mass", f"{summary.mass_kg:.3f} kg" if scaled else "n/a (unscaled)"),
     ]
-    return rows + [(f"time {stage}", f"{seconds:.1f} s") for stage, seconds in summary["times_s"].items()]
+    return rows + [(f"time {stage}", f"{seconds:.1f} s") for stage, seconds in summary.times_s.items()]
 
 
 @photogrammetry_app.command()
@@ -113,10 +121,9 @@ def reconstruct(
         )
         with stage_bars(console) as progress:
             result = run(photos_dir, out, options, progress=progress, force=force)
-    summary = result.summary
-    console.print(figures_table(f"homemodel photogrammetry reconstruct {photos_dir}", _summary_rows(summary)))
-    if summary["unregistered"]:
-        console.print(f"[yellow]not registered[/]: {', '.join(summary['unregistered'])}")
+    console.print(figures_table(f"homemodel photogrammetry reconstruct {photos_dir}", _summary_rows(result.summary)))
+    if result.figures["unregistered"]:
+        console.print(f"[yellow]not registered[/]: {', '.join(result.figures['unregistered'])}")
     console.print(f"model: {out / 'model.urdf'}, {out / 'model.glb'}  summary: {out / 'summary.json'}")
     if result.registration is not None:
         echo_registration(result.registration)

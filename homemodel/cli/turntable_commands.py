@@ -187,7 +187,7 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
-    from turntable import ReconstructionOptions
+    from turntable import ReconstructOptions
     from turntable import reconstruct as run
     from turntable.pose import PoseOptions
     from turntable.tags import DetectionOptions
@@ -195,7 +195,7 @@ def reconstruct(
     console = make_console()
     with exit_on_error():
         map_entry = map_entry_from_flags(map_path, parent_id, object_id or name, xyz)
-        options = ReconstructionOptions(
+        options = ReconstructOptions(
             detection=DetectionOptions(detector=detector.value, intensity="srgb" if srgb else "linear"),
             pose=PoseOptions(min_tags=min_tags),
             voxel_size_m=voxel_size_m,
@@ -208,7 +208,7 @@ def reconstruct(
         )
         with stage_bars(console) as progress:
             result = run(capture_dir, out, options, progress=progress, force=force)
-    summary = result.summary()
+    summary = result.figures()
     rows = [
         ("frames used", f"{summary['frames_used']} of {summary['frames_total']} ({summary['frames_skipped']} skipped)"),
         ("tags per frame", "{mean:.1f} (min {min}, max {max})".format(**summary["tags_per_frame"])),

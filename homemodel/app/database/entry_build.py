@@ -122,9 +122,9 @@ def _written(out: Path, repairs: list[str] | None = None) -> _Built:
 
 
 def _build_turntable(job: Job, out: Path) -> _Built:
-    from turntable import ReconstructionOptions, reconstruct
+    from turntable import ReconstructOptions, reconstruct
 
-    reconstruct(job.inputs["path"], out, _options(ReconstructionOptions, job, name=job.id, workers=1), force=True)
+    reconstruct(job.inputs["path"], out, _options(ReconstructOptions, job, name=job.id, workers=1), force=True)
     return _written(out)
 
 

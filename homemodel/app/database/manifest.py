@@ -19,7 +19,7 @@ entries:
 ```
 
 Paths are relative to the manifest's folder. `options` mirrors the source's options class
-(`modeller.BuildOptions`, `turntable.ReconstructionOptions`, `photogrammetry.ReconstructOptions`,
+(`modeller.BuildOptions`, `turntable.ReconstructOptions`, `photogrammetry.ReconstructOptions`,
 `shape_completion.CompletionOptions`, `articulation.asset_import.ImportOptions`), nested ones
 included (`options: {sfm: {max_num_features: 8192}}` sets that one field of the sfm options);
 it is checked field by field when the manifest is read (`entries.3.options.sfm...: problem`).
@@ -141,7 +141,7 @@ def _inputs(entry: EntrySpec, folder: Path, manifest: Path, index: int) -> dict[
 # source -> (module, options class); imported only when an entry of that source sets options.
 OPTIONS_CLASSES = {
     "spec": ("modeller.build", "BuildOptions"),
-    "turntable": ("turntable.reconstruct", "ReconstructionOptions"),
+    "turntable": ("turntable.reconstruct", "ReconstructOptions"),
     "photos": ("photogrammetry.pipeline", "ReconstructOptions"),
     "completion": ("shape_completion.model_export", "CompletionOptions"),
     "urdf": ("articulation.asset_import", "ImportOptions"),
