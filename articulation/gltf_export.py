@@ -9,8 +9,6 @@ joint moves carries the joint in `extras.joint`; the root carries the model's se
 from __future__ import annotations
 
 import io
-import json
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +23,8 @@ from articulation.numbers import (
 )
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.transforms import Y_UP_FROM_Z_UP, rotation_from_rpy
+from homemodel.exchange.glb import pack_glb
+from homemodel.exchange.joint_types import LIMITED_JOINT_TYPES
 
 _FLOAT, _UINT32 = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -158,19 +158,14 @@ class _Builder:
         self.blob.extend(b"\0" * (-len(self.blob) % 4))
         if self.blob:
             self.doc["buffers"] = [{"byteLength": len(self.blob)}]
-        text = json.dumps(self.doc, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
-        text += b" " * (-len(text) % 4)
-        chunks = struct.pack("<II", len(text), 0x4E4F534A) + text
-        if self.blob:
-            chunks += struct.pack("<II", len(self.blob), 0x004E4942) + bytes(self.blob)
-        return struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks
+        return pack_glb(self.doc, bytes(self.blob))
 
 
 def _joint_extras(joint: Joint) -> dict:
     extras: dict = {"name": joint.name, "type": joint.type, "parent": joint.parent}
     if joint.type != "fixed":
         extras["axis"] = [rounded(v) + 0.0 for v in joint.axis]
-    if joint.limits is not None and joint.type in ("revolute", "prismatic"):
+    if joint.limits is not None and joint.type in LIMITED_JOINT_TYPES:
         extras.update(lower=rounded(joint.limits.lower) + 0.0, upper=rounded(joint.limits.upper) + 0.0)
     if joint.limits is not None:
         extras.update(effort=float(significant(joint.limits.effort)), velocity=float(significant(joint.limits.velocity)))

@@ -21,9 +21,8 @@ from homemodel.core.transforms import (
     axis_angle_transform,
     translation_transform,
 )
+from homemodel.exchange.joint_types import JOINT_TYPES, MOVABLE_JOINT_TYPES, ROTATING_JOINT_TYPES, JointType
 
-JointType = Literal["revolute", "prismatic", "continuous", "fixed"]
-MOVABLE_JOINT_TYPES: tuple[str, ...] = ("revolute", "prismatic", "continuous")
 
 
 @dataclass(kw_only=True)
@@ -159,7 +158,7 @@ class Joint:
     def __post_init__(self) -> None:
         self.parent_from_joint = as_transform(self.parent_from_joint)
         self.axis = np.asarray(self.axis, dtype=np.float64).reshape(3)
-        if self.type not in ("revolute", "prismatic", "continuous", "fixed"):
+        if self.type not in JOINT_TYPES:
             raise ModelError(f"joint {self.name!r}: unknown type {self.type!r}")
         norm = float(np.linalg.norm(self.axis))
         if self.is_movable and not (np.isfinite(norm) and norm > 1e-9):
@@ -171,7 +170,7 @@ class Joint:
 
     def joint_from_child(self, position: float) -> np.ndarray:
         """The child's motion at `position` (radians or metres) in the joint frame."""
-        if self.type in ("revolute", "continuous"):
+        if self.type in ROTATING_JOINT_TYPES:
             return axis_angle_transform(self.axis, position)
         if self.type == "prismatic":
             return translation_transform(self.axis / np.linalg.norm(self.axis) * position)

@@ -24,8 +24,6 @@ from homemodel.core.checks import require_positive
 from homemodel.core.safe_xml import parse_xml_file
 from homemodel.geometry.mesh_ops import zero_area_faces
 
-LIMITED_TYPES = ("revolute", "prismatic")
-
 
 @dataclass(kw_only=True)
 class RepairOptions:

@@ -40,6 +40,7 @@ from homemodel.core.limits import MESH_TRIANGLES, URDF_JOINTS, URDF_LINKS
 from homemodel.core.safe_xml import parse_xml_file
 from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
 from homemodel.core.transforms import transform_from_xyz_rpy
+from homemodel.exchange.joint_types import JOINT_TYPES
 
 _NUMBER_LIST = re.compile(r"\s+")
 
@@ -293,7 +294,7 @@ def _joints(ctx: _Context, robot: etree._Element, states: dict[str, list[JointSt
         name, kind = el.get("name"), el.get("type")
         if not name:
             raise ctx.fail(el, "<joint> has no name")
-        if kind not in ("revolute", "prismatic", "continuous", "fixed"):
+        if kind not in JOINT_TYPES:
             raise ctx.fail(el, f"joint {name!r} has unsupported type {kind!r}")
         parent, child = el.find("parent"), el.find("child")
         if parent is None or child is None or not parent.get("link") or not child.get("link"):

@@ -29,6 +29,7 @@ import os
 import bpy
 from mathutils import Matrix, Vector
 
+# These spell out homemodel.exchange.blender_document, which the add-on may not import (a test checks).
 MODEL_FORMAT = "homemodel.blender-model/1"
 MODEL = "hm_model"
 SPEC = "hm_spec"
@@ -48,7 +49,7 @@ POSITION = "hm_q"
 GRASP = "hm_grasp"
 GRASP_KIND = "hm_grasp_kind"
 FROM_MESHES = "from_meshes"
-JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
+JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")  # homemodel.exchange.joint_types (a test checks)
 # A continuous joint's slider still needs an end: one turn either way.
 CONTINUOUS_RANGE_RAD = 2 * math.pi
 

@@ -33,13 +33,12 @@ from homemodel.core.transforms import (
     translation_transform,
     xyz_rpy_from_transform,
 )
+from homemodel.exchange.joint_types import MOVABLE_JOINT_TYPES, MovableJointType
 
 Relation = Literal["on", "in", "under"]
 SwitchType = Literal["rotational", "prismatic"]
-MapJointType = Literal["revolute", "prismatic", "continuous"]
 RELATIONS: tuple[str, ...] = ("on", "in", "under")
 SWITCH_TYPES: tuple[str, ...] = ("rotational", "prismatic")
-JOINT_TYPES: tuple[str, ...] = ("revolute", "prismatic", "continuous")
 
 # The ASCII part of an XML NCName: ids become xs:ID values in the file.
 ID_PATTERN = r"^[A-Za-z_][A-Za-z0-9_.-]*$"
@@ -161,7 +160,7 @@ class ObjectJoint:
     """
 
     name: str
-    type: MapJointType
+    type: MovableJointType
     object_from_joint: Pose
     axis: tuple[float, float, float]
     limits: tuple[float, float] | None
@@ -171,8 +170,8 @@ class ObjectJoint:
 
     def __post_init__(self) -> None:
         what = f"joint {self.name!r}"
-        if self.type not in JOINT_TYPES:
-            raise MapError(f"{what}: type {self.type!r} is not one of {', '.join(JOINT_TYPES)}")
+        if self.type not in MOVABLE_JOINT_TYPES:
+            raise MapError(f"{what}: type {self.type!r} is not one of {', '.join(MOVABLE_JOINT_TYPES)}")
         self.axis = _vector3(self.axis, "axis")
         if not abs(np.linalg.norm(self.axis) - 1.0) < 1e-6:
             raise MapError(f"{what}: axis {self.axis} is not a unit vector")

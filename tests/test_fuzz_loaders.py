@@ -21,7 +21,7 @@ from sample_house import cupboard_model
 
 from articulation.export import export_model
 from articulation.urdf_import import load_urdf
-from homemodel.app.home_build import load_home
+from homemodel.app.home.build import load_home
 from homemodel.core.errors import InputError
 from modeller import load_spec
 

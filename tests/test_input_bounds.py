@@ -14,7 +14,7 @@ from cli_promise import assert_refused, listing, run_cli
 from typer.testing import CliRunner
 
 from articulation.urdf_import import load_urdf
-from homemodel.app.home_build import load_home
+from homemodel.app.home.build import load_home
 from homemodel.cli import app
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image

@@ -129,7 +129,7 @@ def test_worktop_slab_has_its_cutouts_and_the_sink_its_basin(catalogue) -> None:
 
 @pytest.mark.bpy
 def test_run_of_units_stands_side_by_side_under_its_worktop(tmp_path: Path) -> None:
-    from homemodel.app.home_build import build_home
+    from homemodel.app.home.build import build_home
     from semantic_map import load_map
 
     result = build_home(REPO / "examples" / "kitchen_run", tmp_path / "out")
@@ -143,7 +143,7 @@ def test_run_of_units_stands_side_by_side_under_its_worktop(tmp_path: Path) -> N
 
 
 def test_run_refuses_a_unit_taller_than_the_worktop_underside(tmp_path: Path) -> None:
-    from homemodel.app.home_build import build_home
+    from homemodel.app.home.build import build_home
 
     folder = tmp_path / "run"
     folder.mkdir()

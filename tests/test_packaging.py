@@ -22,7 +22,7 @@ PROBE = """
 import json, sys
 from pathlib import Path
 import articulation.gate.gltf as gltf
-import homemodel, homemodel.app.spec_forms as forms
+import homemodel, homemodel.app.blender.spec_forms as forms
 kinds = forms.spec_kinds()
 check = gltf.khronos_check(Path(sys.argv[1]))
 print(json.dumps({

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
-import struct
 from pathlib import Path
 from typing import Any
 
@@ -14,14 +12,13 @@ from articulation.gate.resident_validator import ValidatorFailed, validate_resid
 from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from homemodel.core.errors import InputError
 from homemodel.core.node_packages import find_node_package, install_hint
+from homemodel.exchange.glb import read_glb
+from homemodel.exchange.joint_types import JOINT_TYPES, LIMITED_JOINT_TYPES
 
 VALIDATOR_TIMEOUT_S = 60.0
 # Shipped with the package; it runs the npm package gltf-validator, which is installed apart.
 VALIDATOR_SCRIPT = Path(__file__).resolve().with_name("validate_gltf.js")
 MESSAGES_SHOWN = 5
-GLB_MAGIC = b"glTF"
-GLB_JSON_CHUNK = 0x4E4F534A
-JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
 
 
 def khronos_check(glb: Path, timeout_s: float = VALIDATOR_TIMEOUT_S) -> Check:
@@ -52,25 +49,6 @@ def khronos_check(glb: Path, timeout_s: float = VALIDATOR_TIMEOUT_S) -> Check:
     return Check(name, True, f"0 errors, {count(issues.get('numWarnings', 0), 'warning')}")
 
 
-def glb_json(data: bytes) -> dict[str, Any]:
-    """The JSON chunk of a GLB (binary glTF 2.0) file."""
-    if len(data) < 20:
-        raise InputError(f"{len(data)} bytes is too short for a GLB")
-    magic, version, length = struct.unpack_from("<4sII", data, 0)
-    if magic != GLB_MAGIC or version != 2:
-        raise InputError(f"not a glTF 2.0 binary (magic {magic!r}, version {version})")
-    chunk_length, chunk_type = struct.unpack_from("<II", data, 12)
-    if chunk_type != GLB_JSON_CHUNK or 20 + chunk_length > min(length, len(data)):
-        raise InputError("the first chunk is not a complete JSON chunk")
-    try:
-        doc = json.loads(data[20 : 20 + chunk_length].decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"the JSON chunk does not parse: {exc}") from None
-    if not isinstance(doc, dict):
-        raise InputError("the JSON chunk is not an object")
-    return doc
-
-
 def _number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -88,7 +66,7 @@ def joint_extras_problems(where: str, joint: Any) -> list[str]:
             problems.append(f"{where}: axis {axis!r} is not three numbers")
         elif abs(math.hypot(*axis) - 1) >= AXIS_UNIT_TOLERANCE:
             problems.append(f"{where}: axis {axis} has length {math.hypot(*axis):.6g}, not 1")
-    if kind in ("revolute", "prismatic"):
+    if kind in LIMITED_JOINT_TYPES:
         lower, upper = joint.get("lower"), joint.get("upper")
         if not (_number(lower) and _number(upper)):
             problems.append(f"{where}: lower {lower!r} and upper {upper!r} must be numbers")
@@ -100,7 +78,7 @@ def joint_extras_problems(where: str, joint: Any) -> list[str]:
 def joint_extras_check(glb: Path) -> Check:
     name = "glTF joints"
     try:
-        doc = glb_json(glb.read_bytes())
+        doc = read_glb(glb.read_bytes()).doc
     except (InputError, OSError) as exc:
         return Check(name, False, f"cannot read the GLB: {exc}")
     problems: list[str] = []

@@ -18,10 +18,9 @@ from lxml import etree
 from articulation.gate.report import Check, check_from_problems, count
 from articulation.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
+from homemodel.exchange.joint_types import LIMITED_JOINT_TYPES, URDF_JOINT_TYPES
 from homemodel.geometry.mesh_io import load_mesh
 
-URDF_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
-LIMITED_JOINT_TYPES = ("revolute", "prismatic")
 AXIS_UNIT_TOLERANCE = 1e-6
 # Relative to the sum of the principal moments. A thin plate sits exactly on the bound, and
 # written to six significant digits (as our exporter does) can pass it by 5e-6 of the sum.

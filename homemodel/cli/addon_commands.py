@@ -1,7 +1,7 @@
 """`homemodel addon ...`: what the Blender extension asks of the toolkit, through files.
 
 The extension runs in Blender's own Python and never imports the toolkit; it calls these
-commands as a child process and reads their JSON (see `homemodel.app.blender_exchange`).
+commands as a child process and reads their JSON (see `homemodel.app.blender.model_document`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ FORCE = typer.Option(False, "--force", help="replace a non-empty output folder")
 @addon_app.command("kinds")
 def kinds() -> None:
     """Print every spec kind's JSON Schema and a filled-in example, as one JSON object."""
-    from homemodel.app.spec_forms import spec_kinds
+    from homemodel.app.blender.spec_forms import spec_kinds
 
     with exit_on_error():
         typer.echo(json.dumps(spec_kinds()))
@@ -32,7 +32,7 @@ def kinds() -> None:
 @addon_app.command("check-spec")
 def check_spec(spec: Path = typer.Argument(..., help="a measurement spec, YAML or JSON")) -> None:
     """Print the spec's problems as JSON, one {field, message} each; exit 1 when there are any."""
-    from homemodel.app.spec_forms import spec_problems
+    from homemodel.app.blender.spec_forms import spec_problems
 
     with exit_on_error():
         problems = spec_problems(spec)
@@ -49,7 +49,7 @@ def build(
 ) -> None:
     """Build the spec into a model folder, with `blender.json`, the model document, beside it."""
     from articulation.urdf_import import find_urdf, load_urdf
-    from homemodel.app.blender_exchange import model_document
+    from homemodel.app.blender.model_document import model_document
     from homemodel.core.atomic import write_json
     from homemodel.core.yaml_specs import read_yaml_mapping
     from modeller import BuildOptions
@@ -71,8 +71,8 @@ def describe(
     """Write the model document of a URDF model, or of a glb Blender's exporter wrote from a
     scene laid out with the extension (custom properties included)."""
     from articulation.urdf_import import find_urdf, load_urdf
-    from homemodel.app.blender_exchange import model_document, spec_of_model_folder
-    from homemodel.app.blender_glb import model_document_from_glb
+    from homemodel.app.blender.model_document import model_document, spec_of_model_folder
+    from homemodel.exchange.blender_glb import model_document_from_glb
     from homemodel.core.atomic import write_json
 
     with exit_on_error():
@@ -92,7 +92,8 @@ def export(
     """Write the model folder (URDF, glb, meshes) of a model document and run the validation
     gate on it; print the gate's report; exit 1 when a check failed."""
     from articulation.model_folder import PipelineSummary, write_model_folder
-    from homemodel.app.blender_exchange import model_from_document, read_document
+    from homemodel.app.blender.model_document import model_from_document
+    from homemodel.exchange.blender_document import read_document
 
     with exit_on_error():
         model = model_from_document(read_document(document), str(document))
@@ -108,7 +109,7 @@ def describe_map(
     force: bool = FORCE,
 ) -> None:
     """Write home.json and one model document per object of the map, for the extension to import."""
-    from homemodel.app.blender_home import describe_map as describe
+    from homemodel.app.blender.home import describe_map as describe
 
     with exit_on_error():
         typer.echo(describe(map_path, out, force=force))
@@ -121,7 +122,7 @@ def export_home(
     force: bool = FORCE,
 ) -> None:
     """Write map.xml and a validated model folder per object; exit 1 when a model failed the gate."""
-    from homemodel.app.blender_home import export_home as export
+    from homemodel.app.blender.home import export_home as export
 
     with exit_on_error():
         result = export(home, out, force=force)

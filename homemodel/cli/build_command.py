@@ -14,7 +14,7 @@ from homemodel.cli.errors import exit_on_error
 from homemodel.cli.progress import Column, fitted_table, make_console, progress_bar
 
 if TYPE_CHECKING:
-    from homemodel.app.home_build import ObjectRow
+    from homemodel.app.home.build import ObjectRow
 
 COLUMNS = [Column("object", keep=True), Column("kind", keep=True), Column("parent", keep=True)] + [
     Column(header, justify="right") for header in ("links", "joints", "grasps", "triangles", "build s", "check s")
@@ -50,7 +50,7 @@ def build(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Build every object of a home from its measurements, validate each model, write the map."""
-    from homemodel.app.home_build import build_home
+    from homemodel.app.home.build import build_home
 
     console = make_console()
     with exit_on_error():

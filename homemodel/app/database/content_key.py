@@ -19,7 +19,7 @@ from homemodel.core.content_hash import content_files, file_sha256
 
 # The packages whose code builds each source (all of them export through articulation and
 # end in the database's own entry build, thumbnail and the core helpers).
-SHARED_PACKAGES = ("articulation", "homemodel.core", "homemodel.geometry", "homemodel.app.database")
+SHARED_PACKAGES = ("articulation", "homemodel.exchange", "homemodel.core", "homemodel.geometry", "homemodel.app.database")
 SOURCE_PACKAGES = {
     "spec": ("modeller",),
     "turntable": ("turntable",),
@@ -54,7 +54,8 @@ def code_version(source: str) -> str:
     return digest.hexdigest()
 
 
-def inputs_digest(job: Job, lookup: HashLookup, store: HashStore) -> str:
+def inputs_digest(job: Job, lookup: HashLookup | None = None, store: HashStore | None = None) -> str:
+    """The input files' hashes, remembered through `lookup`/`store` when given (the index's cache)."""
     digest = hashlib.sha256()
     for role in sorted(job.inputs):
         root = job.inputs[role]
@@ -65,16 +66,17 @@ def inputs_digest(job: Job, lookup: HashLookup, store: HashStore) -> str:
         for path in content_files(root):
             stat = path.stat()
             name = str(path)
-            sha = lookup(name, stat.st_size, stat.st_mtime_ns)
+            sha = lookup(name, stat.st_size, stat.st_mtime_ns) if lookup is not None else None
             if sha is None:
                 sha = file_sha256(path)
-                store(name, stat.st_size, stat.st_mtime_ns, sha)
+                if store is not None:
+                    store(name, stat.st_size, stat.st_mtime_ns, sha)
             digest.update(path.relative_to(root).as_posix().encode() if root.is_dir() else b"")
             digest.update(sha.encode())
     return digest.hexdigest()
 
 
-def content_key(job: Job, repair_settings: str, lookup: HashLookup, store: HashStore) -> str:
+def content_key(job: Job, repair_settings: str = "", lookup: HashLookup | None = None, store: HashStore | None = None) -> str:
     """The entry's key; `repair_settings` is "" unless the build repairs imported assets."""
     digest = hashlib.sha256()
     for part in (code_version(job.source), job.settings(), repair_settings if job.source == "urdf" else "", inputs_digest(job, lookup, store)):
@@ -82,3 +84,8 @@ def content_key(job: Job, repair_settings: str, lookup: HashLookup, store: HashS
         digest.update(b"\0")
     return digest.hexdigest()
 
+
+def spec_content_key(name: str, spec_path: Path) -> str:
+    """The key of the spec at `spec_path` built as model `name`, the same as a manifest's entry
+    (`source: spec`, `options: {name}`) gets, without the index's hash cache (a home's build)."""
+    return content_key(Job(id=name, source="spec", inputs={"path": spec_path}, options={"name": name}))

@@ -11,7 +11,6 @@ lengths in metres, angles in radians.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -38,19 +37,11 @@ from articulation.model import (
 )
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image_size
-from homemodel.core.input_files import read_bounded
+from homemodel.exchange.blender_document import FROM_MESHES, MODEL_FORMAT, matrix_list, read_document
 
-MODEL_FORMAT = "homemodel.blender-model/1"
-# What a link made by hand in Blender says instead of an inertial; it gets this density.
-FROM_MESHES = "from_meshes"
+# A link made by hand in Blender (inertial FROM_MESHES) gets this density.
 HAND_MADE_DENSITY_KG_M3 = 500.0
 TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg")
-# A kitchen's largest model is a few MB as JSON; this bounds a hostile file.
-MAX_DOCUMENT_BYTES = 512 * 1024 * 1024
-
-
-def matrix_list(a_from_b: np.ndarray) -> list[list[float]]:
-    return np.asarray(a_from_b, dtype=np.float64).tolist()
 
 
 def _mesh(mesh: trimesh.Trimesh) -> dict[str, list]:
@@ -311,12 +302,3 @@ def spec_of_model_folder(folder: Path) -> dict | None:
     specs = [i.get("path") for i in summary.get("inputs") or [] if isinstance(i, dict) and i.get("role") == "spec"]
     spec = specs[0] if specs else summary.get("spec")
     return read_yaml_mapping(Path(spec)) if isinstance(spec, str) and Path(spec).is_file() else None
-
-
-def read_document(path: Path) -> dict:
-    """A JSON document from `path`, size-bounded; InputError naming the file when it is not JSON."""
-    path = Path(path)
-    try:
-        return json.loads(read_bounded(path, MAX_DOCUMENT_BYTES))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not a JSON document: {exc}") from None

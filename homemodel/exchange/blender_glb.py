@@ -10,16 +10,18 @@ to z up here, so the document is in the frames the scene had.
 from __future__ import annotations
 
 import json
-import struct
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from homemodel.app.blender_exchange import FROM_MESHES, MAX_DOCUMENT_BYTES, MODEL_FORMAT, matrix_list
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.transforms import axis_angle_transform, translation_transform
+from homemodel.exchange import blender_document as doc_keys
+from homemodel.exchange.blender_document import FROM_MESHES, MAX_DOCUMENT_BYTES, MODEL_FORMAT, matrix_list
+from homemodel.exchange.glb import read_glb
+from homemodel.exchange.joint_types import ROTATING_JOINT_TYPES
 
 # Blender's exporter writes (x, y, z) as (x, z, -y); this undoes it.
 Z_UP_FROM_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
@@ -29,18 +31,11 @@ _WIDTH = {"SCALAR": 1, "VEC3": 3}
 
 def _chunks(path: Path) -> tuple[dict, bytes]:
     data = read_bounded(path, MAX_DOCUMENT_BYTES)
-    if len(data) < 20 or data[:4] != b"glTF":
-        raise InputError(f"{path}: not a binary glTF (.glb) file")
-    length, kind = struct.unpack_from("<II", data, 12)
-    if kind != 0x4E4F534A:
-        raise InputError(f"{path}: the first chunk is not JSON")
-    doc = json.loads(data[20 : 20 + length])
-    blob = b""
-    rest = 20 + length
-    if rest + 8 <= len(data):
-        blob_length, _ = struct.unpack_from("<II", data, rest)
-        blob = data[rest + 8 : rest + 8 + blob_length]
-    return doc, blob
+    try:
+        glb = read_glb(data)
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    return glb.doc, glb.blob
 
 
 def _accessor(doc: dict, blob: bytes, index: int) -> np.ndarray:
@@ -82,20 +77,28 @@ def _rigid(a_from_b: np.ndarray) -> np.ndarray:
 
 
 def _motion(extras: dict) -> np.ndarray:
-    axis = np.asarray(extras.get("hm_axis", (0.0, 0.0, 1.0)), dtype=np.float64)
+    axis = np.asarray(extras.get(doc_keys.AXIS, (0.0, 0.0, 1.0)), dtype=np.float64)
     axis = axis / np.linalg.norm(axis)
-    q = float(extras.get("hm_q", 0.0))
-    if extras["hm_joint_type"] in ("revolute", "continuous"):
+    q = float(extras.get(doc_keys.POSITION, 0.0))
+    if extras[doc_keys.JOINT_TYPE] in ROTATING_JOINT_TYPES:
         return axis_angle_transform(axis, q)
-    if extras["hm_joint_type"] == "prismatic":
+    if extras[doc_keys.JOINT_TYPE] == "prismatic":
         return translation_transform(axis * q)
     return np.eye(4)
 
 
 def model_document_from_glb(path: Path) -> dict[str, Any]:
-    """The model document of the one homemodel model in a glb Blender exported."""
+    """The model document of the one homemodel model in a glb Blender exported; InputError
+    naming the file when the container is corrupt or its nodes and accessors do not fit."""
     path = Path(path)
     doc, blob = _chunks(path)
+    try:
+        return _model_document(path, doc, blob)
+    except (KeyError, IndexError, TypeError, ValueError, RecursionError, np.linalg.LinAlgError) as exc:
+        raise InputError(f"{path}: not a model as Blender exports it ({type(exc).__name__}: {exc})") from None
+
+
+def _model_document(path: Path, doc: dict, blob: bytes) -> dict[str, Any]:
     nodes = doc.get("nodes", [])
     parent = {child: i for i, node in enumerate(nodes) for child in node.get("children", [])}
     world: dict[int, np.ndarray] = {}
@@ -106,48 +109,48 @@ def model_document_from_glb(path: Path) -> dict[str, Any]:
         return world[i]
 
     extras = [node.get("extras", {}) for node in nodes]
-    roots = [i for i, e in enumerate(extras) if "hm_model" in e]
+    roots = [i for i, e in enumerate(extras) if doc_keys.MODEL in e]
     if len(roots) != 1:
         raise InputError(f"{path}: expected one homemodel model (a node with hm_model in its extras), found {len(roots)}")
 
     def owner(i: int) -> int | None:
         """The link node `i` belongs to (itself for a link)."""
-        while i is not None and "hm_link" not in extras[i]:
+        while i is not None and doc_keys.LINK not in extras[i]:
             i = parent.get(i)
         return i
 
     links, joints, grasps = {}, [], []
     for i, e in enumerate(extras):
-        if "hm_link" in e:
+        if doc_keys.LINK in e:
             links[i] = {
-                "name": e["hm_link"],
+                "name": e[doc_keys.LINK],
                 "visuals": [],
-                "collisions": json.loads(e["hm_collisions"]) if "hm_collisions" in e else None,
-                "inertial": json.loads(e["hm_inertial"]) if "hm_inertial" in e else FROM_MESHES,
+                "collisions": json.loads(e[doc_keys.COLLISIONS]) if doc_keys.COLLISIONS in e else None,
+                "inertial": json.loads(e[doc_keys.INERTIAL]) if doc_keys.INERTIAL in e else FROM_MESHES,
             }
     for i, e in enumerate(extras):
         link = owner(i)
         if link is None:
             continue
         link_from_node = np.linalg.inv(_rigid(world_from(link))) @ world_from(i)
-        if "hm_joint" in e and i == link:
+        if doc_keys.JOINT in e and i == link:
             parent_link = owner(parent[i])
             joint = {
-                "name": e["hm_joint"],
-                "type": e["hm_joint_type"],
+                "name": e[doc_keys.JOINT],
+                "type": e[doc_keys.JOINT_TYPE],
                 "parent": links[parent_link]["name"],
-                "child": e["hm_link"],
+                "child": e[doc_keys.LINK],
                 "parent_from_joint": matrix_list(np.linalg.inv(_rigid(world_from(parent_link))) @ _rigid(world_from(i)) @ np.linalg.inv(_motion(e))),
-                "axis": list(np.asarray(e["hm_axis"], dtype=float) / np.linalg.norm(e["hm_axis"])),
-                "states": json.loads(e.get("hm_states", "[]")),
+                "axis": list(np.asarray(e[doc_keys.AXIS], dtype=float) / np.linalg.norm(e[doc_keys.AXIS])),
+                "states": json.loads(e.get(doc_keys.STATES, "[]")),
             }
-            if "hm_lower" in e:
-                joint["limits"] = {"lower": e["hm_lower"], "upper": e["hm_upper"], "effort": e.get("hm_effort", 10.0), "velocity": e.get("hm_velocity", 1.0)}
-            if "hm_dynamics" in e:
-                joint["dynamics"] = json.loads(e["hm_dynamics"])
+            if doc_keys.LOWER in e:
+                joint["limits"] = {"lower": e[doc_keys.LOWER], "upper": e[doc_keys.UPPER], "effort": e.get(doc_keys.EFFORT, 10.0), "velocity": e.get(doc_keys.VELOCITY, 1.0)}
+            if doc_keys.DYNAMICS in e:
+                joint["dynamics"] = json.loads(e[doc_keys.DYNAMICS])
             joints.append(joint)
-        if "hm_grasp" in e:
-            grasps.append({"name": e["hm_grasp"], "link": links[link]["name"], "kind": e.get("hm_grasp_kind", "handle"), "link_from_grasp": matrix_list(_rigid(link_from_node))})
+        if doc_keys.GRASP in e:
+            grasps.append({"name": e[doc_keys.GRASP], "link": links[link]["name"], "kind": e.get(doc_keys.GRASP_KIND, "handle"), "link_from_grasp": matrix_list(_rigid(link_from_node))})
         if "mesh" in nodes[i]:
             link_from_visual = _rigid(link_from_node)
             visual_from_node = np.linalg.inv(link_from_visual) @ link_from_node
@@ -167,8 +170,8 @@ def model_document_from_glb(path: Path) -> dict[str, Any]:
                         "faces": faces.tolist(),
                     }
                 )
-    info = json.loads(extras[roots[0]]["hm_model"])
-    spec = extras[roots[0]].get("hm_spec")
+    info = json.loads(extras[roots[0]][doc_keys.MODEL])
+    spec = extras[roots[0]].get(doc_keys.SPEC)
     return {
         "format": MODEL_FORMAT,
         **info,

@@ -20,9 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from homemodel.app.blender_exchange import matrix_list, model_document, model_from_document, read_document, spec_of_model_folder
+from homemodel.app.blender.model_document import model_document, model_from_document, spec_of_model_folder
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError
+from homemodel.exchange.blender_document import matrix_list, read_document
 
 HOME_FORMAT = "homemodel.blender-home/1"
 

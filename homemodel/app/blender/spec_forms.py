@@ -12,7 +12,7 @@ import pydantic
 from homemodel.core.yaml_specs import read_yaml_mapping, validation_problems
 
 # examples/catalogue, shipped as package data (`catalogue` is a link to it in a checkout).
-CATALOGUE = files("homemodel.app") / "catalogue"
+CATALOGUE = files("homemodel.app.blender") / "catalogue"
 
 
 def spec_kinds() -> dict[str, dict[str, Any]]:

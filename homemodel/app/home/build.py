@@ -22,9 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.app.database.content_key import content_key
-from homemodel.app.database.manifest import Job
-from homemodel.app.home_spec import (
+from homemodel.app.database.content_key import spec_content_key
+from homemodel.app.home.spec import (
     HomeSpec,
     LargeObjectSpec,
     PoseSpec,
@@ -159,11 +158,6 @@ def _parking_positions(large: LargeObjectSpec, parking_type: type) -> list:
     return [parking_type(name=p.name, world_from_base=p.matrix(), default=p.name == default) for p in large.parking]
 
 
-def _object_key(object_id: str, spec_path: Path) -> str:
-    job = Job(id=object_id, source="spec", inputs={"path": spec_path}, options={"name": object_id})
-    return content_key(job, "", lambda *_: None, lambda *_: None)
-
-
 def _cached_object(previous: Path, key: str, folder: Path):  # noqa: ANN202 (a Model and its summary, or None)
     """The earlier output's model of this object, copied into `folder`, if its key matches."""
     from articulation.urdf_import import load_urdf
@@ -216,7 +210,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 progress(obj.id, index, len(placements))
             if small is not None:
                 _check_on_surface(home_file, field_path, small, tops[large.id])
-            key = _object_key(obj.id, spec_paths[obj.id])
+            key = spec_content_key(obj.id, spec_paths[obj.id])
             cached = _cached_object(Path(out_dir) / "models" / obj.id, key, tmp / "models" / obj.id)
             if cached is None:
                 built = build(spec_paths[obj.id], tmp / "models" / obj.id, BuildOptions(name=obj.id))

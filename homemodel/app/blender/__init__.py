@@ -1,0 +1,2 @@
+"""What the Blender extension asks of the toolkit through `homemodel addon ...`: models as
+model documents, a home's map and export, and the measurement forms."""
