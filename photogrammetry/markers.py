@@ -7,30 +7,24 @@ markers; their corners, seen in several registered photos, give the model its me
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from homemodel.core.errors import InputError
 
-# The user-facing names of OpenCV's predefined dictionaries.
-DICTIONARIES: dict[str, str] = {
-    "apriltag_36h11": "DICT_APRILTAG_36h11",
-    "apriltag_25h9": "DICT_APRILTAG_25h9",
-    "4x4_50": "DICT_4X4_50",
-    "4x4_250": "DICT_4X4_250",
-    "5x5_100": "DICT_5X5_100",
-    "5x5_250": "DICT_5X5_250",
-    "6x6_250": "DICT_6X6_250",
-}
+# The user-facing names of OpenCV's predefined dictionaries (`cv2.aruco.DICT_<NAME>`).
+MarkerDictionary = Literal["apriltag_36h11", "apriltag_25h9", "4x4_50", "4x4_250", "5x5_100", "5x5_250", "6x6_250"]
+DICTIONARIES: tuple[str, ...] = get_args(MarkerDictionary)
 
 
 def aruco_dictionary(name: str):
-    """The OpenCV dictionary called `name` (a key of DICTIONARIES)."""
+    """The OpenCV dictionary called `name` (one of DICTIONARIES)."""
     import cv2
 
     if name not in DICTIONARIES:
         raise InputError(f"unknown marker dictionary {name!r}; choose one of {', '.join(DICTIONARIES)}")
-    return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICTIONARIES[name]))
+    return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, f"DICT_{name.upper()}"))
 
 
 @dataclass(kw_only=True)

@@ -32,7 +32,7 @@ from photogrammetry.cleaning import (
     segment_object,
 )
 from photogrammetry.convergence import in_frame_share
-from photogrammetry.markers import DICTIONARIES, detect_markers, triangulate_markers
+from photogrammetry.markers import DICTIONARIES, MarkerDictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
@@ -50,7 +50,7 @@ class ReconstructOptions:
     cleaning: CleaningOptions = field(default_factory=CleaningOptions)
     texture: TextureBakingOptions = field(default_factory=TextureBakingOptions)
     marker_size_m: float | None = None  # the printed markers' black-square edge; None: no markers
-    dictionary: str = "apriltag_36h11"
+    dictionary: MarkerDictionary = "apriltag_36h11"
     max_faces: int = 40_000  # the mesh is decimated to this before texturing
     use_cuda: bool = True  # PatchMatch where pycolmap has CUDA; the CPU path otherwise
     # The model folder (`reconstruct`):

@@ -11,6 +11,7 @@ import typer
 from rich.markup import escape
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.option_fields import field_option
 from homemodel.cli.progress import Column, fitted_table, make_console
 
 if TYPE_CHECKING:
@@ -21,6 +22,8 @@ if TYPE_CHECKING:
 db_app = typer.Typer(no_args_is_help=True)
 
 DB_OPTION = typer.Option(..., "--db", help="the database folder (models/, index.sqlite)")
+BUILD = "homemodel.app.database.build:DatabaseBuildOptions"
+SERVE = "homemodel.app.database.server:ServeOptions"
 STATUS_STYLE = {"valid": "[green]valid[/]", "invalid": "[yellow]invalid[/]", "failed": "[red]failed[/]"}
 COLUMNS = [Column("id", keep=True), Column("category", keep=True), Column("source"), Column("status", keep=True)] + [
     Column(h, justify="right") for h in ("links", "joints", "grasps", "triangles", "build s")
@@ -55,10 +58,10 @@ def _entry_line(row: EntryRow, cached: bool) -> str:
 def build(
     manifest: Path = typer.Argument(..., help="the manifest: entries, their sources, options, categories"),
     db: Path = DB_OPTION,
-    workers: int | None = typer.Option(None, "--workers", help="local worker processes (default: one per core)"),
-    scheduler: str | None = typer.Option(None, "--scheduler", help="an existing Dask scheduler, e.g. tcp://host:8786"),
-    repair: bool = typer.Option(False, "--repair", help="repair imported assets that lack only inertials or limit effort/velocity"),
-    retry_failed: bool = typer.Option(False, "--retry-failed", help="build failed entries again even if unchanged"),
+    workers: int | None = field_option(f"{BUILD}.workers", help="local worker processes (default: one per core)"),
+    scheduler: str | None = field_option(f"{BUILD}.scheduler", help="an existing Dask scheduler, e.g. tcp://host:8786"),
+    repair: bool = field_option(f"{BUILD}.repair", help="repair imported assets that lack only inertials or limit effort/velocity"),
+    retry_failed: bool = field_option(f"{BUILD}.retry_failed", help="build failed entries again even if unchanged"),
     strict: bool = typer.Option(False, "--strict", help="exit 1 when an entry failed or is invalid"),
 ) -> None:
     """Build every entry of MANIFEST whose inputs, options or code changed; record failures."""
@@ -182,13 +185,13 @@ def export(
 def serve(
     db: Path = DB_OPTION,
     map_path: Path | None = typer.Option(None, "--map", help="a home's semantic map to show as a tree"),
-    host: str = typer.Option("127.0.0.1", "--host", help="address to listen on (::1 for IPv6 loopback)"),
-    port: int = typer.Option(8765, "--port", help="port (0: any free one)"),
-    allow_host: list[str] = typer.Option(
-        [], "--allow-host", help="another name (or name:port) browsers may reach this server by (repeatable)"
+    host: str = field_option(f"{SERVE}.host", help="address to listen on (::1 for IPv6 loopback)"),
+    port: int = field_option(f"{SERVE}.port", help="port (0: any free one)"),
+    allow_host: list[str] = field_option(
+        f"{SERVE}.allow_hosts", "--allow-host", help="another name (or name:port) browsers may reach this server by (repeatable)"
     ),
-    client_timeout_s: float = typer.Option(10.0, "--client-timeout-s", help="seconds a client has to send a request"),
-    max_connections: int = typer.Option(1000, "--max-connections", help="connections open at once (idle ones make room)"),
+    client_timeout_s: float = field_option(f"{SERVE}.client_timeout_s", help="seconds a client has to send a request"),
+    max_connections: int = field_option(f"{SERVE}.max_connections", help="connections open at once (idle ones make room)"),
 ) -> None:
     """Serve a page to browse the database: a table, a 3D view with joint sliders, the gate's
     report, and a home's semantic map. Ctrl-C stops it."""

@@ -13,11 +13,13 @@ from pathlib import Path
 import typer
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.option_fields import field_option
 
 eval_app = typer.Typer(no_args_is_help=True)
 
 PRED_HELP = "reconstructed mesh file or model folder"
 GT_HELP = "ground-truth mesh file or model folder, same frame and units"
+SURFACE = "homemodel.evaluation.surface"
 
 
 def _print_figures(figures: dict[str, float], as_json: bool) -> None:
@@ -54,11 +56,13 @@ def voxel_iou_command(
 def surface_distance_command(
     pred: Path = typer.Argument(..., help=PRED_HELP),
     gt: Path = typer.Argument(..., help=GT_HELP),
-    samples: int = typer.Option(100_000, "--samples", help="points sampled on each surface"),
-    threshold_fraction: float = typer.Option(
-        0.01, "--f-threshold", help="F-score distance threshold as a fraction of gt's bounding-box diagonal"
+    samples: int = field_option(f"{SURFACE}:f_score.n_samples", "--samples", help="points sampled on each surface"),
+    threshold_fraction: float = field_option(
+        f"{SURFACE}:f_score.threshold_fraction",
+        "--f-threshold",
+        help="F-score distance threshold as a fraction of gt's bounding-box diagonal",
     ),
-    seed: int = typer.Option(0, "--seed", help="seed of the surface sampling"),
+    seed: int = field_option(f"{SURFACE}:f_score.seed", help="seed of the surface sampling"),
     as_json: bool = typer.Option(False, "--json", help="print the figures as one JSON object"),
 ) -> None:
     """Surface distance: Rock et al.'s (RMS both ways / cube side), the mean in the meshes' units, and the F-score."""

@@ -12,10 +12,13 @@ import typer
 
 from homemodel.cli.errors import exit_on_error
 from homemodel.cli.map_commands import MAP_ARGUMENT, map_app
+from homemodel.cli.option_fields import field_option, from_options
 
 if TYPE_CHECKING:
     from tracking.simulate_view import SmallObjectMove
 
+VIEW = "tracking.simulate_view:ViewOptions"
+LOOK_AT = "tracking.simulate_view:ViewSimulator.camera_looking_at"
 _MOVE = re.compile(r"^(?P<object>[^=:]+)=(?:(?P<parent>[^=:]+):)?(?P<numbers>[^=:]+)$")
 
 
@@ -67,6 +70,7 @@ def parse_occlusions(items: list[str]) -> dict[str, float]:
 
 
 @map_app.command("simulate-view")
+@from_options
 def simulate_view(
     map_path: Path = MAP_ARGUMENT,
     camera_path: Path = typer.Option(..., "--camera", help="camera.yaml: width, height, fx, fy, cx, cy, depth_scale_m, and map_from_camera unless --look-at is given"),
@@ -74,12 +78,12 @@ def simulate_view(
     joint: list[str] = typer.Option([], "--joint", help="OBJECT/JOINT=VALUE: a joint's true position (rad or m) or named state, e.g. fridge_1/door_0_hinge=0.8; repeatable"),
     move: list[str] = typer.Option([], "--move", help="OBJECT=[PARENT:]x,y[,z],yaw: a small object moved in its parent's frame, or onto PARENT (re-parented; without z it stands on PARENT's top); repeatable"),
     occlude: list[str] = typer.Option([], "--occlude", help="OBJECT=FRACTION: a box half-way to the camera hides that fraction of the object, from its left; repeatable"),
-    noise: str = typer.Option("kinect", "--noise", help="kinect (structured-light noise, 1 mm steps, grazing and random dropouts) or none"),
-    seed: int = typer.Option(0, "--seed", help="seed of the sensor noise"),
+    noise: str = field_option(f"{VIEW}.noise.model", "--noise", help="kinect (structured-light noise, 1 mm steps, grazing and random dropouts) or none"),
+    seed: int = field_option(f"{VIEW}.noise.seed", help="seed of the sensor noise"),
     look_at: str | None = typer.Option(None, "--look-at", help="place the camera in front of this object (its +x side), looking at its centre"),
-    distance_m: float = typer.Option(1.8, "--distance-m", help="with --look-at: horizontal distance from the object's centre"),
-    height_m: float = typer.Option(1.3, "--height-m", help="with --look-at: camera height above the floor"),
-    bearing_deg: float = typer.Option(0.0, "--bearing-deg", help="with --look-at: turn the camera about the object, toward its +y"),
+    distance_m: float = field_option(f"{LOOK_AT}.distance_m", help="with --look-at: horizontal distance from the object's centre"),
+    height_m: float = field_option(f"{LOOK_AT}.height_m", help="with --look-at: camera height above the floor"),
+    bearing_deg: float = field_option(f"{LOOK_AT}.bearing_deg", help="with --look-at: turn the camera about the object, toward its +y"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Render what a depth camera at a known pose sees of the home: the map's models at its

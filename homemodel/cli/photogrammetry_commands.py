@@ -3,7 +3,6 @@ cleaned mesh through COLMAP on the CPU (D3.1 section 3.3.3, without 123D Catch's
 
 from __future__ import annotations
 
-import enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -11,6 +10,7 @@ import typer
 
 from homemodel.cli.errors import exit_on_error
 from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
+from homemodel.cli.option_fields import field_option, from_options
 from homemodel.cli.progress import figures_table, make_console, stage_bars
 
 if TYPE_CHECKING:
@@ -18,22 +18,7 @@ if TYPE_CHECKING:
 
 photogrammetry_app = typer.Typer(no_args_is_help=True)
 
-
-class MatchingChoice(str, enum.Enum):
-    auto = "auto"
-    exhaustive = "exhaustive"
-    preemptive = "preemptive"
-    retrieval = "retrieval"
-
-
-class DictionaryChoice(str, enum.Enum):
-    apriltag_36h11 = "apriltag_36h11"
-    apriltag_25h9 = "apriltag_25h9"
-    d4x4_50 = "4x4_50"
-    d4x4_250 = "4x4_250"
-    d5x5_100 = "5x5_100"
-    d5x5_250 = "5x5_250"
-    d6x6_250 = "6x6_250"
+OPTIONS = "photogrammetry.pipeline:ReconstructOptions"
 
 
 def _summary_rows(summary: ModelSummary) -> list[tuple[str, str]]:
@@ -65,28 +50,34 @@ def _summary_rows(summary: ModelSummary) -> list[tuple[str, str]]:
 
 
 @photogrammetry_app.command()
+@from_options
 def reconstruct(
     photos_dir: Path = typer.Argument(..., help="folder of photos (JPEG, PNG, TIFF, BMP) taken around the object"),
     out: Path = typer.Option(..., "--out", help="model folder to write"),
-    marker_size_m: float | None = typer.Option(
-        None, "--marker-size-m", help="edge of the markers' black square (m); without it the model is unscaled"
+    marker_size_m: float | None = field_option(
+        f"{OPTIONS}.marker_size_m", help="edge of the markers' black square (m); without it the model is unscaled"
     ),
-    dictionary: DictionaryChoice = typer.Option(DictionaryChoice.apriltag_36h11, "--dictionary", help="marker family"),
-    name: str = typer.Option("object", "--name", help="model name"),
-    density_kg_m3: float = typer.Option(500.0, "--density-kg-m3", help="density for the inertial (kg/m^3)"),
-    matching: MatchingChoice = typer.Option(
-        MatchingChoice.auto,
-        "--matching",
+    dictionary: str = field_option(f"{OPTIONS}.dictionary", help="marker family"),
+    name: str = field_option(f"{OPTIONS}.name", help="model name"),
+    density_kg_m3: float = field_option(f"{OPTIONS}.density_kg_m3", help="density for the inertial (kg/m^3)"),
+    matching: str = field_option(
+        f"{OPTIONS}.sfm.matching",
         help="auto: preemptive up to 120 photos (every pair tried on its 100 largest features, any order; "
         "each photo matched in full with up to 15 partners sharing 3 or more, and at least its 8 best), "
         "image retrieval beyond",
     ),
-    max_features: int = typer.Option(4096, "--max-features", help="SIFT features per photo"),
-    sfm_image_px: int = typer.Option(1600, "--sfm-image-px", help="longer side photos are shrunk to for SfM"),
-    depth_image_px: int = typer.Option(640, "--depth-image-px", help="longer side of the depth maps"),
-    texture_px: int = typer.Option(2048, "--texture-px", help="texture atlas size"),
-    max_faces: int = typer.Option(40_000, "--max-faces", help="faces of the final mesh"),
-    picture: bool = typer.Option(False, "--picture", help="also write cameras.png: the cameras around the mesh"),
+    max_features: int = field_option(f"{OPTIONS}.sfm.max_num_features", "--max-features", help="SIFT features per photo"),
+    sfm_image_px: int = field_option(
+        f"{OPTIONS}.sfm.max_image_size_px", "--sfm-image-px", help="longer side photos are shrunk to for SfM"
+    ),
+    depth_image_px: int = field_option(
+        f"{OPTIONS}.dense.max_image_size_px", "--depth-image-px", help="longer side of the depth maps"
+    ),
+    texture_size_px: int = field_option(
+        f"{OPTIONS}.texture.size_px", "--texture-size-px", "--texture-px", help="texture atlas size"
+    ),
+    max_faces: int = field_option(f"{OPTIONS}.max_faces", help="faces of the final mesh"),
+    picture: bool = field_option(f"{OPTIONS}.picture", help="also write cameras.png: the cameras around the mesh"),
     map_path: Path | None = typer.Option(None, "--map", help="register the model into this semantic map (MAP.xml)"),
     parent: str | None = typer.Option(None, "--parent", help="with --map: a room, or the large object it stands on"),
     object_id: str | None = typer.Option(None, "--id", help="with --map: the object's id (default: --name)"),
@@ -94,7 +85,9 @@ def reconstruct(
         (0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent (m)"
     ),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
-    verbose: bool = typer.Option(False, "--verbose", help="show COLMAP's log and the image libraries' warnings"),
+    verbose: bool = field_option(
+        f"{OPTIONS}.sfm.verbose", help="show COLMAP's log and the image libraries' warnings"
+    ),
 ) -> None:
     """Reconstruct a textured, cleaned mesh from photos; metric and levelled when markers are seen."""
     from photogrammetry import ReconstructOptions
@@ -107,12 +100,12 @@ def reconstruct(
     with exit_on_error():
         map_entry = map_entry_from_flags(map_path, parent, object_id or name, xyz)
         options = ReconstructOptions(
-            sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching.value,
+            sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching,
                           verbose=verbose),  # fmt: skip
             dense=DenseOptions(max_image_size_px=depth_image_px),
-            texture=TextureBakingOptions(size_px=texture_px),
+            texture=TextureBakingOptions(size_px=texture_size_px),
             marker_size_m=marker_size_m,
-            dictionary=dictionary.value,
+            dictionary=dictionary,
             max_faces=max_faces,
             name=name,
             density_kg_m3=density_kg_m3,

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.option_fields import field_option
 from homemodel.cli.progress import Column, fitted_table, make_console, progress_bar
 
 if TYPE_CHECKING:
@@ -45,7 +46,13 @@ def render(
     spec: Path = typer.Argument(..., help="measurement spec (YAML) with photos: on some faces"),
     out: Path = typer.Option(..., "--out", help="output model folder (model.urdf, model.glb, meshes/, pictures)"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
-    height: int = typer.Option(360, "--height", min=64, max=2048, help="height of each picture panel, pixels"),
+    height: int = field_option(
+        "modeller.comparison_picture:PictureOptions.panel_height_px",
+        "--height",
+        min=64,
+        max=2048,
+        help="height of each picture panel, pixels",
+    ),
 ) -> None:
     """Build a spec's photo-textured model, validate it, and render it beside each photo."""
     from modeller import BuildOptions

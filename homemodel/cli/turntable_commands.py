@@ -3,53 +3,25 @@ section 3.3.3), and real cameras' recordings and live streams as its captures.""
 
 from __future__ import annotations
 
-import enum
 import io
 import os
 import sys
 from pathlib import Path
+from typing import Literal
 
 import typer
 from rich.console import Console
 
 from homemodel.cli.errors import exit_on_error
 from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
+from homemodel.cli.option_fields import field_option, from_options
 from homemodel.cli.progress import figures_table, make_console, stage_bars
 
 turntable_app = typer.Typer(no_args_is_help=True)
 
-
-class PaperChoice(str, enum.Enum):
-    a4 = "a4"
-    a3 = "a3"
-    letter = "letter"
-
-
-class LightingChoice(str, enum.Enum):
-    studio = "studio"
-    ambient = "ambient"
-
-
-class DepthFormatChoice(str, enum.Enum):
-    png = "png"
-    exr = "exr"
-
-
-class RecordingFormat(str, enum.Enum):
-    realsense_bag = "realsense-bag"
-    ros1 = "ros1"
-    ros2 = "ros2"
-    tum = "tum"
-    open3d = "open3d"
-
-
-class DeviceChoice(str, enum.Enum):
-    realsense = "realsense"
-
-
-class DetectorChoice(str, enum.Enum):
-    apriltag = "apriltag"
-    opencv = "opencv"
+SIMULATION = "turntable.simulate:SimulationOptions"
+RECONSTRUCT = "turntable.reconstruct:ReconstructOptions"
+IMPORT = "turntable.recordings.importer:ImportOptions"
 
 
 def _console_beside_blender() -> Console:
@@ -64,12 +36,14 @@ def _console_beside_blender() -> Console:
 
 
 @turntable_app.command()
+@from_options
 def board(
     out: Path = typer.Option(..., "--out", help="output folder: board.pdf and board.yaml"),
-    diameter_m: float = typer.Option(0.4, "--diameter-m", help="table diameter (m)"),
-    tag_size_m: float = typer.Option(0.03, "--tag-size-m", help="edge of each tag's black square (m)"),
-    paper: PaperChoice = typer.Option(PaperChoice.a4, "--paper", help="paper size; large tables tile over pages"),
-    first_id: int = typer.Option(0, "--first-id", help="first tag36h11 id to use"),
+    # The simulator's default board is the one printed by default.
+    diameter_m: float = field_option(f"{SIMULATION}.table_diameter_m", "--diameter-m", help="table diameter (m)"),
+    tag_size_m: float = field_option(f"{SIMULATION}.tag_size_m", help="edge of each tag's black square (m)"),
+    paper: str = field_option("turntable.board_pdf:write_board_pdf.paper", help="paper size; large tables tile over pages"),
+    first_id: int = field_option("turntable.board:grid_board.first_id", help="first tag36h11 id to use"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Write a printable, true-to-scale tag36h11 grid for a round table, and its board.yaml."""
@@ -84,7 +58,7 @@ def board(
         except ValueError as exc:
             raise InputError(f"board: {exc}") from None
         with atomic_dir(out, force=force) as tmp:
-            pages = write_board_pdf(layout, tmp / "board.pdf", paper=paper.value)
+            pages = write_board_pdf(layout, tmp / "board.pdf", paper=paper)
             save_board(layout, tmp / "board.yaml")
     ids = [t.id for t in layout.tags]
     make_console().print(
@@ -94,7 +68,7 @@ def board(
                 ("table diameter", f"{diameter_m * 1000:.0f} mm"),
                 ("tag size", f"{tag_size_m * 1000:g} mm"),
                 ("tags", f"{len(ids)} (ids {ids[0]}-{ids[-1]})"),
-                ("pages", f"{pages} x {paper.value}"),
+                ("pages", f"{pages} x {paper}"),
             ],
         )
     )
@@ -102,29 +76,34 @@ def board(
 
 
 @turntable_app.command()
+@from_options
 def simulate(
     mesh: Path = typer.Argument(..., help="object mesh (PLY, OBJ, STL, GLB...), metres unless --mesh-scale"),
     out: Path = typer.Option(..., "--out", help="capture folder to write"),
-    frames: int = typer.Option(72, "--frames", help="frames over one turn"),
-    width: int = typer.Option(640, "--width"),
-    height: int = typer.Option(480, "--height"),
-    fov_deg: float = typer.Option(58.0, "--fov-deg", help="horizontal field of view"),
-    camera_distance_m: float = typer.Option(
-        0.6, "--camera-distance-m", help="tripod's horizontal distance from the axis"
+    frames: int = field_option(f"{SIMULATION}.frames", help="frames over one turn"),
+    width: int = field_option(f"{SIMULATION}.width_px", "--width", help="image width (px)"),
+    height: int = field_option(f"{SIMULATION}.height_px", "--height", help="image height (px)"),
+    fov_deg: float = field_option(f"{SIMULATION}.horizontal_fov_deg", "--fov-deg", help="horizontal field of view"),
+    camera_distance_m: float = field_option(
+        f"{SIMULATION}.camera_distance_m", help="tripod's horizontal distance from the axis"
     ),
-    camera_height_m: float = typer.Option(0.4, "--camera-height-m", help="camera height above the table top"),
-    diameter_m: float = typer.Option(0.4, "--diameter-m", help="table diameter (m) of the generated board"),
-    tag_size_m: float = typer.Option(0.03, "--tag-size-m", help="tag size (m) of the generated board"),
-    board_yaml: Path | None = typer.Option(None, "--board", help="use this board.yaml instead of a generated grid"),
-    lighting: LightingChoice = typer.Option(LightingChoice.studio, "--lighting"),
-    samples: int = typer.Option(16, "--samples", help="Cycles samples per pixel"),
-    depth_format: DepthFormatChoice = typer.Option(DepthFormatChoice.png, "--depth-format"),
-    depth_scale_m: float = typer.Option(0.0001, "--depth-scale-m", help="metres per unit of the depth PNGs"),
-    depth_noise_m: float = typer.Option(
-        0.0, "--depth-noise-m", help="depth noise std at 0.7 m (grows with depth^2); 0: none"
+    camera_height_m: float = field_option(f"{SIMULATION}.camera_height_m", help="camera height above the table top"),
+    diameter_m: float = field_option(
+        f"{SIMULATION}.table_diameter_m", "--diameter-m", help="table diameter (m) of the generated board"
     ),
-    mesh_scale: float = typer.Option(1.0, "--mesh-scale", help="multiplies the mesh's coordinates into metres"),
-    seed: int = typer.Option(0, "--seed"),
+    tag_size_m: float = field_option(f"{SIMULATION}.tag_size_m", help="tag size (m) of the generated board"),
+    board_yaml: Path | None = field_option(
+        f"{SIMULATION}.board_path", "--board", help="use this board.yaml instead of a generated grid"
+    ),
+    lighting: str = field_option(f"{SIMULATION}.lighting", help="studio lights, or an even ambient light"),
+    samples: int = field_option(f"{SIMULATION}.samples", help="Cycles samples per pixel"),
+    depth_format: str = field_option(f"{SIMULATION}.depth_format", help="16-bit PNG or float EXR depth"),
+    depth_scale_m: float = field_option(f"{SIMULATION}.depth_scale_m", help="metres per unit of the depth PNGs"),
+    depth_noise_m: float = field_option(
+        f"{SIMULATION}.depth_noise_m", help="depth noise std at 0.7 m (grows with depth^2); 0: none"
+    ),
+    mesh_scale: float = field_option(f"{SIMULATION}.mesh_scale"),
+    seed: int = field_option(f"{SIMULATION}.random_state", "--seed", help="seed of the depth noise and the sampling"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Render a synthetic turntable capture of MESH with Blender (Cycles, CPU): colour, depth, poses."""
@@ -140,9 +119,9 @@ def simulate(
         table_diameter_m=diameter_m,
         tag_size_m=tag_size_m,
         board_path=board_yaml,
-        lighting=lighting.value,
+        lighting=lighting,
         samples=samples,
-        depth_format=depth_format.value,
+        depth_format=depth_format,
         depth_scale_m=depth_scale_m,
         depth_noise_m=depth_noise_m,
         mesh_scale=mesh_scale,
@@ -166,20 +145,23 @@ def simulate(
 
 
 @turntable_app.command()
+@from_options
 def reconstruct(
     capture_dir: Path = typer.Argument(..., help="capture folder: camera.yaml, board.yaml, color/, depth/"),
     out: Path = typer.Option(..., "--out", help="model folder to write"),
-    name: str = typer.Option("turntable_object", "--name", help="model name"),
-    voxel_size_m: float = typer.Option(0.0015, "--voxel-size-m", help="merging voxel size"),
-    detector: DetectorChoice = typer.Option(DetectorChoice.apriltag, "--detector", help="tag detector"),
+    name: str = field_option(f"{RECONSTRUCT}.name", help="model name"),
+    voxel_size_m: float = field_option(f"{RECONSTRUCT}.voxel_size_m", help="merging voxel size"),
+    detector: str = field_option(f"{RECONSTRUCT}.detection.detector", help="tag detector"),
     srgb: bool = typer.Option(False, "--srgb", help="colour images are sRGB-encoded (most cameras), not linear"),
-    min_tags: int = typer.Option(3, "--min-tags", help="frames seeing fewer board tags are skipped"),
-    refine: bool = typer.Option(
-        True, "--turntable-refinement/--no-turntable-refinement", help="refine all poses under the turntable's motion"
+    min_tags: int = field_option(f"{RECONSTRUCT}.pose.min_tags", help="frames seeing fewer board tags are skipped"),
+    refine: bool = field_option(
+        f"{RECONSTRUCT}.turntable_refinement",
+        "--turntable-refinement/--no-turntable-refinement",
+        help="refine all poses under the turntable's motion",
     ),
-    texture_size_px: int = typer.Option(1024, "--texture-size-px", help="baked texture size; 0: no texture"),
-    density_kg_m3: float = typer.Option(500.0, "--density-kg-m3", help="for the inertial"),
-    picture: bool = typer.Option(False, "--picture", help="also draw picture.png: the mesh with the camera orbit"),
+    texture_size_px: int = field_option(f"{RECONSTRUCT}.texture_size_px", help="baked texture size; 0: no texture"),
+    density_kg_m3: float = field_option(f"{RECONSTRUCT}.density_kg_m3", help="for the inertial (kg/m^3)"),
+    picture: bool = field_option(f"{RECONSTRUCT}.picture", help="also draw picture.png: the mesh with the camera orbit"),
     map_path: Path | None = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this map"),
     parent_id: str | None = typer.Option(None, "--parent", "--room", help="map parent: a large object (or a room)"),
     object_id: str | None = typer.Option(None, "--id", help="id in the map (default: --name)"),
@@ -196,7 +178,7 @@ def reconstruct(
     with exit_on_error():
         map_entry = map_entry_from_flags(map_path, parent_id, object_id or name, xyz)
         options = ReconstructOptions(
-            detection=DetectionOptions(detector=detector.value, intensity="srgb" if srgb else "linear"),
+            detection=DetectionOptions(detector=detector, intensity="srgb" if srgb else "linear"),
             pose=PoseOptions(min_tags=min_tags),
             voxel_size_m=voxel_size_m,
             turntable_refinement=refine,
@@ -208,7 +190,7 @@ def reconstruct(
         )
         with stage_bars(console) as progress:
             result = run(capture_dir, out, options, progress=progress, force=force)
-    summary = result.figures()
+    summary = result.summary.turntable  # the folder's summary.json: its own figures, then the common ones
     rows = [
         ("frames used", f"{summary['frames_used']} of {summary['frames_total']} ({summary['frames_skipped']} skipped)"),
         ("tags per frame", "{mean:.1f} (min {min}, max {max})".format(**summary["tags_per_frame"])),
@@ -225,9 +207,9 @@ def reconstruct(
     rows += [
         ("points merged / after outliers", f"{summary['points_merged']} / {summary['points_after_outlier_removal']}"),
         ("triangles", f"{summary['triangles']} (watertight: {'yes' if summary['watertight'] else 'no'})"),
-        ("extent", " x ".join(f"{v * 1000:.1f}" for v in summary["extent_m"]) + " mm"),
+        ("extent", " x ".join(f"{v * 1000:.1f}" for v in result.summary.extents_m) + " mm"),
     ]
-    rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in summary["times_s"].items()]
+    rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in result.summary.times_s.items()]
     console.print(figures_table(f"homemodel turntable reconstruct {capture_dir}", rows))
     for stem, reason in list(result.skipped.items())[:5]:
         console.print(f"skipped {stem}: {reason}")
@@ -237,17 +219,20 @@ def reconstruct(
 
 
 @turntable_app.command("import")
+@from_options
 def import_(
     recording: Path = typer.Argument(..., help="RealSense .bag, ROS 1 .bag, ROS 2 bag folder, TUM or Open3D folder"),
     board_yaml: Path = typer.Option(..., "--board", help="the turntable's board.yaml"),
     out: Path = typer.Option(..., "--out", help="capture folder to write"),
-    camera_yaml: Path | None = typer.Option(
-        None, "--camera", help="camera.yaml for recordings without intrinsics (TUM); a file's own intrinsics win"
+    camera_yaml: Path | None = field_option(
+        f"{IMPORT}.camera_path",
+        "--camera",
+        help="camera.yaml for recordings without intrinsics (TUM); a file's own intrinsics win",
     ),
-    form: RecordingFormat | None = typer.Option(None, "--format", help="default: told from the recording's layout"),
-    every: int = typer.Option(1, "--every", help="keep every N-th associated frame"),
-    start_s: float = typer.Option(0.0, "--start", help="seconds from the recording's start"),
-    end_s: float | None = typer.Option(None, "--end", help="seconds from the recording's start"),
+    form: str | None = field_option(f"{IMPORT}.format", "--format", help="default: told from the recording's layout"),
+    every: int = field_option(f"{IMPORT}.every", help="keep every N-th associated frame"),
+    start_s: float = field_option(f"{IMPORT}.start_s", "--start", help="seconds from the recording's start"),
+    end_s: float | None = field_option(f"{IMPORT}.end_s", "--end", help="seconds from the recording's start"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Turn a real RGB-D camera's recording into a capture folder (depth registered to colour)."""
@@ -257,7 +242,7 @@ def import_(
     console = make_console()
     with exit_on_error():
         options = ImportOptions(
-            format=None if form is None else form.value,
+            format=form,
             camera_path=camera_yaml,
             every=every,
             start_s=start_s,
@@ -288,13 +273,16 @@ def import_(
 
 
 @turntable_app.command()
+@from_options
 def capture(
     out: Path = typer.Option(..., "--out", help="capture folder to write"),
     board_yaml: Path = typer.Option(..., "--board", help="the turntable's board.yaml"),
-    device: DeviceChoice = typer.Option(DeviceChoice.realsense, "--device"),
+    device: Literal["realsense"] = typer.Option("realsense", "--device", help="the kind of camera"),
     serial: str | None = typer.Option(None, "--serial", help="the camera's serial number (default: the only one)"),
     playback: Path | None = typer.Option(None, "--playback", help="play this RealSense .bag instead of a camera"),
-    step_deg: float = typer.Option(5.0, "--step-deg", help="keep a frame each time the table turned this much"),
+    step_deg: float = field_option(
+        "turntable.capture_live:LiveCaptureOptions.step_deg", help="keep a frame each time the table turned this much"
+    ),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Record one turn of the table from a connected camera; stops by itself once the circle is covered."""
@@ -334,5 +322,5 @@ def capture(
         ("circle covered", f"{result.coverage * 100:.0f} %" + ("" if result.complete else " (stopped early)")),
         ("warnings", f"{result.warnings['blur']} blurred, {result.warnings['tags']} with too few tags"),
     ]
-    console.print(figures_table(f"homemodel turntable capture --device {device.value}", rows))
+    console.print(figures_table(f"homemodel turntable capture --device {device}", rows))
     typer.echo(f"capture: {out}")

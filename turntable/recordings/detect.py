@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal, get_args
 
 from homemodel.core.errors import InputError
 from turntable.recordings.open3d_folder import COLOR_FOLDERS, INTRINSICS_FILES
 
-FORMATS = ("realsense-bag", "ros1", "ros2", "tum", "open3d")
+RecordingFormat = Literal["realsense-bag", "ros1", "ros2", "tum", "open3d"]
+FORMATS: tuple[str, ...] = get_args(RecordingFormat)
 
 
 def _is_realsense_bag(path: Path) -> bool:

@@ -17,7 +17,7 @@ from homemodel.core.progress import Progress, no_progress
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from turntable.board import load_board, save_board
-from turntable.recordings.detect import FORMATS, detect_format
+from turntable.recordings.detect import FORMATS, RecordingFormat, detect_format
 from turntable.recordings.register import register_depth
 from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
 
@@ -27,7 +27,7 @@ _INTRINSICS_TOLERANCE_PX = 1.0
 
 @dataclass(kw_only=True)
 class ImportOptions:
-    format: str | None = None  # None: detected from the path
+    format: RecordingFormat | None = None  # None: detected from the path
     camera_path: Path | None = None  # camera.yaml for recordings without intrinsics (TUM)
     every: int = 1  # keep every N-th associated pair
     start_s: float = 0.0  # from the recording's first frame
