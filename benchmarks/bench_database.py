@@ -118,10 +118,20 @@ def serial_loop(manifest: Path, out: Path, t0: float, part: str = "0/1") -> dict
 def database_build(manifest: Path, db: Path, t0: float) -> dict:
     """`build_database` as `homemodel db build --workers 2` calls it (without its progress bar).
     Returns when the first entry started and the time from then to the last entry's end."""
-    ends: list[tuple[float, float]] = []
-    build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS), on_entry=lambda row, _: ends.append((_since(t0), row.build_s)))
-    first_start = min(end - build_s for end, build_s in ends)
-    return {"startup_s": first_start, "entries_s": max(end for end, _ in ends) - first_start}
+    ends: list[tuple[float, str, float]] = []
+    build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS), on_entry=lambda row, _: ends.append((_since(t0), row.worker, row.build_s)))
+    # The rows of one task (a batch of entries) arrive together: a task started at its end
+    # less all of its entries' times.
+    starts, group_end, group_worker, group_s = [], None, None, 0.0
+    for end, worker, build_s in ends:
+        if group_end is None or worker != group_worker or end - group_end > 0.05:
+            starts.append(end - build_s)
+            group_end, group_worker, group_s = end, worker, build_s
+        else:
+            group_s += build_s
+            starts[-1] = group_end - group_s
+    first_start = min(starts)
+    return {"startup_s": first_start, "entries_s": max(end for end, _, _ in ends) - first_start}
 
 
 def _children_cpu_s() -> float:
@@ -237,7 +247,7 @@ def throughput(kind: str, entries: int, rounds: int, console: Console) -> None:
     table.add_column(f"{WORKERS} loops side by side", justify="right")
     table.add_column("database", justify="right")
     table.add_row("wall time, fresh processes to exit", f"{serial_s:.1f} s", f"{side_s:.1f} s", f"{db_s:.1f} s")
-    table.add_row("  start-up: imports (and the cluster, its warm-up)", f"{median(lambda r: r['serial']['startup_s']):.1f} s", "", f"{median(lambda r: r['built']['startup_s']):.1f} s")
+    table.add_row("  start-up: imports (and the cluster, its warm-up; aim < 3 s)", f"{median(lambda r: r['serial']['startup_s']):.1f} s", "", f"{median(lambda r: r['built']['startup_s']):.1f} s")
     table.add_row("  the entries (first start to last end)", f"{serial_entries_s:.1f} s", f"{side_entries_s:.1f} s", f"{db_entries_s:.1f} s")
     table.add_row("time per entry (side by side, database: x processes)", f"{1000 * serial_entry_s:.0f} ms", f"{1000 * side_entry_s:.0f} ms", f"{1000 * db_entry_s:.0f} ms")
     table.add_row("CPU time, every process (user + system)", f"{serial_cpu_s:.1f} s", f"{side_cpu_s:.1f} s", f"{db_cpu_s:.1f} s")
@@ -246,6 +256,8 @@ def throughput(kind: str, entries: int, rounds: int, console: Console) -> None:
     side_ratios = "  ".join(f"{r['serial_s'] / r['side_s']:.2f}x" for r in runs)
     table.add_row("speed-up, wall time, each round (serial / this)", "", side_ratios, ratios)
     table.add_row("[bold]speed-up, wall time (medians)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
+    # The aim: the database within 10 % of what two plain processes get on this machine.
+    table.add_row("[bold]database's speed-up / two plain processes' (aim >= 0.90)", "", "", f"[bold]{side_s / db_s:.2f}")
     table.add_row("[bold]overhead per entry, after start-up", "", f"{1000 * (side_entry_s - serial_entry_s):.0f} ms", f"[bold]{1000 * (db_entry_s - serial_entry_s):.0f} ms")
     table.add_row("  of which beyond two plain processes' (database - side by side)", "", "", f"{1000 * (db_entry_s - side_entry_s):.0f} ms")
     table.add_row("  in the entries: the thumbnail", "", "", f"{1000 * thumbnail_s / entries:.0f} ms")

@@ -217,10 +217,15 @@ def test_local_workers_keep_glibcs_own_malloc_trim_threshold() -> None:
     """Dask's default (65536) made a cup's gate 55 -> 85 ms; its one thread per library stays."""
     from homemodel.app.database.build import _client
 
+    import dask
+
     with _client(DatabaseBuildOptions(workers=1)) as client:
         trim = client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_")
         threads = client.run(os.environ.get, "OMP_NUM_THREADS")
+        # The quieter Dask settings reach the worker processes (its profiler off: 10 ms samples).
+        profiler = client.run(dask.config.get, "distributed.worker.profile.enabled")
     assert list(trim.values()) == [None] and list(threads.values()) == ["1"]
+    assert list(profiler.values()) == [False]
 
 
 def _manifest_with(tmp_path: Path, entry: dict) -> Path:

@@ -28,6 +28,7 @@ from pathlib import Path
 from homemodel.app.database.content_key import content_key
 from homemodel.app.database.index import MODELS_DIR, EntryRow, ModelIndex
 from homemodel.app.database.manifest import Job, RepairSpec, load_manifest
+from homemodel.app.database.tasks import BuildRequest, batches, build_batch, task_key
 from homemodel.core.checks import require_at_least
 from homemodel.core.errors import InputError
 
@@ -39,6 +40,18 @@ LOCK_FILE = ".build.lock"
 # (meshes, the gate's checks): with it, a cup's gate took 85 ms instead of 55 in one process,
 # and more with two side by side. The workers keep glibc's own, adaptive threshold.
 WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+# What Dask's processes do while the workers build, made rarer: an idle local cluster of 2
+# workers used 13-15 % of a core with Dask's defaults (each event loop's tick every 20 ms,
+# each worker's profiler sampling every 10 ms, the system and memory monitors), 1.6-1.8 %
+# with these; on a 2-core machine that share came out of the entries. The dashboard's
+# profile and resource plots go with them; a killed worker is still noticed at once.
+QUIET_CONFIG = {
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.scheduler.work-stealing-interval": "1s",
+}
 COMMIT_EVERY_S = 0.5  # the index's rows are committed at most this often during a build
 
 
@@ -127,10 +140,13 @@ def _without_blender_paths() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _client(options: DatabaseBuildOptions) -> Iterator:
-    """A Dask client: of the scheduler given, or of a LocalCluster of this machine's cores."""
+def _client(options: DatabaseBuildOptions, sources: tuple[str, ...] = ()) -> Iterator:
+    """A Dask client: of the scheduler given, or of a LocalCluster of this machine's cores,
+    whose workers each import what `sources` need as they start (see `worker_setup`)."""
     import dask
     from distributed import Client, LocalCluster
+
+    from homemodel.app.database.worker_setup import PLUGIN_NAME, DatabaseWorker
 
     if options.scheduler is not None:
         try:
@@ -138,15 +154,25 @@ def _client(options: DatabaseBuildOptions) -> Iterator:
         except (OSError, TimeoutError) as exc:
             raise InputError(f"scheduler: cannot reach {options.scheduler}: {exc}") from None
         with client:
-            yield client
+            if sources:
+                client.register_plugin(DatabaseWorker(sources), name=PLUGIN_NAME)
+            try:
+                yield client
+            finally:
+                # A shared cluster's later workers need not warm up for this build.
+                with contextlib.suppress(OSError, TimeoutError, ValueError):
+                    client.unregister_worker_plugin(PLUGIN_NAME)
         return
     dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
-    with _without_blender_paths(), dask.config.set(WORKER_CONFIG), LocalCluster(
+    # The plugin goes with the workers' arguments: each starts importing as soon as its
+    # process is up, while the others start, not once this process has them all.
+    with _without_blender_paths(), dask.config.set({**WORKER_CONFIG, **QUIET_CONFIG}), LocalCluster(
         n_workers=options.workers or os.cpu_count() or 1,
         threads_per_worker=1,  # bpy is not thread-safe
         processes=True,
         dashboard_address=dashboard,
         silence_logs=logging.ERROR,  # Dask's own INFO lines would bury the build's
+        plugins=(DatabaseWorker(sources),) if sources else (),
     ) as cluster, Client(cluster) as client:
         yield client
 
@@ -214,7 +240,7 @@ def build_database(
             if (category, properties) != (row.category, row.properties):
                 index.set_labels(job.id, category, properties)
             result.cached.append(job.id)
-        with _client(options) if todo else contextlib.nullcontext() as client:
+        with _client(options, tuple(job.source for job in todo)) if todo else contextlib.nullcontext() as client:
             result.dashboard = _dashboard(client) if todo else None
             if on_start:
                 on_start(len(todo), len(cached), result.dashboard)
@@ -228,42 +254,45 @@ def build_database(
     return result
 
 
+def _workers(client) -> int:  # noqa: ANN001 (distributed.Client)
+    return len(client.scheduler_info().get("workers", {})) or 1
+
+
 def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repairs: dict[str, RepairSpec | None],  # noqa: ANN001
          index: ModelIndex, result: DatabaseBuild, on_entry: EntryDone | None) -> None:  # fmt: skip
     from distributed import as_completed
 
-    # Imported only when there is something to build: a rerun with nothing changed stays quick.
-    from homemodel.app.database.entry_build import BuildRequest, build_entry
-    from homemodel.app.database.worker_setup import PLUGIN_NAME, DatabaseWorker
-
-    # Each worker imports what these sources need before its first entry, and ends cleanly.
-    client.register_plugin(DatabaseWorker(tuple(job.source for job in todo)), name=PLUGIN_NAME)
+    requests = [BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id]) for job in todo]
     futures = {}
-    for job in todo:
-        request = BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id])
-        # The task's name carries the key: a rerun after a change never reuses an old result.
-        future = client.submit(build_entry, request, key=f"homemodel-db-{job.id}-{keys[job.id][:16]}")
-        futures[future.key] = (future, job)
+
+    def submit(batch: list[BuildRequest]):  # noqa: ANN202 (distributed.Future)
+        future = client.submit(build_batch, batch, key=task_key(batch))
+        futures[future.key] = (future, batch)
+        return future
+
+    pending = as_completed([submit(batch) for batch in batches(requests, _workers(client))])
     last_commit = time.monotonic()
     try:
-        for future in as_completed([f for f, _ in futures.values()]):
-            job = futures[future.key][1]
+        for future in pending:
+            batch = futures[future.key][1]
             try:
-                row = future.result()
+                rows = future.result()
             except Exception as exc:  # noqa: BLE001 (KilledWorker and the like: recorded, the build goes on)
-                row = _worker_lost(job, keys[job.id], exc)
-            # Rows are committed in batches: a commit (its fsyncs) took 16 ms on the development
-            # machine against 0.7 ms a row in a batch, and a shared file system is slower.
-            commit = time.monotonic() - last_commit > COMMIT_EVERY_S
-            _settle(index, row, commit)
-            last_commit = time.monotonic() if commit else last_commit
-            result.built.append(row)
-            if on_entry:
-                on_entry(row, False)
+                if len(batch) > 1:  # which of them killed the worker is unknown: each on its own
+                    for request in batch:
+                        pending.add(submit([request]))
+                    continue
+                rows = [_worker_lost(batch[0].job, batch[0].key, exc)]
+            for row in rows:
+                # Rows are committed in batches: a commit (its fsyncs) took 16 ms on the development
+                # machine against 0.7 ms a row in a batch, and a shared file system is slower.
+                commit = time.monotonic() - last_commit > COMMIT_EVERY_S
+                _settle(index, row, commit)
+                last_commit = time.monotonic() if commit else last_commit
+                result.built.append(row)
+                if on_entry:
+                    on_entry(row, False)
     finally:
         # On Ctrl-C: nothing more is started; finished entries are committed.
         index.commit()
         client.cancel([f for f, _ in futures.values()])
-        # A shared cluster's later workers need not warm up for this build.
-        with contextlib.suppress(OSError, TimeoutError, ValueError):
-            client.unregister_worker_plugin(PLUGIN_NAME)

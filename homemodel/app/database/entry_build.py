@@ -25,6 +25,7 @@ from articulation.gate.report import Check, ValidationReport
 from articulation.model import Model
 from homemodel.app.database.index import MODELS_DIR, EntryRow
 from homemodel.app.database.manifest import Job, RepairSpec
+from homemodel.app.database.tasks import BuildRequest
 from homemodel.app.database.thumbnail import write_thumbnail
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.c_stdio_capture import captured_c_output
@@ -37,16 +38,6 @@ log = logging.getLogger(__name__)
 
 ENTRY_FILE = "entry.json"
 THUMBNAIL_FILE = "thumbnail.png"
-
-
-@dataclass(kw_only=True)
-class BuildRequest:
-    """What a worker needs: the job, its key, where the database lives, how to repair."""
-
-    job: Job
-    key: str
-    db_dir: Path
-    repair: RepairSpec | None  # None: imported assets are not repaired
 
 
 @dataclass(kw_only=True)

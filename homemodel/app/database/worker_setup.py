@@ -67,7 +67,11 @@ def _end_without_teardown() -> None:
 
 class DatabaseWorker(WorkerPlugin):
     """Warms the worker up for the build's sources; when the worker closes, arranges the clean
-    end of its process if bpy ran there (see the module's note)."""
+    end of its process if bpy ran there (see the module's note). Given to a local cluster's
+    workers as they start, it runs before they join the scheduler; registered with a running
+    cluster, on each worker there and each that joins later."""
+
+    name = PLUGIN_NAME
 
     def __init__(self, sources: tuple[str, ...]) -> None:
         self.sources = tuple(sorted(set(sources)))
