@@ -57,8 +57,10 @@ def _module(name: str) -> _Module:
     spec = importlib.util.find_spec(top)  # a top-level name: its package is not imported
     if spec is None or spec.origin is None:
         raise LookupError(f"{name}: no such module")
-    path = Path(spec.origin).parent.joinpath(*rest)
-    path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+    path = Path(spec.origin)
+    if rest:  # a module inside the package whose __init__ is `spec.origin`
+        path = path.parent.joinpath(*rest)
+        path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
     source = path.read_text(encoding="utf-8")
     return _Module(name=name, tree=ast.parse(source, str(path)), lines=source.splitlines())
 
