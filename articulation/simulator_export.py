@@ -10,14 +10,17 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal, get_args
 
 from articulation.model import Model
 from articulation.scene import Scene, single_model_scene
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError
 
-SCENE_FORMATS: tuple[str, ...] = ("urdf", "mjcf", "sdf", "usd", "glb")
-MODEL_FORMATS: tuple[str, ...] = ("mjcf", "sdf", "usd", "urdf-ros")
+SceneFormat = Literal["urdf", "mjcf", "sdf", "usd", "glb"]
+ModelFormat = Literal["mjcf", "sdf", "usd", "urdf-ros"]
+SCENE_FORMATS: tuple[str, ...] = get_args(SceneFormat)
+MODEL_FORMATS: tuple[str, ...] = get_args(ModelFormat)
 # URDF has one root: its scene fixes the small objects where the map puts them (glTF has no physics).
 FIXED_ONLY_FORMATS: tuple[str, ...] = ("urdf", "glb", "urdf-ros")
 
@@ -93,7 +96,7 @@ def export_scene(
 def export_model_for(
     model: Model,
     out_dir: Path,
-    fmt: str,
+    fmt: ModelFormat,
     *,
     package: str | None = None,
     free: bool = False,

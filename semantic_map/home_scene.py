@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from articulation.scene import Scene, SceneObject, walls_from_outlines
-from articulation.simulator_export import SimulatorExport, export_scene
+from articulation.simulator_export import SceneFormat, SimulatorExport, export_scene
 from homemodel.core.errors import InputError, MapError, ModelError
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, MapObject, Room
@@ -54,7 +54,7 @@ def scene_from_map(map_path: Path, *, room_id: str | None = None) -> Scene:
 
 
 def export_home(
-    map_path: Path, out_dir: Path, fmt: str, *, room_id: str | None = None, force: bool = False
+    map_path: Path, out_dir: Path, fmt: SceneFormat, *, room_id: str | None = None, force: bool = False
 ) -> SimulatorExport:
     """Export the home (or one room) of `map_path` in `fmt` (`SCENE_FORMATS`) to `out_dir`."""
     scene, sources = _scene_and_sources(map_path, room_id)

@@ -66,10 +66,15 @@ def _runtime_field(ref: str) -> tuple[Any, tuple | None]:
         if inspect.isclass(value) and inspect.isfunction(getattr(value, name, None)):
             value = getattr(value, name)  # a method
             continue
-        options = value() if inspect.isclass(value) else value  # a class's defaults, or nested options
-        field = next(f for f in dataclasses.fields(options) if f.name == name)
-        hint = _hint(field.type, vars(sys.modules[type(options).__module__]))
-        value = getattr(options, name)
+        field = next(f for f in dataclasses.fields(value) if f.name == name)  # of a class, or of nested options
+        cls = value if inspect.isclass(value) else type(value)
+        hint = _hint(field.type, vars(sys.modules[cls.__module__]))
+        if not inspect.isclass(value):
+            value = getattr(value, name)
+        elif field.default is not dataclasses.MISSING:
+            value = field.default
+        else:
+            value = field.default_factory() if field.default_factory is not dataclasses.MISSING else inspect.Parameter.empty
     return value, _literal(hint)
 
 
@@ -96,8 +101,11 @@ def test_flags_take_default_and_choices_from_their_options_field(path: tuple[str
             )
             continue
         default, choices = _runtime_field(spec.ref)
-        shown = tuple(param.default or ()) if param.multiple else param.default
-        assert shown == (tuple(default) if param.multiple else default), (path, param.opts, spec.ref)
+        if param.required:  # a field without a default
+            assert default is inspect.Parameter.empty, (path, param.opts, spec.ref)
+        else:
+            shown = tuple(param.default or ()) if param.multiple else param.default
+            assert shown == (tuple(default) if param.multiple else default), (path, param.opts, spec.ref)
         assert param.help, (path, param.opts)
         if choices is not None:
             assert _literal(param.type_descriptor.annotation) == choices, (path, param.opts, spec.ref)

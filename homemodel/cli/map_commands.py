@@ -6,13 +6,13 @@ from the root to the object, its parent, and the parking positions to visit one 
 
 from __future__ import annotations
 
-import enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
 
 from homemodel.cli.errors import exit_on_error
+from homemodel.cli.option_fields import field_option, from_options
 
 if TYPE_CHECKING:
     from semantic_map import MapEntry, MapObject, Node, ParkingPosition, Registration, SemanticMap
@@ -20,12 +20,6 @@ if TYPE_CHECKING:
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
 MAP_ARGUMENT = typer.Argument(..., metavar="MAP.xml", help="semantic map file")
-
-
-class RelationChoice(str, enum.Enum):
-    on = "on"
-    in_ = "in"
-    under = "under"
 
 
 def map_entry_from_flags(
@@ -168,12 +162,15 @@ def find(
 
 
 @map_app.command()
+@from_options
 def add(
     map_path: Path = MAP_ARGUMENT,
     model_dir: Path = typer.Argument(..., metavar="MODEL", help="model folder (model.urdf or mobility.urdf), a .urdf file, or db:ID with --db"),
     object_id: str = typer.Option(..., "--id", help="id of the new object"),
     parent_id: str = typer.Option(..., "--parent", help="a room (large object) or a large object (small object)"),
-    relation: RelationChoice | None = typer.Option(None, "--relation", help="small objects: on, in or under (default: on)"),
+    relation: str | None = field_option(
+        "semantic_map.model_folder:MapEntry.relation", help="small objects: on, in or under (default: on)"
+    ),
     xyz: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--xyz", help="position in the parent's frame (m)"),
     rpy: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--rpy", help="roll pitch yaw in the parent's frame (rad)"),
     parking: list[str] = typer.Option(
@@ -196,7 +193,7 @@ def add(
             map_path=map_path,
             object_id=object_id,
             parent_id=parent_id,
-            relation=relation.value if relation else None,
+            relation=relation,
             parent_from_object=transform_from_xyz_rpy(xyz, rpy),
             parking_positions=_parking_list(parking),
             category=model.category,
@@ -225,18 +222,11 @@ def validate(map_path: Path = MAP_ARGUMENT) -> None:
     typer.echo(f"{map_path}: valid ({len(smap.apartment.rooms)} rooms, {count} objects)")
 
 
-class SceneFormat(str, enum.Enum):
-    urdf = "urdf"
-    mjcf = "mjcf"
-    sdf = "sdf"
-    usd = "usd"
-    glb = "glb"
-
-
 @map_app.command("export")
+@from_options
 def export_(
     map_path: Path = MAP_ARGUMENT,
-    fmt: SceneFormat = typer.Option(..., "--format", help="urdf (pybullet, ROS), mjcf (MuJoCo), sdf (Gazebo), usd (Isaac), glb (viewers)"),
+    fmt: str = field_option("semantic_map.home_scene:export_home.fmt", "--format", help="urdf (pybullet, ROS), mjcf (MuJoCo), sdf (Gazebo), usd (Isaac), glb (viewers)"),
     out: Path = typer.Option(..., "--out", help="output folder"),
     room: str | None = typer.Option(None, "--room", help="export only this room (its id), e.g. kitchen"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
@@ -246,7 +236,7 @@ def export_(
     from semantic_map import export_home
 
     with exit_on_error():
-        result = export_home(map_path, out, fmt.value, room_id=room, force=force)
+        result = export_home(map_path, out, fmt, room_id=room, force=force)
     summary = result.summary
     free = sum(1 for o in summary["objects"] if o["free"])
     joints = sum(len(o["joints"]) for o in summary["objects"])

@@ -31,6 +31,7 @@ import typer
 from typer.models import OptionInfo
 
 Command = TypeVar("Command", bound=Callable[..., Any])
+REQUIRED = ...  # the default of a field without one: its flag must be given
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,7 @@ class FieldSpec:
     """One options field as its source defines it."""
 
     ref: str  # "module:Owner.field" as given to `field_option`
-    default: Any
+    default: Any  # REQUIRED when the field has none
     choices: tuple[str, ...] | None  # the values of a Literal field
     comment: str | None  # the field's trailing comment
 
@@ -113,7 +114,7 @@ def _field_default(module: _Module, owner: str, value: ast.expr | None, field: s
     """(the default, the options class a `default_factory` names or None) of a field's value."""
     where = f"{module.name}:{owner}.{field}"
     if value is None:
-        raise LookupError(f"{where}: has no default")
+        return REQUIRED, None
     if isinstance(value, ast.Call) and isinstance(value.func, ast.Name) and value.func.id == "field":
         keywords = {k.arg: k.value for k in value.keywords}
         if "default" in keywords:
@@ -183,10 +184,10 @@ def read_field(ref: str) -> FieldSpec:
 
 
 def field_option(ref: str, *flags: str, help: str | None = None, **typer_options: Any) -> OptionInfo:
-    """The `typer.Option` of the field `ref` (see `read_field`): its default, and its help
-    unless `help` is given. Flags default to the field's name (`--max-num-features`); more
-    flags are other spellings of the same option. A Literal field's choices reach Typer
-    through `from_options` on the command."""
+    """The `typer.Option` of the field `ref` (see `read_field`): its default (required when
+    it has none), and its help unless `help` is given. Flags default to the field's name
+    (`--max-num-features`); more flags are other spellings of the same option. A Literal
+    field's choices reach Typer through `from_options` on the command."""
     spec = read_field(ref)
     flags = flags or ("--" + ref.rsplit(".", 1)[-1].replace("_", "-"),)
     info = typer.Option(spec.default, *flags, help=help or spec.comment, **typer_options)
