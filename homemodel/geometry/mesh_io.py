@@ -12,9 +12,10 @@ from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.core.transforms import Y_UP_FROM_Z_UP
+from homemodel.geometry.collada import collada_unit_m
 
 MAX_MESH_BYTES = 512 * 1024 * 1024
-MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf", ".dae")
 
 
 def declared_faces(data: bytes, suffix: str) -> int:
@@ -46,6 +47,8 @@ def load_mesh(path: Path, *, require_finite: bool = True) -> trimesh.Trimesh:
         raise InputError(f"{path}: not a mesh file (expected one of {', '.join(MESH_SUFFIXES)} or a model folder)")
     data = read_bounded(path, MAX_MESH_BYTES)
     MESH_TRIANGLES.check(path, declared_faces(data, suffix))
+    # A DAE (a ROS package's mesh) in metres, as ROS tools read it; its unit read safely first.
+    unit_m = collada_unit_m(data, path) if suffix == ".dae" else 1.0
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=suffix[1:], force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types on corrupt files
@@ -55,6 +58,8 @@ def load_mesh(path: Path, *, require_finite: bool = True) -> trimesh.Trimesh:
     MESH_TRIANGLES.check(path, len(loaded.faces))
     if require_finite and not np.all(np.isfinite(loaded.vertices)):
         raise InputError(f"{path}: the mesh has non-finite (NaN or infinite) vertex coordinates")
+    if unit_m != 1.0:
+        loaded.apply_scale(unit_m)
     if model_folder:  # model.glb turns the z-up model into glTF's y-up at its root node: undo it
         loaded.apply_transform(np.linalg.inv(Y_UP_FROM_Z_UP))
     return loaded
