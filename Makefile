@@ -30,11 +30,12 @@ APT_PACKAGES += blender xvfb
 demo: setup
 	$(VENV)/bin/homemodel build examples/kitchen --out build/kitchen --force
 
-# Tests run on every core (pytest-xdist), a test file per worker at a time: a file's module
-# fixtures are made once, and the costly session fixtures are shared through tests/fixture_cache.py.
+# Tests run on every core (pytest-xdist), a test file per worker at a time, the longest files
+# first (tests/conftest.py): a file's module fixtures are made once, and the costly session
+# fixtures are shared through tests/fixture_cache.py.
 test: setup
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q --durations=15 -n auto --dist loadfile
+	$(PY) -m pytest -q --durations=15 -n auto --dist loadfile --no-loadscope-reorder
 
 setup: $(APT_STAMP) $(STAMP) $(NODE_TOOLS)
 
