@@ -14,6 +14,7 @@ from pathlib import Path
 
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.core.input_files import confined_path
+from homemodel.exchange import urdf as urdf_doc
 from homemodel.core.safe_xml import parse_xml_file
 
 
@@ -112,7 +113,7 @@ def with_package_uris_resolved(urdf: Path, out_dir: Path) -> Path:
     ROS package that holds it. URIs that do not resolve are left for the clients to refuse."""
     tree = parse_xml_file(urdf)
     changed = False
-    for mesh in tree.getroot().iter("mesh"):
+    for _, _, mesh in urdf_doc.mesh_elements(tree.getroot()):
         filename = mesh.get("filename") or ""
         if not filename.startswith("package://"):
             continue

@@ -21,7 +21,7 @@ from articulation.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from articulation.inertia import link_mass
 from articulation.model import Box, Collision, Link, MeshGeometry, Model
 from homemodel.core.checks import require_positive
-from homemodel.core.safe_xml import parse_xml_file
+from homemodel.exchange import urdf as urdf_doc
 from homemodel.geometry.mesh_ops import zero_area_faces
 
 
@@ -188,14 +188,14 @@ def _panels(mesh: trimesh.Trimesh, thickness_m: float, inside: np.ndarray) -> li
 def find_gaps(urdf: Path, model: Model | None = None) -> AssetGaps:
     """What the URDF lacks; with its `model` loaded, also its flat or hollow collision meshes
     and its joint axes not of unit length."""
-    robot = parse_xml_file(Path(urdf)).getroot()
+    robot = urdf_doc.read_urdf_robot(Path(urdf))
     no_inertial = [
         link.get("name")
-        for link in robot.findall("link")
+        for link in urdf_doc.links(robot)
         if link.find("inertial") is None and (link.find("visual") is not None or link.find("collision") is not None)
     ]
     limits: list[tuple[str, etree._Element]] = [
-        (j.get("name"), j.find("limit")) for j in robot.findall("joint") if j.find("limit") is not None
+        (j.get("name"), j.find("limit")) for j in urdf_doc.joints(robot) if j.find("limit") is not None
     ]
     return AssetGaps(
         links_without_inertial=no_inertial,

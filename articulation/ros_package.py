@@ -22,6 +22,7 @@ from articulation.model import Model
 from articulation.urdf_export import MESH_DIR, urdf_bytes
 from homemodel.core.atomic import write_text_atomic
 from homemodel.core.errors import InputError
+from homemodel.exchange import urdf as urdf_doc
 
 # REP 144: lower case letters, digits and underscores, starting with a letter.
 _PACKAGE_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
@@ -97,7 +98,7 @@ def write_ros_package(model: Model, folder: Path, name: str) -> Path:
     check_package_name(name)
     folder = Path(folder)
     robot = etree.fromstring(urdf_bytes(model, folder))
-    for mesh in robot.iter("mesh"):
+    for _, _, mesh in urdf_doc.mesh_elements(robot):
         mesh.set("filename", f"package://{name}/{mesh.get('filename')}")
     urdf = folder / "urdf" / f"{name}.urdf"
     write_text_atomic(urdf, etree.tostring(robot, pretty_print=True, xml_declaration=True, encoding="utf-8").decode("utf-8"))

@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from articulation.collada import collada_unit_m
+from homemodel.geometry.collada import collada_unit_m
 from articulation.mesh_paths import resolve_mesh
 from articulation.model import (
     Box,
@@ -36,11 +36,11 @@ from articulation.model import (
 )
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.input_files import read_bounded
-from homemodel.core.limits import MESH_TRIANGLES, URDF_JOINTS, URDF_LINKS
-from homemodel.core.safe_xml import parse_xml_file
+from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
 from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.exchange.joint_types import JOINT_TYPES
+from homemodel.exchange import urdf as urdf_doc
 
 _NUMBER_LIST = re.compile(r"\s+")
 
@@ -82,13 +82,6 @@ class _Context:
         if not path.is_file():
             raise self.fail(element, f"mesh {filename!r} does not exist")
         return path
-
-
-def check_robot_size(robot: etree._Element, source: Path) -> None:
-    """Refuse a URDF with more links or joints than the bounds (every later step, the gate's
-    clients among them, grows with them)."""
-    URDF_LINKS.check(source, len(robot.findall("link")))
-    URDF_JOINTS.check(source, len(robot.findall("joint")))
 
 
 def read_mesh_parts(path: Path) -> list[tuple[str, trimesh.Trimesh]]:
@@ -290,7 +283,7 @@ def _inertial(ctx: _Context, link_el: etree._Element) -> Inertial | None:
 
 def _joints(ctx: _Context, robot: etree._Element, states: dict[str, list[JointState]]) -> list[Joint]:
     joints: list[Joint] = []
-    for el in robot.findall("joint"):
+    for el in urdf_doc.joints(robot):
         name, kind = el.get("name"), el.get("type")
         if not name:
             raise ctx.fail(el, "<joint> has no name")
@@ -367,10 +360,7 @@ def load_urdf(path: Path, *, package_paths: Sequence[Path] = ()) -> Model:
     `package_paths` (see `articulation.mesh_paths.find_package`)."""
     path = Path(path)
     ctx = _Context(path, package_paths)
-    robot = parse_xml_file(path).getroot()
-    if robot.tag != "robot":
-        raise InputError(f"{path}: root element is <{robot.tag}>, expected <robot>")
-    check_robot_size(robot, path)
+    robot = urdf_doc.read_urdf_robot(path)
     for el in robot.findall("material"):
         colour = el.find("color")
         if el.get("name") and colour is not None:
@@ -392,7 +382,7 @@ def load_urdf(path: Path, *, package_paths: Sequence[Path] = ()) -> Model:
                 JointState(name=s.get("name"), position=ctx.floats(s, "position", 1)[0])
             )
     links = []
-    for el in robot.findall("link"):
+    for el in urdf_doc.links(robot):
         name = el.get("name")
         if not name:
             raise ctx.fail(el, "<link> has no name")

@@ -187,3 +187,34 @@ def test_joint_type_lists_are_defined_once() -> None:
                     if len(values) == len(node.elts) and values <= names:
                         spelled.append(f"{path.relative_to(REPO)}:{node.lineno}")
     assert spelled == []
+
+
+def test_the_urdf_is_opened_in_one_place_with_its_root_and_size_checked(tmp_path: Path, model_folder: Path) -> None:
+    from homemodel.core.limits import URDF_LINKS
+    from homemodel.exchange.urdf import joints, links, mesh_elements, read_urdf_robot
+
+    robot = read_urdf_robot(model_folder / "model.urdf")
+    assert [link.get("name") for link in links(robot)] == [link.name for link in cupboard_model().links]
+    assert len(joints(robot)) == len(cupboard_model().joints)
+    roles = [role for _, role, _ in mesh_elements(robot)]
+    assert roles and set(roles) <= {"visual", "collision"}
+    not_robot = tmp_path / "map.urdf"
+    not_robot.write_text("<apartment/>")
+    with pytest.raises(InputError, match="expected <robot>"):
+        read_urdf_robot(not_robot)
+    huge = tmp_path / "huge.urdf"
+    huge.write_text("<robot name='r'>" + "<link name='l'/>" * (URDF_LINKS.value + 1) + "</robot>")
+    with pytest.raises(InputError, match=str(huge)):
+        read_urdf_robot(huge)
+
+
+def test_no_module_but_the_urdf_reader_walks_a_robot_s_links_or_joints() -> None:
+    """The URDF walk is written once: nobody else searches <robot> for link or joint."""
+    found = []
+    for package in ("homemodel", "articulation", "semantic_map", "modeller", "tracking"):
+        for path in (REPO / package).rglob("*.py"):
+            text = path.read_text()
+            for pattern in ('findall("link")', 'findall("joint")', 'iter("mesh")'):
+                if pattern in text and path.name != "urdf.py":
+                    found.append(f"{path.relative_to(REPO)}: {pattern}")
+    assert found == []

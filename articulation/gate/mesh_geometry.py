@@ -17,6 +17,7 @@ from articulation.gate.report import Check, check_from_problems, count
 from articulation.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
 from homemodel.core.limits import MESH_TRIANGLES
+from homemodel.exchange import urdf as urdf_doc
 from homemodel.geometry.mesh_io import load_mesh
 from homemodel.geometry.mesh_ops import zero_area_faces
 
@@ -56,23 +57,21 @@ def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:
     of non-zero area, and (collision meshes, which are meant to be solid) has volume."""
     problems: list[str] = []
     checked: dict[tuple[Path, bool], list[str]] = {}
-    for link in robot.findall("link"):
-        for role in ("visual", "collision"):
-            for element in link.findall(f"{role}/geometry/mesh"):
-                filename = element.get("filename")
-                try:
-                    path = resolve_mesh(filename or "", urdf_dir)
-                except InputError:
-                    continue  # the meshes check reports references it cannot follow
-                if not path.is_file():
-                    continue
-                key = (path, role == "collision")
-                if key not in checked:
-                    try:
-                        mesh = load_mesh(path, require_finite=False)
-                    except InputError:
-                        continue  # unreadable, or over the bounds: the meshes check reports it
-                    checked[key] = _geometry_problems(mesh, solid=key[1])
-                problems += [f"link {link.get('name')!r}: {role} mesh {filename!r}: {p}" for p in checked[key]]
+    for link, role, element in urdf_doc.mesh_elements(robot):
+        filename = element.get("filename")
+        try:
+            path = resolve_mesh(filename or "", urdf_dir)
+        except InputError:
+            continue  # the meshes check reports references it cannot follow
+        if not path.is_file():
+            continue
+        key = (path, role == "collision")
+        if key not in checked:
+            try:
+                mesh = load_mesh(path, require_finite=False)
+            except InputError:
+                continue  # unreadable, or over the bounds: the meshes check reports it
+            checked[key] = _geometry_problems(mesh, solid=key[1])
+        problems += [f"link {link.get('name')!r}: {role} mesh {filename!r}: {p}" for p in checked[key]]
     detail = f"{count(len({p for p, _ in checked}), 'mesh file')} finite, with area, collision meshes with volume"
     return check_from_problems("mesh geometry", problems, detail if checked else "no mesh files")

@@ -18,7 +18,7 @@ import trimesh
 from trimesh.collision import CollisionManager
 
 from articulation.mesh_paths import resolve_mesh
-from homemodel.core.safe_xml import parse_xml_file
+from homemodel.exchange import urdf as urdf_doc
 from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.geometry.mesh_io import load_mesh
 
@@ -54,11 +54,11 @@ class RealMeshes:
     """Every link's collision geometry as triangles, tested with FCL at given link poses."""
 
     def __init__(self, urdf: Path) -> None:
-        robot = parse_xml_file(urdf).getroot()
+        robot = urdf_doc.read_urdf_robot(urdf)
         self._shapes: dict[str, list[tuple[trimesh.Trimesh, np.ndarray]]] = {}
-        for link in robot.findall("link"):
+        for link in urdf_doc.links(robot):
             shapes = []
-            for collision in link.findall("collision"):
+            for _, collision in urdf_doc.link_parts(link, ("collision",)):
                 mesh = _shape(collision.find("geometry"), urdf.parent)
                 origin = collision.find("origin")
                 link_from_shape = transform_from_xyz_rpy(

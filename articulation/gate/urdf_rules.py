@@ -18,6 +18,7 @@ from lxml import etree
 from articulation.gate.report import Check, check_from_problems, count
 from articulation.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
+from homemodel.exchange import urdf as urdf_doc
 from homemodel.exchange.joint_types import LIMITED_JOINT_TYPES, URDF_JOINT_TYPES
 from homemodel.geometry.mesh_io import load_mesh
 
@@ -53,7 +54,7 @@ def _link_of(joint: etree._Element, tag: str) -> str | None:
 
 def tree_check(robot: etree._Element) -> Check:
     """Unique names, known joint types, joints between existing links, one root, no cycle."""
-    links, joints = robot.findall("link"), robot.findall("joint")
+    links, joints = urdf_doc.links(robot), urdf_doc.joints(robot)
     problems: list[str] = []
     if not links:
         problems.append("the URDF has no <link>")
@@ -103,7 +104,7 @@ def tree_check(robot: etree._Element) -> Check:
 
 def limits_check(robot: etree._Element) -> Check:
     problems: list[str] = []
-    limited = [j for j in robot.findall("joint") if j.get("type") in LIMITED_JOINT_TYPES]
+    limited = [j for j in urdf_doc.joints(robot) if j.get("type") in LIMITED_JOINT_TYPES]
     for joint in limited:
         name = joint.get("name")
         limit = joint.find("limit")
@@ -122,7 +123,7 @@ def limits_check(robot: etree._Element) -> Check:
 
 def axes_check(robot: etree._Element) -> Check:
     problems: list[str] = []
-    moving = [j for j in robot.findall("joint") if j.get("type") != "fixed"]
+    moving = [j for j in urdf_doc.joints(robot) if j.get("type") != "fixed"]
     for joint in moving:
         axis_el = joint.find("axis")
         if axis_el is None or axis_el.get("xyz") is None:
@@ -169,7 +170,7 @@ def inertial_problems(name: str | None, inertial: etree._Element) -> list[str]:
 def inertials_check(robot: etree._Element) -> Check:
     problems: list[str] = []
     with_inertial = 0
-    for link in robot.findall("link"):
+    for link in urdf_doc.links(robot):
         inertial = link.find("inertial")
         if inertial is not None:
             with_inertial += 1
@@ -183,10 +184,8 @@ def inertials_check(robot: etree._Element) -> Check:
 
 def mesh_references(robot: etree._Element) -> Iterator[tuple[str | None, str | None]]:
     """(link name, mesh filename) of every visual and collision mesh."""
-    for link in robot.findall("link"):
-        for part in link.findall("visual") + link.findall("collision"):
-            for mesh in part.findall("geometry/mesh"):
-                yield link.get("name"), mesh.get("filename")
+    for link, _, mesh in urdf_doc.mesh_elements(robot):
+        yield link.get("name"), mesh.get("filename")
 
 
 def _mesh_problem(path: Path) -> str | None:
