@@ -152,8 +152,9 @@ def _run_timed(*args: str | Path) -> tuple[float, str]:
 
 
 def _reported(said: str) -> dict:
-    """The timings a child of this script printed: its last line, as JSON."""
-    return json.loads(said.strip().splitlines()[-1])
+    """The timings a child of this script printed: its last JSON line (Dask's warnings on a
+    busy machine, "event loop unresponsive", may follow it on stderr)."""
+    return json.loads(next(line for line in reversed(said.splitlines()) if line.startswith("{")))
 
 
 def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
