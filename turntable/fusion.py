@@ -77,28 +77,63 @@ class VoxelAccumulator:
         )
 
 
-def frame_points(
+@dataclass(kw_only=True)
+class ObjectPixels:
+    """A frame's pixels that may show the object, kept from its one reading for the merge:
+    flat pixel indices, their depth and colour."""
+
+    index: np.ndarray  # (n,) int32 into the image's pixels, row by row
+    depth_m: np.ndarray  # (n,) float32
+    rgb: np.ndarray  # (n, 3) uint8
+
+
+def object_pixels(
     depth_m: np.ndarray,
     rgb: np.ndarray,
     rays: np.ndarray,
     table_from_camera: np.ndarray,
-    cylinder: Cylinder,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The frame's points inside `cylinder`, in the table frame, with colours in [0, 1] and
-    unit directions towards the camera."""
+    region: Cylinder,
+    *,
+    drop_flying: bool,
+) -> tuple[ObjectPixels, int]:
+    """The pixels whose points lie inside `region` (table frame), and how many flying pixels
+    went. Flying pixels are looked for only around those pixels: the object's edges, not the
+    room's."""
+    from turntable.real_frames import drop_flying_pixels
+
+    height, width = depth_m.shape
     depth = depth_m.reshape(-1)
-    # No point of the cylinder lies farther than this from the camera: the floor and the
-    # room behind (most pixels) go before any arithmetic on them.
-    eye = table_from_camera[:3, 3]
-    reach = np.hypot(
-        np.hypot(*(eye[:2] - cylinder.axis_xy_m)) + cylinder.radius_m, max(abs(eye[2]), abs(eye[2] - cylinder.z_max_m))
+    rotation, eye = table_from_camera[:3, :3], table_from_camera[:3, 3]
+    # Height above the table first, with one product per pixel: the table top and the room
+    # (most pixels) go before any other arithmetic on them. NaN compares False.
+    z = depth * (rays @ rotation[2]) + eye[2]
+    index = np.flatnonzero((z > region.z_min_m) & (z < region.z_max_m))
+    points = (rays[index] * depth[index, None]) @ rotation[:2].T + eye[:2]
+    index = index[np.hypot(*(points - region.axis_xy_m).T) < region.radius_m]
+    flying = 0
+    if drop_flying and len(index):
+        rows, cols = np.divmod(index, width)
+        top, left = max(int(rows.min()) - 1, 0), max(int(cols.min()) - 1, 0)
+        bottom, right = min(int(rows.max()) + 2, height), min(int(cols.max()) + 2, width)
+        cleaned, flying = drop_flying_pixels(depth_m[top:bottom, left:right])
+        index = index[np.isfinite(cleaned[rows - top, cols - left])]
+    pixels = ObjectPixels(
+        index=index.astype(np.int32), depth_m=depth[index].astype(np.float32), rgb=rgb.reshape(-1, 3)[index]
     )
-    index = np.flatnonzero(depth < reach)  # NaN compares False
-    points = (rays[index] * depth[index, None]) @ table_from_camera[:3, :3].T + eye
+    return pixels, flying
+
+
+def pixel_points(
+    pixels: ObjectPixels, rays: np.ndarray, table_from_camera: np.ndarray, cylinder: Cylinder
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pixels' points inside `cylinder`, in the table frame, with colours in [0, 1] and
+    unit directions towards the camera."""
+    eye = table_from_camera[:3, 3]
+    points = (rays[pixels.index] * pixels.depth_m[:, None]) @ table_from_camera[:3, :3].T + eye
     radial = np.hypot(points[:, 0] - cylinder.axis_xy_m[0], points[:, 1] - cylinder.axis_xy_m[1])
     inside = (points[:, 2] > cylinder.z_min_m) & (points[:, 2] < cylinder.z_max_m) & (radial < cylinder.radius_m)
     points = points[inside]
-    colors = rgb.reshape(-1, 3)[index[inside]].astype(np.float64) / 255.0
+    colors = pixels.rgb[inside].astype(np.float64) / 255.0
     to_camera = eye - points
     to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
     return points, colors, to_camera

@@ -22,8 +22,9 @@ TagDetector = Literal["apriltag", "opencv"]
 @dataclass(kw_only=True)
 class DetectionOptions:
     detector: TagDetector = "apriltag"
-    # Finer than 1 misses small tags; larger speeds up big images (AprilTag's quad_decimate).
-    decimate: float = 1.0
+    # AprilTag's quad_decimate: finer than 1 misses small tags, larger speeds up big images.
+    # None: 1 on a lone image; a turntable capture picks it from its first frame's tags.
+    decimate: float | None = None
     # Move each tag side to where the intensity crosses halfway between the black border
     # and the white margin, then intersect the sides (see `refine_edges`).
     edge_refinement: bool = True
@@ -34,7 +35,8 @@ class DetectionOptions:
 
     def check(self) -> None:
         require_choice("detector", self.detector, ("apriltag", "opencv"))
-        require_positive("decimate", self.decimate)
+        if self.decimate is not None:
+            require_positive("decimate", self.decimate)
         require_choice("intensity", self.intensity, ("linear", "srgb"))
         require_at_least("max_hamming", self.max_hamming, 0)
 
@@ -72,7 +74,7 @@ def _release(detector) -> None:  # noqa: ANN001
 
 def _detect_apriltag(gray: np.ndarray, options: DetectionOptions) -> dict[int, np.ndarray]:
     found: dict[int, np.ndarray] = {}
-    for detection in _apriltag_detector(options.decimate).detect(np.ascontiguousarray(gray)):
+    for detection in _apriltag_detector(options.decimate or 1.0).detect(np.ascontiguousarray(gray)):
         if detection.hamming > options.max_hamming:
             continue
         # The library starts at the tag image's top-right and runs counter-clockwise in the

@@ -5,19 +5,25 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from homemodel.geometry.mesh_ops import decimate
 from homemodel.geometry.uv_atlas import atlas_texels, uv_atlas
 
 
 def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> tuple[trimesh.Trimesh, np.ndarray]:
     """The mesh simplified to at most `max_triangles` with colours carried over from the nearest
     original vertex. xatlas's time grows much faster than linearly with the triangle count
-    (about 1 s at 20k triangles, 15 s at 40k here)."""
+    (about 1 s at 20k triangles, 15 s at 40k here). The texture's carrier only: fast-simplification's
+    quadric collapse (0.1 s for a 68k-triangle mug to 12k, against Open3D's 1.1 s, the same
+    distance to the truth within 0.001 mm, closed)."""
+    import fast_simplification
     from scipy.spatial import cKDTree
 
-    result = decimate(mesh, max_triangles)
-    if result is mesh:
+    if len(mesh.faces) <= max_triangles:
         return mesh, colors
+    vertices, faces = fast_simplification.simplify(
+        mesh.vertices, mesh.faces.astype(np.int32), target_reduction=1 - max_triangles / len(mesh.faces)
+    )
+    result = trimesh.Trimesh(vertices, faces, process=False)
+    result.remove_unreferenced_vertices()
     _, nearest = cKDTree(mesh.vertices).query(result.vertices, workers=-1)
     return result, np.asarray(colors)[nearest]
 
