@@ -1,11 +1,12 @@
-"""Concave collision meshes as convex parts (V-HACD), with each part's fidelity measured.
+"""Concave collision meshes as convex parts (V-HACD), with the parts' fidelity measured.
 
 Simulators collide a mesh as its convex hull, which fills a concave object's opening: a
 scanned cup cannot hold anything, a microwave's frame swallows its turntable. A closed
 mesh whose hull is much larger than itself is split here into convex parts by V-HACD
-(the `vhacdx` bindings trimesh calls), and each part is measured against the real surface:
-how far it reaches past it (`overshoot_m`, the 95th percentile over points on the part's
-surface), and how much of the real volume the parts cover.
+(the `vhacdx` bindings trimesh calls), and the parts are measured against the real surface
+both ways: how far they reach past it (`overshoot_m`, the 95th percentile over points on a
+part's surface outside the solid), how far the real surface lies outside every part (`gap_m`),
+and how much of the real volume they cover.
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
+
+from homemodel.geometry.raycast import RayCaster
 
 # A closed mesh is split when its hull holds this much more than the mesh: a solid that is
 # nearly convex (a box, a bottle) keeps its hull.
@@ -32,16 +35,31 @@ class ConvexPart:
 
 
 @dataclass(frozen=True)
+class Fidelity:
+    """Convex shapes against the real surface, both ways, in the meshes' units."""
+
+    overshoot_m: np.ndarray  # per shape: 95th percentile reach past the real surface
+    overshoot_all_m: float  # the same over all the shapes' surface (by area)
+    overshoot_max_m: float  # the farthest any sampled point of any shape reaches past it
+    gap_m: float  # 95th percentile distance of the real surface outside every shape to the nearest one
+    gap_max_m: float
+
+
+@dataclass(frozen=True)
 class Decomposition:
     parts: list[ConvexPart]
     coverage: float  # share of the real volume inside some part, 0..1
     hull_overshoot_m: float  # the same measure for the single convex hull, for comparison
+    overshoot_m: float  # 95th percentile reach past the real surface over all the parts' surface
+    overshoot_max_m: float
+    gap_m: float  # 95th percentile of the real surface's distance outside every part
+    gap_max_m: float
 
     def format(self) -> str:
-        worst = max(part.overshoot_m for part in self.parts)
         return (
-            f"{len(self.parts)} convex parts covering {self.coverage:.0%} of the volume, reaching at most "
-            f"{worst * 1000:.1f} mm past the surface (95th percentile; one hull: {self.hull_overshoot_m * 1000:.1f} mm)"
+            f"{len(self.parts)} convex parts covering {self.coverage:.0%} of the volume, reaching "
+            f"{self.overshoot_m * 1000:.1f} mm past the surface and leaving it uncovered by "
+            f"{self.gap_m * 1000:.1f} mm (95th percentiles; one hull: {self.hull_overshoot_m * 1000:.1f} mm past it)"
         )
 
 
@@ -50,28 +68,86 @@ def is_concave(mesh: trimesh.Trimesh) -> bool:
     return bool(mesh.is_watertight and mesh.volume > 0 and mesh.convex_hull.volume >= CONCAVE_HULL_RATIO * mesh.volume)
 
 
-def _overshoot_m(part: trimesh.Trimesh, real: trimesh.Trimesh, rng: np.random.Generator) -> float:
-    """How far the part reaches out of the real solid: points on its surface inside the
-    solid (where parts meet inside a wall) count as zero."""
-    points, _ = trimesh.sample.sample_surface(part, _SAMPLES, seed=int(rng.integers(1 << 31)))
-    _, distance, _ = trimesh.proximity.closest_point(real, points)
-    distance[real.contains(points)] = 0.0
-    return float(np.percentile(distance, 95))
+def inside_convex(hull: trimesh.Trimesh, points: np.ndarray, tolerance: float = 1e-9) -> np.ndarray:
+    """Which points lie inside the convex mesh `hull` (on the inner side of every face's plane)."""
+    normals = hull.face_normals
+    offsets = np.einsum("ij,ij->i", normals, hull.triangles[:, 0])
+    return np.all(points @ normals.T - offsets <= tolerance, axis=1)
 
 
-def decompose(mesh: trimesh.Trimesh) -> Decomposition:
-    """The convex parts of a closed `mesh` and how faithful they are."""
+def fidelity(
+    shapes: list[trimesh.Trimesh],
+    real: trimesh.Trimesh,
+    *,
+    to_real: RayCaster | None = None,
+    samples: int = _SAMPLES,
+    seed: int = _SEED,
+) -> Fidelity:
+    """How far convex `shapes` reach past the `real` surface (points on a shape inside the real
+    solid, where parts meet inside a wall, count as zero; an open `real` has no inside) and how
+    far the real surface lies outside all of them (zero inside any). `to_real`: a ray caster
+    of `real` already built (a large surface measured against several decompositions)."""
+    rng = np.random.default_rng(seed)
+    to_real = to_real or RayCaster(real)
+    overshoots, distances = [], []
+    for shape in shapes:
+        points, _ = trimesh.sample.sample_surface(shape, samples, seed=int(rng.integers(1 << 31)))
+        distance = to_real.distances(points)
+        if real.is_watertight:
+            distance[real.contains(points)] = 0.0
+        overshoots.append(float(np.percentile(distance, 95)))
+        distances.append(distance)
+    # Over all the shapes: each shape's samples weigh by its area.
+    order = np.argsort(np.concatenate(distances))
+    weights = np.concatenate([np.full(samples, shape.area / samples) for shape in shapes])[order]
+    at_95 = np.searchsorted(np.cumsum(weights), 0.95 * weights.sum())
+    overshoot_all = float(np.concatenate(distances)[order][min(at_95, len(order) - 1)])
+    points, _ = trimesh.sample.sample_surface(real, samples * max(4, len(shapes)), seed=int(rng.integers(1 << 31)))
+    gap = RayCaster(trimesh.util.concatenate(shapes)).distances(points)
+    covered = np.zeros(len(points), dtype=bool)
+    for shape in shapes:
+        covered |= inside_convex(shape, points, tolerance=1e-6 * float(real.scale))
+    gap[covered] = 0.0
+    return Fidelity(
+        overshoot_m=np.array(overshoots),
+        overshoot_all_m=overshoot_all,
+        overshoot_max_m=float(max(d.max() for d in distances)),
+        gap_m=float(np.percentile(gap, 95)),
+        gap_max_m=float(gap.max()),
+    )
+
+
+def decompose(
+    mesh: trimesh.Trimesh,
+    *,
+    max_parts: int = MAX_PARTS,
+    resolution: int = VOXEL_RESOLUTION,
+    surface: trimesh.Trimesh | None = None,
+    to_surface: RayCaster | None = None,
+) -> Decomposition:
+    """The convex parts of a closed `mesh` (at most `max_parts`, from V-HACD's `resolution`
+    voxels) and how faithful they are to `surface` (default: `mesh`; a finer mesh of the same
+    object when `mesh` is a reduced copy; `to_surface` its ray caster, if built)."""
     from trimesh.decomposition import convex_decomposition
 
-    rng = np.random.default_rng(_SEED)
-    found = convex_decomposition(mesh, maxConvexHulls=MAX_PARTS, resolution=VOXEL_RESOLUTION)
+    surface = mesh if surface is None else surface
+    to_surface = to_surface or RayCaster(surface)
+    found = convex_decomposition(mesh, maxConvexHulls=max_parts, resolution=resolution)
     found = found if isinstance(found, list) else [found]
     meshes = [trimesh.Trimesh(**p) if isinstance(p, dict) else p for p in found]
     meshes = [m.convex_hull for m in meshes if len(m.faces) >= 4]
-    parts = [ConvexPart(mesh=m, overshoot_m=_overshoot_m(m, mesh, rng)) for m in meshes]
-    inside = trimesh.sample.volume_mesh(mesh, 4 * _SAMPLES)
+    fit = fidelity(meshes, surface, to_real=to_surface)
+    hull_fit = fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1)
+    inside = trimesh.sample.volume_mesh(surface, 4 * _SAMPLES) if surface.is_watertight else np.zeros((0, 3))
     covered = np.zeros(len(inside), dtype=bool)
     for part in meshes:
-        covered |= part.contains(inside)
-    coverage = float(covered.mean()) if len(inside) else 0.0
-    return Decomposition(parts=parts, coverage=coverage, hull_overshoot_m=_overshoot_m(mesh.convex_hull, mesh, rng))
+        covered |= inside_convex(part, inside, tolerance=1e-6 * float(surface.scale))
+    return Decomposition(
+        parts=[ConvexPart(mesh=m, overshoot_m=float(o)) for m, o in zip(meshes, fit.overshoot_m, strict=True)],
+        coverage=float(covered.mean()) if len(inside) else 0.0,
+        hull_overshoot_m=float(hull_fit.overshoot_m[0]),
+        overshoot_m=fit.overshoot_all_m,
+        overshoot_max_m=fit.overshoot_max_m,
+        gap_m=fit.gap_m,
+        gap_max_m=fit.gap_max_m,
+    )

@@ -13,6 +13,7 @@ import numpy as np
 
 from articulation.gate.report import Check, ValidationReport
 from articulation.model import Model
+from articulation.scan_meshes import warnings as mesh_warnings
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.content_hash import content_sha256
 from homemodel.core.model_summary import (
@@ -21,6 +22,7 @@ from homemodel.core.model_summary import (
     GateResult,
     InputFile,
     ModelSummary,
+    ScanMeshes,
     Source,
     failed_check_lines,
 )
@@ -38,6 +40,7 @@ class PipelineSummary:
     times_s: dict[str, float] = field(default_factory=dict)
     inputs: Mapping[str, Path] = field(default_factory=dict)  # role -> file or folder
     warnings: list[str] = field(default_factory=list)
+    meshes: ScanMeshes | None = None  # a scan's visual and collision meshes (`articulation.scan_meshes`)
 
 
 @dataclass(kw_only=True)
@@ -90,11 +93,12 @@ def model_summary(model: Model, report: ValidationReport, pipeline: PipelineSumm
         triangles=sum(len(v.mesh.faces) for link in model.links for v in link.visuals),
         # Without a scale the volume is in cubed arbitrary units: a mass from it would be made up.
         mass_kg=round(sum(link.inertial.mass_kg for link in model.links if link.inertial), 6) if metric else None,
+        meshes=pipeline.meshes,
         gate=GateResult(
             valid=report.ok,
             failed_checks=failed_checks(report),
             checks=[GateCheck(name=c.name, passed=c.passed, detail=c.detail) for c in report.checks],
-            warnings=list(pipeline.warnings),
+            warnings=[*pipeline.warnings, *(mesh_warnings(pipeline.meshes) if pipeline.meshes else [])],
         ),
         times_s={stage: round(float(s), 4) for stage, s in pipeline.times_s.items()},
         inputs=[InputFile(role=role, path=str(path), sha256=content_sha256(path)) for role, path in pipeline.inputs.items()],

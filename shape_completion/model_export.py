@@ -10,17 +10,18 @@ camera's frame (OpenCV: x right, y down, z forward); summary.json names the fram
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from articulation.model_folder import PipelineSummary, write_model_folder
 from articulation.naming import check_model_name
+from articulation.scan_meshes import ScanMeshOptions, scan_meshes
 from articulation.scan_model import scan_model
 from homemodel.core.errors import errors_naming
 from homemodel.core.atomic import prepare_out_dir
-from homemodel.core.checks import require_positive
+from homemodel.core.checks import check_nested, require_positive
 from homemodel.core.progress import Progress, StageClock
 from semantic_map import MapEntry, add_model_folder
 from shape_completion.pipeline import Completion, ShapeCompleter
@@ -38,9 +39,11 @@ class CompletionOptions:
     name: str | None = None  # the model's name; None: the depth image's file name without suffix
     density_kg_m3: float = 700.0  # for the inertial
     map_entry: MapEntry | None = None  # register the model into this map
+    meshes: ScanMeshOptions = field(default_factory=ScanMeshOptions)  # the visual and collision meshes
 
     def check(self) -> None:
         require_positive("density_kg_m3", self.density_kg_m3)
+        check_nested("meshes", self.meshes)
         if self.name is not None:
             check_model_name(self.name)
 
@@ -122,9 +125,13 @@ def complete(
     )
     model_inputs = {"completion_model": model_path} if model_path is not None else {}
     mask_input = {"mask": Path(options.mask_path)} if options.mask_path is not None else {}
+    object_from_camera = np.linalg.inv(completion.frame.camera_from_object)
+    query_points = completion.fit.query @ object_from_camera[:3, :3].T + object_from_camera[:3, 3]
+    meshes = scan_meshes(completion.object_mesh, query_points, options=options.meshes, progress=progress)
     completion.summary = write_model_folder(
         scan_model(
             completion.object_mesh,
+            meshes=meshes,
             name=options.name or depth_png.stem,
             density_kg_m3=options.density_kg_m3,
             rgba=GREY,
@@ -137,6 +144,7 @@ def complete(
             figures=completion_summary(completion, query.support),
             times_s=completion.times_s,  # gains the export's and the gate's
             inputs={**model_inputs, "depth": depth_png, "camera": camera_path, **mask_input},
+            meshes=meshes.figures,
         ),
         force=force,
         progress=progress,

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import trimesh
 
+from articulation.scan_meshes import scan_meshes
 from articulation.scan_model import scan_model
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import ModelError
@@ -53,8 +54,12 @@ def write_reconstruction(
             write_bytes_atomic(texture_path, encoded.tobytes())
         # The model is in the table frame; without a texture its colour is the scan's mean.
         mean = tuple(float(v) for v in np.clip(result.vertex_colors.mean(axis=0), 0, 1))
+        textured = texture_path is not None
+        meshes = scan_meshes(result.mesh, result.cloud.points, textured_mesh=result.textured_mesh if textured else None,
+                             uv=result.uv if textured else None, progress=progress)  # fmt: skip
         model = scan_model(
             result.mesh,
+            meshes=meshes,
             name=options.name,
             density_kg_m3=options.density_kg_m3,
             rgba=(1.0, 1.0, 1.0, 1.0) if texture_path is not None else (*mean, 1.0),
@@ -95,7 +100,8 @@ def write_reconstruction(
         return write_model_folder(
             model,
             out_dir,
-            PipelineSummary(source="turntable", figures=figures, times_s=result.times_s, inputs={"capture": capture_dir}),
+            PipelineSummary(source="turntable", figures=figures, times_s=result.times_s, inputs={"capture": capture_dir},
+                            meshes=meshes.figures),  # fmt: skip
             force=force,
             add_files=add_files,
             progress=progress,

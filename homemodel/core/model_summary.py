@@ -50,6 +50,47 @@ class InputFile(_Strict):
     sha256: str = Field(description="of the file, or of a folder's files' relative names and sha256s")
 
 
+class MeshFit(_Strict):
+    """A mesh against the points it was made from (in the summary's units: metres, or the
+    arbitrary units of an unscaled model); null without points."""
+
+    points_to_surface_median: float | None = Field(description="median distance from the points to the mesh's surface")
+    points_to_surface_p95: float | None
+    surface_to_points_median: float | None = Field(
+        description="median distance from points sampled on the surface to the nearest point (grows where the "
+        "points saw nothing: a closed base, a completion's unseen back)"
+    )
+
+
+class VisualMesh(MeshFit):
+    faces: int = Field(ge=1)
+    faces_before_cap: int = Field(ge=1, description="before decimation to the visual face cap")
+    within_point_spacing: bool | None = Field(description="points_to_surface_median <= the points' spacing")
+
+
+class CollisionMesh(MeshFit):
+    method: str = Field(description="'convex hull', or the convex decomposition and its settings")
+    parts: int = Field(ge=1, description="convex shapes (URDF <collision> elements)")
+    faces: int = Field(ge=4)
+    tolerance: float = Field(gt=0, description="how close to the visual surface the parts must keep, both ways")
+    overshoot_p95: float = Field(ge=0, description="95th percentile reach of the parts' surface past the visual surface (by area)")
+    overshoot_max: float = Field(ge=0)
+    gap_p95: float = Field(ge=0, description="95th percentile distance of the visual surface outside every part")
+    gap_max: float = Field(ge=0)
+    within_tolerance: bool = Field(description="overshoot_p95 and gap_p95 both within tolerance")
+
+
+class ScanMeshes(_Strict):
+    """A scan's two meshes: the visual (URDF <visual>, model.glb, thumbnails) with the detail its
+    points hold, and the convex collision parts (URDF <collision>, the simulator exports)."""
+
+    points: int = Field(ge=0, description="the fused dense, merged or query points measured against")
+    point_spacing: float | None = Field(description="their median distance to the nearest other point")
+    visual: VisualMesh
+    collision: CollisionMesh
+    seconds: float = Field(ge=0, description="making and measuring both (within the pipeline's export)")
+
+
 def _cross_field_rules(schema: dict[str, Any]) -> None:
     """The `_consistent` checks, for clients of the JSON Schema that never see pydantic."""
     schema["allOf"] = [
@@ -84,6 +125,7 @@ class ModelSummary(_Strict):
     joints: int = Field(ge=0, description="movable joints")
     triangles: int = Field(ge=0, description="of the visual meshes")
     mass_kg: float | None = Field(ge=0, description="the links' total mass; null when unscaled")
+    meshes: ScanMeshes | None = Field(default=None, description="a scan's visual and collision meshes")
     gate: GateResult
     times_s: dict[str, float]
     inputs: list[InputFile]
