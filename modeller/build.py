@@ -5,7 +5,6 @@ the model beside each photo."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -20,36 +19,9 @@ from homemodel.core.yaml_specs import FieldError
 from homemodel.geometry.cycles_scene import reset_to_empty_scene
 from modeller.blender_scene import save_blend
 from modeller.blender_textures import PhotoPlacement, apply_photos
-from modeller.blender_to_model import Assembly, model_from_scene
-from modeller.builders.appliances import (
-    build_dishwasher,
-    build_fridge,
-    build_microwave,
-    build_oven,
-    build_washing_machine,
-)
-from modeller.builders.bed import build_bed
-from modeller.builders.boxes import build_box, build_pill_box
-from modeller.builders.cup import build_cup
-from modeller.builders.cupboard import (
-    build_cupboard,
-    build_wall_cabinet,
-    build_wardrobe,
-)
-from modeller.builders.cutlery import build_fork, build_knife, build_spoon
-from modeller.builders.remote_control import build_remote_control
-from modeller.builders.seating import build_chair, build_sofa
-from modeller.builders.shelving import build_shelving
-from modeller.builders.table import build_table
-from modeller.builders.vessels import (
-    build_bottle,
-    build_bowl,
-    build_glass,
-    build_jar,
-    build_plate,
-)
-from modeller.builders.worktop import build_worktop
+from modeller.blender_to_model import model_from_scene
 from modeller.joint_physics import set_joint_physics
+from modeller.kinds import KINDS
 from modeller.photo_texture import FaceTextureOptions, texture_folder
 from modeller.spec_loading import load_spec
 from modeller.specs import Spec
@@ -63,11 +35,6 @@ if TYPE_CHECKING:
     from modeller.comparison_picture import PictureOptions, PictureRow
 
 logger = logging.getLogger(__name__)
-
-_BUILDERS: dict[str, Callable[..., Assembly]] = {"cupboard": build_cupboard, "table": build_table, "cup": build_cup}
-_BUILDERS |= {"chair": build_chair, "sofa": build_sofa, "bed": build_bed, "shelving": build_shelving, "mug": build_cup, "glass": build_glass, "plate": build_plate, "bowl": build_bowl, "bottle": build_bottle, "box": build_box, "jar": build_jar, "pill_box": build_pill_box, "spoon": build_spoon, "fork": build_fork, "knife": build_knife, "remote_control": build_remote_control}
-_BUILDERS |= {"wall_cabinet": build_wall_cabinet, "wardrobe": build_wardrobe, "fridge": build_fridge, "oven": build_oven, "dishwasher": build_dishwasher, "washing_machine": build_washing_machine, "microwave": build_microwave, "worktop": build_worktop}
-
 
 def build_model(spec_path: Path, *, blend_path: Path | None = None) -> Model:
     """Load the spec at `spec_path`, build it in a fresh Blender scene, and return its model.
@@ -110,7 +77,7 @@ def build_textured(
     texture images live in a folder of this process (removed at exit) until exported.
     """
     reset_to_empty_scene()
-    assembly = _BUILDERS[spec.kind](spec, name)
+    assembly = KINDS[spec.kind].builder(spec, name)
     placements = []
     if spec.photos:
         folder = Path(spec_path).parent if spec_path is not None else Path.cwd()

@@ -12,7 +12,8 @@ from homemodel.core.atomic import write_json
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import confined_path
 from homemodel.core.yaml_specs import FieldError, read_yaml_mapping, validate_mapping
-from modeller.specs import SPEC_TYPES, Spec
+from modeller.kinds import SPEC_TYPES
+from modeller.specs import Spec
 
 
 def load_spec(path: Path) -> Spec:

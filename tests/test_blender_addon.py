@@ -155,7 +155,7 @@ def test_a_missing_toolkit_is_one_line_saying_what_to_do(scene, monkeypatch) -> 
 def test_every_catalogue_kind_has_a_form_that_gives_back_its_spec(addon) -> None:
     from blender_addons import spec_form
     from homemodel.app.blender.spec_forms import spec_kinds
-    from modeller.specs import SPEC_TYPES
+    from modeller.kinds import SPEC_TYPES
 
     kinds = spec_kinds()
     assert set(kinds) == set(SPEC_TYPES)

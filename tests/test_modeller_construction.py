@@ -238,7 +238,7 @@ def test_inset_door_in_a_face_frame_clears_the_frame(tmp_path: Path) -> None:
 @pytest.mark.bpy
 def test_worktop_defaults_build_to_their_size() -> None:
     from modeller import build_from_spec
-    from modeller.specs import SPEC_TYPES
+    from modeller.kinds import SPEC_TYPES
 
     spec = SPEC_TYPES["worktop"].model_validate({"kind": "worktop"})
     lo, hi = build_from_spec(spec, "worktop").world_mesh().bounds

@@ -23,7 +23,7 @@ from articulation.model import Box, Cylinder, MeshGeometry, Model
 from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points
 from modeller import build_from_spec, build_model, load_spec, write_spec_schemas
-from modeller.specs import SPEC_TYPES
+from modeller.kinds import SPEC_TYPES
 
 TOL_M = 1e-3
 KINDS = [

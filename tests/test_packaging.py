@@ -60,7 +60,7 @@ def test_the_shipped_packages_run_without_the_checkout(shipped: Path, tmp_path: 
 
     glb = tmp_path / "box.glb"
     glb.write_bytes(trimesh.Scene(trimesh.creation.box(extents=(0.1, 0.2, 0.3))).export(file_type="glb"))
-    from modeller.specs import SPEC_TYPES
+    from modeller.kinds import SPEC_TYPES
 
     in_catalogue = sorted(set(SPEC_TYPES) & {path.stem for path in (REPO / "examples" / "catalogue").glob("*.yaml")})
 

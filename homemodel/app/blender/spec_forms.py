@@ -17,7 +17,7 @@ CATALOGUE = files("homemodel.app.blender") / "catalogue"
 
 def spec_kinds() -> dict[str, dict[str, Any]]:
     """{kind: {"schema": JSON Schema, "example": a valid spec of that kind}} for every kind."""
-    from modeller.specs import SPEC_TYPES
+    from modeller.kinds import SPEC_TYPES
 
     kinds = {}
     for kind, spec_type in SPEC_TYPES.items():
@@ -31,7 +31,7 @@ def spec_kinds() -> dict[str, dict[str, Any]]:
 def spec_problems(path: Path) -> list[dict[str, str]]:
     """Every problem of the spec at `path` as {"field": "doors.0.width_m", "message": ...};
     empty when the spec is valid."""
-    from modeller.specs import SPEC_TYPES
+    from modeller.kinds import SPEC_TYPES
 
     data = read_yaml_mapping(Path(path))
     spec_type = SPEC_TYPES.get(data.get("kind")) if isinstance(data.get("kind"), str) else None
