@@ -106,7 +106,7 @@ def resolve_mesh(filename: str, urdf_dir: Path, package_paths: Sequence[Path] = 
     return confined_path(folder, filename, folder_role="model folder")
 
 
-def with_package_uris_resolved(urdf: Path, out_dir: Path) -> Path:
+def with_package_uris_resolved(urdf: Path, out_dir: Path, package_paths: Sequence[Path] = ()) -> Path:
     """`urdf`, or, when it names meshes by `package://` URIs, a copy in `out_dir` with each
     such URI replaced by the absolute path it resolves to: pybullet looks for
     `package://NAME/meshes/x.obj` only as `NAME/meshes/x.obj` beside the URDF, not in the
@@ -118,7 +118,7 @@ def with_package_uris_resolved(urdf: Path, out_dir: Path) -> Path:
         if not filename.startswith("package://"):
             continue
         try:
-            mesh.set("filename", str(resolve_mesh(filename, urdf.parent)))
+            mesh.set("filename", str(resolve_mesh(filename, urdf.parent, package_paths)))
             changed = True
         except InputError:
             continue

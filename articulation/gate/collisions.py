@@ -368,8 +368,9 @@ def collision_problems(
     return problems, warnings_said, summary
 
 
-def collisions_check(urdf: Path, options: CollisionOptions | None = None) -> Check:
-    """Load `urdf` in this thread's pybullet DIRECT client and sweep its joints for penetrations.
+def collisions_check(urdf: Path, options: CollisionOptions | None = None, *, meshes: RealMeshes | None = None) -> Check:
+    """Load `urdf` in this thread's pybullet DIRECT client and sweep its joints for penetrations;
+    `meshes` are the links' collision meshes as read from the URDF (default: from `urdf`).
 
     Call only on a URDF the gate found safe for pybullet (a sound tree, meshes inside the folder).
     A pass names each hinge line that rubs within the tolerance (WARNING) with its depth.
@@ -388,7 +389,7 @@ def collisions_check(urdf: Path, options: CollisionOptions | None = None) -> Che
             # through the broadphase; welded pairs are left out after.
             flags = pb.URDF_USE_SELF_COLLISION | pb.URDF_USE_SELF_COLLISION_INCLUDE_PARENT
             body = pb.loadURDF(str(urdf), useFixedBase=True, flags=flags, physicsClientId=client)
-            problems, rubs, summary = collision_problems(pb, client, body, RealMeshes(urdf), options)
+            problems, rubs, summary = collision_problems(pb, client, body, meshes or RealMeshes(urdf), options)
         except pb.error as exc:
             error = str(exc)
     if error is not None:

@@ -7,6 +7,7 @@ with no volume gives a physics engine nothing to collide with.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +53,7 @@ def over_triangle_bound(meshes: Check) -> bool:
     return not meshes.passed and MESH_TRIANGLES.name in meshes.detail
 
 
-def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:
+def mesh_geometry_check(robot: etree._Element, urdf_dir: Path, package_paths: Sequence[Path] = ()) -> Check:
     """Every visual and collision mesh file inside the model folder is finite, has triangles
     of non-zero area, and (collision meshes, which are meant to be solid) has volume."""
     problems: list[str] = []
@@ -60,7 +61,7 @@ def mesh_geometry_check(robot: etree._Element, urdf_dir: Path) -> Check:
     for link, role, element in urdf_doc.mesh_elements(robot):
         filename = element.get("filename")
         try:
-            path = resolve_mesh(filename or "", urdf_dir)
+            path = resolve_mesh(filename or "", urdf_dir, package_paths)
         except InputError:
             continue  # the meshes check reports references it cannot follow
         if not path.is_file():

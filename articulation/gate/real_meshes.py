@@ -10,6 +10,7 @@ themselves: a contact between hulls counts only if the real surfaces intersect t
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +32,7 @@ def _floats(text: str | None, default: tuple[float, ...]) -> tuple[float, ...]:
     return tuple(float(v) for v in text.split()) if text else default
 
 
-def _shape(geometry: Any, urdf_dir: Path) -> trimesh.Trimesh | None:
+def _shape(geometry: Any, urdf_dir: Path, package_paths: Sequence[Path]) -> trimesh.Trimesh | None:
     """A collision element's geometry as triangles in its own frame."""
     if geometry is None:
         return None
@@ -44,7 +45,7 @@ def _shape(geometry: Any, urdf_dir: Path) -> trimesh.Trimesh | None:
     if sphere is not None:
         return trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=float(sphere.get("radius", 0)))
     if mesh is not None and mesh.get("filename"):
-        loaded = load_mesh(resolve_mesh(mesh.get("filename"), urdf_dir))
+        loaded = load_mesh(resolve_mesh(mesh.get("filename"), urdf_dir, package_paths))
         loaded.apply_scale(_floats(mesh.get("scale"), (1.0, 1.0, 1.0)))
         return loaded
     return None
@@ -53,13 +54,13 @@ def _shape(geometry: Any, urdf_dir: Path) -> trimesh.Trimesh | None:
 class RealMeshes:
     """Every link's collision geometry as triangles, tested with FCL at given link poses."""
 
-    def __init__(self, urdf: Path) -> None:
+    def __init__(self, urdf: Path, package_paths: Sequence[Path] = ()) -> None:
         robot = urdf_doc.read_urdf_robot(urdf)
         self._shapes: dict[str, list[tuple[trimesh.Trimesh, np.ndarray]]] = {}
         for link in urdf_doc.links(robot):
             shapes = []
             for _, collision in urdf_doc.link_parts(link, ("collision",)):
-                mesh = _shape(collision.find("geometry"), urdf.parent)
+                mesh = _shape(collision.find("geometry"), urdf.parent, package_paths)
                 origin = collision.find("origin")
                 link_from_shape = transform_from_xyz_rpy(
                     _floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)),

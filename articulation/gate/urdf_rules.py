@@ -9,7 +9,7 @@ read only `<link>` and `<joint>` elements directly under `<robot>`, so extension
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -198,7 +198,7 @@ def _mesh_problem(path: Path) -> str | None:
     return None
 
 
-def meshes_check(robot: etree._Element, urdf_dir: Path) -> Check:
+def meshes_check(robot: etree._Element, urdf_dir: Path, package_paths: Sequence[Path] = ()) -> Check:
     problems: list[str] = []
     read: dict[Path, str | None] = {}
     for link, filename in mesh_references(robot):
@@ -207,7 +207,7 @@ def meshes_check(robot: etree._Element, urdf_dir: Path) -> Check:
             problems.append(f"link {link!r}: <mesh> without a filename")
             continue
         try:
-            path = resolve_mesh(filename, urdf_dir)
+            path = resolve_mesh(filename, urdf_dir, package_paths)
         except InputError as exc:
             problems.append(f"{where}: {exc}")
             continue
@@ -224,7 +224,7 @@ def meshes_check(robot: etree._Element, urdf_dir: Path) -> Check:
     return check_from_problems("meshes", problems, detail)
 
 
-def unsafe_mesh_references(robot: etree._Element, urdf_dir: Path) -> list[str]:
+def unsafe_mesh_references(robot: etree._Element, urdf_dir: Path, package_paths: Sequence[Path] = ()) -> list[str]:
     """Mesh references a client must not open: outside the folder, or not a regular file
     (a FIFO or device would block or never end)."""
     unsafe = []
@@ -232,7 +232,7 @@ def unsafe_mesh_references(robot: etree._Element, urdf_dir: Path) -> list[str]:
         if not filename:
             continue
         try:
-            path = resolve_mesh(filename, urdf_dir)
+            path = resolve_mesh(filename, urdf_dir, package_paths)
         except InputError:
             unsafe.append(filename)
             continue

@@ -8,6 +8,7 @@ Every later check runs whatever the others found, so one report lists every faul
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from lxml import etree
@@ -18,6 +19,7 @@ from articulation.gate.finite_numbers import finite_numbers_check
 from articulation.gate.gltf import gltf_checks
 from articulation.gate.mesh_geometry import mesh_geometry_check, over_triangle_bound
 from articulation.gate.physics import physics_check
+from articulation.gate.real_meshes import RealMeshes
 from articulation.gate.report import Check, ValidationReport
 from articulation.gate.urdf_rules import (
     axes_check,
@@ -61,7 +63,7 @@ PYBULLET_MAX_JOINTS = 121
 
 
 def _pybullet_refusal(
-    tree: Check, robot: etree._Element, folder: Path, meshes: Check, geometry: Check, finite: Check
+    tree: Check, robot: etree._Element, folder: Path, package_paths: Sequence[Path], meshes: Check, geometry: Check, finite: Check
 ) -> str | None:
     """Why pybullet must not load this URDF in our process, or None."""
     if not finite.passed:
@@ -76,13 +78,13 @@ def _pybullet_refusal(
     joints = len(urdf_doc.joints(robot))
     if joints > PYBULLET_MAX_JOINTS:
         return f"pybullet reports the poses of at most {PYBULLET_MAX_JOINTS} joints, and the URDF has {joints}"
-    unsafe = unsafe_mesh_references(robot, folder)
+    unsafe = unsafe_mesh_references(robot, folder, package_paths)
     if unsafe:
         return f"pybullet would open {unsafe[:3]}, outside the model folder or not regular files (see meshes)"
     return None
 
 
-def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
+def _urdf_checks(urdf: Path, package_paths: Sequence[Path]) -> tuple[list[Check], bool]:
     """The URDF's checks, and whether the XML was safe to go on with."""
     try:
         robot = urdf_doc.read_urdf_robot(urdf)
@@ -90,27 +92,31 @@ def _urdf_checks(urdf: Path) -> tuple[list[Check], bool]:
         return [Check("safe XML", False, str(exc))], False
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
     tree = tree_check(robot)
-    meshes = meshes_check(robot, urdf.parent)
+    meshes = meshes_check(robot, urdf.parent, package_paths)
     finite = finite_numbers_check(robot)
     checks += [tree, finite, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
-    geometry = mesh_geometry_check(robot, urdf.parent)
+    geometry = mesh_geometry_check(robot, urdf.parent, package_paths)
     checks += [geometry, check_urdf_check(urdf)]
     if over_triangle_bound(meshes):  # the clients would read every triangle into memory
         declared_check, declared = Check("yourdfpy", False, "not run: meshes over the triangle bound"), None
     else:
         declared_check, declared = yourdfpy_check(urdf)
     checks.append(declared_check)
-    refusal = _pybullet_refusal(tree, robot, urdf.parent, meshes, geometry, finite)
+    refusal = _pybullet_refusal(tree, robot, urdf.parent, package_paths, meshes, geometry, finite)
     with tempfile.TemporaryDirectory(prefix="homemodel-gate-") as tmp:
-        loadable = with_package_uris_resolved(urdf, Path(tmp))
+        # pybullet gets a copy naming package:// meshes by absolute paths; our own reading of
+        # the collision meshes follows the URIs of the URDF itself.
+        loadable = with_package_uris_resolved(urdf, Path(tmp), package_paths)
         checks.append(Check("pybullet", False, f"not run: {refusal}") if refusal else pybullet_check(loadable, declared))
-        checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(loadable))
+        checks.append(Check("collisions", False, f"not run: {refusal}") if refusal else collisions_check(loadable, meshes=RealMeshes(urdf, package_paths)))
         checks.append(Check("physics", False, f"not run: {refusal}") if refusal else physics_check(loadable))
     return checks, True
 
 
-def validate_path(path: Path) -> ValidationReport:
-    """Validate a model folder (model.urdf, optional model.glb), a .urdf or a .glb file.
+def validate_path(path: Path, *, package_paths: Sequence[Path] = ()) -> ValidationReport:
+    """Validate a model folder (model.urdf, optional model.glb), a .urdf or a .glb file;
+    `package://NAME/...` meshes are found in the package holding the URDF, `package_paths`,
+    then ROS_PACKAGE_PATH and AMENT_PREFIX_PATH (see `articulation.mesh_paths`).
 
     Raises InputError when `path` is missing or of an unknown kind; every fault of the
     model itself is a failed check in the report.
@@ -119,7 +125,7 @@ def validate_path(path: Path) -> ValidationReport:
     urdf, glb = _inputs(path)
     report = ValidationReport(path=path)
     if urdf is not None:
-        checks, safe = _urdf_checks(urdf)
+        checks, safe = _urdf_checks(urdf, package_paths)
         report.checks += checks
         if not safe:
             return report

@@ -19,13 +19,16 @@ _COLOURS = {
 
 def validate(
     path: Path = typer.Argument(..., help="A model folder (model.urdf, optional model.glb), a .urdf or a .glb file."),
+    package_paths: list[Path] = typer.Option(
+        [], "--package-path", help="where package://NAME/... meshes find ROS package NAME (repeatable; after the package holding the URDF, before ROS_PACKAGE_PATH)"
+    ),
 ) -> None:
     """Check a model with our rules, check_urdf, yourdfpy, pybullet and the Khronos glTF validator."""
     # Imported here so `homemodel --help` does not pay for trimesh and lxml.
     from articulation.gate.validate import validate_path
 
     with exit_on_error():
-        report = validate_path(path)
+        report = validate_path(path, package_paths=package_paths)
     for line in report.format().splitlines():
         colour = _COLOURS.get(line.split(" ", 1)[0])
         typer.echo(typer.style(line, fg=colour) if colour else line)

@@ -19,7 +19,6 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-import yaml
 
 from articulation.gate.report import Check, ValidationReport
 from articulation.model import Model
@@ -32,7 +31,7 @@ from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.errors import HomemodelError, SpecError
 from homemodel.core.model_summary import read_summary
 from homemodel.core.options_data import options_from_dict
-from homemodel.core.yaml_specs import read_yaml_mapping
+from homemodel.core.yaml_specs import read_yaml_mapping, write_yaml
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +75,7 @@ def _swept_spec(job: Job, folder: Path) -> Path:
         if isinstance(photo, dict) and "photo" in photo:
             photo["photo"] = str((spec_path.parent / photo["photo"]).resolve())
     path = folder / f"{job.id}.yaml"
-    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    write_yaml(path, data)
     return path
 
 
@@ -144,10 +143,11 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
 
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="homemodel-import-") as textures:
-        imported = import_asset(job.inputs["path"], _options(ImportOptions, job), texture_dir=Path(textures))
+        options = _options(ImportOptions, job)
+        imported = import_asset(job.inputs["path"], options, texture_dir=Path(textures))
         if imported.gaps and repair is None:
             # The asset as given fails the gate for want of what it needs: say so, and how to repair.
-            report = validate_path(imported.urdf) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
+            report = validate_path(imported.urdf, package_paths=options.package_paths) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
             said = "; ".join(imported.gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"
             report.checks.insert(0, Check("repairable", False, said))
             return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
