@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import trimesh
@@ -72,18 +73,118 @@ CLASS_FEATURE = FEATURE_NAMES.index("retrieved_class")
 EVIDENCE_BAND = 0.05
 MARGIN = 0.1  # free space around the query and the deformed mesh, in object extents
 PARALLEL_PREDICTION_ROWS = 50_000
+# A voxel between the coarse lattice's takes its corners' mean when they all lie this far on one side of the level.
+COARSE_MARGIN = 0.2
 FAR = 10.0  # the symmetric distance when there is no symmetry plane, in object sizes
 
 
 @dataclass(kw_only=True)
+class VoxelEvidence:
+    """What the features of an ambiguous voxel are computed from: the query, the fit, and values
+    per voxel of the whole grid (flat, in the grid's C order)."""
+
+    depth_m: np.ndarray
+    camera: Camera
+    planes_camera: list[Plane]  # a revolved match's plane through its axis facing the camera first
+    axis_camera: RevolutionAxis | None
+    facing: Plane | None  # that plane, None when the match is not revolved
+    symmetric: np.ndarray  # distance to the mirrored query, in object sizes (at most FAR)
+    occupancy: np.ndarray  # inside the deformed mesh
+    inside: np.ndarray  # signed distance to the deformed surface, in object sizes (at least -FAR)
+    centre_m: np.ndarray  # of the deformed mesh's box
+    size_m: float
+    match_distance_m: float
+    fit_distance_m: float
+    class_index: int
+
+
+@dataclass(kw_only=True)
 class CarvedGrid:
-    """The query-frame grid, its known voxels, and the features of the ambiguous ones."""
+    """The query-frame grid, its known voxels, and what the features of the ambiguous ones come from."""
 
     grid: VoxelGrid
     known_occupied: np.ndarray  # (X, Y, Z) bool
     ambiguous: np.ndarray
-    features: np.ndarray  # (number of ambiguous voxels, len(FEATURE_NAMES))
     depth_behind_m: np.ndarray  # (X, Y, Z): voxel depth less the depth map's on its ray, -inf off the silhouette
+    evidence: VoxelEvidence | None = None  # None: no ambiguous voxel has features
+
+    @cached_property
+    def features(self) -> np.ndarray:
+        """(number of ambiguous voxels, len(FEATURE_NAMES)): every ambiguous voxel's, in C order."""
+        return self.features_at(np.flatnonzero(self.ambiguous))
+
+    def features_at(self, flat: np.ndarray) -> np.ndarray:
+        """The features (FEATURE_NAMES) of the voxels at flat grid indices `flat`."""
+        e = self.evidence
+        if e is None:
+            return np.zeros((0, len(FEATURE_NAMES)))
+        grid = self.grid
+        picked = grid.origin_m + (np.column_stack(np.unravel_index(flat, grid.shape)) + 0.5) * grid.voxel_size_m
+        behind = self.depth_behind_m.reshape(-1)[flat]
+        inside = e.inside
+        unseen = np.full((len(flat), 2), np.nan)
+        mirrored = unseen
+        if e.planes_camera:
+            mirrored = _seen_image(e.planes_camera[0].reflect(picked), e.depth_m, e.camera, grid, inside)
+        turned = np.column_stack([unseen, unseen])
+        if e.facing is not None:
+            turned = np.column_stack(
+                [
+                    _seen_image(e.axis_camera.turned_toward(picked, side * e.facing.normal), e.depth_m, e.camera, grid, inside)
+                    for side in (1.0, -1.0)
+                ]
+            )
+        to_camera = -e.centre_m / np.linalg.norm(e.centre_m)
+        to_voxel = picked - e.centre_m
+        cos_angle = to_voxel @ to_camera / np.maximum(np.linalg.norm(to_voxel, axis=1), 1e-12)
+        count = len(flat)
+        return np.column_stack(
+            [
+                behind / e.size_m,
+                np.arccos(np.clip(cos_angle, -1.0, 1.0)),
+                e.symmetric[flat],
+                e.occupancy[flat].astype(np.float64),
+                np.full(count, e.match_distance_m / e.size_m),
+                np.full(count, e.fit_distance_m / e.size_m),
+                inside[flat],
+                behind,
+                np.full(count, float(e.class_index)),
+                mirrored,
+                turned,
+            ]
+        )
+
+    def ambiguous_probability(self, filler: VoxelFiller, level: float) -> np.ndarray:
+        """`filler`'s P(occupied) of every ambiguous voxel (C order), predicted coarse to fine:
+        on every second voxel along each axis first; between those, a voxel whose ambiguous
+        neighbours on that lattice (the corners of its 2x2x2 cell) all lie on one side of `level`
+        by COARSE_MARGIN or more takes their mean, and the rest are predicted. The booster's
+        field changes over a voxel or two only where it crosses the level, so this decides
+        nearly every voxel as predicting it would, for a fraction of the predictions."""
+        flat = np.flatnonzero(self.ambiguous)
+        index = np.unravel_index(flat, self.grid.shape)
+        on_lattice = (index[0] % 2 == 0) & (index[1] % 2 == 0) & (index[2] % 2 == 0)
+        probability = np.full(len(flat), np.nan)
+        probability[on_lattice] = filler.occupancy_probability(self.features_at(flat[on_lattice]))
+        coarse = np.full(tuple(n // 2 + 1 for n in self.grid.shape), np.nan)
+        coarse[tuple(i[on_lattice] // 2 for i in index)] = probability[on_lattice]
+        between = np.flatnonzero(~on_lattice)
+        corners = np.stack(
+            [
+                coarse[tuple((i[between] + step) // 2 for i, step in zip(index, steps))]
+                for steps in np.ndindex(2, 2, 2)
+            ],
+            axis=1,
+        )
+        known = ~np.isnan(corners)
+        low = np.where(known, corners, np.inf).min(axis=1)
+        high = np.where(known, corners, -np.inf).max(axis=1)
+        settled = (low >= level + COARSE_MARGIN) | (high <= level - COARSE_MARGIN)
+        mean = np.where(known, corners, 0.0).sum(axis=1) / np.maximum(known.sum(axis=1), 1)
+        probability[between[settled]] = mean[settled]
+        unsettled = between[~settled]
+        probability[unsettled] = filler.occupancy_probability(self.features_at(flat[unsettled]))
+        return probability
 
     def occupancy_field(self, probability: np.ndarray, level: float) -> np.ndarray:
         """(X, Y, Z) field whose `level` set is the completed surface: 1 on known-occupied voxels,
@@ -150,7 +251,8 @@ def carve(
     class_index: int,
     resolution: int,
 ) -> CarvedGrid:
-    """Label the grid's voxels known-occupied, known-empty or ambiguous, with the ambiguous ones' features.
+    """Label the grid's voxels known-occupied, known-empty or ambiguous, and keep what the
+    ambiguous ones' features come from (`CarvedGrid.features_at`).
 
     `depth_m` holds the object only (NaN elsewhere). Known occupied: a voxel holding an
     observed point, or whose centre lies within half a voxel of the depth map along its ray.
@@ -161,8 +263,7 @@ def carve(
         planes_camera = [facing, *planes_camera]
     grid = query_grid(query, deformed, resolution)
     voxel = grid.voxel_size_m
-    centres = grid.centres_m().reshape(-1, 3)
-    behind = depth_behind(centres, depth_m, camera)
+    behind = grid_depth_behind(grid, depth_m, camera).reshape(-1)
     in_silhouette = np.isfinite(behind)
     behind[~in_silhouette] = -np.inf
     known_occupied = points_mask(grid, query).reshape(-1) | (np.abs(behind) <= 0.5 * voxel)
@@ -173,52 +274,52 @@ def carve(
         mirrored = np.concatenate([plane.reflect(query) for plane in planes_camera])
         symmetric = np.minimum(distance_to_points(grid, mirrored).reshape(-1) / size, FAR)
     else:
-        symmetric = np.full(len(centres), FAR)
+        symmetric = np.full(behind.shape, FAR)
     occupancy = solid_occupancy(deformed, grid).reshape(-1)
     inside = np.maximum(signed_distance(occupancy.reshape(grid.shape), voxel).reshape(-1) / size, -FAR)
     near_evidence = (np.abs(inside) < EVIDENCE_BAND) | (symmetric < EVIDENCE_BAND)
     known_occupied |= hidden & ~near_evidence & occupancy
     ambiguous = hidden & near_evidence
-
-    picked = centres[ambiguous]
-    unseen = np.full((len(picked), 2), np.nan)
-    mirrored = _seen_image(planes_camera[0].reflect(picked), depth_m, camera, grid, inside) if planes_camera else unseen
-    if facing is not None:
-        turned = np.column_stack(
-            [
-                _seen_image(axis_camera.turned_toward(picked, side * facing.normal), depth_m, camera, grid, inside)
-                for side in (1.0, -1.0)
-            ]
-        )
-    else:
-        turned = np.column_stack([unseen, unseen])
-    centre = deformed.bounds.mean(axis=0)
-    to_camera = -centre / np.linalg.norm(centre)
-    to_voxel = picked - centre
-    cos_angle = to_voxel @ to_camera / np.maximum(np.linalg.norm(to_voxel, axis=1), 1e-12)
-    features = np.column_stack(
-        [
-            behind[ambiguous] / size,
-            np.arccos(np.clip(cos_angle, -1.0, 1.0)),
-            symmetric[ambiguous],
-            occupancy[ambiguous].astype(np.float64),
-            np.full(len(picked), match_distance_m / size),
-            np.full(len(picked), fit_distance_m / size),
-            inside[ambiguous],
-            behind[ambiguous],
-            np.full(len(picked), float(class_index)),
-            mirrored,
-            turned,
-        ]
-    )
     shape = grid.shape
     return CarvedGrid(
         grid=grid,
         known_occupied=known_occupied.reshape(shape),
         ambiguous=ambiguous.reshape(shape),
-        features=features,
         depth_behind_m=behind.reshape(shape),
+        evidence=VoxelEvidence(
+            depth_m=depth_m,
+            camera=camera,
+            planes_camera=planes_camera,
+            axis_camera=axis_camera,
+            facing=facing,
+            symmetric=symmetric,
+            occupancy=occupancy,
+            inside=inside,
+            centre_m=deformed.bounds.mean(axis=0),
+            size_m=size,
+            match_distance_m=match_distance_m,
+            fit_distance_m=fit_distance_m,
+            class_index=class_index,
+        ),
     )
+
+
+def grid_depth_behind(grid: VoxelGrid, depth_m: np.ndarray, camera: Camera) -> np.ndarray:
+    """(X, Y, Z) `depth_behind` of every voxel centre. Through a pinhole, a centre's pixel column
+    depends on its x and z only and its row on y and z, so the grid projects as two small
+    tables (with lens distortion every centre is projected)."""
+    if camera.has_distortion:
+        return depth_behind(grid.centres_m().reshape(-1, 3), depth_m, camera).reshape(grid.shape)
+    x, y, z = (grid.origin_m[d] + (np.arange(grid.shape[d]) + 0.5) * grid.voxel_size_m for d in range(3))
+    forward = z > 0
+    z_or_inf = np.where(forward, z, np.inf)
+    u = np.round(camera.fx * (x[:, None] / z_or_inf) + camera.cx).astype(int)  # (X, Z)
+    v = np.round(camera.fy * (y[:, None] / z_or_inf) + camera.cy).astype(int)  # (Y, Z)
+    u_ok = forward & (u >= 0) & (u < camera.width)
+    v_ok = forward & (v >= 0) & (v < camera.height)
+    observed = depth_m[np.clip(v, 0, camera.height - 1)[None], np.clip(u, 0, camera.width - 1)[:, None]]
+    observed = np.where(u_ok[:, None] & v_ok[None], observed, np.nan)
+    return z - observed
 
 
 def depth_behind(points: np.ndarray, depth_m: np.ndarray, camera: Camera) -> np.ndarray:
@@ -355,7 +456,8 @@ def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -
     vertices, faces, _, _ = marching_cubes(padded, level=level, spacing=(grid.voxel_size_m,) * 3)
     vertices += grid.origin_m - 0.5 * grid.voxel_size_m  # padded index i is voxel i - 1, centred at +0.5
     mesh = trimesh.Trimesh(vertices, faces[:, ::-1], process=True)
-    if mesh.volume < 0:
+    corners = mesh.triangles
+    if np.einsum("ij,ij->", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) < 0:  # its volume, cheaper than trimesh's
         mesh.invert()
     return mesh
 

@@ -288,7 +288,7 @@ class ShapeCompleter(BaseEstimator):
         clock.start("filling")
         carved = self._carve(depth, camera, fit)
         level = self.filler_.level_
-        field = carved.occupancy_field(self.filler_.occupancy_probability(carved.features), level)
+        field = carved.occupancy_field(carved.ambiguous_probability(self.filler_, level), level)
         mesh = mesh_from_field(field, carved.grid, level=level)
         clock.stop()
         shape = self.shapes_[fit.shape_index]

@@ -20,6 +20,19 @@ def kabsch(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return transform
 
 
+def kabsch_batch(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """`kabsch` of each of B point sets at once: (B, N, 3) pairs to (B, 4, 4) transforms."""
+    src_mean, dst_mean = source.mean(axis=1), target.mean(axis=1)
+    u, _, vt = np.linalg.svd(np.einsum("bni,bnj->bij", source - src_mean[:, None], target - dst_mean[:, None]))
+    v, ut = np.transpose(vt, (0, 2, 1)), np.transpose(u, (0, 2, 1))
+    d = np.sign(np.linalg.det(v @ ut))
+    rotation = v @ (np.stack([np.ones_like(d), np.ones_like(d), d], axis=1)[:, :, None] * ut)
+    transforms = np.tile(np.eye(4), (len(source), 1, 1))
+    transforms[:, :3, :3] = rotation
+    transforms[:, :3, 3] = dst_mean - np.einsum("bij,bj->bi", rotation, src_mean)
+    return transforms
+
+
 def apply(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ transform[:3, :3].T + transform[:3, 3]
 

@@ -10,25 +10,37 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from shape_completion.registration import apply, kabsch
+from shape_completion.registration import kabsch, kabsch_batch
 
 ALPHA_BINS, BETA_BINS = 6, 12
 
 
 def spin_images(points: np.ndarray, normals: np.ndarray, keypoints: np.ndarray, radius_m: float) -> np.ndarray:
-    """(K, ALPHA_BINS * BETA_BINS) unit-norm spin images of `points[keypoints]`."""
-    tree = cKDTree(points)
-    images = np.zeros((len(keypoints), ALPHA_BINS * BETA_BINS))
-    for row, index in enumerate(keypoints):
-        neighbours = points[tree.query_ball_point(points[index], radius_m)] - points[index]
-        beta = neighbours @ normals[index]
-        alpha = np.sqrt(np.maximum(np.einsum("ni,ni->n", neighbours, neighbours) - beta**2, 0.0))
-        histogram, _, _ = np.histogram2d(
-            alpha, beta, bins=(ALPHA_BINS, BETA_BINS), range=((0.0, radius_m), (-radius_m, radius_m))
-        )
-        images[row] = histogram.ravel()
+    """(K, ALPHA_BINS * BETA_BINS) unit-norm spin images of `points[keypoints]` (all keypoints'
+    neighbours binned in one pass, as `np.histogram2d` bins them)."""
+    neighbours = cKDTree(points).query_ball_point(points[keypoints], radius_m)
+    counts = np.fromiter((len(n) for n in neighbours), dtype=np.int64, count=len(keypoints))
+    rows = np.repeat(np.arange(len(keypoints)), counts)
+    found = np.concatenate([np.asarray(n, dtype=np.int64) for n in neighbours]) if len(rows) else rows
+    offsets = points[found] - points[keypoints][rows]
+    beta = np.einsum("ni,ni->n", offsets, normals[keypoints][rows])
+    alpha = np.sqrt(np.maximum(np.einsum("ni,ni->n", offsets, offsets) - beta**2, 0.0))
+    alpha_bin = _bins(alpha, 0.0, radius_m, ALPHA_BINS)
+    beta_bin = _bins(beta, -radius_m, radius_m, BETA_BINS)
+    counted = (alpha_bin >= 0) & (beta_bin >= 0)
+    cells = (rows * ALPHA_BINS + alpha_bin) * BETA_BINS + beta_bin
+    images = np.bincount(cells[counted], minlength=len(keypoints) * ALPHA_BINS * BETA_BINS).astype(np.float64)
+    images = images.reshape(len(keypoints), ALPHA_BINS * BETA_BINS)
     norms = np.linalg.norm(images, axis=1, keepdims=True)
     return images / np.maximum(norms, 1e-12)
+
+
+def _bins(values: np.ndarray, low: float, high: float, count: int) -> np.ndarray:
+    """Each value's bin among `count` equal ones over [low, high] (the last one closed), -1 outside."""
+    edges = np.linspace(low, high, count + 1)
+    index = np.searchsorted(edges, values, side="right") - 1
+    index[values == high] = count - 1
+    return np.where((values >= low) & (values <= high), index, -1)
 
 
 def ransac_rigid_fit(
@@ -39,19 +51,21 @@ def ransac_rigid_fit(
     iterations: int,
     rng: np.random.Generator,
 ) -> tuple[np.ndarray, int]:
-    """The `target_from_source` with most paired points within `inlier_distance_m`, refit on its inliers."""
-    best, best_inliers = np.eye(4), np.zeros(len(source), dtype=bool)
+    """The `target_from_source` with most paired points within `inlier_distance_m`, refit on its
+    inliers. Every iteration's three pairs are drawn first, then all fits are scored at once."""
     if len(source) < 3:
-        return best, 0
-    for _ in range(iterations):
-        sample = rng.choice(len(source), size=3, replace=False)
-        transform = kabsch(source[sample], target[sample])
-        inliers = np.linalg.norm(apply(transform, source) - target, axis=1) < inlier_distance_m
-        if inliers.sum() > best_inliers.sum():
-            best, best_inliers = transform, inliers
-    if best_inliers.sum() >= 3:
-        best = kabsch(source[best_inliers], target[best_inliers])
-    return best, int(best_inliers.sum())
+        return np.eye(4), 0
+    samples = np.array([rng.choice(len(source), size=3, replace=False) for _ in range(iterations)])
+    transforms = kabsch_batch(source[samples], target[samples])
+    moved = np.einsum("bij,nj->bni", transforms[:, :3, :3], source) + transforms[:, None, :3, 3]
+    inliers = np.linalg.norm(moved - target, axis=2) < inlier_distance_m
+    counts = inliers.sum(axis=1)
+    best = int(np.argmax(counts))  # the first of the best, as a loop keeping strict improvements would
+    if counts[best] == 0:
+        return np.eye(4), 0
+    if counts[best] >= 3:
+        return kabsch(source[inliers[best]], target[inliers[best]]), int(counts[best])
+    return transforms[best], int(counts[best])
 
 
 def spin_image_alignment(

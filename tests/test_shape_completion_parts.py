@@ -167,7 +167,6 @@ def test_occupancy_field_puts_the_seen_surface_between_voxels():
         grid=grid,
         known_occupied=z > 0.50355,
         ambiguous=np.zeros(grid.shape, dtype=bool),
-        features=np.zeros((0, 1)),
         depth_behind_m=z - 0.50355,
     )
     mesh = mesh_from_field(carved.occupancy_field(np.zeros(0), 0.5), grid, level=0.5)
