@@ -16,14 +16,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from homemodel.core.atomic import write_bytes_atomic, write_json, write_text_atomic
+from homemodel.core.atomic import write_bytes_atomic, write_json
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
 from homemodel.core.input_files import read_bounded
 from homemodel.core.transforms import rigid_transform
-from homemodel.geometry.camera import Camera, load_camera_and_pose
+from homemodel.core.yaml_specs import write_yaml
+from homemodel.geometry.camera import Camera, camera_mapping, load_camera_and_pose
 from homemodel.geometry.depth_io import read_depth_m, write_depth
 
 DEPTH_FILE = "depth.png"
@@ -42,11 +42,9 @@ def load_observation_camera(path: Path, *, need_pose: bool = True) -> tuple[Came
 
 
 def save_observation_camera(path: Path, camera: Camera, map_from_camera: np.ndarray) -> None:
-    data = camera.model_dump(exclude_none=True)
-    if camera.distortion is None:
-        del data["distortion_model"]
+    data = camera_mapping(camera)
     data["map_from_camera"] = [[float(v) for v in row] for row in rigid_transform(map_from_camera, "map_from_camera")]
-    write_text_atomic(Path(path), yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+    write_yaml(Path(path), data, flow_style=None)
 
 
 @dataclass(kw_only=True)

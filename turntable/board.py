@@ -16,10 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pydantic
-import yaml
 
-from homemodel.core.atomic import write_text_atomic
-from homemodel.core.yaml_specs import FieldError, load_yaml_spec
+from homemodel.core.yaml_specs import FieldError, load_yaml_spec, write_yaml
 
 TAG_FAMILY = "tag36h11"
 TAG_CELLS = 8  # black square of tag36h11, in cells
@@ -92,7 +90,7 @@ def load_board(path: Path) -> Board:
 def save_board(board: Board, path: Path) -> None:
     data = board.model_dump(exclude_none=True)
     data["tags"] = [{"id": t["id"], "center_m": [round(v, 9) for v in t["center_m"]]} for t in data["tags"]]
-    write_text_atomic(Path(path), yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+    write_yaml(Path(path), data, flow_style=None)
 
 
 def grid_board(*, table_diameter_m: float, tag_size_m: float, gap_cells: int = 2, first_id: int = 0) -> Board:

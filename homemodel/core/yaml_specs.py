@@ -8,6 +8,7 @@ from typing import TypeVar
 import pydantic
 import yaml
 
+from homemodel.core.atomic import write_text_atomic
 from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import YAML_DEPTH, YAML_NODES
@@ -109,3 +110,9 @@ def validate_mapping(path: Path, data: dict, spec_type: type[SpecT]) -> SpecT:
 
 def load_yaml_spec(path: Path, spec_type: type[SpecT]) -> SpecT:
     return validate_mapping(Path(path), read_yaml_mapping(Path(path)), spec_type)
+
+
+def write_yaml(path: Path, data: dict, *, flow_style: bool | None = False) -> None:
+    """Write `data` as YAML, keys in their order, atomically; `flow_style=None` writes lists
+    of scalars on one line (`[0.1, 0.2]`)."""
+    write_text_atomic(Path(path), yaml.safe_dump(data, sort_keys=False, default_flow_style=flow_style))

@@ -14,11 +14,9 @@ from typing import Literal
 
 import numpy as np
 import pydantic
-import yaml
 
-from homemodel.core.atomic import write_text_atomic
 from homemodel.core.transforms import rigid_transform
-from homemodel.core.yaml_specs import load_yaml_spec
+from homemodel.core.yaml_specs import load_yaml_spec, write_yaml
 
 _Positive = pydantic.PositiveFloat
 _Finite = pydantic.FiniteFloat
@@ -196,8 +194,13 @@ def load_camera_and_pose(path: Path) -> tuple[Camera, np.ndarray | None]:
     return spec.camera, pose
 
 
-def save_camera(camera: Camera, path: Path) -> None:
+def camera_mapping(camera: Camera) -> dict:
+    """The camera as camera.yaml holds it (an observation's adds `map_from_camera`)."""
     data = camera.model_dump(exclude_none=True)
     if camera.distortion is None:
         del data["distortion_model"]  # the camera.yaml of a distortion-free camera stays as it was
-    write_text_atomic(Path(path), yaml.safe_dump(data, sort_keys=False))
+    return data
+
+
+def save_camera(camera: Camera, path: Path) -> None:
+    write_yaml(Path(path), camera_mapping(camera))
