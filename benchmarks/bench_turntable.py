@@ -132,7 +132,7 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
 
 def pose_error_mm_deg(result, capture_dir: Path) -> tuple[float, float]:  # noqa: ANN001
     from homemodel.evaluation import camera_pose_errors
-    from turntable.poses_io import read_poses
+    from homemodel.exchange.poses import read_poses
 
     estimated = {stem: pose.camera_from_table for stem, pose in result.poses.items()}
     centres, angles = camera_pose_errors(estimated, read_poses(capture_dir / "true_poses.json"))

@@ -20,7 +20,7 @@ import numpy as np
 
 from homemodel.geometry.camera import Camera, load_camera
 from homemodel.geometry.raycast import RayCaster
-from turntable.poses_io import read_poses
+from homemodel.exchange.poses import read_poses
 from turntable.simulate import render_depth, simulated_scene
 
 

@@ -178,7 +178,7 @@ def test_a_shape_basis_fits_a_library_with_fewer_views_than_features() -> None:
 
 
 def test_deeply_nested_json_is_an_input_error(tmp_path: Path) -> None:
-    from turntable.poses_io import read_poses
+    from homemodel.exchange.poses import read_poses
 
     poses = tmp_path / "poses.json"
     poses.write_text("[" * 200_000 + "]" * 200_000)

@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 
 from homemodel.evaluation import camera_pose_errors, mean_surface_distance_m, voxel_iou
 from turntable.capture import load_capture
-from turntable.poses_io import read_poses
+from homemodel.exchange.poses import read_poses
 from turntable.reconstruct import Reconstruction, reconstruct_capture
 from turntable.simulate import SimulationOptions, resimulate_depth, simulate_capture
 

@@ -5,7 +5,7 @@ writes the model folder (and registers it into a map when the options name one).
 
 - `board`, `board_pdf`: the tag grid, board.yaml, the printable PDF;
 - `simulate`, `blender_render`: synthetic captures (Cycles colour, ray-cast depth, sensor noise);
-- `capture`, `camera`, `poses_io`: the capture folder and its files;
+- `capture`: the capture folder and its files (poses.json is `homemodel.exchange.poses`);
 - `tags`, `pose`, `orbit`, `turntable_model`: detection, PnP, the axis, the joint pose refinement;
 - `fusion`, `meshing`, `texture`: merging, Poisson, the baked texture;
 - `reconstruct`, `outputs`, `picture`: the pipeline and its model folder (the one-link model

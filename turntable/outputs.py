@@ -16,7 +16,7 @@ from articulation.scan_model import scan_model
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress
-from turntable.poses_io import write_poses
+from homemodel.exchange.poses import write_poses
 
 if TYPE_CHECKING:
     from articulation.model_folder import ModelFolder

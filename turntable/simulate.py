@@ -40,7 +40,7 @@ from turntable.board import Board, grid_board, load_board, save_board
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
-from turntable.poses_io import read_poses, write_poses
+from homemodel.exchange.poses import read_poses, write_poses
 
 NOISE_REFERENCE_DEPTH_M = 0.7
 TRUE_POSES = "true_poses.json"
