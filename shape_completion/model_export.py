@@ -19,7 +19,7 @@ from articulation.model_folder import PipelineSummary, write_model_folder
 from articulation.naming import check_model_name
 from articulation.scan_meshes import ScanMeshOptions, scan_meshes
 from articulation.scan_model import scan_model
-from homemodel.core.errors import errors_naming
+from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested, require_positive
 from homemodel.core.progress import Progress, StageClock
@@ -123,6 +123,12 @@ def complete(
     completion.frame = object_frame(
         completion.mesh, map_from_camera=query.map_from_camera, support=query.support, axis=completion.fit.axis
     )
+    if options.map_entry is not None and completion.frame.up_from is None:
+        # In the camera's frame the model would stand in the map as the camera saw it, tilted.
+        raise ModelError(
+            f"{depth_png}: the object's up is unknown (no map_from_camera in {camera_path.name}, no support "
+            "plane seen), so it cannot be placed in a map"
+        )
     model_inputs = {"completion_model": model_path} if model_path is not None else {}
     mask_input = {"mask": Path(options.mask_path)} if options.mask_path is not None else {}
     object_from_camera = np.linalg.inv(completion.frame.camera_from_object)
