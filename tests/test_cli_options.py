@@ -6,6 +6,7 @@ model-name check)."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib
 import inspect
 import re
@@ -37,8 +38,13 @@ def _commands(typer_app: typer.Typer, path: tuple[str, ...] = ()):
         yield from _commands(group.typer_instance, (*path, group.name))
 
 
+@functools.cache
+def _click_root():  # noqa: ANN202 (a Click group)
+    return typer.main.get_command(app)
+
+
 def _click_command(path: tuple[str, ...]):
-    command = typer.main.get_command(app)
+    command = _click_root()
     for name in path:
         command = command.commands[name]
     return command
