@@ -30,7 +30,7 @@ from articulation.gltf_export import quaternion_xyzw
 from articulation.export_dynamics import actuator_effort, export_dynamics
 from articulation.joint_loads import subtree_links
 from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Model, Sphere
-from articulation.numbers import fixed, fixed_list, significant
+from homemodel.exchange.numbers import fixed, fixed_list, significant
 from articulation.scene import Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes
 from homemodel.core.atomic import write_text_atomic

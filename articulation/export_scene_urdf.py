@@ -20,7 +20,7 @@ from lxml import etree
 
 from articulation.gltf_export import glb_bytes
 from articulation.model import Box, Collision, GraspPoint, Joint, JointState, Link, Material, Model, Visual
-from articulation.numbers import fixed
+from homemodel.exchange.numbers import fixed
 from articulation.scene import Scene, SceneObject
 from articulation.urdf_export import urdf_bytes
 from homemodel.core.atomic import write_bytes_atomic, write_text_atomic

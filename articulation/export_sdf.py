@@ -21,7 +21,7 @@ from lxml import etree
 from articulation.export_scene_urdf import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
 from articulation.export_dynamics import export_dynamics
 from articulation.model import Box, Cylinder, Link, Material, MeshGeometry, Sphere
-from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
+from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
 from articulation.joint_loads import STANDARD_GRAVITY_M_S2
 from articulation.scene import Scene, SceneObject
 from articulation.scene_meshes import SceneMeshes

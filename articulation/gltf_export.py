@@ -15,7 +15,7 @@ import numpy as np
 from PIL import Image
 
 from articulation.model import Joint, Link, Material, Model
-from articulation.numbers import (
+from homemodel.exchange.numbers import (
     canonical_transform,
     canonical_xyz_rpy,
     rounded,

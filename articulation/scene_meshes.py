@@ -12,7 +12,7 @@ import trimesh
 from PIL import Image
 
 from articulation.naming import file_stem, unique
-from articulation.obj_io import obj_text
+from homemodel.exchange.obj import obj_text
 from articulation.scene import SceneObject
 from homemodel.core.atomic import write_bytes_atomic, write_text_atomic
 

@@ -26,8 +26,8 @@ from articulation.model import (
     Visual,
 )
 from articulation.naming import file_stem, unique
-from articulation.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
-from articulation.obj_io import mtl_text, obj_text
+from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
+from homemodel.exchange.obj import mtl_text, obj_text
 from homemodel.core.atomic import write_text_atomic
 
 MESH_DIR = "meshes"
@@ -63,7 +63,7 @@ class _MeshWriter:
         material = file_stem(visual.material.name)
         texture = self.texture(visual.material)
         uv = visual.uv if texture is not None else None
-        write_text_atomic(self.mesh_dir / f"{stem}.mtl", mtl_text(material, visual.material, texture))
+        write_text_atomic(self.mesh_dir / f"{stem}.mtl", mtl_text(material, visual.material.rgba, texture))
         write_text_atomic(
             self.mesh_dir / f"{stem}.obj", obj_text(visual.mesh, mtl_file=f"{stem}.mtl", material=material, uv=uv)
         )

@@ -7,8 +7,7 @@ import io
 import numpy as np
 import trimesh
 
-from articulation.model import Material
-from articulation.numbers import fixed
+from homemodel.exchange.numbers import fixed
 from homemodel.geometry.mesh_ops import zero_area_faces
 
 
@@ -38,8 +37,8 @@ def obj_text(mesh: trimesh.Trimesh, *, mtl_file: str | None, material: str | Non
     return out.getvalue()
 
 
-def mtl_text(name: str, material: Material, texture_file: str | None) -> str:
-    r, g, b, a = material.rgba
+def mtl_text(name: str, rgba: tuple[float, float, float, float], texture_file: str | None) -> str:
+    r, g, b, a = rgba
     lines = [
         "# homemodel",
         f"newmtl {name}",
