@@ -117,6 +117,18 @@ def test_flags_take_default_and_choices_from_their_options_field(path: tuple[str
             assert _literal(param.type_descriptor.annotation) == choices, (path, param.opts, spec.ref)
 
 
+def test_one_quantity_has_one_flag_in_every_command() -> None:
+    """The density and the texture size, set by three pipelines, are spelt as their fields."""
+    flags: dict[str, set[str]] = {"density_kg_m3": set(), "texture_size_px": set()}
+    for path, function in COMMANDS:
+        for param in _click_command(path).params:
+            spec = options_field(inspect.signature(function).parameters[param.name].default)
+            quantity = spec and spec.ref.rsplit(":", 1)[1].split(".", 1)[1].replace("texture.size_px", "texture_size_px")
+            if quantity in flags:
+                flags[quantity].add(param.opts[0])
+    assert flags == {"density_kg_m3": {"--density-kg-m3"}, "texture_size_px": {"--texture-size-px"}}
+
+
 def test_most_flags_come_from_options_fields() -> None:
     linked = [
         name
