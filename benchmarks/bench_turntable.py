@@ -231,11 +231,14 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=2, help="Cycles samples per pixel of the rendering")
     parser.add_argument("--noise-m", type=float, default=0.0, help="depth noise std at 0.7 m (0: noise-free)")
     parser.add_argument("--repeat", type=int, default=1, help="runs per subset; the median ratio's is shown")
+    parser.add_argument(
+        "--capture", type=Path, help="a capture rendered earlier (with true_poses.json, ground_truth.ply): no rendering"
+    )
     args = parser.parse_args()
     if any(n > args.frames or args.frames % n for n in args.subsets):
         parser.error(f"--subsets {args.subsets}: each must divide --frames {args.frames}")
 
-    capture_dir = capture_for(args.object, args.frames, args.noise_m, args.samples)
+    capture_dir = args.capture or capture_for(args.object, args.frames, args.noise_m, args.samples)
     truth = trimesh.load(capture_dir / "ground_truth.ply", force="mesh")
     capture = load_capture(capture_dir)
     warm_up()

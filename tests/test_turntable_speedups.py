@@ -1,0 +1,106 @@
+"""The turntable's faster paths against what they replace, on synthetic inputs (no rendering,
+a few seconds): the object's pixels kept from one reading give the points a whole-image
+back-projection gives; the tag search's decimation follows the tags' size in the image; the
+mesh snapped onto the merged points lands on the surface they sample; the texture carrier's
+decimation keeps a closed mesh closed and on the surface."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+from homemodel.core.transforms import world_from_camera_looking_at
+from homemodel.geometry.camera import Camera
+from turntable.board import grid_board
+from turntable.capture import Capture
+from turntable.fusion import Cylinder, object_pixels, pixel_points
+from turntable.meshing import snap_to_points
+from turntable.real_frames import drop_flying_pixels
+from turntable.texture import decimated
+
+reconstruct_module = sys.modules["turntable.reconstruct"]  # the package exports a function of that name
+CAMERA = Camera(width=320, height=240, fx=280.0, fy=280.0, cx=159.5, cy=119.5)
+
+
+def _camera_from_table(distance_m: float = 0.4, height_m: float = 0.5) -> np.ndarray:
+    return np.linalg.inv(world_from_camera_looking_at([0.0, -distance_m, height_m], [0.0, 0.0, 0.03]))
+
+
+def _depth_of_a_box(camera_from_table: np.ndarray) -> np.ndarray:
+    """Ray-cast depth of a 6 cm box on a table top, with a column of flying pixels at its edge."""
+    from homemodel.geometry.raycast import RayCaster
+
+    box = trimesh.creation.box((0.06, 0.06, 0.06))
+    box.apply_translation([0.0, 0.0, 0.03])
+    table = trimesh.creation.box((0.6, 0.6, 0.01))
+    table.apply_translation([0.0, 0.0, -0.005])
+    depth = RayCaster(trimesh.util.concatenate([box, table])).depth(CAMERA, camera_from_table)
+    row = depth[CAMERA.height // 2]
+    edge = int(np.flatnonzero(np.abs(np.diff(row)) > 0.02)[0])
+    depth[CAMERA.height // 2 - 5 : CAMERA.height // 2 + 5, edge] = 0.5 * (row[edge - 1] + row[edge + 2])
+    return depth
+
+
+def test_object_pixels_give_the_whole_image_points_inside_the_cylinder() -> None:
+    camera_from_table = _camera_from_table()
+    depth = _depth_of_a_box(camera_from_table)
+    rgb = np.random.default_rng(0).integers(0, 255, (CAMERA.height, CAMERA.width, 3), dtype=np.uint8)
+    rays = CAMERA.pixel_rays()
+    table_from_camera = np.linalg.inv(camera_from_table)
+    cylinder = Cylinder(axis_xy_m=np.array([0.004, -0.002]), radius_m=0.08, z_min_m=0.004, z_max_m=1.0)
+    wide = Cylinder(axis_xy_m=np.zeros(2), radius_m=0.2, z_min_m=0.001, z_max_m=1.03)
+    pixels, flying = object_pixels(depth, rgb, rays, table_from_camera, wide, drop_flying=True)
+    points, colors, to_camera = pixel_points(pixels, rays, table_from_camera, cylinder)
+    # The reference: flying pixels dropped over the whole image, every pixel back-projected.
+    cleaned, flying_whole = drop_flying_pixels(depth)
+    everything = (rays * cleaned.reshape(-1, 1)) @ table_from_camera[:3, :3].T + table_from_camera[:3, 3]
+    radial = np.hypot(*(everything[:, :2] - cylinder.axis_xy_m).T)
+    inside = (everything[:, 2] > 0.004) & (everything[:, 2] < 1.0) & (radial < 0.08)
+    assert 0 < flying <= flying_whole  # at the box's edge; the table's own edges are not looked at
+    assert len(points) == int(inside.sum()) > 1000
+    assert np.allclose(np.sort(points, axis=0), np.sort(everything[inside], axis=0), atol=1e-6)
+    assert np.allclose(np.sort(colors, axis=0), np.sort(rgb.reshape(-1, 3)[inside] / 255.0, axis=0))
+    assert np.allclose(np.linalg.norm(to_camera, axis=1), 1.0)
+    assert len(pixels.index) < 0.2 * depth.size  # the table top and the room are not kept
+
+
+@pytest.mark.parametrize(("tag_size_m", "expected"), [(0.06, 1.5), (0.015, 1.0)])
+def test_tag_decimation_follows_the_tags_size_in_the_image(tag_size_m: float, expected: float) -> None:
+    board = grid_board(table_diameter_m=0.4, tag_size_m=tag_size_m)
+    capture = Capture(folder=None, camera=CAMERA, board=board, frames=[], unpaired=[])  # type: ignore[arg-type]
+    assert reconstruct_module.tag_decimation(capture, _camera_from_table()) == expected
+    behind = np.diag([1.0, 1.0, -1.0, 1.0]) @ _camera_from_table()  # the board behind the camera: no coarse search
+    assert reconstruct_module.tag_decimation(capture, behind) == 1.0
+
+
+def test_snapping_moves_a_smoothed_surface_onto_the_points_and_leaves_unseen_parts() -> None:
+    rng = np.random.default_rng(1)
+    radius = 0.05
+    directions = rng.normal(size=(40_000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    directions = directions[directions[:, 2] > 0]  # points on the upper half only
+    points = 0.1 * np.array([0, 0, 1.0]) + radius * directions
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=radius + 0.0008)  # 0.8 mm too big
+    sphere.apply_translation([0, 0, 0.1])
+    snapped = snap_to_points(sphere, points, directions, voxel_size_m=0.0015)
+    error = np.linalg.norm(snapped.vertices - [0, 0, 0.1], axis=1) - radius
+    upper = sphere.vertices[:, 2] > 0.1 + 0.1 * radius
+    lower = sphere.vertices[:, 2] < 0.1 - 0.1 * radius
+    assert np.abs(error[upper]).mean() < 0.00005, f"{np.abs(error[upper]).mean() * 1000:.3f} mm"
+    assert np.allclose(snapped.vertices[lower], sphere.vertices[lower])  # no points there: unchanged
+    assert snapped.is_watertight
+
+
+def test_the_texture_carrier_stays_closed_and_on_the_surface() -> None:
+    sphere = trimesh.creation.icosphere(subdivisions=6, radius=0.05)  # 81,920 faces
+    colors = (sphere.vertices - sphere.vertices.min(axis=0)) / np.ptp(sphere.vertices, axis=0)
+    small, small_colors = decimated(sphere, colors, 12_000)
+    assert 11_000 <= len(small.faces) <= 12_000 and small.is_watertight
+    assert np.abs(np.linalg.norm(small.vertices, axis=1) - 0.05).max() < 0.0005
+    # Colours come from the nearest original vertex, so they follow the position.
+    expected = (small.vertices - sphere.vertices.min(axis=0)) / np.ptp(sphere.vertices, axis=0)
+    assert np.abs(small_colors - expected).max() < 0.05
+    assert decimated(sphere, colors, 100_000)[0] is sphere
