@@ -65,6 +65,8 @@ def main() -> None:
     parser.add_argument("--width-px", type=int, default=1600)
     parser.add_argument("--photos", type=Path, help="a real photo folder instead of the rendered set (no accuracy)")
     parser.add_argument("--reference", type=Path, help="with --photos: reference cameras JSON for pose agreement")
+    parser.add_argument("--upsample-px", type=int, help="with --photos: photos enlarged to this longer side "
+                        "(JPEG, quality 92): a stand-in for a twelve-megapixel set, such as 4272")
     parser.add_argument("--skip-baseline", action="store_true", help="only our pipeline")
     args = parser.parse_args()
 
@@ -78,8 +80,12 @@ def main() -> None:
             # The first --views photos by name, linked into a folder of their own.
             images = Path(chosen)
             for path in list_photos(args.photos)[: args.views]:
-                (images / path.name).symlink_to(path.resolve())
-            title = f"{len(list(images.iterdir()))} photos of {args.photos}"
+                if args.upsample_px:
+                    _upsampled(path, images / (path.stem + ".jpg"), args.upsample_px)
+                else:
+                    (images / path.name).symlink_to(path.resolve())
+            size = f" enlarged to {args.upsample_px} px" if args.upsample_px else ""
+            title = f"{len(list(images.iterdir()))} photos of {args.photos}{size}"
         else:
             height_px = args.width_px * 3 // 4
             cache = ROOT / "build" / "bench-cache" / f"photogrammetry_scene_{args.views}x{args.width_px}"
@@ -91,6 +97,17 @@ def main() -> None:
             images = cache / "images"
             title = f"{len(scene.image_paths)} rendered photos at {args.width_px}x{height_px}"
         run(args, images, title, scene, console)
+
+
+def _upsampled(path: Path, out: Path, longest_px: int) -> None:
+    """The photo enlarged (bicubic) so its longer side is `longest_px`, as a JPEG without EXIF
+    (so COLMAP's focal prior is not taken from the original size)."""
+    import cv2
+
+    photo = cv2.imread(str(path))
+    factor = longest_px / max(photo.shape[:2])
+    size = (round(photo.shape[1] * factor), round(photo.shape[0] * factor))
+    cv2.imwrite(str(out), cv2.resize(photo, size, interpolation=cv2.INTER_CUBIC), [cv2.IMWRITE_JPEG_QUALITY, 92])
 
 
 def run(args, images: Path, title: str, scene, console: Console) -> None:
@@ -148,11 +165,17 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
         "sfm_ratio_to_pycolmap": {k: round(sfm_s / v, 3) for k, v in baseline_sfm.items()},
         "total_s": round(total_s, 2),
         "faces": result.figures["faces"],
+        "sparse_points": result.figures["sparse_points"],
+        "support_plane_found": result.figures["support_plane_found"],
     }
     registered_by = ", ".join(f"{k.split()[1]} {v}" for k, v in baseline.items() if k.startswith("registered"))
     console.print(
         f"registered {figures['registered']} of {n_photos} (pycolmap defaults: {registered_by or 'not run'}); "
         f"load average (1, 5, 15 min) before {load_before}, between {load_between}, after {load_after}"
+    )
+    console.print(
+        f"sparse points {figures['sparse_points']}; support plane found: {figures['support_plane_found']}; "
+        f"faces {figures['faces']}"
     )
     if scene is not None:
         from homemodel.evaluation import mean_surface_distance_m

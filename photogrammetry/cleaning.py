@@ -23,6 +23,9 @@ from homemodel.geometry.voxel_cells import cell_keys, group_sums
 class CleaningOptions:
     """Lengths are fractions of the scene scale (the median camera distance to the focus point)."""
 
+    # Find the surface the object stands on (support_plane.py) and cut it away; False keeps
+    # everything the cameras converge on, the object standing on its lowest point.
+    remove_support: bool = True
     roi_fraction: float = 0.6  # only points this near the focus point (where the cameras look) count
     # Without markers, only points that this share of the views have in the middle of their
     # frame (less `in_frame_margin` of its size at each border) count (convergence.py).
@@ -105,11 +108,20 @@ def segment_object(
     focus: np.ndarray,
     scene_scale: float,
     options: CleaningOptions,
+    *,
+    plane_noise: float | None = None,
 ) -> ObjectPoints:
-    """The object's points: above the plane, in the piece nearest `focus`, with outward normals."""
+    """The object's points: above the plane, in the piece nearest `focus`, with outward normals.
+    `plane_noise`: the support plane's own height spread where it was found (its inliers);
+    None: judged from the points near z = 0, which on a cluttered scene (Kermit's legs and
+    books standing on his seat) hold the object's lowest parts too."""
     import open3d as o3d
 
-    clearance = plane_clearance(points[:, 2], options.plane_clearance_fraction * scene_scale)
+    minimum = options.plane_clearance_fraction * scene_scale
+    if plane_noise is None:
+        clearance = plane_clearance(points[:, 2], minimum)
+    else:
+        clearance = max(minimum, 4 * plane_noise)
     above = points[:, 2] > clearance
     removed = int((~above).sum())
     points, colours, to_camera = points[above], colours[above], to_camera[above]

@@ -37,7 +37,7 @@ from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_to_points
-from photogrammetry.support_plane import find_support_plane, focus_point
+from photogrammetry.support_plane import camera_up, find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
 from semantic_map import MapEntry, Registration, add_model_folder
@@ -51,7 +51,7 @@ class ReconstructOptions:
     texture: TextureBakingOptions = field(default_factory=TextureBakingOptions)
     marker_size_m: float | None = None  # the printed markers' black-square edge; None: no markers
     dictionary: MarkerDictionary = "apriltag_36h11"
-    max_faces: int = 40_000  # the mesh is decimated to this before texturing
+    max_faces: int = 500_000  # the visual mesh is decimated to this before texturing
     use_cuda: bool = True  # PatchMatch where pycolmap has CUDA; the CPU path otherwise
     # The model folder (`reconstruct`):
     name: str = "object"  # the model's name
@@ -85,6 +85,7 @@ class Reconstruction:
     frame: ModelFrame
     figures: dict  # the stages' figures (summary.json's `photogrammetry` key) and their times
     work_dir: Path  # holds the texture image until the export copies it (gone after `reconstruct`)
+    object_points: np.ndarray | None = None  # (N, 3) the object's fused dense points the mesh was made from
     registration: Registration | None = None  # set by `reconstruct` when given a map
     summary: ModelSummary | None = None  # the model folder's summary.json, set by `reconstruct`
 
@@ -144,25 +145,33 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     points, colours, to_camera = downsample(points, colours, to_camera, voxel)
     # The object lies where the cameras look, well inside the ring of cameras: far-off walls
     # and furniture are cut away before any plane or piece is looked for.
-    keep = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
+    near = np.linalg.norm(points - focus, axis=1) <= options.cleaning.roi_fraction * scene_scale
+    points, colours, to_camera = points[near], colours[near], to_camera[near]
+    keep = np.ones(len(points), bool)
     if options.marker_size_m is None:
         # Nothing printed marks the object out: it is what (nearly) every photo keeps in frame.
         share = in_frame_share(points, sparse.views, margin=options.cleaning.in_frame_margin)
-        keep &= share >= options.cleaning.min_in_frame_share
-    points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
-    if len(points) < 100:
+        keep = share >= options.cleaning.min_in_frame_share
+    if keep.sum() < 100:
         raise ModelError(
-            f"{photos_dir}: only {len(points)} dense points lie where the photos look and stay in frame: "
+            f"{photos_dir}: only {keep.sum()} dense points lie where the photos look and stay in frame: "
             "no one object is seen from all round (take the photos circling the object, or give --marker-size-m)"
         )
-    camera_up = -np.mean([v.camera_from_world[1, :3] for v in sparse.views], axis=0)
-    plane = find_support_plane(
-        points,
-        centres,
-        camera_up,
-        seed=options.sfm.random_state,
-        threshold=options.cleaning.plane_clearance_fraction * scene_scale / 2,
-    )
+    camera_from_world = np.array([v.camera_from_world for v in sparse.views])
+    # The table reaches beyond the frames' common part: the plane is looked for in every point
+    # near the object, and must have what stays in frame above it.
+    plane = None
+    if options.cleaning.remove_support:
+        plane = find_support_plane(
+            points,
+            points[keep],
+            camera_from_world,
+            focus,
+            seed=options.sfm.random_state,
+            # Wider than the cut's clearance: a seat's cushion or a warped board is not quite flat.
+            threshold=options.cleaning.plane_clearance_fraction * scene_scale,
+        )
+    points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
     if options.marker_size_m is not None:
         clock.start("markers")
     markers = _markers(sparse, options, clock) if options.marker_size_m is not None else []
@@ -177,7 +186,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         marker_size_m=options.marker_size_m,
         object_centre_sfm=focus,
         x_hint_sfm=sparse.views[0].camera_from_world[0, :3],
-        up_hint_sfm=camera_up,
+        up_hint_sfm=camera_up(camera_from_world[:, :3, :3]),
     )
 
     clock.start("cleaning")
@@ -196,7 +205,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     keep = np.ones(len(points), bool)
     keep[candidates[in_free_space]] = False
     obj = segment_object(model_points[keep], colours[keep], to_camera[keep] @ frame.model_from_sfm[:3, :3].T / frame.scale,
-                         model_focus, model_scale, options.cleaning)  # fmt: skip
+                         model_focus, model_scale, options.cleaning,
+                         plane_noise=plane.noise * frame.scale if plane is not None else None)  # fmt: skip
     if plane is None and not markers:
         # The object stands where its own lowest point is, not the scene's (a stray point far
         # below would otherwise put the flat bottom Poisson closes on far under the object).
@@ -224,6 +234,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "dense_points": int(len(points)),
         "object_points": int(len(obj.points)),
         "support_plane_found": plane is not None,
+        "support_plane": plane.figures() if plane is not None else None,
         "support_plane_points_removed": obj.removed_plane_points,
         "free_space_points_removed": int((~keep).sum()),
         "pieces_dropped": obj.dropped_pieces,
@@ -241,7 +252,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "texture_covered_share": round(textured.covered_share, 4),
         "times_s": {k: round(v, 3) for k, v in {**sparse.times_s, **clock.times_s}.items()},
     }
-    return Reconstruction(textured=textured, views=views, frame=frame, figures=figures, work_dir=work_dir)
+    return Reconstruction(textured=textured, views=views, frame=frame, figures=figures, work_dir=work_dir,
+                          object_points=obj.points)  # fmt: skip
 
 
 def reconstruct(
@@ -284,6 +296,7 @@ def write_reconstruction(
     import cv2
 
     from articulation.model_folder import PipelineSummary, write_model_folder
+    from articulation.scan_meshes import scan_meshes
     from articulation.scan_model import scan_model
 
     texture_path = result.work_dir / "texture.png"
@@ -291,8 +304,11 @@ def write_reconstruction(
     if not ok:
         raise ModelError("cannot encode the texture as PNG")
     write_bytes_atomic(texture_path, png.tobytes())
+    meshes = scan_meshes(result.mesh, result.object_points, uv=result.textured.uv, metric=result.frame.scaled,
+                         progress=progress)  # fmt: skip
     model = scan_model(
         result.mesh,
+        meshes=meshes,
         name=options.name,
         density_kg_m3=options.density_kg_m3,
         texture=texture_path,
@@ -328,6 +344,7 @@ def write_reconstruction(
             metric=result.frame.scaled,
             times_s=dict(result.figures["times_s"]),
             inputs={"photos": photos_dir},
+            meshes=meshes.figures,
         ),
         force=force,
         add_files=add_files,

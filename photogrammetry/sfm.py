@@ -64,6 +64,9 @@ class SfmOptions:
     # 13 minutes), 0.06 s at ~1,500 features under a load of 5: 120 photos are 7,140 pairs.
     exhaustive_max_images: int = 120
     retrieval_neighbours: int = 40
+    # The undistorted views are written at most this large (the texture is sampled from 1600 px,
+    # depth from fewer); None: at the photos' size.
+    undistorted_max_px: int | None = 1600
     num_threads: int = -1
     random_state: int = 0
     verbose: bool = False  # let COLMAP log (glog) and C libraries print
@@ -71,6 +74,8 @@ class SfmOptions:
     def check(self) -> None:
         require_at_least("max_image_size_px", self.max_image_size_px, 200)
         require_at_least("max_num_features", self.max_num_features, 256)
+        if self.undistorted_max_px is not None:
+            require_at_least("undistorted_max_px", self.undistorted_max_px, 200)
         require_choice("first_octave", self.first_octave, (None, -1, 0))
         require_between("peak_threshold", self.peak_threshold, 1e-4, 0.1)
         require_choice("matching", self.matching, ("auto", "exhaustive", "preemptive", "retrieval"))
@@ -340,7 +345,9 @@ def run_sfm(
 def _undistort(best, image_dir: Path, work_dir: Path, names: list[str], options: SfmOptions) -> SparseModel:
     """The registered photos as pinhole views (written undistorted into work_dir/undistorted),
     with the sparse points."""
-    written = undistort_photos(best, image_dir, work_dir / "undistorted", workers=options.threads)
+    written = undistort_photos(
+        best, image_dir, work_dir / "undistorted", workers=options.threads, max_side_px=options.undistorted_max_px
+    )
     images = sorted(best.images.values(), key=lambda im: im.name)
     views, index_of = [], {}
     for image in images:

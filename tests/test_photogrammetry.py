@@ -177,9 +177,9 @@ def test_support_plane_found_and_removed_object_kept(tmp_path: Path) -> None:
     world_from_sfm[:3, 3] = [0.2, 0.1, -0.3]
     sfm_points = points @ np.linalg.inv(world_from_sfm)[:3, :3].T + np.linalg.inv(world_from_sfm)[:3, 3]
     cameras = _ring_cameras(12, 0.6, 0.45, (0, 0, 0.07))
-    centres = np.array([(np.linalg.inv(world_from_sfm) @ np.linalg.inv(c))[:3, 3] for c in cameras])
-    up = np.linalg.inv(world_from_sfm)[:3, :3] @ np.array([0, 0, 1.0])
-    plane = find_support_plane(sfm_points, centres, up, threshold=0.003)
+    camera_from_sfm = np.array([c @ world_from_sfm for c in cameras])
+    focus = sfm_points[n_table : n_table + 38000].mean(axis=0)
+    plane = find_support_plane(sfm_points, sfm_points[n_table:], camera_from_sfm, focus, threshold=0.003)
     assert plane is not None
     true_normal = np.linalg.inv(world_from_sfm)[:3, :3] @ [0, 0, 1.0]
     assert np.degrees(np.arccos(min(1.0, plane.normal @ true_normal))) < 0.5
