@@ -5,9 +5,7 @@ never NaN, every repair stated, the gate passed; the gate refuses NaN and infini
 
 from __future__ import annotations
 
-import io
 import re
-import shutil
 from pathlib import Path
 
 import numpy as np
