@@ -7,7 +7,14 @@ from pathlib import Path
 import typer
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
+from homemodel.cli.map_commands import (
+    ID_OPTION,
+    MAP_OPTION,
+    PARENT_OPTION,
+    XYZ_OPTION,
+    echo_registration,
+    map_entry_from_flags,
+)
 from homemodel.cli.option_fields import field_option, from_options
 from homemodel.cli.progress import Column, figures_table, fitted_table, make_console, progress_bar
 
@@ -108,12 +115,10 @@ def run_command(
     density_kg_m3: float = field_option(
         f"{COMPLETION}.density_kg_m3", "--density-kg-m3", "--density", min=1.0, help="for the inertial, kg/m^3"
     ),
-    map_path: Path | None = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this map"),
-    parent_id: str | None = typer.Option(None, "--parent", help="with --map: a room, or the large object it stands on"),
-    object_id: str | None = typer.Option(None, "--id", help="with --map: the object's id (default: the model name)"),
-    xyz: tuple[float, float, float] = typer.Option(
-        (0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent's frame (m)"
-    ),
+    map_path: Path | None = MAP_OPTION,
+    parent_id: str | None = PARENT_OPTION,
+    object_id: str | None = ID_OPTION,
+    xyz: tuple[float, float, float] = XYZ_OPTION,
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Complete the object seen in one depth image into a model folder: upright (+z up, origin on the

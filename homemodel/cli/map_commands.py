@@ -20,6 +20,13 @@ if TYPE_CHECKING:
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
 MAP_ARGUMENT = typer.Argument(..., metavar="MAP.xml", help="semantic map file")
+# A reconstruction command's flags for `map_entry_from_flags`.
+MAP_OPTION = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this semantic map")
+PARENT_OPTION = typer.Option(
+    None, "--parent", "--room", help="with --map: a room, or the large object the model stands on"
+)
+ID_OPTION = typer.Option(None, "--id", help="with --map: the object's id (default: the model's name)")
+XYZ_OPTION = typer.Option((0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent's frame (m)")
 
 
 def map_entry_from_flags(

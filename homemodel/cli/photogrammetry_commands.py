@@ -9,7 +9,14 @@ from typing import TYPE_CHECKING
 import typer
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
+from homemodel.cli.map_commands import (
+    ID_OPTION,
+    MAP_OPTION,
+    PARENT_OPTION,
+    XYZ_OPTION,
+    echo_registration,
+    map_entry_from_flags,
+)
 from homemodel.cli.option_fields import field_option, from_options
 from homemodel.cli.progress import figures_table, make_console, stage_bars
 
@@ -78,12 +85,10 @@ def reconstruct(
     ),
     max_faces: int = field_option(f"{OPTIONS}.max_faces", help="faces of the final mesh"),
     picture: bool = field_option(f"{OPTIONS}.picture", help="also write cameras.png: the cameras around the mesh"),
-    map_path: Path | None = typer.Option(None, "--map", help="register the model into this semantic map (MAP.xml)"),
-    parent: str | None = typer.Option(None, "--parent", help="with --map: a room, or the large object it stands on"),
-    object_id: str | None = typer.Option(None, "--id", help="with --map: the object's id (default: --name)"),
-    xyz: tuple[float, float, float] = typer.Option(
-        (0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent (m)"
-    ),
+    map_path: Path | None = MAP_OPTION,
+    parent: str | None = PARENT_OPTION,
+    object_id: str | None = ID_OPTION,
+    xyz: tuple[float, float, float] = XYZ_OPTION,
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
     verbose: bool = field_option(
         f"{OPTIONS}.sfm.verbose", help="show COLMAP's log and the image libraries' warnings"

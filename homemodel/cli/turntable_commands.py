@@ -13,7 +13,14 @@ import typer
 from rich.console import Console
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.map_commands import echo_registration, map_entry_from_flags
+from homemodel.cli.map_commands import (
+    ID_OPTION,
+    MAP_OPTION,
+    PARENT_OPTION,
+    XYZ_OPTION,
+    echo_registration,
+    map_entry_from_flags,
+)
 from homemodel.cli.option_fields import field_option, from_options
 from homemodel.cli.progress import figures_table, make_console, stage_bars
 
@@ -162,10 +169,10 @@ def reconstruct(
     texture_size_px: int = field_option(f"{RECONSTRUCT}.texture_size_px", help="baked texture size; 0: no texture"),
     density_kg_m3: float = field_option(f"{RECONSTRUCT}.density_kg_m3", help="for the inertial (kg/m^3)"),
     picture: bool = field_option(f"{RECONSTRUCT}.picture", help="also draw picture.png: the mesh with the camera orbit"),
-    map_path: Path | None = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this map"),
-    parent_id: str | None = typer.Option(None, "--parent", "--room", help="map parent: a large object (or a room)"),
-    object_id: str | None = typer.Option(None, "--id", help="id in the map (default: --name)"),
-    xyz: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--xyz", help="position in the parent's frame (m)"),
+    map_path: Path | None = MAP_OPTION,
+    parent_id: str | None = PARENT_OPTION,
+    object_id: str | None = ID_OPTION,
+    xyz: tuple[float, float, float] = XYZ_OPTION,
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
