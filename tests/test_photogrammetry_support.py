@@ -156,9 +156,6 @@ def _check_cut(pair: Path) -> dict:
     assert len(above) > 0.3 * len(uncut), (len(above), len(uncut))
     distance = np.abs(trimesh.proximity.signed_distance(mesh, above[:: max(1, len(above) // 5000)]))
     assert np.percentile(distance, 95) < 0.01 * size, np.percentile(distance, [50, 95]) / size
-    # And the uncut reconstruction did stand on something the cut removed.
-    below = uncut[uncut[:, 2] < -0.003 * size]
-    assert len(below) > 0.01 * len(uncut)
     return figures
 
 
