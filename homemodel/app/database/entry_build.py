@@ -143,10 +143,11 @@ def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
 
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="homemodel-import-") as textures:
-        imported = import_asset(job.inputs["path"], _options(ImportOptions, job), texture_dir=Path(textures))
+        options = _options(ImportOptions, job)
+        imported = import_asset(job.inputs["path"], options, texture_dir=Path(textures))
         if imported.gaps and repair is None:
             # The asset as given fails the gate for want of what it needs: say so, and how to repair.
-            report = validate_path(imported.urdf) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
+            report = validate_path(imported.urdf, package_paths=options.package_paths) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
             said = "; ".join(imported.gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"
             report.checks.insert(0, Check("repairable", False, said))
             return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
