@@ -30,6 +30,9 @@ class MapEntry:
     properties: dict[str, str] | None = None  # merged over the model's
     graspable: bool | None = None  # default: small objects are, large ones are not
     out_path: Path | None = None  # write the extended map here; None: over `map_path`
+    # Where a ROS URDF's package://NAME/... meshes find package NAME, after the package holding
+    # it and before ROS_PACKAGE_PATH (see articulation.mesh_paths).
+    package_paths: Sequence[Path] = ()
 
     def check(self, *, force: bool = False) -> None:
         """Load the map, find the parent and make sure the id is free now, so a bad map, parent
@@ -73,7 +76,7 @@ def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -
     entry.check(force=force)
     urdf = urdf_import.find_urdf(Path(model_dir))
     smap = entry.load()
-    model = urdf_import.load_urdf(urdf)
+    model = urdf_import.load_urdf(urdf, package_paths=entry.package_paths)
     if entry.category:
         model.category = entry.category
     try:

@@ -55,3 +55,18 @@ def test_validate_takes_package_paths_on_the_command_line(workspace: Path) -> No
     command = [sys.executable, "-m", "homemodel", "validate", str(workspace / URDF), "--package-path", str(workspace)]
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     assert done.returncode == 0 and "OK: all 13 checks passed" in done.stdout, done.stdout + done.stderr
+
+
+def test_map_add_registers_a_ros_urdf_whose_meshes_are_in_other_packages(workspace: Path, house_file: Path) -> None:
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+    from semantic_map import load_map
+
+    add = ["map", "add", str(house_file), str(workspace / URDF), "--id", "arm", "--parent", "kitchen", "--parking", "1 0 0"]
+    refused = CliRunner().invoke(app, add)
+    assert refused.exit_code == 2 and "package://shared_meshes/meshes/knob.dae" in refused.output
+    done = CliRunner().invoke(app, [*add, "--package-path", str(workspace)])
+    assert done.exit_code == 0, done.output
+    arm = load_map(house_file).node("arm")
+    assert (house_file.parent / arm.model_ref).resolve() == (workspace / URDF).resolve()

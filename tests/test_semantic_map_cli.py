@@ -85,7 +85,7 @@ def urdf_reads(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
     """The URDF reader replaced by one returning a green cup; the paths it was asked to read."""
     reads: list[Path] = []
 
-    def load_urdf(path: Path) -> Model:
+    def load_urdf(path: Path, *, package_paths: tuple = ()) -> Model:
         reads.append(Path(path))
         return cup_model(colour="green")
 
@@ -122,7 +122,7 @@ def test_add_small_object_to_a_new_file(
 
 
 def test_add_large_object_in_place(house_file: Path, model_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(articulation.urdf_import, "load_urdf", lambda path: box_model("chair", (0.4, 0.4, 0.9)))
+    monkeypatch.setattr(articulation.urdf_import, "load_urdf", lambda path, package_paths=(): box_model("chair", (0.4, 0.4, 0.9)))
     result = run("add", house_file, model_dir, "--id", "chair", "--parent", "kitchen", "--xyz", "1", "2", "0",
                  "--parking", "front=1 1 1.5", "--parking", "0 2 0")
     assert result.exit_code == 0, result.output

@@ -188,6 +188,9 @@ def add(
     out: Path | None = typer.Option(None, "--out", help="write the extended map here instead of over MAP.xml"),
     force: bool = typer.Option(False, "--force", help="replace an existing --out file"),
     db: Path | None = typer.Option(None, "--db", help="the model database a db:ID model refers to"),
+    package_paths: list[Path] = typer.Option(
+        [], "--package-path", help="where a ROS URDF's package://NAME/... meshes find package NAME (repeatable)"
+    ),
 ) -> None:
     """Register the model MODEL under PARENT_ID and save the map atomically."""
     from homemodel.app.database.queries import resolve_model_ref
@@ -207,6 +210,7 @@ def add(
             properties={**model.properties, **key_values(properties, "--property")} or None,
             graspable=graspable,
             out_path=out,
+            package_paths=package_paths,
         )
         registration = add_model_folder(model.folder, entry, force=force)
     echo_registration(registration)
