@@ -75,6 +75,15 @@ def inside_convex(hull: trimesh.Trimesh, points: np.ndarray, tolerance: float = 
     return np.all(points @ normals.T - offsets <= tolerance, axis=1)
 
 
+def _covered(shapes: list[trimesh.Trimesh], points: np.ndarray, tolerance: float) -> np.ndarray:
+    """Which points lie inside some convex shape (each shape tests only the points still out)."""
+    covered = np.zeros(len(points), dtype=bool)
+    for shape in shapes:
+        out = np.nonzero(~covered)[0]
+        covered[out[inside_convex(shape, points[out], tolerance)]] = True
+    return covered
+
+
 def fidelity(
     shapes: list[trimesh.Trimesh],
     real: trimesh.Trimesh,
@@ -102,12 +111,9 @@ def fidelity(
     weights = np.concatenate([np.full(samples, shape.area / samples) for shape in shapes])[order]
     at_95 = np.searchsorted(np.cumsum(weights), 0.95 * weights.sum())
     overshoot_all = float(np.concatenate(distances)[order][min(at_95, len(order) - 1)])
-    points, _ = trimesh.sample.sample_surface(real, samples * max(4, len(shapes)), seed=int(rng.integers(1 << 31)))
+    points, _ = trimesh.sample.sample_surface(real, 4 * samples, seed=int(rng.integers(1 << 31)))
     gap = RayCaster(trimesh.util.concatenate(shapes)).distances(points)
-    covered = np.zeros(len(points), dtype=bool)
-    for shape in shapes:
-        covered |= inside_convex(shape, points, tolerance=1e-6 * float(real.scale))
-    gap[covered] = 0.0
+    gap[_covered(shapes, points, tolerance=1e-6 * float(real.scale))] = 0.0
     return Fidelity(
         overshoot_m=np.array(overshoots),
         overshoot_all_m=overshoot_all,
@@ -139,9 +145,7 @@ def decompose(
     fit = fidelity(meshes, surface, to_real=to_surface)
     hull_fit = fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1)
     inside = trimesh.sample.volume_mesh(surface, 4 * _SAMPLES)
-    covered = np.zeros(len(inside), dtype=bool)
-    for part in meshes:
-        covered |= inside_convex(part, inside, tolerance=1e-6 * float(surface.scale))
+    covered = _covered(meshes, inside, tolerance=1e-6 * float(surface.scale))
     return Decomposition(
         parts=[ConvexPart(mesh=m, overshoot_m=float(o)) for m, o in zip(meshes, fit.overshoot_m, strict=True)],
         coverage=float(covered.mean()) if len(inside) else 0.0,
