@@ -12,13 +12,23 @@ Baselines in the same run (the machines are shared and noisy, so ratios matter):
 pipeline's IoU over retrieval only's, and a query's time over one ray-cast render of the
 same depth image.
 
+With `--model MODEL.npz` nothing is trained: the model completes unseen generated instances
+(`--test` per class, drawn with another seed than the default library's) and `--real-test`
+meshes, and with `--baseline-src DIR` (another source tree of the project, e.g.
+`git archive COMMIT | tar -x -C DIR`) the same queries and the same CLI run are done by that
+code in a subprocess, so the previous implementation is measured beside this one in one run.
+
 Run: .venv/bin/python benchmarks/bench_completion.py [--classes bottle,cup,spoon] [--queries 2]
      [--real-train REAL_TRAIN] [--real-test REAL_TEST]
+     .venv/bin/python benchmarks/bench_completion.py --model MODEL.npz [--real-test REAL_TEST]
+     [--baseline-src DIR] [--classes ...] [--test 3] [--queries 1]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -29,12 +39,13 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from homemodel.evaluation import rock_voxel_iou
 from homemodel.geometry.camera import save_camera
 from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
 from shape_completion.benchmark import STAGES, BenchmarkOptions, BenchmarkResult, benchmark_split, split_library
 from shape_completion.library import Library, load_library, write_procedural_library
-from shape_completion.model_io import save_model
+from shape_completion.model_io import load_model, save_model
 from shape_completion.pipeline import ShapeCompleter
 from shape_completion.queries import FILLER_CAMERA, random_query_pose
 
@@ -58,18 +69,85 @@ def render_seconds(library: Library) -> float:
 def cli_seconds(completer: ShapeCompleter, library: Library, folder: Path, runs: int = 3) -> float:
     """Best wall time of `homemodel completion run` in a fresh process on one rendered query."""
     save_model(completer, folder / "model.npz")
-    mesh = library.meshes[-1].mesh
+    return cli_run_seconds(folder / "model.npz", library.meshes[-1].mesh, folder, runs=runs)
+
+
+def cli_run_seconds(model: Path, mesh, folder: Path, *, runs: int, source: Path | None = None) -> float:
+    """Best wall time of `homemodel completion run MODEL` on a rendered depth image of `mesh`,
+    each in a fresh process; with `source`, that source tree's code is run."""
     write_depth(folder / "depth.png", RayCaster(mesh).depth(FILLER_CAMERA, random_query_pose(mesh, np.random.default_rng(1))),
                 depth_scale_m=FILLER_CAMERA.depth_scale_m)  # fmt: skip
     save_camera(FILLER_CAMERA, folder / "camera.yaml")
-    command = [str(Path(sys.executable).parent / "homemodel"), "completion", "run", str(folder / "model.npz"),
+    command = [str(Path(sys.executable).parent / "homemodel"), "completion", "run", str(model),
                str(folder / "depth.png"), "--camera", str(folder / "camera.yaml"), "--force"]  # fmt: skip
+    env = os.environ | ({"PYTHONPATH": str(source)} if source is not None else {})
     times = []
     for run in range(runs):
         started = time.perf_counter()
-        subprocess.run([*command, "--out", str(folder / f"out{run}")], check=True, capture_output=True)
+        done = subprocess.run([*command, "--out", str(folder / f"out{run}")], capture_output=True, text=True, env=env)
+        if done.returncode != 0:  # reported, not fatal: the in-process figures still stand
+            print(f"CLI run failed ({source or 'this code'}): {done.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
+            return float("nan")
         times.append(time.perf_counter() - started)
     return min(times)
+
+
+def scored_queries(completer: ShapeCompleter, test: Library, real_names: set[str], queries: int) -> list[dict]:
+    """Each test mesh completed from `queries` random views: class, whether real, IoU, seconds."""
+    rng = np.random.default_rng(7)
+    rows = []
+    for entry in test.meshes:
+        for _ in range(queries):
+            camera_from_object = random_query_pose(entry.mesh, rng)
+            depth = RayCaster(entry.mesh).depth(FILLER_CAMERA, camera_from_object)
+            started = time.perf_counter()
+            completion = completer.complete(depth, FILLER_CAMERA)
+            seconds = time.perf_counter() - started
+            truth = entry.mesh.copy().apply_transform(camera_from_object)
+            rows.append({"class": entry.class_name, "instance": entry.name, "real": entry.name in real_names,
+                         "iou": rock_voxel_iou(completion.mesh, truth), "seconds": seconds})  # fmt: skip
+    return rows
+
+
+def model_scores(args: argparse.Namespace, folder: Path) -> dict:
+    """The trained model's scores on unseen generated instances and the real test meshes, and a CLI run's time."""
+    completer = load_model(args.model)
+    write_procedural_library(folder / "unseen", classes=args.classes.split(","), per_class=args.test, seed=11)
+    test = load_library(folder / "unseen", min_per_class=1)
+    real_names: set[str] = set()
+    if args.real_test is not None:
+        real = load_library(args.real_test, min_per_class=1)
+        real_names = {m.name for m in real.meshes}
+        test = Library(meshes=test.meshes + real.meshes, fingerprint=test.fingerprint)
+    rows = scored_queries(completer, test, real_names, args.queries)
+    cli = cli_run_seconds(args.model, test.meshes[-1].mesh, folder, runs=2)
+    return {"queries": rows, "cli_seconds": cli}
+
+
+def comparison_table(current: dict, baseline: dict | None) -> Table:
+    """Mean IoU and query seconds per group (real classes apart, generated ones together)."""
+    table = Table(title="this code" + ("" if baseline is None else " against the baseline source, same queries"))
+    for column in ("queries", "group", "IoU", "IoU baseline", "query s mean", "max", "baseline mean", "max", "ratio"):
+        table.add_column(column, justify="right")
+    groups: dict[str, list[int]] = {}
+    for i, row in enumerate(current["queries"]):
+        for key in [f"real {row['class']}", "real, all"] if row["real"] else ["generated"]:
+            groups.setdefault(key, []).append(i)
+    for name, members in sorted(groups.items()):
+        now = [current["queries"][i] for i in members]
+        then = [baseline["queries"][i] for i in members] if baseline else []
+        cells = [str(len(now)), name, f"{np.mean([r['iou'] for r in now]):.3f}"]
+        cells.append(f"{np.mean([r['iou'] for r in then]):.3f}" if then else "")
+        cells += [f"{np.mean([r['seconds'] for r in now]):.2f}", f"{np.max([r['seconds'] for r in now]):.2f}"]
+        if then:
+            ratio = np.mean([r["seconds"] for r in now]) / np.mean([r["seconds"] for r in then])
+            cells += [f"{np.mean([r['seconds'] for r in then]):.2f}", f"{np.max([r['seconds'] for r in then]):.2f}", f"{ratio:.2f}"]
+        else:
+            cells += ["", "", ""]
+        table.add_row(*cells)
+    cli = f"{current['cli_seconds']:.2f}" + ("" if baseline is None else f" (baseline {baseline['cli_seconds']:.2f})")
+    table.caption = f"homemodel completion run, fresh process, best of 2: {cli} s (target < {CLI_TARGET_S} s)"
+    return table
 
 
 def iou_table(title: str, result: BenchmarkResult) -> Table:
@@ -105,8 +183,25 @@ def main() -> None:
     parser.add_argument("--queries", type=int, default=2, help="query views per unseen instance")
     parser.add_argument("--real-train", type=Path, help="library folder of real meshes added to training")
     parser.add_argument("--real-test", type=Path, help="library folder of real meshes to score, never trained on")
+    parser.add_argument("--model", type=Path, help="a trained model to score instead of training one")
+    parser.add_argument("--baseline-src", type=Path, help="with --model: a source tree to run the same queries with")
+    parser.add_argument("--scores-out", type=Path, help=argparse.SUPPRESS)  # the baseline's subprocess writes here
     args = parser.parse_args()
     console = Console(width=160)
+    if args.model is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            current = model_scores(args, Path(tmp))
+            if args.scores_out is not None:
+                args.scores_out.write_text(json.dumps(current))
+                return
+            baseline = None
+            if args.baseline_src is not None:
+                out = Path(tmp) / "baseline.json"
+                command = [sys.executable, __file__, *sys.argv[1:], "--scores-out", str(out)]
+                subprocess.run(command, check=True, env=os.environ | {"PYTHONPATH": str(args.baseline_src)})
+                baseline = json.loads(out.read_text())
+        console.print(comparison_table(current, baseline))
+        return
     options = BenchmarkOptions(
         train_per_class=args.train, test_per_class=args.test, n_views=args.views, queries_per_instance=args.queries
     )
