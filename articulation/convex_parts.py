@@ -123,6 +123,16 @@ def fidelity(
     )
 
 
+def spans_a_volume(vertices: np.ndarray) -> bool:
+    """Whether a V-HACD part's points span three dimensions: a flat or collapsed part (fewer
+    than four distinct points, or all on one plane) has no convex hull (qhull refuses it)."""
+    distinct = np.unique(vertices, axis=0)
+    if len(distinct) < 4:
+        return False
+    spread = np.linalg.svd(distinct - distinct.mean(axis=0), compute_uv=False)
+    return bool(spread[2] > 1e-6 * spread[0])
+
+
 def decompose(
     mesh: trimesh.Trimesh,
     *,
@@ -141,7 +151,7 @@ def decompose(
     found = convex_decomposition(mesh, maxConvexHulls=max_parts, resolution=resolution)
     found = found if isinstance(found, list) else [found]
     meshes = [trimesh.Trimesh(**p) if isinstance(p, dict) else p for p in found]
-    meshes = [m.convex_hull for m in meshes if len(m.faces) >= 4]
+    meshes = [m.convex_hull for m in meshes if spans_a_volume(m.vertices)]
     fit = fidelity(meshes, surface, to_real=to_surface)
     hull_fit = fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1)
     inside = trimesh.sample.volume_mesh(surface, 4 * _SAMPLES)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.convex_parts import decompose, is_concave
+from articulation.convex_parts import spans_a_volume, decompose, is_concave
 from articulation.export import write_model_files
 from articulation.gate.validate import validate_path
 from articulation.model import MeshGeometry
@@ -59,3 +59,12 @@ def test_a_scanned_cup_keeps_its_opening_and_passes_the_gate(tmp_path: Path) -> 
     assert report.ok, report.format()
     solid = scan_model(trimesh.creation.box((0.1, 0.1, 0.1)), name="box_scan", density_kg_m3=500.0)
     assert [c.name for c in solid.links[0].collisions] == ["hull"] and "collision_parts" not in solid.properties
+
+
+def test_a_flat_or_collapsed_part_is_left_out_rather_than_given_to_qhull() -> None:
+    # V-HACD can return a part of four or more faces whose points lie on one plane (a completed
+    # mug's CLI run crashed in qhull on one): such a part has no hull and is dropped.
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0]], float)
+    assert not spans_a_volume(square)
+    assert not spans_a_volume(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0]], float))
+    assert spans_a_volume(trimesh.creation.box().vertices)
