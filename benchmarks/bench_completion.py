@@ -43,7 +43,14 @@ from homemodel.evaluation import rock_voxel_iou
 from homemodel.geometry.camera import save_camera
 from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
-from shape_completion.benchmark import STAGES, BenchmarkOptions, BenchmarkResult, benchmark_split, split_library
+from shape_completion.benchmark import (
+    STAGES,
+    BenchmarkOptions,
+    BenchmarkResult,
+    benchmark_split,
+    complete_random_view,
+    split_library,
+)
 from shape_completion.library import Library, load_library, write_procedural_library
 from shape_completion.model_io import load_model, save_model
 from shape_completion.pipeline import ShapeCompleter
@@ -98,14 +105,9 @@ def scored_queries(completer: ShapeCompleter, test: Library, real_names: set[str
     rows = []
     for entry in test.meshes:
         for _ in range(queries):
-            camera_from_object = random_query_pose(entry.mesh, rng)
-            depth = RayCaster(entry.mesh).depth(FILLER_CAMERA, camera_from_object)
-            started = time.perf_counter()
-            completion = completer.complete(depth, FILLER_CAMERA)
-            seconds = time.perf_counter() - started
-            truth = entry.mesh.copy().apply_transform(camera_from_object)
+            view = complete_random_view(completer, entry.mesh, rng)
             rows.append({"class": entry.class_name, "instance": entry.name, "real": entry.name in real_names,
-                         "iou": rock_voxel_iou(completion.mesh, truth), "seconds": seconds})  # fmt: skip
+                         "iou": rock_voxel_iou(view.completion.mesh, view.truth), "seconds": view.seconds})  # fmt: skip
     return rows
 
 

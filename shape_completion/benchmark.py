@@ -149,6 +149,28 @@ def run_benchmark(library: Library, options: BenchmarkOptions, progress: Progres
     return benchmark_split(train, test, options, progress)
 
 
+@dataclass(frozen=True)
+class CompletedView:
+    """One random view of a test mesh, completed: its depth, the completion, the truth in the
+    camera's frame, and the completion's time."""
+
+    camera_from_object: np.ndarray
+    depth_m: np.ndarray
+    completion: Completion
+    truth: trimesh.Trimesh
+    seconds: float
+
+
+def complete_random_view(completer: ShapeCompleter, mesh: trimesh.Trimesh, rng: np.random.Generator) -> CompletedView:
+    """Render `mesh` from a random query pose and complete it, timing the completion alone."""
+    camera_from_object = random_query_pose(mesh, rng)
+    depth = RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object)
+    started = time.perf_counter()
+    completion = completer.complete(depth, FILLER_CAMERA)
+    seconds = time.perf_counter() - started
+    return CompletedView(camera_from_object, depth, completion, mesh.copy().apply_transform(camera_from_object), seconds)
+
+
 def benchmark_split(
     train: Library,
     test: Library,
@@ -178,17 +200,13 @@ def benchmark_split(
         oracle = oracle_mesh(entry.mesh, train)
         for q in range(options.queries_per_instance):
             report("completing test views", index * options.queries_per_instance + q, total)
-            camera_from_object = random_query_pose(entry.mesh, rng)
-            depth = RayCaster(entry.mesh).depth(FILLER_CAMERA, camera_from_object)
-            t0 = time.perf_counter()
-            completion = completer.complete(depth, FILLER_CAMERA)
-            seconds = time.perf_counter() - t0
-            truth = entry.mesh.copy().apply_transform(camera_from_object)
+            view = complete_random_view(completer, entry.mesh, rng)
+            completion, truth = view.completion, view.truth
             staged = {
                 "retrieval": completion.retrieved,
                 "fitting": completion.deformed,
                 "filling": completion.mesh,
-                "oracle": oracle.copy().apply_transform(camera_from_object),
+                "oracle": oracle.copy().apply_transform(view.camera_from_object),
             }
             scores.append(
                 QueryScore(
@@ -199,11 +217,11 @@ def benchmark_split(
                     surface_distance={
                         k: rock_surface_distance(m, truth, n_samples=DISTANCE_SAMPLES) for k, m in staged.items()
                     },
-                    seconds=seconds,
+                    seconds=view.seconds,
                 )
             )
             if q == 0 and not any(e.class_name == entry.class_name for e in examples):
-                examples.append(Example(class_name=entry.class_name, depth_m=depth, completion=completion, truth=truth))
+                examples.append(Example(class_name=entry.class_name, depth_m=view.depth_m, completion=completion, truth=truth))
     report("completing test views", total, total)
     return BenchmarkResult(options=options, scores=scores, training_seconds=training_seconds, examples=examples)
 
