@@ -132,10 +132,10 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
 
 def pose_error_mm_deg(result, capture_dir: Path) -> tuple[float, float]:  # noqa: ANN001
     from homemodel.evaluation import camera_pose_errors
-    from homemodel.exchange.poses import read_poses
+    from homemodel.exchange.cameras import read_cameras
 
     estimated = {stem: pose.camera_from_table for stem, pose in result.poses.items()}
-    centres, angles = camera_pose_errors(estimated, read_poses(capture_dir / "true_poses.json"))
+    centres, angles = camera_pose_errors(estimated, read_cameras(capture_dir / "true_cameras.json").poses)
     return float(np.median(centres) * 1000), float(np.median(angles))
 
 
@@ -232,7 +232,7 @@ def main() -> None:
     parser.add_argument("--noise-m", type=float, default=0.0, help="depth noise std at 0.7 m (0: noise-free)")
     parser.add_argument("--repeat", type=int, default=1, help="runs per subset; the median ratio's is shown")
     parser.add_argument(
-        "--capture", type=Path, help="a capture rendered earlier (with true_poses.json, ground_truth.ply): no rendering"
+        "--capture", type=Path, help="a capture rendered earlier (with true_cameras.json, ground_truth.ply): no rendering"
     )
     args = parser.parse_args()
     if any(n > args.frames or args.frames % n for n in args.subsets):

@@ -18,12 +18,13 @@ import numpy as np
 import trimesh
 
 from articulation.naming import check_model_name
-from homemodel.core.atomic import prepare_out_dir, write_bytes_atomic, write_json
+from homemodel.core.atomic import prepare_out_dir, write_bytes_atomic
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.images import read_image
 from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock
+from homemodel.exchange.cameras import CAMERAS_FILE, CameraView, write_cameras
 from homemodel.geometry.mesh_ops import watertight_finish
 from photogrammetry.cleaning import (
     CleaningOptions,
@@ -317,12 +318,8 @@ def write_reconstruction(
     )
 
     def add_files(folder: Path) -> None:
-        cameras = [
-            {"name": v.name, "intrinsics": v.camera.matrix.tolist(), "camera_from_model": v.camera_from_world.tolist(),
-             "width_px": v.camera.width, "height_px": v.camera.height}
-            for v in result.views
-        ]  # fmt: skip
-        write_json(folder / "cameras.json", cameras)
+        write_cameras(folder / CAMERAS_FILE, [CameraView(name=v.name, camera=v.camera, camera_from_frame=v.camera_from_world)
+                                              for v in result.views], frame="model")  # fmt: skip
         if options.picture:
             from photogrammetry.picture import draw_cameras
 

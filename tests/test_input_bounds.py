@@ -178,9 +178,9 @@ def test_a_shape_basis_fits_a_library_with_fewer_views_than_features() -> None:
 
 
 def test_deeply_nested_json_is_an_input_error(tmp_path: Path) -> None:
-    from homemodel.exchange.poses import read_poses
+    from homemodel.exchange.cameras import read_cameras
 
-    poses = tmp_path / "poses.json"
-    poses.write_text("[" * 200_000 + "]" * 200_000)
-    with pytest.raises(InputError, match="poses.json: not a poses file: RecursionError"):
-        read_poses(poses)
+    cameras = tmp_path / "cameras.json"
+    cameras.write_text("[" * 200_000 + "]" * 200_000)
+    with pytest.raises(InputError, match="cameras.json: not a cameras file: RecursionError"):
+        read_cameras(cameras)

@@ -14,6 +14,7 @@ import trimesh
 from typer.testing import CliRunner
 
 from homemodel.cli import app
+from homemodel.exchange.cameras import read_cameras
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 KERMIT = DATA / "photogrammetry" / "kermit"
@@ -57,9 +58,8 @@ def test_kermit_mesh_is_what_the_cameras_converge_on(kermit_model: Path) -> None
     # No markers, no table: the mesh is what the views converge on (the arrangement on the
     # chair), not the room, which reaches past the cameras (it measured 2.0 camera distances).
     mesh = trimesh.load(kermit_model / "meshes" / "body_body.obj", force="mesh")
-    cameras = json.loads((kermit_model / "cameras.json").read_text())
-    centres = np.array([-np.array(c["camera_from_model"])[:3, :3].T @ np.array(c["camera_from_model"])[:3, 3]
-                        for c in cameras])  # fmt: skip
+    cameras = read_cameras(kermit_model / "cameras.json").poses.values()
+    centres = np.array([-c[:3, :3].T @ c[:3, 3] for c in cameras])
     distance = np.median(np.linalg.norm(centres - mesh.bounding_box.centroid, axis=1))
     assert np.linalg.norm(mesh.extents) < 1.3 * distance
 
@@ -163,9 +163,9 @@ def rendered_model(rendered_run) -> Path:
 def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Path) -> None:
     """Scale error at most 1%: from the cameras (a similarity fit of the estimated to the true
     camera centres, both in marker 0's frame) and from the mesh's height."""
-    cameras = json.loads((rendered_model / "cameras.json").read_text())
-    estimated = np.array([np.linalg.inv(np.array(c["camera_from_model"]))[:3, 3] for c in cameras])
-    true = np.array([np.linalg.inv(rendered_scene.camera_from_world[c["name"]])[:3, 3] for c in cameras])
+    cameras = read_cameras(rendered_model / "cameras.json").poses
+    estimated = np.array([np.linalg.inv(c)[:3, 3] for c in cameras.values()])
+    true = np.array([np.linalg.inv(rendered_scene.camera_from_world[name])[:3, 3] for name in cameras])
     assert len(cameras) == 36
     assert np.linalg.norm(estimated - true, axis=1).max() < 0.004  # 4 mm at 0.42 m: scale, origin, axes
     scale = np.sqrt(((true - true.mean(0)) ** 2).sum() / ((estimated - estimated.mean(0)) ** 2).sum())

@@ -15,6 +15,7 @@ import trimesh
 from typer.testing import CliRunner
 
 from homemodel.cli import app
+from homemodel.exchange.cameras import read_cameras
 from photogrammetry.convergence import in_frame_share
 from photogrammetry import pairing
 from photogrammetry.pairing import chosen_pairs, mutual_match_counts
@@ -34,7 +35,7 @@ def _reconstruct(*args: str):
 
 
 def _cameras(model: Path) -> dict[str, np.ndarray]:
-    return {c["name"]: np.array(c["camera_from_model"]) for c in json.loads((model / "cameras.json").read_text())}
+    return read_cameras(model / "cameras.json").poses
 
 
 # ---------------------------------------------------------------- small pieces, no SfM

@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 
 from homemodel.evaluation import camera_pose_errors, mean_surface_distance_m, voxel_iou
 from turntable.capture import load_capture
-from homemodel.exchange.poses import read_poses
+from homemodel.exchange.cameras import read_cameras
 from turntable.reconstruct import Reconstruction, reconstruct_capture
 from turntable.simulate import SimulationOptions, resimulate_depth, simulate_capture
 
@@ -103,7 +103,7 @@ def noisy_reconstructions(
 def pose_errors(result: Reconstruction, capture: Path) -> tuple[np.ndarray, np.ndarray]:
     """Per frame: camera-centre error (m) and rotation error (degrees) against the truth."""
     estimated = {stem: pose.camera_from_table for stem, pose in result.poses.items()}
-    return camera_pose_errors(estimated, read_poses(capture / "true_poses.json"))
+    return camera_pose_errors(estimated, read_cameras(capture / "true_cameras.json").poses)
 
 
 @pytest.mark.parametrize("name", OBJECTS)
@@ -218,7 +218,7 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
     result = CliRunner().invoke(app, args, env={"COLUMNS": "200"})
     assert result.exit_code == 0, result.output
     assert "frames used" in result.stdout and "added scanned_mug" in result.stdout
-    for name in ("model.urdf", "model.glb", "mesh.ply", "poses.json", "summary.json", "picture.png"):
+    for name in ("model.urdf", "model.glb", "mesh.ply", "cameras.json", "summary.json", "picture.png"):
         assert (out / name).is_file(), name
     report = validate_path(out)
     assert report.ok, report.format()
@@ -226,7 +226,7 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
     assert summary["turntable"]["frames_used"] == CAPTURE["frames"] and summary["triangles"] > 1000
     assert set(summary["times_s"]) == {"poses", "axis", "merge", "mesh", "texture", "export", "validate"}
     assert summary["gate"]["valid"] and summary["mass_kg"] > 0 and summary["inputs"][0]["role"] == "capture"
-    poses = read_poses(out / "poses.json")
+    poses = read_cameras(out / "cameras.json").poses
     assert len(poses) == CAPTURE["frames"]
     textures = list((out / "meshes").glob("*.png"))
     assert len(textures) == 1
@@ -269,4 +269,4 @@ def test_cli_simulate_writes_a_capture(tmp_path: Path) -> None:
     capture = load_capture(out)
     assert [f.stem for f in capture.frames] == ["000000", "000001"] and capture.frames[0].depth.suffix == ".exr"
     assert (capture.camera.width, capture.camera.height) == (160, 120)
-    assert len(read_poses(out / "true_poses.json")) == 2
+    assert len(read_cameras(out / "true_cameras.json").poses) == 2

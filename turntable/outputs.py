@@ -1,5 +1,5 @@
 """Write a reconstruction as a model folder: the one-link model through the articulation
-exporter (model.urdf, meshes/, model.glb), the full-resolution coloured PLY, poses.json,
+exporter (model.urdf, meshes/, model.glb), the full-resolution coloured PLY, cameras.json,
 summary.json and, on request, a picture of the mesh with the camera orbit."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from articulation.scan_model import scan_model
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress
-from homemodel.exchange.poses import write_poses
+from homemodel.exchange.cameras import CAMERAS_FILE, CameraView, write_cameras
 
 if TYPE_CHECKING:
     from articulation.model_folder import ModelFolder
@@ -73,19 +73,13 @@ def write_reconstruction(
             colors = np.round(np.clip(result.vertex_colors, 0, 1) * 255).astype(np.uint8)
             ply = trimesh.Trimesh(result.mesh.vertices, result.mesh.faces, vertex_colors=colors, process=False)
             write_bytes_atomic(tmp / MESH_PLY, ply.export(file_type="ply"))
-            write_poses(
-                tmp / "poses.json",
-                {s: p.camera_from_table for s, p in result.poses.items()},
-                figures={
-                    s: {
-                        "tags": p.tags,
-                        "corners": p.inlier_corners,
-                        "reprojection_error_px": round(p.reprojection_error_px, 4),
-                    }
-                    for s, p in result.poses.items()
-                },
-                skipped=result.skipped,
-            )
+            views = [
+                CameraView(name=s, camera=result.camera, camera_from_frame=p.camera_from_table,
+                           figures={"tags": p.tags, "corners": p.inlier_corners,
+                                    "reprojection_error_px": round(p.reprojection_error_px, 4)})
+                for s, p in result.poses.items()
+            ]  # fmt: skip
+            write_cameras(tmp / CAMERAS_FILE, views, frame="table", skipped=result.skipped)
             if options.picture:
                 from turntable.picture import draw_mesh_and_orbit
 

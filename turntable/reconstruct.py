@@ -25,6 +25,7 @@ from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock
+from homemodel.geometry.camera import Camera
 from semantic_map import MapEntry, Registration, add_model_folder
 from turntable.capture import Capture, FrameError, FramePaths, load_capture, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, ObjectPixels, VoxelAccumulator, object_pixels, pixel_points
@@ -102,6 +103,7 @@ class Reconstruction:
     textured_mesh: trimesh.Trimesh | None  # split along UV seams
     uv: np.ndarray | None
     texture: np.ndarray | None  # (H, W, 3) uint8
+    camera: Camera  # the capture's, which every pose in `poses` is seen with
     poses: dict[str, FramePose]
     skipped: dict[str, str]  # frame stem -> "image: ...", "pose: ..." or "unpaired: ..."
     axis: TableAxis
@@ -471,6 +473,7 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
         textured_mesh=textured,
         uv=uv,
         texture=texture,
+        camera=capture.camera,
         poses=poses,
         skipped=skipped,
         axis=axis,

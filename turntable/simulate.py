@@ -9,8 +9,8 @@ the two are registered by construction. The optional noise model is that of a st
 sensor: Gaussian noise whose deviation grows with the square of the depth, and no depth at
 grazing angles or next to depth edges.
 
-Writes `camera.yaml`, `board.yaml`, `color/`, `depth/`, `true_poses.json` (camera_from_table
-per frame), `ground_truth.ply` (the object in the table frame, with its colours) and
+Writes `camera.yaml`, `board.yaml`, `color/`, `depth/`, `true_cameras.json` (the cameras.json
+format of `homemodel.exchange.cameras`: camera_from_table per frame), `ground_truth.ply` (the object in the table frame, with its colours) and
 `simulation.json` (the options, so `resimulate_depth` can render the same scene's depth again
 under another noise level).
 """
@@ -40,10 +40,10 @@ from turntable.board import Board, grid_board, load_board, save_board
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
-from homemodel.exchange.poses import read_poses, write_poses
+from homemodel.exchange.cameras import TRUE_CAMERAS_FILE, CameraView, read_cameras, write_cameras
 
 NOISE_REFERENCE_DEPTH_M = 0.7
-TRUE_POSES = "true_poses.json"
+OLD_TRUE_POSES = "true_poses.json"  # what captures simulated before true_cameras.json hold
 GROUND_TRUTH = "ground_truth.ply"
 SIMULATION_JSON = "simulation.json"
 MAX_FRAMES = 3600  # ten a degree
@@ -297,7 +297,8 @@ def simulate_capture(
         render_s = time.perf_counter() - start
         start = time.perf_counter()
         _write_depth_frames(tmp / "depth", _scene(options, board, placed), camera, camera_from_tables, options, report)
-        write_poses(tmp / TRUE_POSES, camera_from_tables)
+        write_cameras(tmp / TRUE_CAMERAS_FILE, [CameraView(name=s, camera=camera, camera_from_frame=camera_from_tables[s])
+                                                for s in stems], frame="table")  # fmt: skip
         truth = trimesh.Trimesh(
             placed.vertices, placed.faces, vertex_colors=np.round(rgba * 255).astype(np.uint8), process=False
         )
@@ -326,9 +327,10 @@ def resimulate_depth(
     options = dataclasses.replace(options, depth_noise_m=depth_noise_m, random_state=random_state)
     options.check()
     camera = load_camera(capture_dir / "camera.yaml")
-    camera_from_tables = read_poses(capture_dir / TRUE_POSES)
+    truth = TRUE_CAMERAS_FILE if (capture_dir / TRUE_CAMERAS_FILE).exists() else OLD_TRUE_POSES
+    camera_from_tables = read_cameras(capture_dir / truth).poses
     with atomic_dir(Path(out_dir), force=force, inputs=[capture_dir]) as tmp:
-        for name in ("camera.yaml", "board.yaml", TRUE_POSES, GROUND_TRUTH):
+        for name in ("camera.yaml", "board.yaml", truth, GROUND_TRUTH):
             shutil.copy2(capture_dir / name, tmp / name)
         shutil.copytree(capture_dir / "color", tmp / "color")
         (tmp / "depth").mkdir()

@@ -8,6 +8,7 @@ writers turn their types into these:
 - `urdf`: the URDF document opened (safely, bounded) and walked: links, joints, their meshes;
 - `obj`: Wavefront OBJ and MTL text; `numbers`: the exporters' fixed number formatting;
 - `joint_types`: the joint types the formats name;
-- `poses`: `poses.json`, `camera_from_table` per frame;
+- `cameras`: `cameras.json`, the one per-view camera file (intrinsics and `camera_from_<frame>`
+  per view), reading the older `poses.json` and photogrammetry list too;
 - `blender_document`, `blender_glb`: the Blender model document's keys, and its glb reader.
 """
