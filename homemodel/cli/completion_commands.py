@@ -113,7 +113,7 @@ def run_command(
     ),
     name: str | None = field_option(f"{COMPLETION}.name", help="model name (default: the depth image's file name)"),
     density_kg_m3: float = field_option(
-        f"{COMPLETION}.density_kg_m3", "--density-kg-m3", "--density", min=1.0, help="for the inertial, kg/m^3"
+        f"{COMPLETION}.density_kg_m3", "--density-kg-m3", old=("--density",), min=1.0, help="for the inertial, kg/m^3"
     ),
     map_path: Path | None = MAP_OPTION,
     parent_id: str | None = PARENT_OPTION,

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import typer
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.option_fields import field_option, from_options
+from homemodel.cli.option_fields import field_option, from_options, old_spellings
 
 if TYPE_CHECKING:
     from semantic_map import MapEntry, MapObject, Node, ParkingPosition, Registration, SemanticMap
@@ -22,8 +22,8 @@ map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and valida
 MAP_ARGUMENT = typer.Argument(..., metavar="MAP.xml", help="semantic map file")
 # A reconstruction command's flags for `map_entry_from_flags`.
 MAP_OPTION = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this semantic map")
-PARENT_OPTION = typer.Option(
-    None, "--parent", "--room", help="with --map: a room, or the large object the model stands on"
+PARENT_OPTION = old_spellings(
+    typer.Option(None, "--parent", help="with --map: a room, or the large object the model stands on"), "--room"
 )
 ID_OPTION = typer.Option(None, "--id", help="with --map: the object's id (default: the model's name)")
 XYZ_OPTION = typer.Option((0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent's frame (m)")

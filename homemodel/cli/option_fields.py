@@ -7,6 +7,8 @@ come from the field it sets, so no value is written twice.
 (`photogrammetry.pipeline:ReconstructOptions.sfm.matching`, through the field's
 `default_factory`) and may name a function's or a method's keyword parameter
 (`turntable.board:grid_board.first_id`, `shape_completion.pipeline:ShapeCompleter.__init__.n_views`).
+An option has one spelling in `--help`; `old=("--texture-px",)` (or `old_spellings` on a plain
+`typer.Option`) keeps earlier spellings working as hidden aliases.
 
 The field is read from the module's source, not imported: the options classes live beside
 the pipelines, whose imports (numpy, trimesh, open3d, scipy) take seconds, and every command
@@ -19,6 +21,7 @@ imported classes.
 from __future__ import annotations
 
 import ast
+import copy
 import functools
 import importlib.util
 import inspect
@@ -183,15 +186,24 @@ def read_field(ref: str) -> FieldSpec:
     raise LookupError(f"{ref}: names no field")
 
 
-def field_option(ref: str, *flags: str, help: str | None = None, **typer_options: Any) -> OptionInfo:
+def field_option(
+    ref: str, *flags: str, old: tuple[str, ...] = (), help: str | None = None, **typer_options: Any
+) -> OptionInfo:
     """The `typer.Option` of the field `ref` (see `read_field`): its default (required when
-    it has none), and its help unless `help` is given. Flags default to the field's name
-    (`--max-num-features`); more flags are other spellings of the same option. A Literal
-    field's choices reach Typer through `from_options` on the command."""
+    it has none), and its help unless `help` is given. The flag defaults to the field's name
+    (`--max-num-features`); `old` spellings keep working, hidden (`old_spellings`). A Literal
+    field's choices and the old spellings reach Typer through `from_options` on the command."""
     spec = read_field(ref)
     flags = flags or ("--" + ref.rsplit(".", 1)[-1].replace("_", "-"),)
     info = typer.Option(spec.default, *flags, help=help or spec.comment, **typer_options)
     info.options_field = spec  # read by `from_options` and the tests
+    return old_spellings(info, *old)
+
+
+def old_spellings(info: OptionInfo, *flags: str) -> OptionInfo:
+    """Mark `flags` as earlier spellings of `info`'s option: `from_options` gives the command a
+    hidden option of those flags whose value, when given, is the option's."""
+    info.old_flags = flags
     return info
 
 
@@ -202,10 +214,38 @@ def options_field(info: object) -> FieldSpec | None:
 
 def from_options(command: Command) -> Command:
     """Give each `field_option` parameter of `command` whose field is a Literal that Literal
-    as its annotation, so Typer offers and checks its choices."""
-    for name, parameter in inspect.signature(command).parameters.items():
+    as its annotation, so Typer offers and checks its choices; and each option with old
+    spellings (`old_spellings`) a hidden twin, returning `command` wrapped to take its value."""
+    signature = inspect.signature(command)
+    for name, parameter in signature.parameters.items():
         spec = options_field(parameter.default)
         if spec is not None and spec.choices is not None:
             choice = Literal[spec.choices]  # type: ignore[valid-type]
             command.__annotations__[name] = Optional[choice] if spec.default is None else choice  # noqa: UP007
-    return command
+    twins = {name: f"{name}_old_spelling" for name, p in signature.parameters.items() if getattr(p.default, "old_flags", ())}
+    if not twins:
+        return command
+
+    @functools.wraps(command)
+    def with_old_spellings(*args: Any, **kwargs: Any) -> Any:
+        for name, twin in twins.items():
+            value = kwargs.pop(twin)
+            if value is not None:
+                kwargs[name] = value
+        return command(*args, **kwargs)
+
+    annotations = dict(command.__annotations__)
+    parameters = list(signature.parameters.values())
+    for name, twin in twins.items():
+        info = copy.copy(signature.parameters[name].default)
+        info.param_decls, info.default, info.hidden, info.help = info.old_flags, None, True, None
+        del info.old_flags
+        info.__dict__.pop("options_field", None)  # the twin sets no field of its own
+        annotation = annotations[name]
+        if isinstance(annotation, str):
+            annotation = eval(annotation, command.__globals__)  # noqa: S307 (the command's own annotation)
+        annotations[twin] = Optional[annotation]  # noqa: UP007
+        parameters.append(inspect.Parameter(twin, inspect.Parameter.KEYWORD_ONLY, default=info, annotation=annotations[twin]))
+    with_old_spellings.__annotations__ = annotations
+    with_old_spellings.__signature__ = signature.replace(parameters=parameters)  # type: ignore[attr-defined]
+    return with_old_spellings  # type: ignore[return-value]

@@ -81,7 +81,7 @@ def reconstruct(
         f"{OPTIONS}.dense.max_image_size_px", "--depth-image-px", help="longer side of the depth maps"
     ),
     texture_size_px: int = field_option(
-        f"{OPTIONS}.texture.size_px", "--texture-size-px", "--texture-px", help="texture atlas size"
+        f"{OPTIONS}.texture.size_px", "--texture-size-px", old=("--texture-px",), help="texture atlas size"
     ),
     max_faces: int = field_option(f"{OPTIONS}.max_faces", help="faces of the final mesh"),
     picture: bool = field_option(f"{OPTIONS}.picture", help="also write cameras.png: the cameras around the mesh"),

@@ -88,8 +88,8 @@ def simulate(
     mesh: Path = typer.Argument(..., help="object mesh (PLY, OBJ, STL, GLB...), metres unless --mesh-scale"),
     out: Path = typer.Option(..., "--out", help="capture folder to write"),
     frames: int = field_option(f"{SIMULATION}.frames", help="frames over one turn"),
-    width_px: int = field_option(f"{SIMULATION}.width_px", "--width-px", "--width", help="image width"),
-    height_px: int = field_option(f"{SIMULATION}.height_px", "--height-px", "--height", help="image height"),
+    width_px: int = field_option(f"{SIMULATION}.width_px", "--width-px", old=("--width",), help="image width"),
+    height_px: int = field_option(f"{SIMULATION}.height_px", "--height-px", old=("--height",), help="image height"),
     fov_deg: float = field_option(f"{SIMULATION}.horizontal_fov_deg", "--fov-deg", help="horizontal field of view"),
     camera_distance_m: float = field_option(
         f"{SIMULATION}.camera_distance_m", help="tripod's horizontal distance from the axis"
