@@ -1,0 +1,186 @@
+"""The layers of setup.cfg's import-linter contracts, measured independently of import-linter:
+every module's imports are read with `ast`, those inside functions and under TYPE_CHECKING
+included, and no module may import a layer above its own or a sibling package of its layer;
+the packages then have no cycle, the package root imports nothing of the project, and the
+Blender add-on imports none of it."""
+
+from __future__ import annotations
+
+import ast
+import configparser
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class Layering:
+    roots: list[str]  # the import-linter root packages
+    layers: list[list[str]]  # top first; a layer's packages are independent siblings
+
+
+def read_layering(setup_cfg: Path) -> Layering:
+    config = configparser.ConfigParser()
+    config.read(setup_cfg)
+    layers = config["importlinter:contract:layers"]["layers"].split("\n")
+    return Layering(
+        roots=config["importlinter"]["root_packages"].split(),
+        layers=[[p.strip() for p in line.split("|")] for line in layers if line.strip()],
+    )
+
+
+def module_files(repo: Path, roots: list[str]) -> dict[str, Path]:
+    modules = {}
+    for root in roots:
+        for path in sorted((repo / root).rglob("*.py")):
+            parts = list(path.relative_to(repo).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts.pop()
+            modules[".".join(parts)] = path
+    return modules
+
+
+def imported_modules(module: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    """The project modules `module` imports anywhere in its file (a name imported from a package
+    counts as its submodule when it is one, else as the package)."""
+
+    def known(name: str) -> str | None:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        if isinstance(node, ast.Import):
+            found.update(known(alias.name) for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:  # relative: from the package, up level - 1
+                parent = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*parent, *([base] if base else [])])
+            for alias in node.names:
+                submodule = f"{base}.{alias.name}"
+                found.add(submodule if submodule in modules else known(base))
+    found.discard(None)
+    found.discard(module)
+    return found  # type: ignore[return-value]
+
+
+def import_graph(repo: Path, roots: list[str]) -> dict[str, set[str]]:
+    modules = module_files(repo, roots)
+    return {module: imported_modules(module, path, modules) for module, path in modules.items()}
+
+
+def _package_of(module: str, layering: Layering) -> tuple[int, str] | None:
+    """(layer index, package) of the longest layer package that holds `module`."""
+    best = None
+    for index, layer in enumerate(layering.layers):
+        for package in layer:
+            if (module == package or module.startswith(package + ".")) and (best is None or len(package) > len(best[1])):
+                best = (index, package)
+    return best
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one node (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found = []
+    for start in graph:
+        if start in index:
+            continue
+        work = [(start, iter(sorted(graph[start])))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            node, edges = work[-1]
+            step = next(edges, None)
+            if step is not None:
+                if step not in index:
+                    index[step] = low[step] = len(index)
+                    stack.append(step)
+                    on_stack.add(step)
+                    work.append((step, iter(sorted(graph.get(step, ())))))
+                elif step in on_stack:
+                    low[node] = min(low[node], index[step])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+def layer_violations(graph: dict[str, set[str]], layering: Layering) -> list[str]:
+    """Every import of a higher layer or of a sibling package, every package cycle, and every
+    project import of the package root or of the add-on."""
+    problems = []
+    packages: dict[str, set[str]] = {}
+    for module, targets in graph.items():
+        source = _package_of(module, layering)
+        for target in sorted(targets):
+            if module.split(".")[0] == "blender_addons" and target.split(".")[0] != "blender_addons":
+                problems.append(f"{module} -> {target}: the add-on imports the toolkit")
+            if module == layering.layers[-1][0].split(".")[0]:
+                problems.append(f"{module} -> {target}: the package root imports the project")
+            destination = _package_of(target, layering)
+            if source is None or destination is None or source[1] == destination[1]:
+                continue
+            packages.setdefault(source[1], set()).add(destination[1])
+            if destination[0] < source[0]:
+                problems.append(f"{module} -> {target}: {source[1]} imports {destination[1]}, a layer above it")
+            elif destination[0] == source[0]:
+                problems.append(f"{module} -> {target}: {source[1]} imports its sibling {destination[1]}")
+    problems += [f"packages in a cycle: {' <-> '.join(c)}" for c in _cycles(packages)]
+    return problems
+
+
+def test_the_code_keeps_the_layers_of_setup_cfg() -> None:
+    layering = read_layering(REPO / "setup.cfg")
+    assert layering.layers[0] == ["homemodel.cli"] and layering.layers[-1] == ["homemodel.core"]
+    graph = import_graph(REPO, layering.roots)
+    assert len(graph) > 250 and sum(len(t) for t in graph.values()) > 900  # the whole project was read
+    unplaced = [m for m in graph if _package_of(m, layering) is None and m.split(".")[0] != "blender_addons"]
+    assert sorted(unplaced) == ["homemodel", "homemodel.__main__"], unplaced  # the root: only the version and -m
+    assert layer_violations(graph, layering) == []
+
+
+def _tree(root: Path, files: dict[str, str]) -> None:
+    for name, text in files.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+
+
+def test_an_upward_import_inside_a_function_a_sibling_and_a_root_import_are_found(tmp_path: Path) -> None:
+    _tree(tmp_path, {
+        "setup.cfg": "[importlinter]\nroot_packages =\n    top\n    a\n    b\n    low\n"
+                     "[importlinter:contract:layers]\nlayers =\n    top\n    a | b\n    low\n",
+        "top/__init__.py": "", "a/__init__.py": "", "b/__init__.py": "", "low/__init__.py": "",
+        "top/cli.py": "from a import thing\nimport low.core\n",  # downwards: fine
+        "a/thing.py": "from . import other\n",
+        "a/other.py": "def f():\n    from low.core import g\n    return g\n",
+        "b/sibling.py": "from a.thing import x\n",  # a sibling
+        "low/core.py": "def g():\n    if True:\n        import top.cli\n",  # upwards, inside a function
+    })  # fmt: skip
+    layering = read_layering(tmp_path / "setup.cfg")
+    graph = import_graph(tmp_path, layering.roots)
+    assert graph["a.thing"] == {"a.other"} and graph["a.other"] == {"low.core"}
+    assert layer_violations(graph, layering) == [
+        "b.sibling -> a.thing: b imports its sibling a",
+        "low.core -> top.cli: low imports top, a layer above it",
+        "packages in a cycle: a <-> low <-> top",
+    ]
