@@ -27,11 +27,11 @@ from modeller.spec_loading import load_spec
 from modeller.specs import Spec
 from modeller.specs.cabinets import CabinetSpec
 from modeller.specs.cabinet_geometry import hinge_tape_warnings
-from semantic_map import MapEntry, Registration, add_model_folder
+from semantic_map import MapEntry
+from semantic_map.model_result import ModelResult
 
 if TYPE_CHECKING:
     from articulation.gate.validate import ValidationReport
-    from homemodel.core.model_summary import ModelSummary
     from modeller.comparison_picture import PictureOptions, PictureRow
 
 logger = logging.getLogger(__name__)
@@ -111,7 +111,7 @@ class BuildOptions:
 
 
 @dataclass(kw_only=True)
-class SpecBuild:
+class SpecBuild(ModelResult):
     """A built, exported and validated spec; `summary` is what summary.json holds."""
 
     out_dir: Path
@@ -119,9 +119,7 @@ class SpecBuild:
     validation: ValidationReport
     pictures: list[PictureRow]
     times_s: dict[str, float]  # build, export, validate (and render)
-    summary: ModelSummary
     warnings: list[str] = field(default_factory=list)  # what the spec's readings disagree on
-    registration: Registration | None = None  # set when `options.map_entry` names a map
 
     @property
     def valid(self) -> bool:
@@ -197,7 +195,7 @@ def build(
         add_files=add_files,
         progress=progress,
     )
-    return SpecBuild(
+    built = SpecBuild(
         out_dir=out_dir,
         model=model,
         validation=folder.validation,
@@ -205,8 +203,9 @@ def build(
         times_s=folder.summary.times_s,
         summary=folder.summary,
         warnings=warnings,
-        registration=None if options.map_entry is None else add_model_folder(out_dir, options.map_entry),
     )
+    built.register(out_dir, options.map_entry)
+    return built
 
 
 def spec_warnings(spec: Spec) -> list[str]:

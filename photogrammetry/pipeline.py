@@ -22,7 +22,6 @@ from homemodel.core.atomic import prepare_out_dir, write_bytes_atomic
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.images import read_image
-from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock
 from homemodel.exchange.cameras import CAMERAS_FILE, CameraView, write_cameras
 from homemodel.geometry.mesh_ops import watertight_finish
@@ -41,7 +40,8 @@ from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_t
 from photogrammetry.support_plane import camera_up, find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
-from semantic_map import MapEntry, Registration, add_model_folder
+from semantic_map import MapEntry
+from semantic_map.model_result import ModelResult
 
 
 @dataclass(kw_only=True)
@@ -78,7 +78,7 @@ class ReconstructOptions:
 
 
 @dataclass(kw_only=True)
-class Reconstruction:
+class Reconstruction(ModelResult):
     """A finished reconstruction in the model frame (metres when `frame.scaled`)."""
 
     textured: TexturedMesh
@@ -87,8 +87,6 @@ class Reconstruction:
     figures: dict  # the stages' figures (summary.json's `photogrammetry` key) and their times
     work_dir: Path  # holds the texture image until the export copies it (gone after `reconstruct`)
     object_points: np.ndarray | None = None  # (N, 3) the object's fused dense points the mesh was made from
-    registration: Registration | None = None  # set by `reconstruct` when given a map
-    summary: ModelSummary | None = None  # the model folder's summary.json, set by `reconstruct`
 
     @property
     def mesh(self) -> trimesh.Trimesh:
@@ -278,8 +276,7 @@ def reconstruct(
     with temporary_work_dir() as work:
         result = reconstruct_photos(photos_dir, options, progress, work_dir=Path(work))
         write_reconstruction(result, out_dir, options, photos_dir=Path(photos_dir), force=force, progress=progress)
-    if options.map_entry is not None:
-        result.registration = add_model_folder(out_dir, options.map_entry)
+    result.register(out_dir, options.map_entry)
     return result
 
 

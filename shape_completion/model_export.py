@@ -23,7 +23,7 @@ from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested, require_positive
 from homemodel.core.progress import Progress, StageClock
-from semantic_map import MapEntry, add_model_folder
+from semantic_map import MapEntry
 from shape_completion.pipeline import Completion, ShapeCompleter
 from shape_completion.support import SupportPlane
 from shape_completion.upright import object_frame
@@ -155,6 +155,5 @@ def complete(
         force=force,
         progress=progress,
     ).summary
-    if options.map_entry is not None:
-        completion.registration = add_model_folder(out_dir, options.map_entry)
+    completion.register(out_dir, options.map_entry)
     return completion

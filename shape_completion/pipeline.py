@@ -16,7 +16,6 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
@@ -24,7 +23,6 @@ from scipy.spatial import cKDTree
 from sklearn.base import BaseEstimator
 
 from homemodel.core.errors import InputError, ModelError
-from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock, no_progress
 from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.camera import Camera
@@ -52,10 +50,8 @@ from shape_completion.symmetry import (
     revolution_axis,
     symmetry_planes,
 )
+from semantic_map.model_result import ModelResult
 from shape_completion.upright import ObjectFrame
-
-if TYPE_CHECKING:
-    from semantic_map import Registration
 
 logger = logging.getLogger(__name__)
 
@@ -111,7 +107,7 @@ class Fit:
 
 
 @dataclass(kw_only=True)
-class Completion:
+class Completion(ModelResult):
     """Every stage of one completion, in the query camera's frame."""
 
     fit: Fit
@@ -119,11 +115,7 @@ class Completion:
     class_name: str
     retrieved_name: str
     times_s: dict[str, float]  # query, matching, rigid_fit, deformation, filling
-    # Set by the entry (`shape_completion.complete`): the frame the model folder is written in,
-    # the folder's summary.json and, when given a map, the model's registration into it.
-    frame: ObjectFrame | None = None
-    summary: ModelSummary | None = None
-    registration: Registration | None = None
+    frame: ObjectFrame | None = None  # the frame the model folder is written in, set by the entry
 
     @property
     def object_mesh(self) -> trimesh.Trimesh:

@@ -23,10 +23,10 @@ from articulation.naming import check_model_name
 from homemodel.core.checks import check_nested, require_at_least, require_between, require_positive
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
-from homemodel.core.model_summary import ModelSummary
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
-from semantic_map import MapEntry, Registration, add_model_folder
+from semantic_map import MapEntry
+from semantic_map.model_result import ModelResult
 from turntable.capture import Capture, FrameError, FramePaths, load_capture, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, ObjectPixels, VoxelAccumulator, object_pixels, pixel_points
 from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
@@ -95,7 +95,7 @@ class ReconstructOptions:
 
 
 @dataclass(kw_only=True)
-class Reconstruction:
+class Reconstruction(ModelResult):
     """The mesh in the table frame with its colours, and every figure the summary reports."""
 
     mesh: trimesh.Trimesh
@@ -115,8 +115,6 @@ class Reconstruction:
     frames_total: int
     real_frames: dict = field(default_factory=dict)  # flying pixels, blur, misregistration (turntable.real_frames)
     recording: dict | None = None  # the capture's recording.json, when imported from a recording
-    registration: Registration | None = None  # set by `reconstruct` when given a map
-    summary: ModelSummary | None = None  # the model folder's summary.json, set by `reconstruct`
 
     def figures(self) -> dict:
         """The turntable's own figures (summary.json's `turntable` key, with its times and extent)."""
@@ -511,6 +509,5 @@ def reconstruct(
     result.summary = write_reconstruction(
         result, out_dir, options, inputs=[Path(capture_dir)], force=force, progress=progress
     ).summary
-    if options.map_entry is not None:
-        result.registration = add_model_folder(out_dir, options.map_entry)
+    result.register(out_dir, options.map_entry)
     return result
