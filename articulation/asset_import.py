@@ -7,6 +7,8 @@ is in `gaps`, for `articulation.repair` to fill in and state.
 
 from __future__ import annotations
 
+import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -15,8 +17,9 @@ import numpy as np
 import trimesh
 
 from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
+from articulation.model_folder import ModelFolder, PipelineSummary, write_model_folder
 from articulation.partnet import import_partnet, is_partnet_folder
-from articulation.repair import AssetGaps, find_gaps, model_flat_collisions, model_hollow_collisions
+from articulation.repair import AssetGaps, RepairOptions, find_gaps, model_flat_collisions, model_hollow_collisions, repair
 from articulation.scan_model import LINK
 from articulation.urdf_import import MESH_FILE_SUFFIXES, find_urdf, load_urdf, read_mesh_parts
 from homemodel.core.checks import require_choice
@@ -24,6 +27,12 @@ from homemodel.core.errors import InputError
 from homemodel.core.transforms import Y_UP_FROM_Z_UP
 
 _GLTF = (".glb", ".gltf")
+# Metres per unit of a mesh file's coordinates. glTF is in metres by its specification and a
+# DAE says its unit; OBJ, STL and PLY carry none.
+UNIT_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
+# A unitless mesh file read as metres is refused above this size: a downloaded cup in
+# millimetres or centimetres would become an object tens of metres across.
+MAX_UNITLESS_SIZE_M = 5.0
 
 
 @dataclass(kw_only=True)
@@ -34,9 +43,13 @@ class ImportOptions:
     package_paths: list[Path] = field(default_factory=list)
     # A mesh file's up axis: "auto" is y for glTF (its specification says so), z otherwise.
     up_axis: Literal["auto", "y", "z"] = "auto"
+    # A mesh file's unit: "auto" is metres for glTF (its specification) and DAE (scaled by its
+    # <unit>); for OBJ, STL and PLY metres too, refused when that makes it over 5 m across.
+    units: Literal["auto", "m", "cm", "mm", "in"] = "auto"
 
     def check(self) -> None:
         require_choice("up_axis", self.up_axis, ("auto", "y", "z"))
+        require_choice("units", self.units, ("auto", *UNIT_M))
 
 
 @dataclass(kw_only=True)
@@ -73,6 +86,50 @@ def import_asset(path: Path, options: ImportOptions | None = None, *, texture_di
     return ImportedAsset(model=model, kind="urdf", gaps=find_gaps(urdf, model), urdf=urdf)
 
 
+@dataclass(kw_only=True)
+class ImportedFolder:
+    """An asset imported into a model folder (None when it has gaps and no repair was asked)."""
+
+    imported: ImportedAsset
+    folder: ModelFolder | None
+    repairs: list[str]  # what the import decided (its notes), then each repair with its reason
+
+
+def import_model_folder(
+    path: Path,
+    out_dir: Path,
+    *,
+    name: str,
+    options: ImportOptions | None = None,
+    repair_options: RepairOptions | None = None,
+    force: bool = False,
+) -> ImportedFolder:
+    """Import the asset at `path` as model `name` into the model folder `out_dir` (written
+    whole, the gate run on it). Gaps are filled as `repair_options` state; without them an
+    asset with gaps is not written (`folder` None, `imported.gaps` says what it lacks)."""
+    path = Path(path)
+    start = time.perf_counter()
+    # Embedded textures are written here by the import and read by the export.
+    with tempfile.TemporaryDirectory(prefix="homemodel-import-") as textures:
+        imported = import_asset(path, options, texture_dir=Path(textures))
+        if imported.gaps and repair_options is None:
+            return ImportedFolder(imported=imported, folder=None, repairs=[])
+        model = imported.model
+        model.name = name
+        repairs = list(imported.notes)
+        if imported.gaps:
+            model, done = repair(model, imported.gaps, repair_options)
+            repairs += done
+        summary = PipelineSummary(
+            source="imported",
+            figures={"repairs": repairs},
+            times_s={"import": time.perf_counter() - start},
+            inputs={"asset": path},
+        )
+        folder = write_model_folder(model, out_dir, summary, force=force)
+    return ImportedFolder(imported=imported, folder=folder, repairs=repairs)
+
+
 def _up_axis(path: Path, options: ImportOptions) -> str:
     if options.up_axis != "auto":
         return options.up_axis
@@ -102,6 +159,27 @@ def _material(
     return Material(name=name, rgba=(1.0, 1.0, 1.0, rgba[3]), texture=texture), np.asarray(uv, dtype=np.float64)
 
 
+def _apply_units(path: Path, parts: list[tuple[str, trimesh.Trimesh]], options: ImportOptions) -> str:
+    """Scale the parts to metres as `options.units` says; the note that says how."""
+    suffix = path.suffix.lower()
+    if options.units != "auto":
+        scale = UNIT_M[options.units]
+        for _, mesh in parts:
+            mesh.apply_scale(scale)
+        return f"units: {options.units} (given), scaled by {scale:g} to metres"
+    if suffix in _GLTF:
+        return "units: metres (glTF's)"
+    if suffix == ".dae":
+        return "units: metres, by the file's <unit>"
+    size_m = float(np.ptp(np.vstack([mesh.vertices for _, mesh in parts]), axis=0).max())
+    if size_m > MAX_UNITLESS_SIZE_M:
+        raise InputError(
+            f"{path}: {size_m:.4g} units across, which as metres is no household object: "
+            "give its units (--units mm, cm or in; manifest options: {units: mm})"
+        )
+    return f"units: metres (assumed: {suffix} files carry none; {size_m:.3g} m across)"
+
+
 def _import_mesh_file(path: Path, options: ImportOptions, texture_dir: Path | None) -> ImportedAsset:
     """One link, `body` (as scanned objects' is named), holding the file's parts as visuals;
     z up; standing on the floor with its footprint centred on the origin."""
@@ -109,8 +187,9 @@ def _import_mesh_file(path: Path, options: ImportOptions, texture_dir: Path | No
         parts = read_mesh_parts(path)
     except InputError as exc:
         raise InputError(str(exc) if str(exc).startswith(f"{path}:") else f"{path}: {exc}") from None
+    units_note = _apply_units(path, parts, options)
     up = _up_axis(path, options)
-    notes = [f"frame: {len(parts)} mesh part(s) as one link, " + ("y up (glTF's) turned to z up" if up == "y" else "z up as given")]
+    notes = [f"frame: {len(parts)} mesh part(s) as one link, " + ("y up (glTF's) turned to z up" if up == "y" else "z up as given"), units_note]
     z_up_from_file = np.linalg.inv(Y_UP_FROM_Z_UP) if up == "y" else np.eye(4)
     whole = trimesh.util.concatenate([trimesh.Trimesh(m.vertices, m.faces, process=False) for _, m in parts])
     whole.apply_transform(z_up_from_file)

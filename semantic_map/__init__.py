@@ -14,7 +14,8 @@ every joint at zero). `SemanticMap.world_from_object` composes them.
 SDF, USD or glTF (`homemodel map export`).
 
 `add_model_folder` registers a model folder into a map file (the command `homemodel map add`
-and the pipelines' maps).
+and the pipelines' maps); `add_asset` imports a raw asset (a glb or OBJ, a ROS URDF) into a
+model folder first.
 
 Files follow `schema/semantic_map.xsd` (namespace https://homemodel.dev/semantic-map/1) and
 are validated on load and on save; updates keep the previous pose or joint state in the
@@ -23,7 +24,7 @@ object's timestamped history.
 
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.home_scene import export_home, scene_from_map
-from semantic_map.model_folder import MapEntry, Registration, add_model_folder
+from semantic_map.model_folder import MapEntry, Registration, add_asset, add_model_folder
 from semantic_map.nodes import (
     Apartment,
     DefaultPosition,
@@ -65,6 +66,7 @@ __all__ = [
     "SemanticMap",
     "SmallObject",
     "Switch",
+    "add_asset",
     "add_model_folder",
     "export_home",
     "load_map",

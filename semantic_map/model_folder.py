@@ -1,19 +1,29 @@
 """Adding a model folder to a map file: what `homemodel map add` does, and the pipelines
-when given a map (`turntable.reconstruct`, `photogrammetry.reconstruct`)."""
+when given a map (`turntable.reconstruct`, `photogrammetry.reconstruct`); and a raw asset
+(a downloaded glb or OBJ, a ROS package's URDF) imported into a model folder first."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
+import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from homemodel.core.errors import MapError, OutputExistsError
+from homemodel.core.errors import MapError, ModelError, OutputExistsError
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import MapObject, ParkingPosition, Relation
 from semantic_map.xml_io import load_map, save_map
+
+if TYPE_CHECKING:
+    from articulation.asset_import import ImportOptions
+    from articulation.repair import RepairOptions
+
+IMPORTED_MODELS_DIR = "models"  # beside the map: an imported asset's model folder, models/<object id>/
 
 
 @dataclass(kw_only=True)
@@ -61,6 +71,8 @@ class Registration:
     node: MapObject
     path: list[str]
     map_path: Path
+    model_dir: Path | None = None  # the model folder an asset was imported into
+    repairs: list[str] = field(default_factory=list)  # what that import decided and repaired
 
 
 def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -> Registration:
@@ -95,3 +107,43 @@ def add_model_folder(model_dir: Path, entry: MapEntry, *, force: bool = False) -
         raise MapError(f"{entry.map_path}: {exc}") from None
     save_map(smap, out_path)
     return Registration(node=node, path=smap.path_to(node.id), map_path=out_path)
+
+
+def add_asset(
+    asset: Path,
+    entry: MapEntry,
+    *,
+    model_dir: Path | None = None,
+    options: ImportOptions | None = None,
+    repair_options: RepairOptions | None = None,
+    force: bool = False,
+) -> Registration:
+    """Import a raw asset (one mesh file of a small object, a URDF such as a ROS description
+    package's, a PartNet-Mobility folder) into a model folder of its own, its gaps repaired as
+    `repair_options` state (the defaults otherwise, each repair listed), and register that
+    folder: a self-contained model the map can keep whatever happens to the asset. The
+    folder is `model_dir`, by default models/<object id>/ beside the map written. Refused,
+    with nothing written, when the imported model fails the validation gate."""
+    from articulation.asset_import import import_model_folder
+    from articulation.repair import RepairOptions
+
+    entry.check(force=force)
+    out_path = Path(entry.out_path or entry.map_path)
+    model_dir = Path(model_dir) if model_dir is not None else out_path.parent / IMPORTED_MODELS_DIR / entry.object_id
+    if model_dir.exists() and not force and (model_dir.is_file() or any(model_dir.iterdir())):
+        raise OutputExistsError(f"{model_dir}: exists (give another --model-dir, or --force to replace it)")
+    done = import_model_folder(
+        asset, model_dir, name=entry.object_id, options=options, repair_options=repair_options or RepairOptions(), force=True
+    )
+    try:
+        if not done.folder.valid:
+            failed = "; ".join(f"{c.name}: {c.detail}" for c in done.folder.validation.checks if not c.passed)
+            raise ModelError(f"{asset}: imported, it fails the validation gate: {failed}")
+        # Its meshes are now in the folder: no package paths are needed to read it.
+        registration = add_model_folder(model_dir, dataclasses.replace(entry, package_paths=()), force=force)
+    except BaseException:
+        shutil.rmtree(model_dir, ignore_errors=True)
+        raise
+    registration.model_dir = model_dir
+    registration.repairs = done.repairs
+    return registration

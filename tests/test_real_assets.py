@@ -148,7 +148,10 @@ def test_a_glb_of_a_small_object_is_a_one_link_model_on_the_floor(tmp_path: Path
     assert model.link("body").inertial.mass_kg == pytest.approx(700.0 * cup.volume, rel=1e-6)
     np.testing.assert_allclose(model.link("body").inertial.com_m, [0, 0, 0.05], atol=1e-6)
     assert "closed meshes' volume" in done[0] and "700 kg/m^3" in done[0]
-    assert imported.notes == ["frame: 1 mesh part(s) as one link, y up (glTF's) turned to z up, standing on the floor (z = 0) with its footprint centred on the origin"]
+    assert imported.notes == [
+        "frame: 1 mesh part(s) as one link, y up (glTF's) turned to z up, standing on the floor (z = 0) with its footprint centred on the origin",
+        "units: metres (glTF's)",
+    ]
     write_model_files(model, tmp_path / "out")
     report = validate_path(tmp_path / "out")
     assert report.ok, report.format()

@@ -27,6 +27,8 @@ PARENT_OPTION = old_spellings(
 )
 ID_OPTION = typer.Option(None, "--id", help="with --map: the object's id (default: the model's name)")
 XYZ_OPTION = typer.Option((0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent's frame (m)")
+IMPORT = "articulation.asset_import:ImportOptions"  # `map add`'s import of a raw asset
+REPAIR = "articulation.repair:RepairOptions"
 
 
 def map_entry_from_flags(
@@ -191,14 +193,27 @@ def add(
     package_paths: list[Path] = typer.Option(
         [], "--package-path", help="where a ROS URDF's package://NAME/... meshes find package NAME (repeatable)"
     ),
+    object_type: str | None = typer.Option(None, "--type", help="the object's type, e.g. cup (default: the model's category)"),
+    import_first: bool = typer.Option(
+        False, "--import", help="import MODEL into a model folder of its own, its gaps repaired (always for a mesh file: glb, gltf, obj, stl, ply, dae)"
+    ),
+    import_dir: Path | None = typer.Option(None, "--model-dir", help="with an import: the model folder to write (default: models/ID beside the map)"),
+    units: str = field_option(f"{IMPORT}.units", help="with an import: a mesh file's unit (auto: metres; glTF is metres, a DAE says its own)"),
+    up_axis: str = field_option(f"{IMPORT}.up_axis", help="with an import: a mesh file's up axis (auto: y for glTF, z otherwise)"),
+    density_kg_m3: float = field_option(f"{REPAIR}.density_kg_m3", min=1e-3, help="with an import: the mass of a link without one, from its closed volume at this density"),
 ) -> None:
-    """Register the model MODEL under PARENT_ID and save the map atomically."""
+    """Register the model MODEL under PARENT_ID and save the map atomically. A raw asset (a
+    downloaded glb or OBJ, a ROS package's URDF with --import) is imported first, as
+    `add_asset` says, and the repairs are printed."""
+    from articulation.asset_import import ImportOptions
+    from articulation.repair import RepairOptions
+    from articulation.urdf_import import MESH_FILE_SUFFIXES
     from homemodel.app.database.queries import resolve_model_ref
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import MapEntry, add_model_folder
+    from semantic_map import MapEntry, add_asset, add_model_folder
 
     with exit_on_error():
-        model = resolve_model_ref(model_dir, db)  # a db:ID brings the manifest's category and properties
+        model = resolve_model_ref(model_dir, db)
         entry = MapEntry(
             map_path=map_path,
             object_id=object_id,
@@ -206,14 +221,25 @@ def add(
             relation=relation,
             parent_from_object=transform_from_xyz_rpy(xyz, rpy),
             parking_positions=_parking_list(parking),
-            category=model.category,
+            category=object_type or model.category,  # a db:ID brings the manifest's category and properties
             properties={**model.properties, **key_values(properties, "--property")} or None,
             graspable=graspable,
             out_path=out,
             package_paths=package_paths,
         )
-        registration = add_model_folder(model.folder, entry, force=force)
+        if import_first or model.folder.suffix.lower() in MESH_FILE_SUFFIXES:
+            options = ImportOptions(package_paths=package_paths, units=units, up_axis=up_axis)
+            registration = add_asset(
+                model.folder, entry, model_dir=import_dir, options=options,
+                repair_options=RepairOptions(density_kg_m3=density_kg_m3), force=force,
+            )  # fmt: skip
+        else:
+            registration = add_model_folder(model.folder, entry, force=force)
     echo_registration(registration)
+    if registration.model_dir is not None:
+        typer.echo(f"imported into {registration.model_dir}:")
+        for said in registration.repairs:
+            typer.echo(f"  {said}")
 
 
 def echo_registration(registration: Registration) -> None:

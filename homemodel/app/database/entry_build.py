@@ -135,36 +135,23 @@ def _build_completion(job: Job, out: Path) -> _Built:
 
 
 def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
-    from articulation.asset_import import ImportOptions, import_asset
+    from articulation.asset_import import ImportOptions, import_model_folder
     from articulation.gate import validate_path
-    from articulation.model_folder import PipelineSummary, write_model_folder
     from articulation.repair import RepairOptions
-    from articulation.repair import repair as repaired
 
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="homemodel-import-") as textures:
-        options = _options(ImportOptions, job)
-        imported = import_asset(job.inputs["path"], options, texture_dir=Path(textures))
-        if imported.gaps and repair is None:
-            # The asset as given fails the gate for want of what it needs: say so, and how to repair.
-            report = validate_path(imported.urdf, package_paths=options.package_paths) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
-            said = "; ".join(imported.gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"
-            report.checks.insert(0, Check("repairable", False, said))
-            return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
-        model = imported.model
-        model.name = job.id
-        repairs = list(imported.notes)
-        if imported.gaps and repair is not None:
-            model, done = repaired(model, imported.gaps, RepairOptions(**repair.model_dump()))
-            repairs += done
-        summary = PipelineSummary(
-            source="imported",
-            figures={"repairs": repairs},
-            times_s={"import": time.perf_counter() - start},
-            inputs={"asset": job.inputs["path"]},
-        )
-        written = write_model_folder(model, out, summary, force=True)
-    return _Built(report=written.validation, times_s=dict(written.summary.times_s), repairs=repairs, model=model)
+    options = _options(ImportOptions, job)
+    repair_options = RepairOptions(**repair.model_dump()) if repair is not None else None
+    done = import_model_folder(job.inputs["path"], out, name=job.id, options=options, repair_options=repair_options, force=True)
+    if done.folder is None:
+        # The asset as given fails the gate for want of what it needs: say so, and how to repair.
+        imported = done.imported
+        report = validate_path(imported.urdf, package_paths=options.package_paths) if imported.urdf is not None else ValidationReport(path=job.inputs["path"])
+        said = "; ".join(imported.gaps.describe()) + " (rerun with --repair, or set `repair: true` on the entry)"
+        report.checks.insert(0, Check("repairable", False, said))
+        return _Built(report=report, times_s={"validate": time.perf_counter() - start}, repairs=[])
+    written = done.folder
+    return _Built(report=written.validation, times_s=dict(written.summary.times_s), repairs=done.repairs, model=written.model)
 
 
 def _run_source(request: BuildRequest, out: Path) -> _Built:
