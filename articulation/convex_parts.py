@@ -7,6 +7,12 @@ mesh whose hull is much larger than itself is split here into convex parts by V-
 both ways: how far they reach past it (`overshoot_m`, the 95th percentile over points on a
 part's surface outside the solid), how far the real surface lies outside every part (`gap_m`),
 and how much of the real volume they cover.
+
+`cell_decomposition` is the cheap alternative for closed scans: the solid's points (a lattice
+inside it and samples on its surface) split into k-means cells, each cell's convex hull a part.
+A cell of a thin wall holds a short stretch of it, whose hull reaches past the wall by the
+stretch's sagitta, so on cups, bowls and bottles it keeps as close to the surface as V-HACD
+for a fraction of the time (see `cell_decomposition`).
 """
 
 from __future__ import annotations
@@ -24,6 +30,11 @@ CONCAVE_HULL_RATIO = 1.3
 MAX_PARTS = 8
 # V-HACD's voxel budget: 20,000 split a microwave's frame into 8 tight parts in about 3 s here.
 VOXEL_RESOLUTION = 10_000
+# `cell_decomposition`'s points: the lattice's step as a share of the diagonal, the surface's
+# samples, and the k-means iterations (a completed mug: 1,900 lattice points inside).
+CELL_LATTICE_FRACTION = 1 / 48
+CELL_SURFACE_POINTS = 8000
+CELL_ITERATIONS = 20
 _SAMPLES = 500
 _SEED = 0
 
@@ -76,10 +87,13 @@ def inside_convex(hull: trimesh.Trimesh, points: np.ndarray, tolerance: float = 
 
 
 def _covered(shapes: list[trimesh.Trimesh], points: np.ndarray, tolerance: float) -> np.ndarray:
-    """Which points lie inside some convex shape (each shape tests only the points still out)."""
+    """Which points lie inside some convex shape (each shape tests only the points still out
+    within its bounding box)."""
     covered = np.zeros(len(points), dtype=bool)
     for shape in shapes:
-        out = np.nonzero(~covered)[0]
+        out = np.flatnonzero(~covered)
+        low, high = shape.bounds
+        out = out[np.all((points[out] >= low - tolerance) & (points[out] <= high + tolerance), axis=1)]
         covered[out[inside_convex(shape, points[out], tolerance)]] = True
     return covered
 
@@ -99,13 +113,14 @@ def fidelity(
     of `real` already built (a large surface measured against several decompositions)."""
     rng = np.random.default_rng(seed)
     to_real = to_real or RayCaster(real)
-    overshoots, distances = [], []
-    for shape in shapes:
-        points, _ = trimesh.sample.sample_surface(shape, samples, seed=int(rng.integers(1 << 31)))
-        distance = to_real.distances(points)
-        distance[real.contains(points)] = 0.0
-        overshoots.append(float(np.percentile(distance, 95)))
-        distances.append(distance)
+    # Every shape's samples measured in one batch (one ray-parity pass, not one per shape).
+    on_shapes = np.concatenate(
+        [trimesh.sample.sample_surface(shape, samples, seed=int(rng.integers(1 << 31)))[0] for shape in shapes]
+    )
+    distance = to_real.distances(on_shapes)
+    distance[real.contains(on_shapes)] = 0.0
+    distances = np.split(distance, len(shapes))
+    overshoots = [float(np.percentile(d, 95)) for d in distances]
     # Over all the shapes: each shape's samples weigh by its area.
     order = np.argsort(np.concatenate(distances))
     weights = np.concatenate([np.full(samples, shape.area / samples) for shape in shapes])[order]
@@ -124,13 +139,37 @@ def fidelity(
 
 
 def spans_a_volume(vertices: np.ndarray) -> bool:
-    """Whether a V-HACD part's points span three dimensions: a flat or collapsed part (fewer
+    """Whether a part's points span three dimensions: a flat or collapsed part (fewer
     than four distinct points, or all on one plane) has no convex hull (qhull refuses it)."""
     distinct = np.unique(vertices, axis=0)
     if len(distinct) < 4:
         return False
     spread = np.linalg.svd(distinct - distinct.mean(axis=0), compute_uv=False)
     return bool(spread[2] > 1e-6 * spread[0])
+
+
+def _measured(
+    meshes: list[trimesh.Trimesh],
+    surface: trimesh.Trimesh,
+    *,
+    to_surface: RayCaster,
+    inside: np.ndarray,
+    hull_overshoot_m: float | None,
+) -> Decomposition:
+    """The `Decomposition` of convex `meshes` against `surface`; `inside`: points of its solid."""
+    fit = fidelity(meshes, surface, to_real=to_surface)
+    if hull_overshoot_m is None:
+        hull_overshoot_m = float(fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1).overshoot_m[0])
+    covered = _covered(meshes, inside, tolerance=1e-6 * float(surface.scale))
+    return Decomposition(
+        parts=[ConvexPart(mesh=m, overshoot_m=float(o)) for m, o in zip(meshes, fit.overshoot_m, strict=True)],
+        coverage=float(covered.mean()) if len(inside) else 0.0,
+        hull_overshoot_m=hull_overshoot_m,
+        overshoot_m=fit.overshoot_all_m,
+        overshoot_max_m=fit.overshoot_max_m,
+        gap_m=fit.gap_m,
+        gap_max_m=fit.gap_max_m,
+    )
 
 
 def decompose(
@@ -140,10 +179,12 @@ def decompose(
     resolution: int = VOXEL_RESOLUTION,
     surface: trimesh.Trimesh | None = None,
     to_surface: RayCaster | None = None,
+    hull_overshoot_m: float | None = None,
 ) -> Decomposition:
     """The convex parts of a closed `mesh` (at most `max_parts`, from V-HACD's `resolution`
     voxels) and how faithful they are to `surface` (default: `mesh`; a finer mesh of the same
-    object when `mesh` is a reduced copy; `to_surface` its ray caster, if built)."""
+    object when `mesh` is a reduced copy; `to_surface` its ray caster, if built;
+    `hull_overshoot_m` the hull's overshoot, if measured)."""
     from trimesh.decomposition import convex_decomposition
 
     surface = mesh if surface is None else surface
@@ -152,16 +193,59 @@ def decompose(
     found = found if isinstance(found, list) else [found]
     meshes = [trimesh.Trimesh(**p) if isinstance(p, dict) else p for p in found]
     meshes = [m.convex_hull for m in meshes if spans_a_volume(m.vertices)]
-    fit = fidelity(meshes, surface, to_real=to_surface)
-    hull_fit = fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1)
     inside = trimesh.sample.volume_mesh(surface, 4 * _SAMPLES)
-    covered = _covered(meshes, inside, tolerance=1e-6 * float(surface.scale))
-    return Decomposition(
-        parts=[ConvexPart(mesh=m, overshoot_m=float(o)) for m, o in zip(meshes, fit.overshoot_m, strict=True)],
-        coverage=float(covered.mean()) if len(inside) else 0.0,
-        hull_overshoot_m=float(hull_fit.overshoot_m[0]),
-        overshoot_m=fit.overshoot_all_m,
-        overshoot_max_m=fit.overshoot_max_m,
-        gap_m=fit.gap_m,
-        gap_max_m=fit.gap_max_m,
+    return _measured(meshes, surface, to_surface=to_surface, inside=inside, hull_overshoot_m=hull_overshoot_m)
+
+
+@dataclass(frozen=True)
+class SolidPoints:
+    """Points filling a closed mesh (`solid_points`)."""
+
+    inside: np.ndarray  # on a lattice, inside the mesh
+    surface: np.ndarray  # on its surface, which is all a thin wall between the lattice's points holds
+
+    @property
+    def all(self) -> np.ndarray:
+        return np.concatenate([self.inside, self.surface])
+
+
+def solid_points(mesh: trimesh.Trimesh, *, seed: int = _SEED) -> SolidPoints:
+    """A lattice inside the closed `mesh`, `CELL_LATTICE_FRACTION` of its diagonal apart (the
+    inside by ray parity), and `CELL_SURFACE_POINTS` on its surface."""
+    step = float(mesh.scale) * CELL_LATTICE_FRACTION
+    low, high = mesh.bounds
+    axes = [np.arange(lo + step / 2, hi, step) for lo, hi in zip(low, high, strict=True)]
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    on_surface, _ = trimesh.sample.sample_surface(mesh, CELL_SURFACE_POINTS, seed=seed)
+    return SolidPoints(inside=lattice[mesh.contains(lattice)], surface=on_surface)
+
+
+def cell_decomposition(
+    mesh: trimesh.Trimesh,
+    parts: int,
+    *,
+    points: SolidPoints | None = None,
+    to_surface: RayCaster | None = None,
+    hull_overshoot_m: float | None = None,
+    seed: int = _SEED,
+) -> Decomposition:
+    """`parts` convex parts of the closed `mesh`: its solid's points (`points`, default
+    `solid_points(mesh)`) in k-means cells, each cell's hull, measured as `decompose`'s. On
+    completed cups, bowls and bottles, 32 cells reached 2.7-3.8 mm past the surface where
+    V-HACD's 32 parts from 10,000 voxels reached 4.2 mm, in 0.4 CPU-s against its 1.4."""
+    from scipy.cluster.vq import kmeans2
+
+    points = solid_points(mesh, seed=seed) if points is None else points
+    # At the exported meshes' precision (`homemodel.exchange.numbers.fixed`), so a written part's
+    # vertices read back as they are: hulls of points sampled on flat faces have near-coplanar
+    # facets that rounding on export could fold inwards.
+    every = np.round(points.all, 6)
+    _, cell = kmeans2(every, parts, minit="++", seed=seed, iter=CELL_ITERATIONS)
+    meshes = []
+    for k in range(parts):
+        member = every[cell == k]
+        if len(member) >= 4 and spans_a_volume(member):
+            meshes.append(trimesh.convex.convex_hull(member))
+    return _measured(
+        meshes, mesh, to_surface=to_surface or RayCaster(mesh), inside=points.inside, hull_overshoot_m=hull_overshoot_m
     )

@@ -6,10 +6,11 @@ The visual is the pipeline's mesh at full detail: an untextured one is decimated
 vertices), and it is measured against the points it was made from (fused dense points, merged
 depth points, a completion's query points): the median distance from the points to its
 surface should stay within the points' own spacing. The collision is the mesh's convex hull
-when the hull keeps within the tolerance of the surface (a box, a can), else V-HACD's convex
-parts (`articulation.convex_parts`), tried from cheap (few parts, coarse voxels) to fine until
-the parts keep within the tolerance both ways: no part reaching past the surface, no surface
-left outside every part.
+when the hull keeps within the tolerance of the surface (a box, a can), else convex parts
+(`articulation.convex_parts`) tried from cheap to fine until they keep within the tolerance
+both ways (no part reaching past the surface, no surface left outside every part): the hulls
+of k-means cells of a closed mesh's solid, then V-HACD's parts (few parts from coarse voxels
+first).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from articulation.convex_parts import Decomposition, decompose, fidelity
+from articulation.convex_parts import Decomposition, cell_decomposition, decompose, fidelity, solid_points
 from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import ModelError
 from homemodel.core.model_summary import CollisionMesh, MeshFit, ScanMeshes as ScanMeshFigures, VisualMesh
@@ -28,6 +29,10 @@ from homemodel.core.progress import Progress, no_progress
 from homemodel.geometry.mesh_ops import decimate, from_open3d, to_open3d
 from homemodel.geometry.raycast import RayCaster
 
+# The k-means cell counts tried on a closed mesh, fewest first. On the completions of 11 real
+# cups, bowls and bottles, 32 cells kept all but one bowl within 5 mm (95th percentiles, both
+# ways) and 48 all of them, at 0.3-0.6 CPU-s a try; 24 failed on half the cups.
+CELL_COUNTS = (32, 48, 64)
 # V-HACD's attempts, cheapest first: (at most this many parts, from this many voxels). On a
 # 2-core machine at a load of 15, 32 parts from 10,000 voxels kept a completed cup and bottle
 # within 4 mm (95th percentiles, both ways) in 3-5 s; 8 or 16 parts left a cup's rim 5-7 mm out.
@@ -113,29 +118,37 @@ def _collision(solid: trimesh.Trimesh, tolerance: float, options: ScanMeshOption
     best = ([hull], None, "convex hull", fit.overshoot_all_m, fit.overshoot_max_m, fit.gap_m, fit.gap_max_m)
     if best[3] <= tolerance:
         return best
-    reduced = solid
-    if len(solid.faces) > DECOMPOSITION_FACES:
-        cell = float(solid.scale) * DECOMPOSITION_CELL_FRACTION
-        reduced = from_open3d(to_open3d(solid).simplify_vertex_clustering(voxel_size=cell))
-    attempts = [a for a in ATTEMPTS if a[0] <= options.max_collision_parts] or [(options.max_collision_parts, ATTEMPTS[0][1])]
-    for done, (parts, voxels) in enumerate(attempts):
+    cells = [count for count in CELL_COUNTS if count <= options.max_collision_parts] if solid.is_watertight else []
+    voxels = [a for a in ATTEMPTS if a[0] <= options.max_collision_parts] or [(options.max_collision_parts, ATTEMPTS[0][1])]
+    attempts = [("cells", count, 0) for count in cells] + [("V-HACD", parts, resolution) for parts, resolution in voxels]
+    points = solid_points(solid) if cells else None
+    reduced = None
+    for done, (kind, parts, resolution) in enumerate(attempts):
         progress("export", done, len(attempts))
-        split = decompose(reduced, max_parts=parts, resolution=voxels, surface=solid, to_surface=to_solid)
-        found = (
-            [p.mesh for p in split.parts],
-            split,
-            f"V-HACD: at most {parts} parts from {voxels} voxels",
-            split.overshoot_m,
-            split.overshoot_max_m,
-            split.gap_m,
-            split.gap_max_m,
-        )
+        if kind == "cells":
+            split = cell_decomposition(solid, parts, points=points, to_surface=to_solid, hull_overshoot_m=fit.overshoot_all_m)
+            method = f"k-means cells: {parts} convex hulls"
+        else:
+            reduced = _reduced(solid) if reduced is None else reduced
+            split = decompose(reduced, max_parts=parts, resolution=resolution, surface=solid, to_surface=to_solid,
+                              hull_overshoot_m=fit.overshoot_all_m)  # fmt: skip
+            method = f"V-HACD: at most {parts} parts from {resolution} voxels"
+        found = ([p.mesh for p in split.parts], split, method, split.overshoot_m, split.overshoot_max_m, split.gap_m,
+                 split.gap_max_m)  # fmt: skip
         if max(found[3], found[5]) < max(best[3], best[5]):
             best = found
         if max(best[3], best[5]) <= tolerance:
             break
     progress("export", len(attempts), len(attempts))
     return best
+
+
+def _reduced(solid: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The mesh V-HACD voxelises: above DECOMPOSITION_FACES, reduced by vertex clustering."""
+    if len(solid.faces) <= DECOMPOSITION_FACES:
+        return solid
+    cell = float(solid.scale) * DECOMPOSITION_CELL_FRACTION
+    return from_open3d(to_open3d(solid).simplify_vertex_clustering(voxel_size=cell))
 
 
 def scan_meshes(
