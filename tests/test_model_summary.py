@@ -91,6 +91,9 @@ def _good() -> dict:
         {"units": "unscaled"},
         {"turntable": {"frames_used": 3}},  # figures under another source's key
         {"extent_m": [1, 1, 1]},  # the old spellings are refused
+        {"completion": {"class": "mug", "klass": "mug"}},  # a figure the source's model does not name
+        {"completion": {"class": "mug", "query_points": "many"}},  # a figure of the wrong type
+        {"completion": {"class": "mug", "revolution_axis": {"point_m": [0, 0]}}},  # a nested figure's shape
         {"schema_version": 2},
         {"links": 0},
     ],

@@ -35,22 +35,22 @@ def _summary_rows(summary: ModelSummary) -> list[tuple[str, str]]:
     scaled = summary.metric
     unit = "mm" if scaled else "units"
     factor = 1000 if scaled else 1
-    extents = summary.extents_m if scaled else figures["extents_sfm_units"]
+    extents = summary.extents_m if scaled else figures.extents_sfm_units
     rows = [
-        ("photos registered", f"{figures['registered']} of {figures['photos']}"),
-        ("matching", f"{figures['matching']}, {figures['cameras']} camera model(s)"),
-        ("sparse points", str(figures["sparse_points"])),
-        ("reprojection error", f"{figures['reprojection_error_px']:.3f} px"),
-        ("dense method", figures["dense_method"]),
-        ("dense points (fused)", str(figures["dense_points"])),
-        ("object points", str(figures["object_points"])),
-        ("support plane points removed", str(figures["support_plane_points_removed"])),
-        ("free-space points removed", str(figures["free_space_points_removed"])),
-        ("scale", f"markers {figures['markers']}" if scaled else "[yellow]unscaled (no markers)[/]"),
-        ("levelled (z up from support)", "yes" if figures["levelled"] else "[yellow]no[/]"),
+        ("photos registered", f"{figures.registered} of {figures.photos}"),
+        ("matching", f"{figures.matching}, {figures.cameras} camera model(s)"),
+        ("sparse points", str(figures.sparse_points)),
+        ("reprojection error", f"{figures.reprojection_error_px:.3f} px"),
+        ("dense method", figures.dense_method),
+        ("dense points (fused)", str(figures.dense_points)),
+        ("object points", str(figures.object_points)),
+        ("support plane points removed", str(figures.support_plane_points_removed)),
+        ("free-space points removed", str(figures.free_space_points_removed)),
+        ("scale", f"markers {figures.markers}" if scaled else "[yellow]unscaled (no markers)[/]"),
+        ("levelled (z up from support)", "yes" if figures.levelled else "[yellow]no[/]"),
         ("size x y z", " x ".join(f"{e * factor:.1f}" for e in extents) + f" {unit}"),
-        ("mesh", f"{figures['faces']} faces, {'watertight' if figures['watertight'] else 'not watertight'}"),
-        ("texture", f"{figures['texture_px']} px, {figures['texture_covered_share'] * 100:.0f}% seen"),
+        ("mesh", f"{figures.faces} faces, {'watertight' if figures.watertight else 'not watertight'}"),
+        ("texture", f"{figures.texture_px} px, {figures.texture_covered_share * 100:.0f}% seen"),
         ("mass", f"{summary.mass_kg:.3f} kg" if scaled else "n/a (unscaled)"),
     ]
     return rows + [(f"time {stage}", f"{seconds:.1f} s") for stage, seconds in summary.times_s.items()]

@@ -198,22 +198,20 @@ def reconstruct(
         with stage_bars(console) as progress:
             result = run(capture_dir, out, options, progress=progress, force=force)
     summary = result.summary.turntable  # the folder's summary.json: its own figures, then the common ones
+    tags, errors, orbit = summary.tags_per_frame, summary.reprojection_error_px, summary.orbit
     rows = [
-        ("frames used", f"{summary['frames_used']} of {summary['frames_total']} ({summary['frames_skipped']} skipped)"),
-        ("tags per frame", "{mean:.1f} (min {min}, max {max})".format(**summary["tags_per_frame"])),
-        ("reprojection error", "{mean:.3f} px (max {max:.3f})".format(**summary["reprojection_error_px"])),
-        (
-            "orbit radius / circle RMS",
-            f"{summary['orbit']['radius_m'] * 1000:.1f} mm / {summary['orbit']['circle_rms_m'] * 1000:.3f} mm",
-        ),
+        ("frames used", f"{summary.frames_used} of {summary.frames_total} ({summary.frames_skipped} skipped)"),
+        ("tags per frame", f"{tags.mean:.1f} (min {tags.min}, max {tags.max})"),
+        ("reprojection error", f"{errors.mean:.3f} px (max {errors.max:.3f})"),
+        ("orbit radius / circle RMS", f"{orbit.radius_m * 1000:.1f} mm / {orbit.circle_rms_m * 1000:.3f} mm"),
     ]
-    if summary["turntable_refinement"] is not None:
-        fit = summary["turntable_refinement"]
-        verdict = "applied" if fit["accepted"] else "rejected (kept PnP poses)"
-        rows.append(("turntable refinement", f"{verdict}: {fit['rms_px']:.3f} px vs PnP {fit['pnp_rms_px']:.3f} px"))
+    if summary.turntable_refinement is not None:
+        fit = summary.turntable_refinement
+        verdict = "applied" if fit.accepted else "rejected (kept PnP poses)"
+        rows.append(("turntable refinement", f"{verdict}: {fit.rms_px:.3f} px vs PnP {fit.pnp_rms_px:.3f} px"))
     rows += [
-        ("points merged / after outliers", f"{summary['points_merged']} / {summary['points_after_outlier_removal']}"),
-        ("triangles", f"{summary['triangles']} (watertight: {'yes' if summary['watertight'] else 'no'})"),
+        ("points merged / after outliers", f"{summary.points_merged} / {summary.points_after_outlier_removal}"),
+        ("triangles", f"{summary.triangles} (watertight: {'yes' if summary.watertight else 'no'})"),
         ("extent", " x ".join(f"{v * 1000:.1f}" for v in result.summary.extents_m) + " mm"),
     ]
     rows += [(f"time: {stage}", f"{seconds:.2f} s") for stage, seconds in result.summary.times_s.items()]

@@ -4,7 +4,8 @@ add-on, the home builds and the database, published as a JSON Schema
 
 The common figures sit at the top (name, kind, source, units, extents, triangles, mass, the
 gate's result, times, inputs with their content hashes); what only one pipeline measures sits
-under one key named after its source (`turntable: {...}`), the other sources' keys absent.
+under one key named after its source (`turntable: {...}`), typed by that source's figures model
+(`TurntableFigures`, ...), the other sources' keys absent.
 """
 
 from __future__ import annotations
@@ -91,6 +92,148 @@ class ScanMeshes(_Strict):
     seconds: float = Field(ge=0, description="making and measuring both (within the pipeline's export)")
 
 
+class _Figures(_Strict):
+    """A pipeline's own figures (the summary's key named after its source). Every figure has
+    its name and type here; a pipeline may leave one out (a test's partial summary, a figure
+    its method does not make), and summary.json then holds only those it gave."""
+
+
+class MeanMax(_Strict):
+    mean: float
+    max: float
+
+
+class ComparisonPicture(_Strict):
+    """One of the modeller's photo comparisons (`modeller.comparison_picture.PictureRow`)."""
+
+    photo: str
+    part: str
+    face: str
+    texture_px: list[int] = Field(min_length=2, max_length=2)
+    texture_kb: float
+    focal_px: float
+    reprojection_px: float = Field(description="the face's corners through the recovered camera, against the photo's")
+    picture: str
+
+
+class ModellerFigures(_Figures):
+    grasp_points: int | None = Field(default=None, ge=0)
+    masses_kg: dict[str, float] | None = Field(default=None, description="per link")
+    pictures: list[ComparisonPicture] | None = None
+
+
+class TagsPerFrame(_Strict):
+    mean: float
+    min: int
+    max: int
+
+
+class Orbit(_Strict):
+    radius_m: float = Field(description="of the circle the board's origin runs on, seen from the camera")
+    circle_rms_m: float
+    axis_xy_m: list[float] = Field(min_length=2, max_length=2, description="the turntable's axis on the board")
+    axis_tilt_deg: float
+    axis_spread_m: float
+
+
+class TurntableRefinement(_Strict):
+    accepted: bool
+    rms_px: float
+    pnp_rms_px: float
+
+
+class Cylinder(_Strict):
+    radius_m: float
+    z_min_m: float
+
+
+class TurntableFigures(_Figures):
+    frames_total: int | None = Field(default=None, ge=0)
+    frames_used: int | None = Field(default=None, ge=0)
+    frames_skipped: int | None = Field(default=None, ge=0)
+    skip_reasons: dict[str, int] | None = Field(default=None, description="frames skipped per kind: image, pose, unpaired")
+    tags_per_frame: TagsPerFrame | None = None
+    reprojection_error_px: MeanMax | None = None
+    orbit: Orbit | None = None
+    turntable_refinement: TurntableRefinement | None = None
+    cylinder: Cylinder | None = None
+    points_merged: int | None = Field(default=None, ge=0)
+    points_after_outlier_removal: int | None = Field(default=None, ge=0)
+    triangles_poisson: int | None = Field(default=None, ge=0)
+    triangles: int | None = Field(default=None, ge=0)
+    density_trimmed: bool | None = None
+    watertight: bool | None = None
+    real_frames: dict[str, Any] | None = Field(default=None, description="flying pixels, blur, misregistration (turntable.real_frames)")
+    recording: dict[str, Any] | None = Field(default=None, description="the capture's recording.json, when imported from a recording")
+    density_kg_m3: float | None = Field(default=None, gt=0)
+
+
+class PhotogrammetryFigures(_Figures):
+    photos: int | None = Field(default=None, ge=0)
+    registered: int | None = Field(default=None, ge=0)
+    unregistered: list[str] | None = None
+    matching: str | None = None
+    cameras: int | None = Field(default=None, ge=0, description="camera models (one per camera and zoom)")
+    sparse_points: int | None = Field(default=None, ge=0)
+    reprojection_error_px: float | None = None
+    dense_method: str | None = None
+    dense_points: int | None = Field(default=None, ge=0)
+    object_points: int | None = Field(default=None, ge=0)
+    support_plane_found: bool | None = None
+    support_plane: dict[str, Any] | None = Field(default=None, description="the support plane's fit (photogrammetry.support_plane)")
+    support_plane_points_removed: int | None = Field(default=None, ge=0)
+    free_space_points_removed: int | None = Field(default=None, ge=0)
+    pieces_dropped: int | None = Field(default=None, ge=0)
+    scaled: bool | None = None
+    scale_per_sfm_unit: float | None = None
+    levelled: bool | None = None
+    markers: list[int] | None = Field(default=None, description="ids of the markers that set the scale")
+    marker_edge_spread: float | None = None
+    faces: int | None = Field(default=None, ge=0)
+    vertices: int | None = Field(default=None, ge=0)
+    watertight: bool | None = None
+    texture_px: int | None = Field(default=None, ge=1)
+    texture_covered_share: float | None = Field(default=None, ge=0, le=1)
+    extents_sfm_units: list[float] | None = Field(default=None, description="the size of an unscaled model")
+
+
+class RevolutionAxis(_Strict):
+    point_m: list[float] = Field(min_length=3, max_length=3)
+    direction: list[float] = Field(min_length=3, max_length=3)
+
+
+class QuerySupportPlane(_Strict):
+    normal_camera: list[float] = Field(min_length=3, max_length=3)
+    offset_m: float
+    pixels: int
+
+
+class CompletionFigures(_Figures):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
+    class_name: str | None = Field(default=None, alias="class", description="the class the query was recognised as")
+    retrieved: str | None = Field(default=None, description="the library shape fitted to the query")
+    query_points: int | None = Field(default=None, ge=0)
+    match_distance_m: float | None = None
+    fit_distance_m: float | None = None
+    symmetry_planes: int | None = Field(default=None, ge=0)
+    revolution_axis: RevolutionAxis | None = Field(default=None, description="a revolved match's axis fitted to the query")
+    watertight: bool | None = None
+    frame: str | None = Field(default=None, description="the frame the model is written in")
+    up_from: str | None = None
+    camera_from_object: list[list[float]] | None = None
+    map_from_object: list[list[float]] | None = None
+    support_plane: QuerySupportPlane | None = None
+
+
+class BlenderFigures(_Figures):
+    """A model saved from the Blender add-on: no figures of its own."""
+
+
+class ImportedFigures(_Figures):
+    repairs: list[str] | None = Field(default=None, description="what the import and the repair changed")
+
+
 def _cross_field_rules(schema: dict[str, Any]) -> None:
     """The `_consistent` checks, for clients of the JSON Schema that never see pydantic."""
     schema["allOf"] = [
@@ -129,12 +272,12 @@ class ModelSummary(_Strict):
     gate: GateResult
     times_s: dict[str, float]
     inputs: list[InputFile]
-    modeller: dict[str, Any] | None = None
-    turntable: dict[str, Any] | None = None
-    photogrammetry: dict[str, Any] | None = None
-    completion: dict[str, Any] | None = None
-    blender: dict[str, Any] | None = None
-    imported: dict[str, Any] | None = None
+    modeller: ModellerFigures | None = None
+    turntable: TurntableFigures | None = None
+    photogrammetry: PhotogrammetryFigures | None = None
+    completion: CompletionFigures | None = None
+    blender: BlenderFigures | None = None
+    imported: ImportedFigures | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> ModelSummary:
@@ -148,8 +291,12 @@ class ModelSummary(_Strict):
         return self
 
     def to_json(self) -> dict[str, Any]:
-        """The JSON document, without the other sources' (absent) keys."""
-        return self.model_dump(mode="json", exclude={s for s in SOURCES if s != self.source})
+        """The JSON document, without the other sources' (absent) keys; the source's figures
+        are those the pipeline gave."""
+        data = self.model_dump(mode="json", exclude=set(SOURCES))
+        figures = getattr(self, self.source)
+        data[self.source] = None if figures is None else figures.model_dump(mode="json", by_alias=True, exclude_unset=True)
+        return data
 
 
 def failed_check_lines(checks: Iterable[tuple[str, bool, str]]) -> list[str]:
