@@ -247,10 +247,12 @@ ENTRIES = [
 @pytest.mark.parametrize("package, entry", ENTRIES)
 def test_every_entry_keeps_one_result_contract(package: str, entry: str) -> None:
     from semantic_map import MapEntry, Registration
+    from semantic_map.model_result import ModelResult
 
     function = getattr(importlib.import_module(package), entry)
     signature = inspect.signature(function)
     result_class = _hint(signature.return_annotation, function.__globals__)
+    assert issubclass(result_class, ModelResult)  # one result type: summary, map_entry, registration
     options_class = _hint(signature.parameters["options"].annotation, function.__globals__)
     options_class = next(a for a in typing.get_args(options_class) if a is not type(None))
 
