@@ -23,6 +23,7 @@ from tracking.fit_pose import fit_quality, icp_correction
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView, chromaticity
 from tracking.report import SmallObjectReport
+from tracking.scene import box_corners
 
 
 # A small object stands at most this high on its surface.
@@ -227,8 +228,17 @@ def _fit_on_cluster(
 
     The camera sees the near side, so the centre lies beyond the points' centroid by up to
     half a footprint (a cup) or about on it (a bowl, whose inside is seen too): both start."""
-    model_xy = state.scene.object(object_id).model.world_mesh().bounds[:, :2]
-    radius = float(np.linalg.norm(model_xy[1] - model_xy[0])) / 4
+    bounds = state.scene.object(object_id).model.world_mesh().bounds
+    radius = float(np.linalg.norm(bounds[1, :2] - bounds[0, :2])) / 4
+    # Every candidate stays within the gates' reach of its start: only that window is rendered.
+    reach = 4 * radius + sum(search.gates_m)
+    low, high = cluster.points.min(axis=0) - reach, cluster.points.max(axis=0) + reach
+    low[2], high[2] = cluster.height_m - 0.01, cluster.height_m + bounds[1, 2] - bounds[0, 2] + 0.01
+    window = view.around(box_corners(np.array([low, high])))
+    if window is None:
+        return None
+    view, (rows, columns) = window
+    scene_depth = scene_depth[rows, columns]
     away = cluster.centre_xy - view.map_from_camera[:2, 3]
     away /= max(np.linalg.norm(away), 1e-9)
     best: _Candidate | None = None
@@ -304,7 +314,15 @@ def _refine(
 
 def _place_in_view(state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, search: SmallObjectSearch) -> bool:
     """Whether the map's place of the object is in the image, in front of the scene and not covered."""
-    rendering = _render_object(state, view, object_id, state.map_from_objects[object_id])
+    map_from_object = state.map_from_objects[object_id]
+    bounds = state.scene.object(object_id).model.world_mesh().bounds
+    corners = box_corners(bounds) @ map_from_object[:3, :3].T + map_from_object[:3, 3]
+    window = view.around(corners)
+    if window is None:
+        return False
+    view, (rows, columns) = window
+    scene_depth = scene_depth[rows, columns]
+    rendering = _render_object(state, view, object_id, map_from_object)
     visible = rendering.hit & (rendering.depth_m < scene_depth)
     if visible.sum() < search.min_cluster_points:
         return False

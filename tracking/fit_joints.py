@@ -28,6 +28,9 @@ class JointSearch:
 
     coarse_step: float
     fine_step: float
+    # A joint that rests only at its named states (an oven knob's detents) is scored at
+    # those alone, in the fine view.
+    detents: tuple[float, ...] = ()
 
 
 @dataclass(kw_only=True)
@@ -66,6 +69,8 @@ def fit_joint(
         return None
     (coarse, coarse_background), (fine, fine_background) = views
     contrast = float("nan")
+    if search.detents:
+        return _fit_detents(state, fine, fine_background, object_id, joint, moving, np.array(search.detents))
     if near is None:
         coarse_values = _grid(low, high, search.coarse_step)
         coarse_static = _static_depth(state, coarse, coarse_background, object_id, moving)
@@ -84,6 +89,21 @@ def fit_joint(
     state.joint_positions[object_id][joint] = position
     support = _support(state, fine, fine_static, object_id, joint, moving, position)
     return JointFit(position=position, contrast=contrast, **support)
+
+
+def _fit_detents(
+    state: FitState, view: FitView, background: np.ndarray, object_id: str, joint: str, moving: list[int],
+    values: np.ndarray,
+) -> JointFit | None:
+    static = _static_depth(state, view, background, object_id, moving)
+    costs = _costs(state, view, static, object_id, joint, moving, values)
+    if costs is None:
+        return None
+    best = int(np.argmin(costs))
+    position = float(values[best])
+    state.joint_positions[object_id][joint] = position
+    contrast = float(np.delete(costs, best).min() - costs[best]) if len(values) > 1 else 0.0
+    return JointFit(position=position, contrast=contrast, **_support(state, view, static, object_id, joint, moving, position))
 
 
 def _grid(low: float, high: float, step: float) -> np.ndarray:

@@ -84,6 +84,11 @@ def icp_correction(
 
     reg = o3d.pipelines.registration
     centre = target.mean(axis=0)
+    # Every few pixels' points pin the motion down as well as all of them, at a fraction
+    # of the nearest-neighbour searches (the pixels come row by row: a stride spreads them).
+    source = source[_spread(len(source), MAX_SOURCE_POINTS)]
+    kept = _spread(len(target), MAX_TARGET_POINTS)
+    target, target_normals = target[kept], target_normals[kept]
     source_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(source - centre))
     target_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(target - centre))
     target_cloud.normals = o3d.utility.Vector3dVector(target_normals)
@@ -104,6 +109,15 @@ def icp_correction(
     shift = np.eye(4)
     shift[:3, 3] = centre
     return shift @ local @ np.linalg.inv(shift)
+
+
+MAX_SOURCE_POINTS = 1500
+MAX_TARGET_POINTS = 3000
+
+
+def _spread(count: int, at_most: int) -> np.ndarray:
+    """Indices of at most `at_most` of `count` items, evenly spread."""
+    return np.arange(count) if count <= at_most else np.linspace(0, count - 1, at_most).astype(np.int64)
 
 
 # A planar motion (x, y, yaw) the surfaces constrain less than this (the share of their

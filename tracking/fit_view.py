@@ -55,6 +55,27 @@ class FitView:
         return cls(camera=camera, map_from_camera=np.asarray(map_from_camera, dtype=np.float64), depth_m=depth,
                    tolerance_m=tolerance, color_rgb=color_rgb if factor == 1 else None)
 
+    def around(self, corners_map: np.ndarray, margin_px: int = 2) -> tuple[FitView, tuple[slice, slice]] | None:
+        """The view cut down to the image box of (N, 3) map-frame points (a box's corners, in
+        front of the camera), and the (rows, columns) of this view it keeps; None when the box
+        is out of the image. What fits one small thing renders and compares only that window."""
+        camera_from_map = np.linalg.inv(self.map_from_camera)
+        points = np.asarray(corners_map, dtype=np.float64) @ camera_from_map[:3, :3].T + camera_from_map[:3, 3]
+        points = points[points[:, 2] > 0.05]
+        if not len(points) or self.camera.has_distortion:
+            return (self, (slice(None), slice(None))) if len(points) else None
+        uv = self.camera.project(points)
+        u0, v0 = np.maximum(np.floor(uv.min(axis=0)).astype(int) - margin_px, 0)
+        u1, v1 = np.minimum(np.ceil(uv.max(axis=0)).astype(int) + margin_px, [self.camera.width - 1, self.camera.height - 1])
+        if u0 > u1 or v0 > v1:
+            return None
+        rows, columns = slice(v0, v1 + 1), slice(u0, u1 + 1)
+        camera = Camera(**{**self.camera.model_dump(), "width": int(u1 - u0 + 1), "height": int(v1 - v0 + 1),
+                           "cx": self.camera.cx - u0, "cy": self.camera.cy - v0})
+        color = None if self.color_rgb is None else self.color_rgb[rows, columns]
+        return FitView(camera=camera, map_from_camera=self.map_from_camera, depth_m=self.depth_m[rows, columns],
+                       tolerance_m=self.tolerance_m[rows, columns], color_rgb=color), (rows, columns)
+
     @property
     def valid(self) -> np.ndarray:
         return np.isfinite(self.depth_m)

@@ -26,13 +26,13 @@ from homemodel.core.errors import InputError
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
 from semantic_map.hierarchy import SemanticMap
-from semantic_map.nodes import Jointed, LargeObject
+from semantic_map.nodes import Jointed, LargeObject, ObjectJoint
 from tracking.find_small_objects import SmallObjectSearch, find_small_objects
 from tracking.fit_joints import JointSearch, fit_joint
 from tracking.fit_pose import refine_pose
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
-from tracking.pose_gate import PoseGate, judge_pose
+from tracking.pose_gate import PoseGate, PoseVerdict, judge_pose
 from tracking.report import JointReport, ObjectReport, ObservationReport
 from tracking.scene import HomeScene
 
@@ -89,12 +89,27 @@ class ObserveOptions:
         self.small_objects.check()
         self.pose_gate.check()
 
-    def search(self, joint_type: str) -> JointSearch:
-        if joint_type == "prismatic":
-            return JointSearch(coarse_step=self.prismatic_coarse_step_m, fine_step=self.prismatic_fine_step_m)
+    def search(self, joint: ObjectJoint) -> JointSearch:
+        detents = _detents(joint)
+        if joint.type == "prismatic":
+            return JointSearch(coarse_step=self.prismatic_coarse_step_m, fine_step=self.prismatic_fine_step_m,
+                               detents=detents)
         return JointSearch(
-            coarse_step=np.radians(self.revolute_coarse_step_deg), fine_step=np.radians(self.revolute_fine_step_deg)
+            coarse_step=np.radians(self.revolute_coarse_step_deg), fine_step=np.radians(self.revolute_fine_step_deg),
+            detents=detents,
         )
+
+
+def _detents(joint: ObjectJoint) -> tuple[float, ...]:
+    """The positions a joint rests at, when it rests only at named states: three or more,
+    from one limit to the other (an oven knob's off, 1, ..., 9); else none."""
+    positions = sorted(state.position for state in joint.states)
+    if len(positions) < 3 or joint.limits is None:
+        return ()
+    low, high = joint.limits
+    if abs(positions[0] - low) > 1e-6 or abs(positions[-1] - high) > 1e-6:
+        return ()
+    return tuple(positions)
 
 
 @dataclass(kw_only=True)
@@ -208,14 +223,27 @@ def _fit_large_object(
         # too; a drawer front, parallel to the body's, would trade its slide for the body's
         # shift), then the fitted joints once more, near where they are, and the others
         # searched again at the better pose.
+        # The joints not fitted are searched again only after the last round, or once the
+        # pose and the fitted joints have settled.
         steady = [i for i in state.object_parts(object_id) if not _slides(state, object_id, i)]
-        for _ in range(options.rounds):
+        for round_ in range(options.rounds):
+            before = (state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id]))
             fit = refine_pose(state, fine, object_id, steady, background, **pose_kwargs) or fit
+            settled = _settled(state, object_id, *before)
+            last = settled or round_ == options.rounds - 1
             for joint in joints:
                 refit = results[joint][0] == "fitted"
-                results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=refit)
-    verdict = judge_pose(state, fine, object_id, previous_pose, fit.inlier_fraction if fit else None, background,
-                         options.pose_gate)
+                if refit or last:
+                    results[joint] = _fit_one_joint(state, joint_views, object_id, joint, options, refit=refit)
+            if last and _settled(state, object_id, *before):
+                break
+    if not joints or _share_seen(state, fine, object_id, fixed, background) >= options.min_fixed_share:
+        verdict = judge_pose(state, fine, object_id, previous_pose, fit.inlier_fraction if fit else None, background,
+                             options.pose_gate)
+    else:
+        # Seen through its doors alone, the body may turn about a hinge as the door turns
+        # back: the pose is not pinned down (a fridge seen from the front wandered 4-35 mm).
+        verdict = PoseVerdict(accepted=False, note="its fixed body too little seen")
     if not verdict.accepted:
         # The joints keep the angles fitted at the refined pose: relative to the body the
         # parts were seen at, they are the better estimate even where the pose is in doubt.
@@ -248,6 +276,23 @@ def _fit_large_object(
     return report
 
 
+# A round that moves the pose and the joints less than these changes nothing that matters.
+SETTLED_M = 0.0005
+SETTLED_RAD = np.radians(0.1)
+
+
+def _settled(state: FitState, object_id: str, map_from_object: np.ndarray, joints: dict[str, float]) -> bool:
+    """Whether the object's pose and joints are where they were (`map_from_object`, `joints`)."""
+    change = np.linalg.inv(map_from_object) @ state.map_from_objects[object_id]
+    turned = np.arccos(np.clip((np.trace(change[:3, :3]) - 1) / 2, -1.0, 1.0))
+    node = state.scene.object(object_id).node
+    moved = [
+        abs(state.joint_positions[object_id][name] - value) / (SETTLED_M if node.joint(name).type == "prismatic" else SETTLED_RAD)
+        for name, value in joints.items()
+    ]
+    return bool(np.linalg.norm(change[:3, 3]) < SETTLED_M and turned < SETTLED_RAD and max(moved, default=0.0) < 1.0)
+
+
 def _slides(state: FitState, object_id: str, part: int) -> bool:
     """Whether a prismatic joint carries the part."""
     model = state.scene.object(object_id).model
@@ -261,7 +306,7 @@ def _slides(state: FitState, object_id: str, part: int) -> bool:
 
 
 def _share_seen(state: FitState, view: FitView, object_id: str, parts: list[int], background: np.ndarray) -> float:
-    """The share of the object's observed pixels (at the map's joint states) that `parts` cover."""
+    """The share of the object's observed pixels (at the current joint estimates) that `parts` cover."""
     rendering = state.renderer.render(
         state.map_from_parts(), view.camera, view.map_from_camera, only=state.object_parts(object_id)
     )
@@ -308,8 +353,8 @@ def _fit_one_joint(
     """(status, support figures); the estimate stays in `state` only when fitted. A `refit`
     searches near the current estimate only."""
     before = state.joint_positions[object_id][joint]
-    joint_type = state.scene.object(object_id).node.joint(joint).type
-    fit = fit_joint(state, views, object_id, joint, options.search(joint_type), near=before if refit else None)
+    node_joint = state.scene.object(object_id).node.joint(joint)
+    fit = fit_joint(state, views, object_id, joint, options.search(node_joint), near=before if refit else None)
     if fit is None:
         return "not seen", {}
     support = {"visible_fraction": fit.visible_fraction, "residual_m": fit.residual_m, "pixels": fit.pixels}

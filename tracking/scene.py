@@ -108,8 +108,12 @@ class HomeScene:
                 raise InputError(exc if str(map_path) in str(exc) else f"{map_path}: {exc}") from None
         objects: dict[str, SceneObject] = {}
         parts: list[Part] = []
+        models: dict[Path, Model] = {}  # read once, however many objects share one (two chairs)
         for node in smap.objects():
-            model = load_urdf(model_path(map_path, node))
+            path = model_path(map_path, node)
+            if path not in models:
+                models[path] = load_urdf(path)
+            model = models[path]
             objects[node.id] = SceneObject(node=node, model=model)
             parts.extend(_model_parts(node.id, model))
         if not objects:
@@ -291,14 +295,17 @@ class Renderer:
     def __init__(self, parts: Sequence[Part]) -> None:
         self.parts = list(parts)
         self._casters = [RayCaster(trimesh.Trimesh(p.vertices_link, p.faces, process=False)) for p in self.parts]
-        self._corners = [_box_corners(p.vertices_link) for p in self.parts]
-        self._rays: tuple[Camera, np.ndarray] | None = None
+        self._corners = [box_corners(p.vertices_link) for p in self.parts]
+        self._rays: dict[Camera, np.ndarray] = {}
 
     def pixel_rays(self, camera: Camera) -> np.ndarray:
-        """(H * W, 3) rays with z = 1 through every pixel of `camera`, row by row (kept for the last camera)."""
-        if self._rays is None or self._rays[0] != camera:
-            self._rays = (camera, camera.pixel_rays())
-        return self._rays[1]
+        """(H * W, 3) rays with z = 1 through every pixel of `camera`, row by row (kept for
+        the few cameras of one observation: its views and crops)."""
+        if camera not in self._rays:
+            if len(self._rays) >= 16:
+                self._rays.clear()
+            self._rays[camera] = camera.pixel_rays()
+        return self._rays[camera]
 
     def render(
         self,
@@ -381,7 +388,8 @@ class Renderer:
 _BOX_EDGES = np.array([(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1])
 
 
-def _box_corners(vertices: np.ndarray) -> np.ndarray:
+def box_corners(vertices: np.ndarray) -> np.ndarray:
+    """The 8 corners of the axis-aligned bounding box of (N, 3) points."""
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
 
@@ -415,5 +423,4 @@ def _pixels_in_view(
     u1, v1 = min(u1, camera.width - 1), min(v1, camera.height - 1)
     if u0 > u1 or v0 > v1:
         return None
-    v, u = np.mgrid[v0 : v1 + 1, u0 : u1 + 1]
-    return (v * camera.width + u).ravel()
+    return (np.arange(v0, v1 + 1)[:, None] * camera.width + np.arange(u0, u1 + 1)).ravel()
