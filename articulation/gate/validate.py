@@ -33,6 +33,7 @@ from articulation.mesh_paths import with_package_uris_resolved
 from articulation.urdf_import import find_urdf
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.exchange import urdf as urdf_doc
+from homemodel.geometry.mesh_io import meshes_read_once
 
 __all__ = ["Check", "ValidationReport", "validate_path"]
 
@@ -125,7 +126,8 @@ def validate_path(path: Path, *, package_paths: Sequence[Path] = ()) -> Validati
     urdf, glb = _inputs(path)
     report = ValidationReport(path=path)
     if urdf is not None:
-        checks, safe = _urdf_checks(urdf, package_paths)
+        with meshes_read_once():
+            checks, safe = _urdf_checks(urdf, package_paths)
         report.checks += checks
         if not safe:
             return report
