@@ -276,6 +276,7 @@ def test_the_modeller_entry_registers_into_a_map(tmp_path: Path, house_file: Pat
     entry = MapEntry(map_path=house_file, object_id="green_cup", parent_id="table")
     built = build(kitchen_dir / "blue_cup.yaml", tmp_path / "cup", BuildOptions(name="green_cup", map_entry=entry))
     assert isinstance(built.summary, ModelSummary) and built.summary == read_summary(tmp_path / "cup")
+    assert built.map_entry is entry
     assert built.registration.path == ["house", "kitchen", "table", "green_cup"]
     assert load_map(house_file).parent("green_cup").id == "table"
 

@@ -12,15 +12,10 @@ from homemodel.core.model_summary import SOURCES, ModelSummary, schema_path, sum
 from semantic_map.model_result import ModelResult
 
 
-def test_the_modeller_result_keeps_its_map_entry(tmp_path: Path, house_file: Path, kitchen_dir: Path) -> None:
-    from modeller import BuildOptions, build
-    from semantic_map import MapEntry
-
-    entry = MapEntry(map_path=house_file, object_id="green_cup", parent_id="table")
-    built = build(kitchen_dir / "blue_cup.yaml", tmp_path / "cup", BuildOptions(map_entry=entry))
-    assert isinstance(built, ModelResult) and built.map_entry is entry and built.registration.path[-1] == "green_cup"
-    alone = build(kitchen_dir / "blue_cup.yaml", tmp_path / "alone", BuildOptions())
-    assert alone.map_entry is None and alone.registration is None and isinstance(alone.summary, ModelSummary)
+def test_a_result_without_a_map_entry_registers_nothing(tmp_path: Path) -> None:
+    result = ModelResult()
+    result.register(tmp_path / "not_a_model_folder", None)  # no map asked for: nothing read or written
+    assert result.map_entry is None and result.registration is None and not any(tmp_path.iterdir())
 
 
 def test_each_source_has_its_figures_model_in_the_published_schema() -> None:
