@@ -10,7 +10,7 @@ import typer
 from typer.testing import CliRunner
 
 from homemodel.cli import app
-from homemodel.cli.option_fields import field_option, from_options
+from homemodel.cli.option_fields import field_option, from_options, old_spellings
 
 # (command, old spelling, the spelling --help shows)
 OLD_SPELLINGS = [
@@ -92,3 +92,8 @@ def test_the_old_spelling_is_bounded_as_the_new() -> None:
     for flag in ("--density", "--density-kg-m3"):
         result = runner.invoke(app, ["completion", "run", "m.npz", "d.png", "--out", "o", flag, "0.5"], env={"COLUMNS": "200"})
         assert result.exit_code == 2 and f"'{flag}': Input should be greater than or equal to 1" in result.output, result.output
+
+
+def test_a_required_option_cannot_take_an_old_spelling() -> None:
+    with pytest.raises(ValueError, match="required"):
+        old_spellings(typer.Option(..., "--out"), "--output")

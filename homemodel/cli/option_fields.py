@@ -202,7 +202,10 @@ def field_option(
 
 def old_spellings(info: OptionInfo, *flags: str) -> OptionInfo:
     """Mark `flags` as earlier spellings of `info`'s option: `from_options` gives the command a
-    hidden option of those flags whose value, when given, is the option's."""
+    hidden option of those flags whose value, when given, is the option's. A required option
+    cannot have one (the command would still ask for the new spelling)."""
+    if flags and info.default is REQUIRED:
+        raise ValueError(f"{info.param_decls}: a required option cannot take old spellings {flags}")
     info.old_flags = flags
     return info
 
