@@ -81,9 +81,9 @@ def balance_knobs(model: Model) -> None:
         )
 
 
-def kind_dynamics(model: Model, joint: Joint, kind: KindDynamics) -> JointDynamics:
-    """The kind's damping and friction, with a counterbalance where gravity turns the joint."""
-    load = worst_gravity_load(model, joint)
+def kind_dynamics(model: Model, joint: Joint, kind: KindDynamics, load: float) -> JointDynamics:
+    """The kind's damping and friction, with a counterbalance where gravity turns the joint
+    (`load`: its worst gravity load)."""
     if joint.type == "prismatic" or load < _NO_LOAD:
         # A slide along gravity (a jar's lid) is meant to fall back into place.
         return JointDynamics(damping=kind.damping, friction=kind.friction)
@@ -93,10 +93,10 @@ def kind_dynamics(model: Model, joint: Joint, kind: KindDynamics) -> JointDynami
     return JointDynamics(damping=damping, friction=max(kind.friction, HOLD_FRACTION * load))
 
 
-def effort_limit(model: Model, joint: Joint) -> float:
-    """What an actuator needs to hold the child at its worst angle and overcome friction."""
+def effort_limit(joint: Joint, load: float) -> float:
+    """What an actuator needs to hold the child at its worst angle (`load`) and overcome friction."""
     friction = joint.dynamics.friction if joint.dynamics is not None else 0.0
-    needed = EFFORT_MARGIN * (worst_gravity_load(model, joint) + friction)
+    needed = EFFORT_MARGIN * (load + friction)
     return max(needed, MIN_EFFORT[joint.type])
 
 
@@ -106,7 +106,8 @@ def set_joint_physics(model: Model) -> None:
     balance_knobs(model)
     for joint in model.movable_joints:
         kind = joint_kind(joint)
+        load = worst_gravity_load(model, joint)  # a sweep of its range: once per joint
         if joint.dynamics is None and kind is not None:
-            joint.dynamics = kind_dynamics(model, joint, KIND_DYNAMICS[kind])
+            joint.dynamics = kind_dynamics(model, joint, KIND_DYNAMICS[kind], load)
         if joint.limits is not None:
-            joint.limits.effort = effort_limit(model, joint)
+            joint.limits.effort = effort_limit(joint, load)

@@ -61,11 +61,11 @@ from modeller.specs.cabinet_geometry import (
     door_shelf_box_m,
     door_slab_m,
     drawer_board_front_x_m,
+    drawer_board_top_m,
     drawer_box_bounds_m,
     drawer_box_front_x_m,
     drawer_front_x_m,
     frame_members_m,
-    opening_around_m,
     panel_at,
     panel_face_x_m,
     shelf_span_m,
@@ -465,7 +465,7 @@ def _add_drawer(cabinet: Cabinet, i: int, handle_material: bpy.types.Material) -
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     if drawer.inner_board_m > 0:
         # The second board, across the box, from the box's floor to the front's top inside the opening.
-        top = min(drawer.top_m, opening_around_m(spec, drawer.left_m + drawer.width_m / 2, z_min)[3]) - spec.door_gap_m
+        top = drawer_board_top_m(spec, drawer)
         board_size = (drawer.inner_board_m, y_max - y_min, top - z_min)
         board_front = drawer_board_front_x_m(spec, drawer) - spec.depth_m / 2
         board_centre = (

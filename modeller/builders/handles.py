@@ -269,6 +269,7 @@ def add_push_button(
         collide_length, collide_centre = cap, button.travel_m + cap / 2
     else:
         length = projection + button.pocket.depth_m - button.travel_m
+        length = length if button.body_depth_m is None else button.body_depth_m
         back = projection - length
         collide_length, collide_centre = length, back + length / 2
     if button.shape == "round":

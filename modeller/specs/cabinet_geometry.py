@@ -16,6 +16,7 @@ import numpy as np
 from homemodel.core.yaml_specs import FieldError
 from modeller.specs.hinges import (
     TAPE_AGREEMENT_M,
+    THICKNESS_AGREEMENT_M,
     check_hinge_offsets,
     open_at_90_inner_face_m,
     solve_free_corner,
@@ -128,6 +129,15 @@ def drawer_board_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
     return spec.depth_m / 2 - drawer.inner_board_inside_m
 
 
+def drawer_board_top_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+    """Height above the floor of a drawer's second board's top edge: as measured, or up to
+    the front's top, `door_gap_m` inside the opening."""
+    z_min = drawer_box_bounds_m(spec, drawer)[2]
+    if drawer.inner_board_height_m is not None:
+        return z_min + drawer.inner_board_height_m
+    return min(drawer.top_m, opening_around_m(spec, drawer.left_m + drawer.width_m / 2, z_min)[3]) - spec.door_gap_m
+
+
 def drawer_box_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
     """x of a closed drawer box's front face (behind the front and its inner board)."""
     return drawer_board_front_x_m(spec, drawer) - drawer.inner_board_m
@@ -184,8 +194,9 @@ def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
     carcass' edges, or inside the face frame; left and right from the body's left edge."""
     frame = 0.0 if spec.face_frame is None else spec.face_frame.width_m
     side = max(spec.wall_thickness_m, frame - (0.0 if spec.face_frame is None else spec.face_frame.overhang_m))
-    bottom = max(spec.bottom_board_m, frame)
-    top = max(spec.top_board_m if spec.top_panel else 0.0, frame)
+    bottom = max(spec.bottom_raise_m + spec.bottom_board_m, frame)  # a raised bottom's top, or the frame's rail
+    rails = [spec.top_board_m if rail.thickness_m is None else rail.thickness_m for rail in spec.top_rails]
+    top = max(spec.top_board_m if spec.top_panel else max(rails, default=0.0), frame)  # under an open top's rails
     return side, spec.width_m - side, spec.carcass_bottom_m + bottom, spec.carcass_top_m - top
 
 
@@ -217,9 +228,17 @@ def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
     }[door.hinge]
 
 
+def open_at_90_thickness_m(spec: CabinetSpec, door: DoorSpec) -> float:
+    """The thickness `open_at_90` is solved with: its own (outer face to inner face, open
+    square) when both faces were read, else the door's."""
+    tape = door.hinge_measured
+    measured = None if tape is None or tape.open_at_90 is None else tape.open_at_90.thickness_m
+    return spec.door_board_m(door) if measured is None else measured
+
+
 def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
     """(behind_face_m, in_from_edge_m) of the door's hinge line (see `modeller.specs.hinges`)."""
-    thick = spec.door_board_m(door)
+    thick = open_at_90_thickness_m(spec, door)
     if door.hinge_line is not None:
         return door.hinge_line.behind_face_m, door.hinge_line.in_from_edge_m
     face_forward = door_face_x_m(spec, door) - spec.depth_m / 2
@@ -268,11 +287,20 @@ def hinge_tape_warnings(spec: CabinetSpec) -> list[str]:
     warnings = []
     for i, door in enumerate(spec.doors):
         tape = door.hinge_measured
-        if door.hinge_line is not None or tape is None or tape.open_at_90 is None or tape.free_corner is None:
+        if door.hinge_line is not None or tape is None or tape.open_at_90 is None:
+            continue
+        given, thick = spec.door_board_m(door), open_at_90_thickness_m(spec, door)
+        if abs(thick - given) > THICKNESS_AGREEMENT_M:
+            warnings.append(
+                f"doors.{i}.hinge_measured.open_at_90: the door open square is {thick * 1000:.0f} mm thick from its outer "
+                f"face to its inner face (outer_face_out_m - inner_face_out_m) and the spec says {given * 1000:.0f} mm; "
+                f"the hinge line is solved with {thick * 1000:.0f} mm. Give the door's thickness_m (and in_opening_m for "
+                "a part inside the opening) so it is built as measured"
+            )
+        if tape.free_corner is None:
             continue
         face_forward = door_face_x_m(spec, door) - spec.depth_m / 2
         edge_in = door_edge_in_m(spec, door)
-        thick = spec.door_board_m(door)
         behind, inward = solve_open_at_90(tape.open_at_90, face_forward_m=face_forward, edge_in_m=edge_in, thickness_m=thick)
         corner_behind, corner_inward = hinge_offsets_m(spec, door)
         apart = math.hypot(behind - corner_behind, inward - corner_inward)
@@ -287,7 +315,7 @@ def hinge_tape_warnings(spec: CabinetSpec) -> list[str]:
         warnings.append(
             f"doors.{i}.hinge_measured: open_at_90 puts the hinge line {apart * 1000:.1f} mm from where free_corner "
             f"puts it; they agree for a door {(face_forward - inner) * 1000:.0f} mm thick from its outer face to its "
-            f"inner face, and the spec says {thick * 1000:.0f} mm. Measure the door across its hinge-side edge, the "
+            f"inner face, and {'the square reading says' if thick != given else 'the spec says'} {thick * 1000:.0f} mm. Measure the door across its hinge-side edge, the "
             "part inside the opening included (thickness_m, in_opening_m); free_corner's line is used"
         )
     return warnings

@@ -20,6 +20,7 @@ from modeller.specs.cabinet_geometry import (
     door_shelf_box_m,
     door_slab_m,
     drawer_board_front_x_m,
+    drawer_board_top_m,
     drawer_box_bounds_m,
     drawer_box_front_x_m,
     drawer_front_x_m,
@@ -257,16 +258,21 @@ def _check_shelves_and_dividers(spec: CabinetSpec) -> None:
 
 
 def _check_on_body(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
+    """A front lies on the body's front; doors and drawers may also cover a face frame's
+    stiles where they stand out past the sides."""
     what = group[:-1]
-    if front.width_m > spec.width_m + _EPS_M:
+    out = spec.face_frame.overhang_m if spec.face_frame is not None and group != "panels" else 0.0
+    across = spec.width_m + 2 * out
+    if front.width_m > across + _EPS_M:
         raise FieldError(
-            (group, i, "width_m"), f"{what} is {front.width_m} m wide but the {spec.kind_label} is {spec.width_m} m"
+            (group, i, "width_m"), f"{what} is {front.width_m} m wide but the {spec.kind_label} is {across:.3g} m"
         )
-    if front.right_m > spec.width_m + _EPS_M:
+    if front.left_m < -out - _EPS_M or front.right_m > spec.width_m + out + _EPS_M:
+        beyond = f", its face frame {out} m past each side" if out else ""
         raise FieldError(
             (group, i, "left_m"),
             f"{what} spans {front.left_m}..{front.right_m:.3f} m from the left edge "
-            f"but the {spec.kind_label} is {spec.width_m} m wide",
+            f"but the {spec.kind_label} is {spec.width_m} m wide{beyond}",
         )
     body_height = spec.top_m - spec.base_m
     if front.height_m > body_height + _EPS_M:
@@ -317,7 +323,16 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
             f"a second board {drawer.inner_board_inside_m} m inside the opening is in the inset front",
         )
     middle = drawer.left_m + drawer.width_m / 2
-    left, right, bottom, _ = opening_around_m(spec, middle, drawer.bottom_m + drawer.height_m / 2)
+    left, right, bottom, top = opening_around_m(spec, middle, drawer.bottom_m + drawer.height_m / 2)
+    if drawer.inner_board_height_m is not None:
+        if drawer.inner_board_m <= 0:
+            raise FieldError(("drawers", i, "inner_board_height_m"), "a second board's height needs its inner_board_m")
+        board_top = drawer_board_top_m(spec, drawer)
+        if board_top > top + _EPS_M:
+            raise FieldError(
+                ("drawers", i, "inner_board_height_m"),
+                f"drawer {i}'s second board reaches {board_top:.3f} m, above its opening's top at {top:.3f} m",
+            )
     if y_min < -spec.width_m / 2 + left - _EPS_M or y_max > -spec.width_m / 2 + right + _EPS_M:
         raise FieldError(
             ("drawers", i, "box_offset_m" if drawer.box_offset_m or drawer.box_width_m is None else "box_width_m"),

@@ -37,7 +37,11 @@ class Front(_Spec):
     width_m: Length
     height_m: Length
     bottom_m: Offset = Field(description="height of the lower edge above the floor")
-    left_m: Offset = Field(description="from the body's left edge to the rectangle's left edge, seen from in front")
+    left_m: float = Field(
+        description="from the body's left edge to the rectangle's left edge, seen from in front (negative: a door or "
+        "drawer front over a face frame's stile standing out past the left side)",
+        allow_inf_nan=False,
+    )
 
     @property
     def right_m(self) -> float:
@@ -146,6 +150,11 @@ class DrawerSpec(Front):
         None,
         description="how far behind the carcass' front plane the second board's front face is (inside the opening); "
         "default: right behind the front",
+    )
+    inner_board_height_m: Length | None = Field(
+        None,
+        description="the second board's own height, from the box's underside up (the drawer pulled out); "
+        "default: up to the front's top, door_gap_m inside the opening",
     )
     box_bottom_m: Offset | None = Field(
         None,

@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from homemodel.core.yaml_specs import FieldError
-from modeller.specs.common import Colour, Length, Offset, _Spec
+from modeller.specs.common import _EPS_M, Colour, Length, Offset, _Spec
 from modeller.specs.joint_dynamics import JointDynamicsSpec
 
 Orientation = Literal["vertical", "horizontal"]
@@ -159,6 +159,11 @@ class PushButton(_Spec):
     )
     travel_m: Length = Field(0.004, description="how far the button presses in")
     pocket: Pocket | None = Field(None, description="a pocket in the panel the button sits in")
+    body_depth_m: Length | None = Field(
+        None,
+        description="in a pocket: from the button's face back to its back (the button pulled out, or seen "
+        "pressed); default: down to where, pressed fully, it meets the pocket's floor",
+    )
     colour: Colour = "grey"
 
     @property
@@ -177,6 +182,8 @@ class PushButton(_Spec):
         if self.shape == "rectangle" and (self.width_m is None or self.button_height_m is None):
             raise FieldError(("width_m",), "a rectangular button needs width_m and button_height_m")
         if self.pocket is None:
+            if self.body_depth_m is not None:
+                raise FieldError(("body_depth_m",), "a button out of its panel's face is as deep as it stands out; give a pocket")
             if self.projection_m <= 0:
                 raise FieldError(
                     ("projection_m",), f"a button {self.projection_m} m out of the panel's face needs a pocket to sit in"
@@ -194,5 +201,11 @@ class PushButton(_Spec):
                 ("travel_m",),
                 f"a button {self.projection_m} m out pressed in {self.travel_m} m goes through its pocket's floor "
                 f"{floor} m down",
+            )
+        if self.body_depth_m is not None and self.projection_m - self.travel_m - self.body_depth_m < -floor - _EPS_M:
+            raise FieldError(
+                ("body_depth_m",),
+                f"a button {self.body_depth_m} m deep, {self.projection_m} m out, pressed in {self.travel_m} m goes "
+                f"through its pocket's floor {floor} m down",
             )
         return self

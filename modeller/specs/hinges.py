@@ -33,6 +33,9 @@ _MAX_OFFSET_M = 0.1
 # errors are 0.4 and 1.6 mm at most on simulated readings); further apart, the door's
 # thickness in the spec is not the door's.
 TAPE_AGREEMENT_M = 0.003
+# Two faces read to the millimetre give a thickness within 1 mm; further from the spec's, the
+# spec's door is not the one measured.
+THICKNESS_AGREEMENT_M = 0.002
 
 
 class HingeLine(_Spec):
@@ -75,6 +78,16 @@ class OpenAt90(_Spec):
         description="from the carcass's front plane forward to the door's hinge-side edge "
         "(negative: the edge is behind the front plane)"
     )
+    outer_face_out_m: float | None = Field(
+        None,
+        description="the same way to the door's outer face: with inner_face_out_m it gives the door's thickness, "
+        "which the hinge line is then solved with (and the build warns if the spec's differs)",
+    )
+
+    @property
+    def thickness_m(self) -> float | None:
+        """The door's thickness, outer face to inner face, as the square reading says."""
+        return None if self.outer_face_out_m is None else self.outer_face_out_m - self.inner_face_out_m
 
 
 class CornerAt(_Spec):
@@ -96,6 +109,11 @@ class HingeTape(_Spec):
 
     @model_validator(mode="after")
     def _one_way(self) -> HingeTape:
+        if self.open_at_90 is not None and self.open_at_90.thickness_m is not None and self.open_at_90.thickness_m <= 0:
+            raise FieldError(
+                ("open_at_90", "outer_face_out_m"),
+                "the door's outer face is out further than its inner face when open square (it is the larger reading)",
+            )
         if self.open_at_90 is None and self.free_corner is None:
             raise FieldError((), "give open_at_90 or free_corner (two openings), or both")
         return self
