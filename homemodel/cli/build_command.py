@@ -65,6 +65,8 @@ def build(
     for row in result.rows:
         for failure in row.failed_checks:
             console.print(f"[red]{row.id}[/]: {failure}")
+        for warning in row.warnings:
+            console.print(f"[yellow]{row.id}[/]: warning: {warning}")
     cached = [row.id for row in result.rows if row.cached]
     if cached:
         console.print(f"reused unchanged from the earlier output: {', '.join(cached)}")

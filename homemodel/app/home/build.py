@@ -35,7 +35,7 @@ from homemodel.core.errors import InputError, SpecError
 from homemodel.core.input_files import confined_path
 from homemodel.core.interrupts import raise_if_interrupted
 from homemodel.core.limits import HOME_OBJECTS
-from homemodel.core.model_summary import read_summary
+from homemodel.core.model_summary import ModelSummary, read_summary
 from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
 
@@ -60,6 +60,7 @@ class ObjectRow:
     valid: bool
     times_s: dict[str, float]  # build, export, validate
     failed_checks: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # what its build and its gate doubt without failing
     cached: bool = False  # reused from the earlier output: its spec and the code are unchanged
 
 
@@ -173,6 +174,15 @@ def _cached_object(previous: Path, key: str, folder: Path):  # noqa: ANN202 (a M
     return load_urdf(folder / "model.urdf"), summary
 
 
+def _warnings(summary: ModelSummary) -> list[str]:
+    """The build's warnings (a door's readings against its thickness) and each gate check's
+    (a hinge line rubbing within its tolerance), which a check appends as "; WARNING ..."."""
+    said = list(summary.gate.warnings)
+    for check in summary.gate.checks:
+        said += [f"{check.name}: {part}" for part in check.detail.split("; WARNING ")[1:]]
+    return said
+
+
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
     from modeller import BuildOptions, build, load_spec
@@ -251,6 +261,7 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                 valid=summary.gate.valid,
                 times_s={stage: round(seconds, 3) for stage, seconds in summary.times_s.items()},
                 failed_checks=summary.gate.failed_checks,
+                warnings=_warnings(summary),
                 cached=cached is not None,
             )
             rows.append(row)
