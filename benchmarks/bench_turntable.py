@@ -132,10 +132,10 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
 
 def pose_error_mm_deg(result, capture_dir: Path) -> tuple[float, float]:  # noqa: ANN001
     from homemodel.evaluation import camera_pose_errors
-    from homemodel.exchange.cameras import read_cameras
+    from homemodel.exchange.cameras import read_cameras, true_cameras_file
 
     estimated = {stem: pose.camera_from_table for stem, pose in result.poses.items()}
-    centres, angles = camera_pose_errors(estimated, read_cameras(capture_dir / "true_cameras.json").poses)
+    centres, angles = camera_pose_errors(estimated, read_cameras(true_cameras_file(capture_dir)).poses)
     return float(np.median(centres) * 1000), float(np.median(angles))
 
 

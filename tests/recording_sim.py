@@ -20,7 +20,7 @@ import numpy as np
 
 from homemodel.geometry.camera import Camera, load_camera
 from homemodel.geometry.raycast import RayCaster
-from homemodel.exchange.cameras import read_cameras
+from homemodel.exchange.cameras import read_cameras, true_cameras_file
 from turntable.simulate import render_depth, simulated_scene
 
 
@@ -99,7 +99,7 @@ def record(
     options, scene = simulated_scene(clean_dir)
     caster = RayCaster(scene)
     clean_camera = load_camera(clean_dir / "camera.yaml")
-    poses = read_cameras(clean_dir / "true_cameras.json").poses
+    poses = read_cameras(true_cameras_file(clean_dir)).poses
     stems = sorted(poses)
     n = len(stems)
     map_x, map_y = rig.color_camera.remap_from(clean_camera)

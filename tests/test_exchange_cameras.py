@@ -4,13 +4,14 @@ the older shapes still read, and every bad file refused with its name and the pr
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from homemodel.core.errors import InputError
-from homemodel.exchange.cameras import CameraView, read_cameras, write_cameras
+from homemodel.exchange.cameras import CameraView, read_cameras, true_cameras_file, write_cameras
 from homemodel.geometry.camera import Camera
 
 EXAMPLE_TRUE_POSES = Path(__file__).resolve().parents[1] / "examples" / "database" / "inputs" / "capture" / "true_poses.json"
@@ -110,3 +111,12 @@ def test_writing_refuses_an_unknown_frame_or_a_view_without_camera(tmp_path: Pat
     with pytest.raises(ValueError, match="view v: no camera"):
         write_cameras(tmp_path / "c.json", [CameraView(name="v", camera=None, camera_from_frame=np.eye(4))], frame="table")
     assert not (tmp_path / "c.json").exists()
+
+
+def test_a_capture_simulated_before_true_cameras_json_still_gives_its_truth(tmp_path: Path) -> None:
+    assert true_cameras_file(tmp_path) == tmp_path / "true_cameras.json"  # a new capture's, even before it is written
+    shutil.copy(EXAMPLE_TRUE_POSES, tmp_path / "true_poses.json")
+    assert true_cameras_file(tmp_path) == tmp_path / "true_poses.json"
+    assert len(read_cameras(true_cameras_file(tmp_path)).views) == 12
+    write_cameras(tmp_path / "true_cameras.json", [CameraView(name="a", camera=PINHOLE, camera_from_frame=np.eye(4))], frame="table")
+    assert true_cameras_file(tmp_path) == tmp_path / "true_cameras.json"

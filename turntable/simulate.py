@@ -40,10 +40,9 @@ from turntable.board import Board, grid_board, load_board, save_board
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
-from homemodel.exchange.cameras import TRUE_CAMERAS_FILE, CameraView, read_cameras, write_cameras
+from homemodel.exchange.cameras import TRUE_CAMERAS_FILE, CameraView, read_cameras, true_cameras_file, write_cameras
 
 NOISE_REFERENCE_DEPTH_M = 0.7
-OLD_TRUE_POSES = "true_poses.json"  # what captures simulated before true_cameras.json hold
 GROUND_TRUTH = "ground_truth.ply"
 SIMULATION_JSON = "simulation.json"
 MAX_FRAMES = 3600  # ten a degree
@@ -327,10 +326,10 @@ def resimulate_depth(
     options = dataclasses.replace(options, depth_noise_m=depth_noise_m, random_state=random_state)
     options.check()
     camera = load_camera(capture_dir / "camera.yaml")
-    truth = TRUE_CAMERAS_FILE if (capture_dir / TRUE_CAMERAS_FILE).exists() else OLD_TRUE_POSES
-    camera_from_tables = read_cameras(capture_dir / truth).poses
+    truth = true_cameras_file(capture_dir)
+    camera_from_tables = read_cameras(truth).poses
     with atomic_dir(Path(out_dir), force=force, inputs=[capture_dir]) as tmp:
-        for name in ("camera.yaml", "board.yaml", truth, GROUND_TRUTH):
+        for name in ("camera.yaml", "board.yaml", truth.name, GROUND_TRUTH):
             shutil.copy2(capture_dir / name, tmp / name)
         shutil.copytree(capture_dir / "color", tmp / "color")
         (tmp / "depth").mkdir()

@@ -45,6 +45,7 @@ FORMAT = "homemodel-cameras"
 VERSION = 1
 CAMERAS_FILE = "cameras.json"
 TRUE_CAMERAS_FILE = "true_cameras.json"  # a simulation's true views, beside its capture
+OLD_TRUE_POSES_FILE = "true_poses.json"  # what captures simulated before true_cameras.json hold
 MAX_BYTES = 64 * 1024 * 1024
 FRAMES = {
     "table": "table-frame points (board frame, z up out of the table top, metres)",
@@ -72,6 +73,14 @@ class CameraViews:
     def poses(self) -> dict[str, np.ndarray]:
         """`camera_from_<frame>` by view name."""
         return {v.name: v.camera_from_frame for v in self.views}
+
+
+def true_cameras_file(capture_dir: Path) -> Path:
+    """The file of a simulated capture's true views: its true_cameras.json, or the true_poses.json
+    of a capture simulated before that."""
+    path = Path(capture_dir) / TRUE_CAMERAS_FILE
+    old = Path(capture_dir) / OLD_TRUE_POSES_FILE
+    return old if not path.exists() and old.exists() else path
 
 
 def _convention(frame: str) -> str:
