@@ -120,3 +120,8 @@ def test_a_capture_simulated_before_true_cameras_json_still_gives_its_truth(tmp_
     assert len(read_cameras(true_cameras_file(tmp_path)).views) == 12
     write_cameras(tmp_path / "true_cameras.json", [CameraView(name="a", camera=PINHOLE, camera_from_frame=np.eye(4))], frame="table")
     assert true_cameras_file(tmp_path) == tmp_path / "true_cameras.json"
+
+
+def test_a_missing_file_is_named_once(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match=f"^{tmp_path / 'cameras.json'}: no such file$"):
+        read_cameras(tmp_path / "cameras.json")

@@ -123,8 +123,9 @@ def read_cameras(path: Path) -> CameraViews:
     """The views of a cameras.json (or of an older poses.json or photogrammetry cameras.json);
     InputError naming the file and the problem."""
     path = Path(path)
+    data = read_bounded(path, MAX_BYTES)  # its errors name the file
     try:
-        document = json.loads(read_bounded(path, MAX_BYTES))
+        document = json.loads(data)
         if isinstance(document, list):
             views = _from_photogrammetry_list(document)
         elif "format" not in document and "frames" in document:
