@@ -1,4 +1,4 @@
-"""A UV atlas (xatlas) and a colour texture baked from the photos by projection.
+"""A UV atlas (`chart_atlas`) and a colour texture baked from the photos by projection.
 
 Every texel is placed on the mesh (its triangle and barycentric coordinates), projected into
 every view, and kept from the views that see it unoccluded (a ray-cast depth buffer per view),
@@ -19,7 +19,8 @@ from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
-from homemodel.geometry.uv_atlas import atlas_texels, uv_atlas
+from homemodel.geometry.uv_atlas import atlas_texels
+from photogrammetry.chart_atlas import chart_atlas
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import View
 
@@ -27,7 +28,6 @@ from photogrammetry.sfm import View
 @dataclass(kw_only=True)
 class TextureBakingOptions:
     size_px: int = 2048
-    charts: int = 300  # xatlas is fast with many small charts, slow with a few large ones
     depth_buffer_px: int = 480  # longer side of the per-view visibility depth buffers
     max_image_px: int = 1600  # colour is sampled from the photos shrunk to this longer side
     min_cos: float = 0.15  # views more grazing than this never contribute
@@ -35,7 +35,6 @@ class TextureBakingOptions:
 
     def check(self) -> None:
         require_at_least("size_px", self.size_px, 64)
-        require_at_least("charts", self.charts, 1)
         require_at_least("depth_buffer_px", self.depth_buffer_px, 16)
         require_at_least("max_image_px", self.max_image_px, 16)
         require_between("min_cos", self.min_cos, 0.0, 1.0)
@@ -69,7 +68,7 @@ def bake_texture(
     """UV-unwrap `mesh` and colour its texture from the `views` (poses in the mesh's frame),
     `workers` views at a time; progress stage "texturing"."""
     options = options or TextureBakingOptions()
-    atlas = uv_atlas(mesh, size_px=options.size_px, padding_px=options.padding_px, charts=options.charts)
+    atlas = chart_atlas(mesh, size_px=options.size_px, padding_px=options.padding_px)
     texels = atlas_texels(atlas, options.size_px)
     points = texels.points
     normals = texels.interpolate(atlas.mesh.vertex_normals)
