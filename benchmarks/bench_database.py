@@ -24,7 +24,11 @@ mixed manifest of every source.
    - in CPU time, all in: (the database's CPU seconds - the loop's) / N, every process
      counted (the client, Dask's workers, the gate's tools). Unlike the wall-time figures it
      barely moves when other jobs share the machine: it is what the database costs, not
-     what it was given.
+     what it was given;
+   - in CPU time, after start-up: each side also builds the first SMALL entries alone, and
+     (CPU(N) - CPU(SMALL)) / (N - SMALL) is its CPU per further entry, start-up (imports,
+     the cluster, the workers' warm-up) cancelled out; the database's minus the loop's is
+     what it adds per entry. CPU(SMALL) less SMALL such entries is the start-up's CPU.
    The three (serial loop, loops side by side, database) run in interleaved rounds, and the
    table gives each figure's median and each round's speed-up: the machine is a shared host
    whose speed drifts by tens of percent from minute to minute.
@@ -38,7 +42,12 @@ mixed manifest of every source.
    shared Kermit photos, a completion query, an imported PartNet-style URDF): every entry
    built or recorded as failed, and the time per source.
 
-Run: .venv/bin/python benchmarks/bench_database.py [--spec cup|cupboard] [--entries 200] [--rounds 2] [--skip-mixed | --only-mixed]
+With `--baseline-src DIR` (another checkout, e.g. `git worktree add /tmp/old HEAD~3`), the
+database side is also run, in the same rounds, with that checkout's code: old and new on the
+same machine at the same time.
+
+Run: .venv/bin/python benchmarks/bench_database.py [--spec cup|cupboard] [--entries 200] [--rounds 2]
+     [--baseline-src DIR] [--skip-mixed | --only-mixed]
 """
 
 from __future__ import annotations
@@ -75,10 +84,12 @@ SWEEPS = {
     "cupboard": (("depth_m", 0.56, 0.002), ("mass_kg", 40.0, 1.0)),
 }
 PER_SIDE = 20
+SMALL = PER_SIDE  # entries of the runs that measure start-up (one row of the sweep)
 
 
 def _manifest(folder: Path, kind: str, entries: int) -> tuple[Path, Path]:
     """A manifest of `entries` generated entries of the catalogue's `kind`, and its spec."""
+    folder.mkdir(parents=True, exist_ok=True)
     spec = folder / f"{kind}.yaml"
     spec.write_text((CATALOGUE / f"{kind}.yaml").read_text())
     (first, start_1, step_1), (second, start_2, step_2) = SWEEPS[kind]
@@ -140,9 +151,11 @@ def _children_cpu_s() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _run_timed(*args: str | Path) -> tuple[float, str]:
-    """Wall seconds of a fresh `python ARGS...` of this worktree's code, and what it printed."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "COLUMNS": "200"}
+def _run_timed(*args: str | Path, source: Path = ROOT) -> tuple[float, str]:
+    """Wall seconds of a fresh `python ARGS...` of the code in `source` (this checkout's by
+    default), and what it printed."""
+    # Another checkout may have no node_modules of its own: the glTF validator is this one's.
+    env = {"HOMEMODEL_NODE_MODULES": str(ROOT / "tools" / "node_modules"), **os.environ, "PYTHONPATH": str(source), "COLUMNS": "200"}
     start = time.perf_counter()
     done = subprocess.run([sys.executable, *map(str, args)], env=env, capture_output=True, text=True, check=False)
     seconds = time.perf_counter() - start
@@ -157,11 +170,12 @@ def _reported(said: str) -> dict:
     return json.loads(next(line for line in reversed(said.splitlines()) if line.startswith("{")))
 
 
-def _run_child(mode: str, manifest: Path, out: Path) -> tuple[float, dict]:
-    """Wall seconds of this script's `mode` in a fresh process, and the timings it reports,
-    with the CPU seconds of the process and all of its own (Dask's workers, the gate's tools)."""
+def _run_child(mode: str, manifest: Path, out: Path, source: Path = ROOT) -> tuple[float, dict]:
+    """Wall seconds of this script's `mode` in a fresh process (of the code in `source`), and
+    the timings it reports, with the CPU seconds of the process and all of its own (Dask's
+    workers, the gate's tools)."""
     cpu_before = _children_cpu_s()
-    seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}")
+    seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}", source=source)
     return seconds, {**_reported(said), "cpu_s": _children_cpu_s() - cpu_before}
 
 
@@ -194,25 +208,34 @@ def _load() -> str:
     return " ".join(f"{v:.2f}" for v in os.getloadavg())
 
 
-def _one_round(manifest: Path, folder: Path) -> dict:
-    """The serial loop, the loops side by side and the database build, one after the other."""
+def _one_round(manifest: Path, small: Path, folder: Path, baseline: Path | None) -> dict:
+    """The serial loop, the loops side by side and the database build, one after the other;
+    then the loop and the database (and the baseline's) on the SMALL entries alone."""
     serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
     side_s, side_cpu_s, side_entries_s = _loops_side_by_side(manifest, folder / "side")
     db_s, built = _run_child("--db-build", manifest, folder / "db")
     with ModelIndex(folder / "db") as index:
         rows = index.rows()
-    return {"serial_s": serial_s, "serial": serial, "serial_cpu": serial["cpu_s"], "side_s": side_s, "side_cpu_s": side_cpu_s,
-            "side_entries_s": side_entries_s, "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}
+    run = {"serial_s": serial_s, "serial": serial, "serial_cpu": serial["cpu_s"], "side_s": side_s, "side_cpu_s": side_cpu_s,
+           "side_entries_s": side_entries_s, "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}  # fmt: skip
+    run["serial_small_cpu"] = _run_child("--serial-loop", small, folder / "serial_small")[1]["cpu_s"]
+    run["db_small_cpu"] = _run_child("--db-build", small, folder / "db_small")[1]["cpu_s"]
+    if baseline is not None:
+        run["old_s"], old = _run_child("--db-build", manifest, folder / "old", baseline)
+        run["old"], run["old_cpu"] = old, old["cpu_s"]
+        run["old_small_cpu"] = _run_child("--db-build", small, folder / "old_small", baseline)[1]["cpu_s"]
+    return run
 
 
-def throughput(kind: str, entries: int, rounds: int, console: Console) -> None:
+def throughput(kind: str, entries: int, rounds: int, console: Console, baseline: Path | None = None) -> None:
     with tempfile.TemporaryDirectory(prefix="bench-db-") as tmp:
         folder = Path(tmp)
         manifest, spec = _manifest(folder, kind, entries)
+        small, _ = _manifest(folder / "small", kind, SMALL)
         load_before = _load()
-        # The rounds interleave the three sides: this machine's speed drifts (a shared host),
-        # and a side measured only early or only late would gain or lose by it.
-        runs = [_one_round(manifest, folder / f"round{r}") for r in range(rounds)]
+        # The rounds interleave the sides: this machine's speed drifts (a shared host), and a
+        # side measured only early or only late would gain or lose by it.
+        runs = [_one_round(manifest, small, folder / f"round{r}", baseline) for r in range(rounds)]
         load_after = _load()
         db = folder / f"round{rounds - 1}" / "db"
         rows = runs[-1]["rows"]
@@ -265,11 +288,42 @@ def throughput(kind: str, entries: int, rounds: int, console: Console) -> None:
     table.add_row("  in the entries: outside the stages' clocks", "", "", f"{1000 * untimed_s / entries:.0f} ms")
     table.add_row("overhead per entry, all in: (workers x wall - serial wall) / N", "", f"{1000 * (WORKERS * side_s - serial_s) / entries:.0f} ms", f"{1000 * (WORKERS * db_s - serial_s) / entries:.0f} ms")
     table.add_row("overhead per entry in CPU time, all in: (CPU - CPU serial) / N", "", f"{1000 * (side_cpu_s - serial_cpu_s) / entries:.0f} ms", f"{1000 * (db_cpu_s - serial_cpu_s) / entries:.0f} ms")
+    # After start-up, in CPU time: the SMALL-entry runs cancel each side's start-up out.
+    serial_per_s = median(lambda r: (r["serial_cpu"] - r["serial_small_cpu"]) / (entries - SMALL))
+    db_per_s = median(lambda r: (r["db_cpu"] - r["db_small_cpu"]) / (entries - SMALL))
+    table.add_row(f"CPU per further entry: (CPU(N) - CPU({SMALL})) / (N - {SMALL})", f"{1000 * serial_per_s:.0f} ms", "", f"{1000 * db_per_s:.0f} ms")
+    table.add_row("[bold]overhead per entry after start-up, CPU (database - loop; aim < 30 ms)", "", "", f"[bold]{1000 * (db_per_s - serial_per_s):.0f} ms")
+    table.add_row(f"start-up CPU: CPU({SMALL}) - {SMALL} x CPU per further entry", f"{median(lambda r: r['serial_small_cpu']) - SMALL * serial_per_s:.1f} s", "",
+                  f"{median(lambda r: r['db_small_cpu']) - SMALL * db_per_s:.1f} s")  # fmt: skip
     table.add_row("rebuild, nothing changed (homemodel db build)", "", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
     table.add_row("rebuild, one spec changed (homemodel db build)", "", "", f"{one_s:.1f} s  ({_summary(one)})")
     console.print(table)
+    if baseline is not None:
+        _baseline_table(runs, entries, baseline, console)
     for problem in problems[:10]:
         console.print(problem)
+
+
+def _baseline_table(runs: list[dict], entries: int, baseline: Path, console: Console) -> None:
+    """The database with this checkout's code against the baseline's, in the same rounds."""
+    table = Table(title=f"the database, this checkout against {baseline} (same rounds, medians)")
+    for header in ("figure", "baseline", "this checkout", "ratio"):
+        table.add_column(header, justify="left" if header == "figure" else "right")
+
+    def both(figure) -> tuple[float, float]:  # noqa: ANN001 (a function of (run, prefix))
+        return statistics.median(figure(r, "old") for r in runs), statistics.median(figure(r, "db") for r in runs)
+
+    rows = [
+        ("CPU time, every process (s)", lambda r, k: r[f"{k}_cpu"], 1),
+        ("CPU per further entry (ms)", lambda r, k: 1000 * (r[f"{k}_cpu"] - r[f"{k}_small_cpu"]) / (entries - SMALL), 0),
+        ("start-up CPU (s)", lambda r, k: r[f"{k}_small_cpu"] - SMALL * (r[f"{k}_cpu"] - r[f"{k}_small_cpu"]) / (entries - SMALL), 1),
+        ("start-up, wall: to the first entry's start (s)", lambda r, k: r["old" if k == "old" else "built"]["startup_s"], 1),
+        ("wall time, fresh process to exit (s)", lambda r, k: r[f"{k}_s"], 1),
+    ]
+    for name, figure, digits in rows:
+        old, new = both(figure)
+        table.add_row(name, f"{old:.{digits}f}", f"{new:.{digits}f}", f"{new / old:.2f}" if old else "")
+    console.print(table)
 
 
 def _summary(said: str) -> str:
@@ -302,6 +356,7 @@ def main() -> None:
     parser.add_argument("--entries", type=int, default=200, help="generated spec entries (a multiple of 20)")
     parser.add_argument("--spec", choices=sorted(SWEEPS), default="cup", help="the catalogue spec the entries are generated from")
     parser.add_argument("--rounds", type=int, default=2, help="rounds of serial loop, loops side by side and database, interleaved")
+    parser.add_argument("--baseline-src", type=Path, help="another checkout whose database is run beside this one's")
     parser.add_argument("--skip-mixed", action="store_true", help="only the throughput and rebuild figures")
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
     # The two sides of the throughput figure, each run by throughput() in a fresh process.
@@ -314,7 +369,7 @@ def main() -> None:
             return
     console = Console(width=120)
     if not args.only_mixed:
-        throughput(args.spec, args.entries, args.rounds, console)
+        throughput(args.spec, args.entries, args.rounds, console, args.baseline_src)
     if not args.skip_mixed:
         mixed(console)
 
