@@ -133,10 +133,11 @@ def complete(
     mask_input = {"mask": Path(options.mask_path)} if options.mask_path is not None else {}
     object_from_camera = np.linalg.inv(completion.frame.camera_from_object)
     query_points = completion.fit.query @ object_from_camera[:3, :3].T + object_from_camera[:3, 3]
-    meshes = scan_meshes(completion.object_mesh, query_points, options=options.meshes, progress=progress)
+    object_mesh = completion.object_mesh  # a transformed copy: made once
+    meshes = scan_meshes(object_mesh, query_points, options=options.meshes, progress=progress)
     completion.summary = write_model_folder(
         scan_model(
-            completion.object_mesh,
+            object_mesh,
             meshes=meshes,
             name=options.name or depth_png.stem,
             density_kg_m3=options.density_kg_m3,
