@@ -53,10 +53,12 @@ $(APT_STAMP): Makefile
 	fi
 	@touch $@
 
+# uv installs the same packages as pip from the same index, downloading and unpacking in
+# parallel: a fraction of pip's time for the 1.5 GB of wheels.
 $(STAMP): setup.cfg pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[dev]'
+	$(PY) -m pip install -q 'uv>=0.9,<1'
+	$(VENV)/bin/uv pip install -q --python $(PY) -e '.[dev]'
 	@touch $@
 
 $(NODE_TOOLS) &: tools/package.json
