@@ -55,6 +55,15 @@ def pycolmap_baselines(images: Path, work: Path) -> dict[str, float | int]:
     return figures
 
 
+def cpu_seconds() -> float:
+    """User and system CPU time of this process and its waited-for children: on a loaded
+    machine the figure that compares (wall times stretch with the load)."""
+    import resource
+
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def load_average() -> str:
     return " ".join(f"{x:.1f}" for x in os.getloadavg())
 
@@ -120,15 +129,17 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
         ours_work = work / "ours"
         ours_work.mkdir()
         load_before = load_average()
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), cpu_seconds()
         options = ReconstructOptions()
         if scene is not None:
             options = ReconstructOptions(marker_size_m=scene.marker_size_m, dictionary=scene.dictionary)
         result = reconstruct_photos(images, options, work_dir=ours_work)
-        total_s = time.perf_counter() - start
+        total_s, total_cpu_s = time.perf_counter() - start, cpu_seconds() - cpu_start
         shutil.rmtree(ours_work, ignore_errors=True)
         load_between = load_average()
+        cpu_start = cpu_seconds()
         baseline = {} if args.skip_baseline else pycolmap_baselines(images, work)
+        baseline_cpu_s = cpu_seconds() - cpu_start
         load_after = load_average()
 
     times = result.figures["times_s"]
@@ -153,6 +164,9 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
     for mapper, seconds in baseline_sfm.items():
         table.add_row(f"SfM vs pycolmap {mapper}", f"{sfm_s:.1f}", f"{seconds:.1f}", f"{sfm_s / seconds:.2f}")
     table.add_row("total, photos to textured mesh", f"{total_s:.1f}", "", "")
+    table.add_row("CPU s (user + system), all stages", f"{total_cpu_s:.1f}", f"{baseline_cpu_s:.1f}" if baseline else "", "")
+    # Two idle cores run it in at least half its CPU time, at most all of it (one core busy).
+    table.add_row("two idle cores, from CPU s", f"{total_cpu_s / 2:.0f}-{total_cpu_s:.0f}", "", "")
     console.print(table)
     figures = {
         "photos": title,
@@ -164,8 +178,12 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
         "sfm_s": round(sfm_s, 2),
         "sfm_ratio_to_pycolmap": {k: round(sfm_s / v, 3) for k, v in baseline_sfm.items()},
         "total_s": round(total_s, 2),
+        "total_cpu_s": round(total_cpu_s, 2),
+        "baseline_cpu_s": round(baseline_cpu_s, 2),
+        "dense_image_px": result.figures["dense_image_px"],
         "faces": result.figures["faces"],
         "sparse_points": result.figures["sparse_points"],
+        "features_per_photo": result.figures["features_per_photo"],
         "support_plane_found": result.figures["support_plane_found"],
     }
     registered_by = ", ".join(f"{k.split()[1]} {v}" for k, v in baseline.items() if k.startswith("registered"))
@@ -174,6 +192,7 @@ def run(args, images: Path, title: str, scene, console: Console) -> None:
         f"load average (1, 5, 15 min) before {load_before}, between {load_between}, after {load_after}"
     )
     console.print(
+        f"SIFT features per photo (median) {figures['features_per_photo']}; dense views {figures['dense_image_px']} px; "
         f"sparse points {figures['sparse_points']}; support plane found: {figures['support_plane_found']}; "
         f"faces {figures['faces']}"
     )

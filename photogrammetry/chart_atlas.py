@@ -111,8 +111,9 @@ def _shelf_pack(sizes: np.ndarray, width: int) -> tuple[np.ndarray, int]:
 
 
 def chart_atlas(mesh: trimesh.Trimesh, *, size_px: int, padding_px: int) -> Atlas:
-    """Charts of `mesh` packed into a `size_px` square texture, `padding_px` texels apart, all
-    at one texel density: the largest that fits (a bisection over the shelf packing)."""
+    """Charts of `mesh` packed into a `size_px` square texture, `padding_px` texels apart (less
+    when they do not fit so), all at one texel density: the largest that fits (a bisection
+    over the shelf packing)."""
     if len(mesh.faces) == 0:
         raise ModelError("cannot lay out a texture for a mesh without faces")
     tile = float(np.max(mesh.extents)) / TILES_PER_SIDE
@@ -124,25 +125,23 @@ def chart_atlas(mesh: trimesh.Trimesh, *, size_px: int, padding_px: int) -> Atla
     np.maximum.at(high, chart, flat.max(axis=1))
     extent = high - low
 
-    def layout(texels_per_unit: float) -> tuple[np.ndarray, int, np.ndarray]:
-        sizes = np.ceil(extent * texels_per_unit).astype(np.int64) + 1 + 2 * padding_px
-        return *_shelf_pack(sizes, size_px), sizes
+    def layout(texels_per_unit: float, padding: int) -> tuple[np.ndarray, int]:
+        return _shelf_pack(np.ceil(extent * texels_per_unit).astype(np.int64) + 1 + 2 * padding, size_px)
 
-    # The density that would fill the texture with no gaps at all is an upper bound.
-    upper = np.sqrt(size_px**2 / max(float(np.sum(np.prod(extent, axis=1))), 1e-300))
-    lower = 0.0
-    for _ in range(20):
-        middle = (lower + upper) / 2
-        corners, used, sizes = layout(middle)
-        if used <= size_px:
-            lower = middle
-        else:
-            upper = middle
-    if lower == 0.0:
+    # The density that would fill the texture with no gaps at all is an upper bound. A small
+    # texture for many charts is laid out with less padding than asked, down to none.
+    for padding in sorted({padding_px, min(padding_px, 1), 0}, reverse=True):
+        lower, upper = 0.0, np.sqrt(size_px**2 / max(float(np.sum(np.prod(extent, axis=1))), 1e-300))
+        for _ in range(20):
+            middle = (lower + upper) / 2
+            lower, upper = (middle, upper) if layout(middle, padding)[1] <= size_px else (lower, middle)
+        if lower > 0.0:
+            break
+    else:
         raise ModelError(f"{count} charts do not fit a {size_px} px texture: give a larger texture size")
-    corners, _, _ = layout(lower)
+    corners, _ = layout(lower, padding)
     # Texel coordinates (texel centres at whole numbers) of every face corner.
-    pixels = (flat - low[chart][:, None, :]) * lower + (corners[chart] + padding_px)[:, None, :]
+    pixels = (flat - low[chart][:, None, :]) * lower + (corners[chart] + padding)[:, None, :]
     # One vertex per (chart, vertex): a vertex on a chart's border is copied into each chart.
     keys = chart[:, None].astype(np.int64) * len(mesh.vertices) + mesh.faces
     unique, first, faces = np.unique(keys.ravel(), return_index=True, return_inverse=True)

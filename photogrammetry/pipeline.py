@@ -36,7 +36,7 @@ from photogrammetry.markers import DICTIONARIES, MarkerDictionary, detect_marker
 from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
-from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_maps_to_points
+from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_image_side_px, depth_maps_to_points
 from photogrammetry.support_plane import camera_up, find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
@@ -93,13 +93,14 @@ class Reconstruction(ModelResult):
         return self.textured.mesh
 
 
-def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOptions, clock: StageClock):
+def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOptions, clock: StageClock, side_px: int):
     from photogrammetry.patch_match import cuda_available, patch_match_points
 
     if options.use_cuda and cuda_available():
         # COLMAP's fusion checks visibility itself: no depth maps are handed on.
-        return (*patch_match_points(undistorted, options.dense.max_image_size_px), [], "patch-match (CUDA)")
-    maps = compute_depth_maps(sparse, options.dense, progress=clock.progress, workers=options.sfm.threads)
+        return (*patch_match_points(undistorted, side_px), [], "patch-match (CUDA)")
+    maps = compute_depth_maps(sparse, options.dense, progress=clock.progress, side_px=side_px,
+                              workers=options.sfm.threads)  # fmt: skip
     points, colours, to_camera = depth_maps_to_points(sparse, maps, options.dense.point_step_px)
     return points, colours, to_camera, maps, "semi-global matching (CPU)"
 
@@ -130,17 +131,18 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     sparse = run_sfm(photos, work_dir, options.sfm, progress=progress)
     clock = StageClock(progress)
     clock.start("dense")
+    centres = np.array([v.centre_world for v in sparse.views])
+    focus = focus_point(centres, np.array([v.optical_axis_world for v in sparse.views]))
+    scene_scale = float(np.median(np.linalg.norm(centres - focus, axis=1)))
+    voxel = options.cleaning.voxel_fraction * scene_scale
+    dense_side_px = depth_image_side_px(sparse, options.dense, focus=focus, voxel=voxel)
     points, colours, to_camera, depth_maps, dense_method = _dense_points(
-        sparse, work_dir / "undistorted", options, clock
+        sparse, work_dir / "undistorted", options, clock, dense_side_px
     )
     if len(points) < 1000:
         raise ModelError(f"{photos_dir}: dense matching found only {len(points)} points: too little texture or overlap")
 
     clock.start("fusion")
-    centres = np.array([v.centre_world for v in sparse.views])
-    focus = focus_point(centres, np.array([v.optical_axis_world for v in sparse.views]))
-    scene_scale = float(np.median(np.linalg.norm(centres - focus, axis=1)))
-    voxel = options.cleaning.voxel_fraction * scene_scale
     points, colours, to_camera = downsample(points, colours, to_camera, voxel)
     # The object lies where the cameras look, well inside the ring of cameras: far-off walls
     # and furniture are cut away before any plane or piece is looked for.
@@ -227,9 +229,11 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "unregistered": sparse.unregistered,
         "matching": sparse.matching,
         "cameras": sparse.cameras,
+        "features_per_photo": sparse.median_features,
         "sparse_points": len(sparse.points_world),
         "reprojection_error_px": round(sparse.mean_reprojection_error_px, 4),
         "dense_method": dense_method,
+        "dense_image_px": dense_side_px,
         "dense_points": int(len(points)),
         "object_points": int(len(obj.points)),
         "support_plane_found": plane is not None,

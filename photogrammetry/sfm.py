@@ -122,6 +122,7 @@ class SparseModel:
     times_s: dict[str, float] = field(default_factory=dict)
     matching: str = ""  # how pairs were chosen, and whether groups had to be bridged
     cameras: int = 1  # camera models (one per camera and zoom)
+    median_features: int = 0  # SIFT features per photo (median): enough kept of large photos?
 
 
 @contextmanager
@@ -169,6 +170,17 @@ def _extract_features(database: Path, image_dir: Path, cameras: dict[str, PhotoC
                                   reader_options=reader, extraction_options=extraction)  # fmt: skip
     number_images_by_name(database)
     return len(groups)
+
+
+def _median_features(database: Path) -> int:
+    """The median number of SIFT features found per photo."""
+    import pycolmap
+
+    db = pycolmap.Database.open(database)
+    try:
+        return int(np.median([db.num_keypoints_for_image(im.image_id) for im in db.read_all_images()]))
+    finally:
+        db.close()
 
 
 def _match(database: Path, n_images: int, work_dir: Path, options: SfmOptions) -> str:
@@ -324,6 +336,7 @@ def run_sfm(
         cameras = {p.name: read_photo_camera(p) for p in photos}
         image_dir = upright_photo_folder(photos, cameras, work_dir)
         n_cameras = _extract_features(database, image_dir, cameras, options)
+        features = _median_features(database)
 
         clock.start("matching")
         method = _match(database, len(photos), work_dir, options)
@@ -338,6 +351,7 @@ def run_sfm(
     model.times_s = clock.times_s
     model.matching = method + note
     model.cameras = n_cameras
+    model.median_features = features
     log.info("SfM: %d/%d photos registered (%s matching)", len(model.views), len(names), model.matching)
     return model
 

@@ -29,9 +29,14 @@ MAX_DISPARITIES = 256
 class DenseOptions:
     """Options of the dense depth stage."""
 
-    # Depth maps are computed on views shrunk to this longer side (on the 50 rendered photos, 640
-    # px against 800: half the time, mean surface distance 0.21 % against 0.20 % of the size).
-    max_image_size_px: int = 640
+    # Depth maps are computed on views shrunk to this longer side; None: from the photos
+    # (`depth_image_side_px`): as fine as the fusion keeps, within the photos' own pixels and
+    # `max_work_px3`.
+    max_image_size_px: int | None = None
+    # Semi-global matching's time grows with pixels times disparities, the side cubed: all views'
+    # sides cubed add up to at most this, the cost of 50 views at 800 px (Kermit's 640 px views
+    # took 0.75 CPU-s each): 66 photos get 729 px views, 14 photos 1,223 px.
+    max_work_px3: float = 50 * 800.0**3
     neighbours: int = 4  # source views paired with each reference view
     min_agreeing_pairs: int = 2
     depth_tolerance: float = 0.01  # pairs agree when their depths differ by less than this fraction
@@ -44,7 +49,9 @@ class DenseOptions:
     point_step_px: int = 2
 
     def check(self) -> None:
-        require_at_least("max_image_size_px", self.max_image_size_px, 100)
+        if self.max_image_size_px is not None:
+            require_at_least("max_image_size_px", self.max_image_size_px, 100)
+        require_positive("max_work_px3", self.max_work_px3)
         require_at_least("neighbours", self.neighbours, 1)
         require_at_least("min_agreeing_pairs", self.min_agreeing_pairs, 1)
         require_positive("depth_tolerance", self.depth_tolerance)
@@ -77,6 +84,26 @@ def choose_neighbours(model: SparseModel, options: DenseOptions) -> list[list[in
         shared[np.ix_(seen_by, seen_by)] += good
     np.fill_diagonal(shared, 0)
     return [[int(j) for j in np.argsort(-shared[i])[: options.neighbours] if shared[i, j] > 0] for i in range(n)]
+
+
+MIN_DEPTH_IMAGE_PX = 320
+
+
+def depth_image_side_px(model: SparseModel, options: DenseOptions, *, focus: np.ndarray, voxel: float) -> int:
+    """The depth maps' longer side, from the photos: `options.max_image_size_px` when given;
+    else so fine that the depth pixels made points (every `point_step_px`) lie a fusion
+    `voxel` apart where the median view sees `focus` (finer only adds points the fusion
+    averages away), never finer than the undistorted photos, and within `max_work_px3`."""
+    if options.max_image_size_px is not None:
+        return options.max_image_size_px
+    sides = np.array([max(v.camera.width, v.camera.height) for v in model.views], np.float64)
+    distances = np.array([np.linalg.norm(v.centre_world - focus) for v in model.views])
+    focals = np.array([v.camera.fx for v in model.views])
+    # A pixel at distance d spans d / f; at the side S' = k S the focal is k f.
+    fusion_side = np.median(options.point_step_px * distances / (voxel * focals) * sides)
+    budget_side = (options.max_work_px3 / len(model.views)) ** (1 / 3)
+    side = min(fusion_side, float(np.median(sides)), budget_side)
+    return int(max(MIN_DEPTH_IMAGE_PX, round(side)))
 
 
 def depth_ranges(model: SparseModel) -> list[tuple[float, float]]:
@@ -232,16 +259,18 @@ def compute_depth_maps(
     options: DenseOptions | None = None,
     progress: Progress | None = None,
     *,
+    side_px: int,
     workers: int = 1,
 ) -> list[DepthMap]:
-    """A filtered depth map for every registered view, `workers` views at a time (OpenCV and
-    numpy release the GIL); progress stage "dense"."""
+    """A filtered depth map for every registered view, its longer side at most `side_px`
+    (`depth_image_side_px`), `workers` views at a time (OpenCV and numpy release the GIL);
+    progress stage "dense"."""
     options = options or DenseOptions()
     neighbours = choose_neighbours(model, options)
     ranges = depth_ranges(model)
 
     def read(view: View) -> np.ndarray:
-        return read_rgb(view.image_path, max_side_px=options.max_image_size_px)
+        return read_rgb(view.image_path, max_side_px=side_px)
 
     def depth_map(i: int) -> DepthMap:
         view = model.views[i]

@@ -89,3 +89,10 @@ def test_a_large_mesh_is_laid_out_in_seconds() -> None:
     atlas = chart_atlas(mesh, size_px=2048, padding_px=2)
     atlas_texels(atlas, 2048)
     assert time.process_time() - start < 6.0
+
+
+def test_many_charts_fit_a_small_texture_with_less_padding() -> None:
+    """16k faces in a 128 px texture: the charts do not fit 4 texels apart, but do closer."""
+    atlas = chart_atlas(_bumpy_torus(4), size_px=128, padding_px=4)
+    assert atlas.uv.min() >= 0 and atlas.uv.max() <= 1
+    assert len(atlas_texels(atlas, 128).rows) > 0.2 * 128**2

@@ -58,3 +58,42 @@ def test_undistortion_capped_at_1600_px_matches_the_full_size_one_shrunk_and_is_
     png_path, png_camera = undistort_photos(png_model, tmp_path, tmp_path / "png", workers=1, max_side_px=1600)["big.png"]
     assert (png_camera.width, png_camera.fx) == (capped_camera.width, capped_camera.fx)
     assert np.mean(np.abs(cv2.imread(str(png_path)).astype(float)[inner] - shrunk[inner])) < 2.0
+
+
+def _ring_model(count: int, width: int, height: int, focal_px: float, distance: float):
+    """A sparse-model-shaped object: `count` cameras on a ring `distance` from the origin, looking at it."""
+    from homemodel.geometry.camera import Camera
+    from photogrammetry.sfm import View
+
+    views = []
+    for angle in np.linspace(0, 2 * np.pi, count, endpoint=False):
+        centre = distance * np.array([np.cos(angle), np.sin(angle), 0.5])
+        z = -centre / np.linalg.norm(centre)
+        x = np.cross(z, [0.0, 0.0, 1.0])
+        x /= np.linalg.norm(x)
+        pose = np.eye(4)
+        pose[:3, :3] = np.vstack([x, np.cross(z, x), z])
+        pose[:3, 3] = -pose[:3, :3] @ centre
+        camera = Camera(width=width, height=height, fx=focal_px, fy=focal_px, cx=width / 2, cy=height / 2)
+        views.append(View(name=f"{angle:.3f}", image_path=Path("unused.png"), camera=camera, camera_from_world=pose))
+    return SimpleNamespace(views=views)
+
+
+def test_depth_image_side_comes_from_the_photos() -> None:
+    """The depth maps' side: the points they make (every 2nd pixel) a fusion voxel apart at the
+    object (a 1600 px photo with a 1400 px focal, voxel 1/500 of the distance: 1,143 px);
+    never above the photos' own size (Kermit's 640 px); all views within the work budget (66
+    photos: 729 px, their sides cubed adding up to 50 views' of 800 px); a given size wins."""
+    from photogrammetry.stereo import DenseOptions, depth_image_side_px
+
+    options = DenseOptions()
+    distance = float(np.linalg.norm([1.0, 0.0, 0.5]))
+
+    def side(count: int, width: int, focal_px: float, **fields) -> int:
+        model = _ring_model(count, width, width * 3 // 4, focal_px, 1.0)
+        return depth_image_side_px(model, DenseOptions(**fields), focus=np.zeros(3), voxel=0.002 * distance)
+
+    assert abs(side(11, 1600, 1400.0) - 2 * 1600 / (0.002 * 1400)) <= 1
+    assert side(11, 640, 700.0) == 640
+    assert abs(side(66, 1600, 1400.0) - (options.max_work_px3 / 66) ** (1 / 3)) <= 1
+    assert side(66, 1600, 1400.0, max_image_size_px=700) == 700

@@ -77,8 +77,9 @@ def reconstruct(
     sfm_image_px: int = field_option(
         f"{OPTIONS}.sfm.max_image_size_px", "--sfm-image-px", help="longer side photos are shrunk to for SfM"
     ),
-    depth_image_px: int = field_option(
-        f"{OPTIONS}.dense.max_image_size_px", "--depth-image-px", help="longer side of the depth maps"
+    depth_image_px: int | None = field_option(
+        f"{OPTIONS}.dense.max_image_size_px", "--depth-image-px",
+        help="longer side of the depth maps (default: from the photos' focal length, size and count)",
     ),
     texture_size_px: int = field_option(
         f"{OPTIONS}.texture.size_px", "--texture-size-px", old=("--texture-px",), help="texture atlas size"
