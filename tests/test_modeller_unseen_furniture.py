@@ -299,18 +299,23 @@ def _link_points(model, link: str, world: dict) -> np.ndarray:
     )
 
 
-def measure(piece: RealPiece, folder: Path, *, whole: bool = True) -> dict:
+def measure(piece: RealPiece, folder: Path, *, whole: bool = True, grid_shifts: int = 1) -> dict:
     """The rebuilt piece against the real one: figures in mm, degrees and (`whole`) IOU
-    open and closed and the gate's report."""
+    open and closed and the gate's report. With `grid_shifts` > 1, `iou_open_shifted` also
+    holds the open IOU with both pieces moved by k / grid_shifts of a voxel along (1, 1, 1):
+    how much of a thin board's score is where the voxel grid happens to fall."""
     from articulation.export import export_model
     from articulation.gate.validate import validate_path
     from homemodel.evaluation.voxels import voxel_iou
     from modeller import build_model
 
     spec_path = write_spec(folder, piece.spec)
-    start = time.perf_counter()
+    start, start_cpu = time.perf_counter(), time.process_time()
     model = build_model(spec_path)
-    figures: dict = {"build_s": time.perf_counter() - start, "hinge_mm": {}, "hinge_deg": {}, "corners_mm": {}}
+    figures: dict = {
+        "build_s": time.perf_counter() - start, "build_cpu_s": time.process_time() - start_cpu,
+        "hinge_mm": {}, "hinge_deg": {}, "corners_mm": {},
+    }
     limits = {m.joint: m.limit for m in piece.movers}
     world = model.world_from_links(limits)
     for m in piece.movers:
@@ -334,7 +339,13 @@ def measure(piece: RealPiece, folder: Path, *, whole: bool = True) -> dict:
         figures["corners_mm"][m.link] = 1000 * max(nearest, bounds)
     if not whole:
         return figures
-    figures["iou_open"] = voxel_iou(model.world_mesh(limits), piece.mesh(True), voxel_size_m=piece.voxel_m)
+    built_open, real_open = model.world_mesh(limits), piece.mesh(True)
+    figures["iou_open"] = voxel_iou(built_open, real_open, voxel_size_m=piece.voxel_m)
+    figures["iou_open_shifted"] = [figures["iou_open"]]
+    for k in range(1, grid_shifts):
+        shift = np.full(3, k * piece.voxel_m / grid_shifts)
+        moved = [mesh.copy().apply_translation(shift) for mesh in (built_open, real_open)]
+        figures["iou_open_shifted"].append(voxel_iou(*moved, voxel_size_m=piece.voxel_m))
     figures["iou_closed"] = voxel_iou(model.world_mesh(), piece.mesh(False), voxel_size_m=piece.voxel_m)
     export_model(model, folder / "model")
     report = validate_path(folder / "model")

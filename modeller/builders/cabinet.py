@@ -67,6 +67,7 @@ from modeller.specs.cabinet_geometry import (
     drawer_front_x_m,
     frame_members_m,
     panel_at,
+    panel_bounds_m,
     panel_face_x_m,
     shelf_span_m,
 )
@@ -297,10 +298,7 @@ def _add_panel(cabinet: Cabinet, i: int, panel: Panel) -> None:
     """A slab in the front plane, inside the carcass' edges (they show round it), with its hole
     and the pockets of the knobs and buttons on it cut."""
     spec = cabinet.spec
-    t = spec.wall_thickness_m
-    y0 = max(-spec.width_m / 2 + panel.left_m, -spec.width_m / 2 + t)
-    y1 = min(-spec.width_m / 2 + panel.right_m, spec.width_m / 2 - t)
-    z0, z1 = max(panel.bottom_m, spec.inner_floor_m), min(panel.top_m, spec.inner_top_m)
+    y0, y1, z0, z1 = panel_bounds_m(spec, panel)
     if y1 - y0 <= 0 or z1 - z0 <= 0:
         return  # wholly in front of the carcass' edges, which are the panel
     t = spec.panel_board_m(panel)

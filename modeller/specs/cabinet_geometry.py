@@ -151,6 +151,15 @@ def panel_at(spec: CabinetSpec, left_m: float, height_m: float) -> Panel | None:
     return None
 
 
+def panel_bounds_m(spec: CabinetSpec, panel: Panel) -> tuple[float, float, float, float]:
+    """(y_min, y_max, z_min, z_max) of the slab a panel is built as, in the model frame:
+    inside the carcass' edges, which show round it (empty where it lies wholly on them)."""
+    t = spec.wall_thickness_m
+    y0 = max(-spec.width_m / 2 + panel.left_m, -spec.width_m / 2 + t)
+    y1 = min(-spec.width_m / 2 + panel.right_m, spec.width_m / 2 - t)
+    return y0, y1, max(panel.bottom_m, spec.inner_floor_m), min(panel.top_m, spec.inner_top_m)
+
+
 def panel_face_x_m(spec: CabinetSpec, left_m: float, height_m: float) -> float:
     """x of the face of the panel a knob or button at (`left_m`, `height_m`) sits on."""
     panel = panel_at(spec, left_m, height_m)

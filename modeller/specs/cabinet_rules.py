@@ -29,6 +29,7 @@ from modeller.specs.cabinet_geometry import (
     hinge_offsets_m,
     opening_around_m,
     panel_at,
+    panel_bounds_m,
     shelf_box_m,
     shelf_span_m,
 )
@@ -40,6 +41,9 @@ if TYPE_CHECKING:
 
 # Angles at which a door's sweep is checked against the body (door shelves).
 _SWEEP_SAMPLES = 91
+# Readings to the millimetre (a front's bottom and its height) may add up to this much past
+# the body they were measured on.
+_TAPE_SLACK_M = 0.001
 
 
 # ---------------------------------------------------------------------------- a front alone
@@ -263,11 +267,11 @@ def _check_on_body(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
     what = group[:-1]
     out = spec.face_frame.overhang_m if spec.face_frame is not None and group != "panels" else 0.0
     across = spec.width_m + 2 * out
-    if front.width_m > across + _EPS_M:
+    if front.width_m > across + _TAPE_SLACK_M:
         raise FieldError(
             (group, i, "width_m"), f"{what} is {front.width_m} m wide but the {spec.kind_label} is {across:.3g} m"
         )
-    if front.left_m < -out - _EPS_M or front.right_m > spec.width_m + out + _EPS_M:
+    if front.left_m < -out - _TAPE_SLACK_M or front.right_m > spec.width_m + out + _TAPE_SLACK_M:
         beyond = f", its face frame {out} m past each side" if out else ""
         raise FieldError(
             (group, i, "left_m"),
@@ -275,18 +279,18 @@ def _check_on_body(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
             f"but the {spec.kind_label} is {spec.width_m} m wide{beyond}",
         )
     body_height = spec.top_m - spec.base_m
-    if front.height_m > body_height + _EPS_M:
+    if front.height_m > body_height + _TAPE_SLACK_M:
         raise FieldError(
             (group, i, "height_m"),
             f"{what} is {front.height_m} m high but the {spec.kind_label} is {body_height:.3g} m",
         )
-    if front.top_m > spec.top_m + _EPS_M:
+    if front.top_m > spec.top_m + _TAPE_SLACK_M:
         raise FieldError(
             (group, i, "bottom_m"),
             f"{what} reaches {front.top_m:.3f} m above the floor "
             f"but the {spec.kind_label}'s top is at {spec.top_m:.3g} m",
         )
-    if front.bottom_m < spec.base_m - _EPS_M:
+    if front.bottom_m < spec.base_m - _TAPE_SLACK_M:
         raise FieldError(
             (group, i, "bottom_m"),
             f"{what} starts {front.bottom_m} m above the floor, below the {spec.kind_label} at {spec.base_m} m",
@@ -522,6 +526,15 @@ def _check_pocket(spec: CabinetSpec, group: str, i: int, part) -> None:
     panel = panel_at(spec, part.left_m, part.height_m)
     if panel is None or panel.hole is not None:
         raise FieldError((group, i, "pocket"), f"a pocket is cut into a panel without a hole; {group[:-1]} {i} has none")
+    y0, y1, z0, z1 = panel_bounds_m(spec, panel)
+    across, up = part.half_size_m
+    y, z = -spec.width_m / 2 + part.left_m, part.height_m
+    if y - across < y0 - _EPS_M or y + across > y1 + _EPS_M or z - up < z0 - _EPS_M or z + up > z1 + _EPS_M:
+        raise FieldError(
+            (group, i, "pocket"),
+            f"the pocket round {group[:-1]} {i} reaches into the carcass' edge round its panel "
+            f"({y0 + spec.width_m / 2:.3f}..{y1 + spec.width_m / 2:.3f} m across, {z0:.3f}..{z1:.3f} m up)",
+        )
     thickness = spec.panel_board_m(panel)
     if part.pocket.depth_m >= thickness:
         raise FieldError(
