@@ -268,8 +268,8 @@ def add_push_button(
         cap = projection - button.travel_m
         collide_length, collide_centre = cap, button.travel_m + cap / 2
     else:
-        length = projection + button.pocket.depth_m - button.travel_m
-        length = length if button.body_depth_m is None else button.body_depth_m
+        length = projection + button.pocket.depth_m - button.travel_m  # pressed fully, it meets the floor
+        length = length if button.body_depth_m is None else min(length, button.body_depth_m)
         back = projection - length
         collide_length, collide_centre = length, back + length / 2
     if button.shape == "round":

@@ -9,12 +9,14 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from homemodel.core.yaml_specs import FieldError
-from modeller.specs.common import _EPS_M, Colour, Length, Offset, _Spec
+from modeller.specs.common import Colour, Length, Offset, _Spec
 from modeller.specs.joint_dynamics import JointDynamicsSpec
 
 Orientation = Literal["vertical", "horizontal"]
 # A button in a pocket keeps at least this much of itself above the pocket's floor, pressed.
 _MIN_BUTTON_BODY_M = 0.001
+# What readings to the millimetre may be off by, added up.
+_TAPE_M = 0.001 + 1e-9
 
 
 class Handle(_Spec):
@@ -202,7 +204,8 @@ class PushButton(_Spec):
                 f"a button {self.projection_m} m out pressed in {self.travel_m} m goes through its pocket's floor "
                 f"{floor} m down",
             )
-        if self.body_depth_m is not None and self.projection_m - self.travel_m - self.body_depth_m < -floor - _EPS_M:
+        # Four readings to the millimetre may add up 1 mm past the floor: built as deep as fits.
+        if self.body_depth_m is not None and self.projection_m - self.travel_m - self.body_depth_m < -floor - _TAPE_M:
             raise FieldError(
                 ("body_depth_m",),
                 f"a button {self.body_depth_m} m deep, {self.projection_m} m out, pressed in {self.travel_m} m goes "
