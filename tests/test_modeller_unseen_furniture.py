@@ -173,7 +173,8 @@ def larder(way: str = "open_at_90") -> RealPiece:
         ]
         movers.append(_slide(f"drawer_{k}", travel, boxes))
         drawers.append({"left_m": left, "width_m": width, "bottom_m": bottom, "height_m": height, "depth_m": depth,
-                        "travel_m": travel, "inner_board_m": board, "box_bottom_m": round(box_z - bottom, 3),
+                        "travel_m": travel, "inner_board_m": board, "inner_board_height_m": round(box_h + 0.02, 3),
+                        "box_bottom_m": round(box_z - bottom, 3),
                         "box_width_m": 0.2, "box_height_m": box_h, "box_wall_m": wall,
                         "box_offset_m": round(box_left + 0.1 - (left + width / 2), 3), "handle": {"type": "none"}})
     face_x = front_in + DOOR
