@@ -107,6 +107,9 @@ def main() -> None:
     inner_out = -open_door[2:, 1].max()
     edge_forward = open_door[[0, 3], 0].max()
     dimension(left, (0, 40), (inner_out, 40), f"inner_face_out_m = {inner_out / 1000:.3f}\n(side's outer face to\nthe door's inner face)", "tab:blue", (22, 35))
+    outer_out = -open_door[:2, 1].min()  # the same way to the outer face: the two differ by the thickness
+    dimension(left, (0, 52), (outer_out, 52), "", "tab:purple", (0, 0))
+    left.text(-68, 28, f"outer_face_out_m\n= {outer_out / 1000:.3f} (outer -\ninner = thickness)", color="tab:purple", fontsize=8)
     hinge_edge_x = -open_door[0, 1]
     dimension(left, (hinge_edge_x, 0), (hinge_edge_x, edge_forward), "", "tab:green", (0, 0))
     left.text(22, -22, f"edge_forward_m = {edge_forward / 1000:.3f}\n(front plane to the door's\nhinge-side edge; behind: -)", color="tab:green", fontsize=8)
