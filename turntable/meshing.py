@@ -1,10 +1,12 @@
 """From the merged cloud to a closed, coloured mesh: statistical outlier removal, normals
-turned towards the cameras (outward), screened Poisson reconstruction, density trimming."""
+turned towards the cameras (outward), then the surface: marching cubes over the points' signed
+distance (the default), or screened Poisson with density trimming (the fallback)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import trimesh
@@ -21,6 +23,11 @@ _POISSON_SCALE = 1.5
 
 @dataclass(kw_only=True)
 class MeshingOptions:
+    # distance: marching cubes over the signed distance to the points' tangent planes (fast, keeps
+    # unseen concavities open); poisson: screened Poisson, which closes them smoothly.
+    surface: Literal["distance", "poisson"] = "distance"
+    distance_reach_voxels: float = 3.0  # a grid node's signed distance comes from points this near
+    seal_voxels: int = 3  # gaps in the points' band about twice this wide are closed over, not leaked through
     outlier_neighbours: int = 20
     outlier_std_ratio: float = 2.5
     normal_neighbours: int = 24
@@ -32,6 +39,8 @@ class MeshingOptions:
     min_points: int = 200
 
     def check(self) -> None:
+        require_between("distance_reach_voxels", self.distance_reach_voxels, 1.0, 10.0)
+        require_between("seal_voxels", self.seal_voxels, 0, 20)
         require_at_least("outlier_neighbours", self.outlier_neighbours, 1)
         require_positive("outlier_std_ratio", self.outlier_std_ratio)
         require_at_least("normal_neighbours", self.normal_neighbours, 3)
@@ -46,9 +55,9 @@ class MeshingOptions:
 class MeshingFigures:
     points_in: int
     points_after_outliers: int
-    triangles_poisson: int
+    triangles_poisson: int | None  # None: the signed-distance surface was kept, no Poisson ran
     triangles: int
-    density_trimmed: bool  # False: trimming would have left the mesh open, Poisson's closed surface kept
+    density_trimmed: bool | None  # False: trimming would have left the mesh open, Poisson's closed surface kept
 
 
 def remove_outliers(cloud: MergedCloud, options: MeshingOptions) -> MergedCloud:
@@ -62,7 +71,7 @@ def remove_outliers(cloud: MergedCloud, options: MeshingOptions) -> MergedCloud:
     )
 
 
-def poisson_mesh(
+def object_mesh(
     cloud: MergedCloud, cylinder: Cylinder, voxel_size_m: float, options: MeshingOptions
 ) -> tuple[trimesh.Trimesh, np.ndarray, MeshingFigures]:
     """A watertight-as-possible mesh in the table frame and its vertex colours (V, 3) in [0, 1]."""
@@ -83,6 +92,103 @@ def poisson_mesh(
         base = footprint_points(cloud.points, cylinder.z_min_m, voxel_size_m)
         points = np.concatenate([points, base])
         normals = np.concatenate([normals, np.tile([0.0, 0.0, -1.0], (len(base), 1))])
+    mesh = None
+    if options.surface == "distance":
+        mesh = distance_surface(
+            points, normals, voxel_size_m, reach_voxels=options.distance_reach_voxels, seal_voxels=options.seal_voxels
+        )
+        mesh = _on_table_top(mesh.vertices, mesh.faces) if len(mesh.faces) else mesh
+        if len(mesh.faces) and not mesh.is_watertight:
+            mesh = repair_surface(mesh)
+    triangles_poisson = trimmed = None
+    if mesh is None or len(mesh.faces) == 0 or not mesh.is_watertight:  # Poisson closes: the fallback
+        mesh, triangles_poisson, trimmed = _poisson_closed(points, normals, cloud, cylinder, voxel_size_m, options)
+        if options.snap_to_points:
+            mesh = snap_to_points(mesh, cloud.points, normals[: len(cloud.points)], voxel_size_m)
+    mesh = decimate_closed(mesh, options.max_triangles)
+    if len(mesh.faces) == 0:
+        raise ModelError("the object's mesh is empty")
+    colors = _vertex_colors(mesh, cloud)
+    figures = MeshingFigures(
+        points_in=points_in,
+        points_after_outliers=len(cloud.points),
+        triangles_poisson=triangles_poisson,
+        triangles=len(mesh.faces),
+        density_trimmed=trimmed,
+    )
+    return mesh, colors, figures
+
+
+def distance_surface(
+    points: np.ndarray, normals: np.ndarray, voxel_size_m: float, *, reach_voxels: float, seal_voxels: int
+) -> trimesh.Trimesh:
+    """Marching cubes over a signed distance on a grid of voxel-wide cells: near the points, the
+    Gaussian-weighted mean distance to the tangent planes of the points within `reach_voxels`
+    (the merge's voxel centroids are already averages, so this stays on them); elsewhere the
+    outside is what the grid's border reaches without crossing that band, the rest inside.
+    Gaps in the band narrower than about 2 `seal_voxels` (an unseen or dark patch on a closed
+    object) are closed over, so the outside cannot leak into the object. Concavities no camera
+    saw into stay open (a mug's floor), where Poisson would balloon a lid across them. The
+    mesh may have small islands."""
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+    from skimage.measure import marching_cubes
+
+    reach_m = reach_voxels * voxel_size_m
+    pad = int(np.ceil(reach_voxels)) + seal_voxels + 2
+    # Nodes lie half a cell off the table top (z = 0): a node exactly on a plane of points (the
+    # footprint) would be exactly zero, which marching cubes meshes with holes.
+    origin = np.floor(points.min(axis=0) / voxel_size_m - pad) * voxel_size_m - 0.5 * voxel_size_m
+    shape = tuple(int(n) for n in np.ceil((points.max(axis=0) - origin) / voxel_size_m) + pad + 1)
+    near = np.zeros(shape, dtype=bool)
+    near[tuple(np.round((points - origin) / voxel_size_m).astype(np.int64).T)] = True
+    near = ndimage.binary_dilation(near, np.ones((3, 3, 3), dtype=bool), iterations=int(np.ceil(reach_voxels)))
+    nodes = np.argwhere(near)
+    xyz = origin + nodes * voxel_size_m
+    distances, index = cKDTree(points).query(xyz, k=8, distance_upper_bound=reach_m, workers=-1)
+    found = np.isfinite(distances)
+    index = np.where(found, index, 0)
+    weights = found * np.exp(-((np.where(found, distances, 0.0) / voxel_size_m) ** 2))
+    offsets = np.einsum("nkd,nkd->nk", xyz[:, None] - points[index], normals[index])
+    total = weights.sum(axis=1)
+    measured = total > 0
+    values = (weights[measured] * offsets[measured]).sum(axis=1) / total[measured]
+    field = np.zeros(shape)
+    known = np.zeros(shape, dtype=bool)
+    known[tuple(nodes[measured].T)] = True
+    field[known] = np.where(values == 0.0, 1e-9 * voxel_size_m, values)
+    # The outside: where a ball `seal_voxels` wide rolls in from the border without touching
+    # the band (a flood fill of the band's complement, opened by that ball).
+    blocked = ndimage.binary_dilation(known, iterations=seal_voxels) if seal_voxels else known
+    labels, _ = ndimage.label(~blocked)
+    outside = labels == labels[0, 0, 0]  # the padding is free and in one piece
+    if seal_voxels:
+        outside = ndimage.binary_dilation(outside, iterations=seal_voxels)
+    # The rest (the inside, and the plugs in gaps the ball could not pass) signed like the
+    # nearest measured node: inside behind the band, the band's sides across a gap.
+    _, nearest = ndimage.distance_transform_edt(~known, return_indices=True)
+    nearest_sign = np.where(field[tuple(nearest)] >= 0, reach_m, -reach_m)
+    field = np.where(known, field, np.where(outside, reach_m, nearest_sign))
+    if field.min() >= 0:
+        return trimesh.Trimesh()
+    vertices, faces, _, _ = marching_cubes(field, level=0.0, spacing=(voxel_size_m,) * 3)
+    mesh = trimesh.Trimesh(vertices + origin, faces, process=True)
+    corners = mesh.triangles
+    if np.einsum("ij,ij->", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) < 0:  # its volume, cheaply
+        mesh.invert()
+    return mesh
+
+
+def _poisson_closed(
+    points: np.ndarray,
+    normals: np.ndarray,
+    cloud: MergedCloud,
+    cylinder: Cylinder,
+    voxel_size_m: float,
+    options: MeshingOptions,
+) -> tuple[trimesh.Trimesh, int, bool]:
+    """Screened Poisson of the oriented points, trimmed where weakly supported if it stays closed;
+    (mesh, Poisson's triangles, whether trimmed)."""
     extent = float(np.max(np.ptp(cloud.points, axis=0)))
     depth = options.poisson_depth or int(np.clip(math.ceil(math.log2(_POISSON_SCALE * extent / voxel_size_m)), 6, 10))
     surface, densities = poisson_surface(points, normals, depth=depth, scale=_POISSON_SCALE)
@@ -108,20 +214,7 @@ def poisson_mesh(
         trimmed = mesh.is_watertight
     if not trimmed:
         mesh = repair_surface(_on_table_top(vertices, surface.faces))
-    mesh = decimate_closed(mesh, options.max_triangles)
-    if len(mesh.faces) == 0:
-        raise ModelError("the trimmed Poisson mesh is empty")
-    if options.snap_to_points:
-        mesh = snap_to_points(mesh, cloud.points, normals[: len(cloud.points)], voxel_size_m)
-    colors = _vertex_colors(mesh, cloud)
-    figures = MeshingFigures(
-        points_in=points_in,
-        points_after_outliers=len(cloud.points),
-        triangles_poisson=triangles_poisson,
-        triangles=len(mesh.faces),
-        density_trimmed=trimmed,
-    )
-    return mesh, colors, figures
+    return mesh, triangles_poisson, trimmed
 
 
 def snap_to_points(

@@ -29,7 +29,7 @@ from semantic_map import MapEntry
 from semantic_map.model_result import ModelResult
 from turntable.capture import Capture, FrameError, FramePaths, load_capture, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, ObjectPixels, VoxelAccumulator, object_pixels, pixel_points
-from turntable.meshing import MeshingFigures, MeshingOptions, poisson_mesh
+from turntable.meshing import MeshingFigures, MeshingOptions, object_mesh
 from turntable.outputs import write_reconstruction
 from turntable.orbit import TableAxis, table_axis
 from turntable.real_frames import (
@@ -456,7 +456,7 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
     cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames)
 
     clock.start("mesh", 1)
-    mesh, colors, figures = poisson_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
+    mesh, colors, figures = object_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
 
     textured = uv = texture = None
     if options.texture_size_px > 0:
