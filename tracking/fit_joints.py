@@ -61,7 +61,7 @@ def fit_joint(
     """Fit `joint` of `object_id`, the other joints and the poses at their estimates; sets
     the estimate in `state`. `views` are the coarse and the fine view, each with the depth
     of the scene without the object (`FitState.background_depth`). `near`: search only the
-    fine grid around this position (a refit after the pose moved a little). None (state
+    fine grid two steps either side of this position (a refit after the pose moved a little). None (state
     unchanged) when the moving part is nowhere in view."""
     low, high = joint_range(state, object_id, joint)
     moving = state.moving_parts(object_id, joint)
@@ -71,7 +71,10 @@ def fit_joint(
     contrast = float("nan")
     if search.detents:
         return _fit_detents(state, fine, fine_background, object_id, joint, moving, np.array(search.detents))
+    # A refit follows a pose that moved by millimetres: the joint moves by a step or two.
+    reach = 2 * search.fine_step
     if near is None:
+        reach = search.coarse_step
         coarse_values = _grid(low, high, search.coarse_step)
         coarse_static = _static_depth(state, coarse, coarse_background, object_id, moving)
         coarse_costs = _costs(state, coarse, coarse_static, object_id, joint, moving, coarse_values)
@@ -80,7 +83,7 @@ def fit_joint(
         near = float(coarse_values[int(np.argmin(coarse_costs))])
         far = np.abs(coarse_values - near) > 2 * search.coarse_step
         contrast = float(coarse_costs[far].min() - coarse_costs.min()) if far.any() else 0.0
-    fine_values = _grid(max(low, near - search.coarse_step), min(high, near + search.coarse_step), search.fine_step)
+    fine_values = _grid(max(low, near - reach), min(high, near + reach), search.fine_step)
     fine_static = _static_depth(state, fine, fine_background, object_id, moving)
     fine_costs = _costs(state, fine, fine_static, object_id, joint, moving, fine_values)
     if fine_costs is None:

@@ -167,9 +167,14 @@ def fit_quality(
     """How many source points, moved, lie within `kernel_m` of the target's planes, and how close."""
     from scipy.spatial import cKDTree
 
+    # Shares and an RMS: an even spread of the points gives them as well as all of them.
+    count = len(source)
+    source = source[_spread(len(source), 2 * MAX_SOURCE_POINTS)]
+    kept = _spread(len(target), 2 * MAX_TARGET_POINTS)
+    target, target_normals = target[kept], target_normals[kept]
     moved = source @ target_from_source[:3, :3].T + target_from_source[:3, 3]
     _, nearest = cKDTree(target).query(moved)
     distances = np.abs(np.einsum("ij,ij->i", moved - target[nearest], target_normals[nearest]))
     inliers = distances < kernel_m
     rmse = float(np.sqrt(np.mean(distances[inliers] ** 2))) if inliers.any() else float("inf")
-    return PoseFit(points=len(moved), inlier_fraction=float(inliers.mean()), rmse_m=rmse)
+    return PoseFit(points=count, inlier_fraction=float(inliers.mean()), rmse_m=rmse)

@@ -253,6 +253,29 @@ class ViewSimulator:
         return result
 
 
+def unlike_their_models(scene: HomeScene, *, off_m: float, seed: int = 0) -> HomeScene:
+    """The scene's furniture as it may really be beside the models an installer measured:
+    each link of each object between 0.6 and 1 times `off_m` larger or smaller along each of
+    its axes (about its centre) and shifted by up to half `off_m` along each, the joints'
+    origins and the objects' poses unchanged. The parts are replaced in `scene`, returned."""
+    import dataclasses
+
+    require_positive("off_m", off_m)
+    rng = np.random.default_rng(seed)
+    parts = []
+    for part in scene.parts:
+        if part.object_id is not None:
+            low, high = part.vertices_link.min(axis=0), part.vertices_link.max(axis=0)
+            size = np.maximum(high - low, 1e-6)
+            scale = np.maximum(size + rng.uniform(0.6, 1.0, 3) * off_m * rng.choice([-1.0, 1.0], 3), size / 2) / size
+            shift = rng.uniform(-0.5, 0.5, 3) * off_m
+            centre = (low + high) / 2
+            part = dataclasses.replace(part, vertices_link=(part.vertices_link - centre) * scale + centre + shift)
+        parts.append(part)
+    scene.parts = parts
+    return scene
+
+
 def write_view(view: SimulatedView, out_dir: Path, *, force: bool = False, inputs: Sequence[Path] = ()) -> None:
     """Write the observation folder at once (nothing half-written); a non-empty `out_dir` only with `force`."""
     with atomic_dir(out_dir, force=force, inputs=inputs) as tmp:
