@@ -174,9 +174,11 @@ class PhotogrammetryFigures(_Figures):
     unregistered: list[str] | None = None
     matching: str | None = None
     cameras: int | None = Field(default=None, ge=0, description="camera models (one per camera and zoom)")
+    features_per_photo: int | None = Field(default=None, ge=0, description="SIFT features per photo, median")
     sparse_points: int | None = Field(default=None, ge=0)
     reprojection_error_px: float | None = None
     dense_method: str | None = None
+    dense_image_px: int | None = Field(default=None, ge=0, description="longer side of the depth maps")
     dense_points: int | None = Field(default=None, ge=0)
     object_points: int | None = Field(default=None, ge=0)
     support_plane_found: bool | None = None
