@@ -61,9 +61,12 @@ class FitView:
         is out of the image. What fits one small thing renders and compares only that window."""
         camera_from_map = np.linalg.inv(self.map_from_camera)
         points = np.asarray(corners_map, dtype=np.float64) @ camera_from_map[:3, :3].T + camera_from_map[:3, 3]
-        points = points[points[:, 2] > 0.05]
-        if not len(points) or self.camera.has_distortion:
-            return (self, (slice(None), slice(None))) if len(points) else None
+        in_front = points[:, 2] > 0.05
+        if not in_front.any():
+            return None
+        if self.camera.has_distortion or not in_front.all():
+            # A lens bends the box's outline; a box reaching behind the camera has no image box.
+            return self, (slice(None), slice(None))
         uv = self.camera.project(points)
         u0, v0 = np.maximum(np.floor(uv.min(axis=0)).astype(int) - margin_px, 0)
         u1, v1 = np.minimum(np.ceil(uv.max(axis=0)).astype(int) + margin_px, [self.camera.width - 1, self.camera.height - 1])
