@@ -39,9 +39,10 @@ def _summary_rows(summary: ModelSummary) -> list[tuple[str, str]]:
     rows = [
         ("photos registered", f"{figures.registered} of {figures.photos}"),
         ("matching", f"{figures.matching}, {figures.cameras} camera model(s)"),
+        ("SIFT features per photo (median)", str(figures.features_per_photo)),
         ("sparse points", str(figures.sparse_points)),
         ("reprojection error", f"{figures.reprojection_error_px:.3f} px"),
-        ("dense method", figures.dense_method),
+        ("dense method", f"{figures.dense_method}, views of {figures.dense_image_px} px"),
         ("dense points (fused)", str(figures.dense_points)),
         ("object points", str(figures.object_points)),
         ("support plane points removed", str(figures.support_plane_points_removed)),
