@@ -41,8 +41,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 # longest first) start first, so that no worker is left running a long one alone at the end
 # while the other idles; the rest follow in name order.
 LONGEST_FIRST = (
-    "test_photogrammetry_registration.py",  # the Buddha sets, and SfM of the rendered set
-    "test_photogrammetry_pipeline.py",  # renders that set (tests/rendered_photo_set.py) first
+    "test_photogrammetry_pipeline.py",  # renders the rendered set and reconstructs it; Kermit
+    "test_photogrammetry_registration.py",  # the Buddha sets
     "test_turntable_accuracy.py",
     "test_blender_addon.py",
     "test_shape_completion.py",

@@ -1,7 +1,7 @@
-"""The rendered photo set with ground truth that the photogrammetry tests share: 36 views of
-the vase on three rings, their file names shuffled, rendered once with Blender (the longest
-part of those tests) and cached in build/test-cache/ until the rendering code changes. A lock
-keeps two pytest-xdist workers from rendering into the folder at once."""
+"""The rendered photo set with ground truth of test_photogrammetry_pipeline: 36 views of the
+vase on three rings, their file names shuffled, rendered once with Blender (the longest part of
+those tests) and cached in build/test-cache/ until the rendering code changes. A lock keeps two
+pytest runs from rendering into the folder at once."""
 
 from __future__ import annotations
 

@@ -122,7 +122,7 @@ def test_bad_options_are_refused_before_any_work(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def rendered_scene():
-    """36 views on three rings, shuffled: the set test_photogrammetry_registration registers."""
+    """36 views on three rings, their file names shuffled (tests/rendered_photo_set.py)."""
     from rendered_photo_set import rendered_photo_set
 
     return rendered_photo_set()
@@ -130,7 +130,10 @@ def rendered_scene():
 
 @pytest.fixture(scope="module")
 def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
-    """The rendered set reconstructed with its markers and registered into a map, on the table."""
+    """The rendered set reconstructed with its markers and registered into a map, on the table.
+    One run shows both the registration of the shuffled rings and the metric model (it was run
+    twice). 1024 features per photo: with the default 4096 the camera centres in the marker frame
+    came out about 1 % short of the truth, up to 6.2 mm off, over the 4 mm asserted below."""
     from sample_house import build_house
 
     from semantic_map import save_map
@@ -147,7 +150,7 @@ def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
         str(rendered_scene.marker_size_m),
     ]
     args += ["--dictionary", rendered_scene.dictionary, "--max-features", "1024", "--depth-image-px", "640"]
-    args += ["--texture-px", "1024", "--name", "vase", "--map", str(map_path), "--parent", "table"]
+    args += ["--texture-size-px", "1024", "--name", "vase", "--map", str(map_path), "--parent", "table"]
     result = _reconstruct(*args, "--xyz", "0.2", "0.1", "0.75")
     assert result.exit_code == 0, result.output
     return out, map_path
@@ -156,6 +159,21 @@ def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
 @pytest.fixture(scope="module")
 def rendered_model(rendered_run) -> Path:
     return rendered_run[0]
+
+
+@pytest.mark.bpy
+@pytest.mark.slow
+@pytest.mark.timeout(2400)  # the first to ask for the set: rendering 36 views, then the reconstruction
+def test_shuffled_three_ring_rendered_set_registers_whole(rendered_scene, rendered_model: Path) -> None:
+    """36 rendered photos on three rings, their file names shuffled: every photo registers with
+    the default matching, at the true camera poses up to a similarity."""
+    from photogrammetry.pose_agreement import pose_agreement
+
+    figures = json.loads((rendered_model / "summary.json").read_text())["photogrammetry"]
+    assert figures["registered"] == figures["photos"] == 36 and figures["unregistered"] == []
+    agreement = pose_agreement(read_cameras(rendered_model / "cameras.json").poses, rendered_scene.camera_from_world)
+    assert agreement.views == 36
+    assert agreement.max_centre_error < 0.01 and agreement.max_rotation_error_deg < 0.5, agreement
 
 
 @pytest.mark.bpy

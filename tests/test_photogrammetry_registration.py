@@ -339,20 +339,3 @@ def test_buddha_all_round_in_no_order_registers_with_the_default_command(tmp_pat
     assert agreement.median_centre_error < 0.01 and agreement.max_centre_error < 0.03, agreement
     assert agreement.max_rotation_error_deg < 1.0, agreement
     _assert_object_without_background(out, max_size_share=1.3)
-
-
-@pytest.mark.bpy
-@pytest.mark.slow
-@pytest.mark.timeout(2400)  # rendering 36 views with Cycles the first time, then SfM
-def test_shuffled_three_ring_rendered_set_registers_whole_with_defaults(tmp_path: Path) -> None:
-    """36 rendered photos on three rings, their file names shuffled: every photo registers with
-    the default options, at the true camera poses up to a similarity."""
-    from rendered_photo_set import rendered_photo_set
-
-    from photogrammetry.photos import list_photos
-
-    scene = rendered_photo_set()  # shared with test_photogrammetry_pipeline's metric tests
-    model = run_sfm(list_photos(scene.image_paths[0].parent), tmp_path / "work")
-    assert len(model.views) == 36 and model.unregistered == []
-    agreement = pose_agreement({v.name: v.camera_from_world for v in model.views}, scene.camera_from_world)
-    assert agreement.max_centre_error < 0.01 and agreement.max_rotation_error_deg < 0.5, agreement
