@@ -19,6 +19,7 @@ from turntable.fusion import Cylinder, MergedCloud
 # Poisson's cube around the points, relative to their extent: room for the surface to close
 # below the footprint instead of being cut open by the cube's face.
 _POISSON_SCALE = 1.5
+_UNMEASURED_SKIN = 0.25  # of the signed-distance solid's skin: more is a leak (see `distance_surface`)
 
 
 @dataclass(kw_only=True)
@@ -129,7 +130,7 @@ def distance_surface(
     Gaps in the band narrower than about 2 `seal_voxels` (an unseen or dark patch on a closed
     object) are closed over, so the outside cannot leak into the object. Concavities no camera
     saw into stay open (a mug's floor), where Poisson would balloon a lid across them. The
-    mesh may have small islands."""
+    mesh may have small islands; it is empty when the outside leaked in after all."""
     from scipy import ndimage
     from scipy.spatial import cKDTree
     from skimage.measure import marching_cubes
@@ -169,7 +170,15 @@ def distance_surface(
     _, nearest = ndimage.distance_transform_edt(~known, return_indices=True)
     nearest_sign = np.where(field[tuple(nearest)] >= 0, reach_m, -reach_m)
     field = np.where(known, field, np.where(outside, reach_m, nearest_sign))
-    if field.min() >= 0:
+    solid = field < 0
+    if not np.any(solid):
+        return trimesh.Trimesh()
+    # Where the outside reaches the solid without crossing the band, the surface lies on the
+    # band's inner edge, measured by no point: an unseen floor does that over a few percent of
+    # the surface; a leak (a gap wider than the seal) all round the inside. Refused: the caller
+    # falls back to Poisson.
+    skin = ndimage.binary_dilation(solid) & ~solid
+    if np.count_nonzero(skin & ~known) > _UNMEASURED_SKIN * np.count_nonzero(skin):
         return trimesh.Trimesh()
     vertices, faces, _, _ = marching_cubes(field, level=0.0, spacing=(voxel_size_m,) * 3)
     mesh = trimesh.Trimesh(vertices + origin, faces, process=True)
@@ -264,7 +273,14 @@ def footprint_points(points: np.ndarray, z_min_m: float, spacing_m: float) -> np
     cells = np.floor((low[:, :2] - origin) / spacing_m).astype(np.int64)
     mask = np.zeros(tuple(cells.max(axis=0) + 4), dtype=bool)
     mask[cells[:, 0], cells[:, 1]] = True
-    mask = ndimage.binary_fill_holes(ndimage.binary_closing(mask, iterations=2))
+    outline = ndimage.binary_closing(mask, iterations=2)
+    mask = ndimage.binary_fill_holes(outline)
+    if mask.sum() < 1.2 * outline.sum():
+        # The outline has gaps (sparse low points at a box's corners), so nothing was enclosed:
+        # its convex hull instead. Without a bottom the signed-distance surface leaks inside.
+        from skimage.morphology import convex_hull_image
+
+        mask = convex_hull_image(outline)
     ii, jj = np.nonzero(mask)
     return np.column_stack([origin + (np.column_stack([ii, jj]) + 0.5) * spacing_m, np.zeros(len(ii))])
 
