@@ -18,9 +18,9 @@ from typer.testing import CliRunner
 from homemodel.cli import app
 from homemodel.core.transforms import transform_from_xyz_rpy, world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
-from semantic_map import load_map, save_map
+from prior_maps import write_prior_map
+from semantic_map import load_map
 from tracking import observe
-from tracking.observe import rebase_model_refs
 from tracking.scene import HomeScene
 from tracking.sensor_noise import SensorNoise
 from tracking.simulate_view import SmallObjectMove, ViewOptions, ViewSimulator, write_view
@@ -35,14 +35,7 @@ PRIOR_OFF = transform_from_xyz_rpy((0.014, -0.014, 0.0), (0.0, 0.0, np.radians(2
 @pytest.fixture(scope="module")
 def prior_map(kitchen_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The kitchen's map with every large object 2 cm and 2 degrees off where it stands."""
-    smap = load_map(kitchen_map)
-    for room in smap.apartment.rooms:
-        for large in room.objects:
-            large.world_from_object = large.world_from_object.from_matrix(large.world_from_object.matrix() @ PRIOR_OFF)
-    out = tmp_path_factory.mktemp("prior") / "map.xml"
-    rebase_model_refs(smap, kitchen_map, out)
-    save_map(smap, out)
-    return out
+    return write_prior_map(kitchen_map, PRIOR_OFF, tmp_path_factory.mktemp("prior") / "map.xml")
 
 
 def _view(simulator: ViewSimulator, folder: Path, map_from_camera: np.ndarray, options: ViewOptions) -> Path:

@@ -16,9 +16,8 @@ import pytest
 
 from homemodel.core.transforms import transform_from_xyz_rpy, world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
-from semantic_map import load_map, save_map
+from prior_maps import write_prior_map
 from tracking import observe
-from tracking.observe import rebase_model_refs
 from tracking.scene import HomeScene
 from tracking.sensor_noise import SensorNoise
 from tracking.simulate_view import SmallObjectMove, ViewOptions, ViewSimulator, unlike_their_models, write_view
@@ -36,14 +35,7 @@ def furniture(kitchen_map: Path) -> ViewSimulator:
 
 @pytest.fixture(scope="module")
 def prior_map(kitchen_map: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    smap = load_map(kitchen_map)
-    for room in smap.apartment.rooms:
-        for large in room.objects:
-            large.world_from_object = large.world_from_object.from_matrix(large.world_from_object.matrix() @ PRIOR_OFF)
-    out = tmp_path_factory.mktemp("prior") / "map.xml"
-    rebase_model_refs(smap, kitchen_map, out)
-    save_map(smap, out)
-    return out
+    return write_prior_map(kitchen_map, PRIOR_OFF, tmp_path_factory.mktemp("prior") / "map.xml")
 
 
 def test_the_furniture_differs_from_its_models(furniture: ViewSimulator, kitchen_map: Path) -> None:
