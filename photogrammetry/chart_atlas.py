@@ -1,8 +1,9 @@
 """A UV atlas in time linear in the faces: charts projected flat along the direction they
 face, packed in shelves.
 
-xatlas's chart growing and packing took 42 s on Kermit's 34k faces and grows faster than
-linearly, while the visual mesh may hold 500k. Here every face goes to the one of 14
+xatlas took 2.7 CPU-s on Kermit's 34k faces and 6.2 on 138k, this 0.4 and 1.5 (the visual
+mesh may hold 500k); its charts fill less of the texture (31 % against xatlas's 46 % on Kermit:
+0.83 of its texels per metre). Here every face goes to the one of 14
 directions (the cube's faces and corners) it faces most nearly (no face is more than 37
 degrees off), then the direction most of its neighbours have (up to MAX_CHART_ANGLE_DEG off:
 each face keeps at least half its area in the projection). Faces of one
