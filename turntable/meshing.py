@@ -29,6 +29,7 @@ class MeshingOptions:
     surface: Literal["distance", "poisson"] = "distance"
     distance_reach_voxels: float = 3.0  # a grid node's signed distance comes from points this near
     seal_voxels: int = 3  # gaps in the points' band about twice this wide are closed over, not leaked through
+    smoothing_voxels: float = 0.6  # Gaussian sigma on the signed distance (bench mug: 0.448 -> 0.421 mm; noisy 0.568 -> 0.484)
     outlier_neighbours: int = 20
     outlier_std_ratio: float = 2.5
     normal_neighbours: int = 24
@@ -42,6 +43,7 @@ class MeshingOptions:
     def check(self) -> None:
         require_between("distance_reach_voxels", self.distance_reach_voxels, 1.0, 10.0)
         require_between("seal_voxels", self.seal_voxels, 0, 20)
+        require_between("smoothing_voxels", self.smoothing_voxels, 0.0, 3.0)
         require_at_least("outlier_neighbours", self.outlier_neighbours, 1)
         require_positive("outlier_std_ratio", self.outlier_std_ratio)
         require_at_least("normal_neighbours", self.normal_neighbours, 3)
@@ -96,7 +98,12 @@ def object_mesh(
     mesh = None
     if options.surface == "distance":
         mesh = distance_surface(
-            points, normals, voxel_size_m, reach_voxels=options.distance_reach_voxels, seal_voxels=options.seal_voxels
+            points,
+            normals,
+            voxel_size_m,
+            reach_voxels=options.distance_reach_voxels,
+            seal_voxels=options.seal_voxels,
+            smoothing_voxels=options.smoothing_voxels,
         )
         mesh = _on_table_top(mesh.vertices, mesh.faces) if len(mesh.faces) else mesh
         if len(mesh.faces) and not mesh.is_watertight:
@@ -121,7 +128,13 @@ def object_mesh(
 
 
 def distance_surface(
-    points: np.ndarray, normals: np.ndarray, voxel_size_m: float, *, reach_voxels: float, seal_voxels: int
+    points: np.ndarray,
+    normals: np.ndarray,
+    voxel_size_m: float,
+    *,
+    reach_voxels: float,
+    seal_voxels: int,
+    smoothing_voxels: float = 0.0,
 ) -> trimesh.Trimesh:
     """Marching cubes over a signed distance on a grid of voxel-wide cells: near the points, the
     Gaussian-weighted mean distance to the tangent planes of the points within `reach_voxels`
@@ -129,8 +142,9 @@ def distance_surface(
     outside is what the grid's border reaches without crossing that band, the rest inside.
     Gaps in the band narrower than about 2 `seal_voxels` (an unseen or dark patch on a closed
     object) are closed over, so the outside cannot leak into the object. Concavities no camera
-    saw into stay open (a mug's floor), where Poisson would balloon a lid across them. The
-    mesh may have small islands; it is empty when the outside leaked in after all."""
+    saw into stay open (a mug's floor), where Poisson would balloon a lid across them. The field
+    is smoothed by a Gaussian `smoothing_voxels` wide before marching cubes. The mesh may have
+    small islands; it is empty when the outside leaked in after all."""
     from scipy import ndimage
     from scipy.spatial import cKDTree
     from skimage.measure import marching_cubes
@@ -180,6 +194,8 @@ def distance_surface(
     skin = ndimage.binary_dilation(solid) & ~solid
     if np.count_nonzero(skin & ~known) > _UNMEASURED_SKIN * np.count_nonzero(skin):
         return trimesh.Trimesh()
+    if smoothing_voxels > 0:  # the depth noise the voxel averages kept: fewer bumps and triangles
+        field = ndimage.gaussian_filter(field, smoothing_voxels)
     vertices, faces, _, _ = marching_cubes(field, level=0.0, spacing=(voxel_size_m,) * 3)
     mesh = trimesh.Trimesh(vertices + origin, faces, process=True)
     corners = mesh.triangles
