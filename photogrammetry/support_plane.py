@@ -27,6 +27,7 @@ MIN_SHARE_ABOVE = 0.75
 # On Kermit's photos a slab through the board and his legs holds 4.8 % of the points and has
 # 7.5 % of the object below it; the seat under them 3.9 % and 2.7 % (the chair's frame).
 BELOW_WEIGHT = 1.0
+BELOW_MARGIN = 0.005  # share of the object points
 MIN_CAMERAS_ABOVE = 0.8
 
 
@@ -185,6 +186,10 @@ def find_support_plane(
         if not qualified.any():
             continue
         best = int(np.argmax(np.where(qualified, inliers - BELOW_WEIGHT * below, -np.inf)))
+        # Of the planes that cut off hardly more of the object than that, the highest under the
+        # focus: a board on a table, the object standing on the board.
+        near = qualified & (below <= below[best] + BELOW_MARGIN)
+        best = int(np.argmin(np.where(near, hypotheses @ focus + offsets, np.inf)))
         on_plane = np.abs(points @ hypotheses[best] + offsets[best]) <= threshold
         on_plane &= np.abs(normals @ hypotheses[best]) >= np.cos(np.radians(SURFACE_AGREEMENT_DEG))
         centroid = points[on_plane].mean(axis=0)
