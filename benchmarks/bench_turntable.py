@@ -22,7 +22,7 @@ its second reading of the frames left out, as if it had kept the images from the
 
 The capture is rendered once (Blender, Cycles; minutes) into build/bench_turntable/ and
 reused until the rendering code changes; rendering is not part of the timed reconstruction.
-The libraries both sides load (Open3D, OpenCV, SciPy, the AprilTag detector, xatlas) are
+The libraries both sides load (Open3D, OpenCV, SciPy, the AprilTag detector) are
 imported before the clocks start, so neither side pays for them.
 """
 
@@ -80,7 +80,6 @@ def warm_up() -> None:
     import scipy.optimize  # noqa: F401
     import scipy.spatial  # noqa: F401
     import skimage.measure  # noqa: F401
-    import xatlas  # noqa: F401
 
 
 def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]:  # noqa: ANN001

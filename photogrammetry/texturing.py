@@ -20,7 +20,7 @@ from homemodel.core.progress import Progress
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
 from homemodel.geometry.uv_atlas import atlas_texels
-from photogrammetry.chart_atlas import chart_atlas
+from homemodel.geometry.chart_atlas import chart_atlas
 from photogrammetry.photos import read_rgb
 from photogrammetry.sfm import View
 

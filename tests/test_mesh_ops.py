@@ -18,7 +18,8 @@ from homemodel.geometry.mesh_ops import (
     poisson_surface,
     watertight_finish,
 )
-from homemodel.geometry.uv_atlas import atlas_texels, uv_atlas
+from homemodel.geometry.chart_atlas import chart_atlas
+from homemodel.geometry.uv_atlas import atlas_texels
 
 
 def _sphere_without(faces: list[int], subdivisions: int = 4) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
@@ -124,7 +125,7 @@ def test_poisson_surface_of_a_sphere_with_densities() -> None:
 
 def test_texels_cover_the_atlas_charts_and_lie_on_the_surface() -> None:
     box = trimesh.creation.box((0.2, 0.1, 0.05))
-    atlas = uv_atlas(box, size_px=64, padding_px=2)
+    atlas = chart_atlas(box, size_px=64, padding_px=2)
     assert np.allclose(atlas.mesh.vertices, box.vertices[atlas.source_vertex])
     assert atlas.uv.shape == (len(atlas.mesh.vertices), 2) and (0 <= atlas.uv).all() and (atlas.uv <= 1).all()
     texels = atlas_texels(atlas, 64)
@@ -139,7 +140,7 @@ def test_texels_cover_the_atlas_charts_and_lie_on_the_surface() -> None:
 
 def test_painted_texture_fills_the_gutters_with_chart_colours() -> None:
     box = trimesh.creation.box((0.2, 0.1, 0.05))
-    atlas = uv_atlas(box, size_px=64, padding_px=2)
+    atlas = chart_atlas(box, size_px=64, padding_px=2)
     texels = atlas_texels(atlas, 64)
     colour = np.array([200, 100, 50], np.uint8)
     full = texels.paint(np.tile(colour, (len(texels.rows), 1)))

@@ -4,7 +4,7 @@
 Stages: tag detection and PnP per frame; the turntable's axis from a circle through the
 board origin's orbit; merging of the frames in the table frame inside the cylinder over the
 axis, on a voxel grid averaging coordinates and colours; outlier removal, outward normals,
-Poisson with density trimming; colour baked into a texture on xatlas UVs; then the export
+Poisson with density trimming; colour baked into a texture on a chart atlas's UVs; then the export
 (`turntable.outputs`) and, on request, the registration into a semantic map.
 """
 
@@ -63,7 +63,7 @@ class ReconstructOptions:
     min_frames: int = 3
     turntable_refinement: bool = True  # refine all poses together under the turntable's motion
     texture_size_px: int = 1024  # 0: no texture (vertex colours in the PLY only)
-    texture_max_triangles: int = 12_000  # the exported visual is decimated to this for xatlas
+    texture_max_triangles: int = 12_000  # the texture's carrier is decimated to this
     workers: int = 2  # threads reading images and detecting tags
     # Real sensors' frames (turntable.real_frames):
     blur_ratio: float = 0.35  # frames sharper than this fraction of the median only are skipped; 0: none

@@ -1,17 +1,18 @@
-"""Bake vertex colours into a texture on xatlas UVs, so URDF (OBJ + MTL) and glTF carry colour."""
+"""Bake vertex colours into a texture on a chart atlas's UVs, so URDF (OBJ + MTL) and glTF carry colour."""
 
 from __future__ import annotations
 
 import numpy as np
 import trimesh
 
-from homemodel.geometry.uv_atlas import atlas_texels, uv_atlas
+from homemodel.geometry.chart_atlas import chart_atlas
+from homemodel.geometry.uv_atlas import atlas_texels
 
 
 def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> tuple[trimesh.Trimesh, np.ndarray]:
     """The mesh simplified to at most `max_triangles` with colours carried over from the nearest
-    original vertex. xatlas's time grows much faster than linearly with the triangle count
-    (about 1 s at 20k triangles, 15 s at 40k here). The texture's carrier only: fast-simplification's
+    original vertex. The texture's carrier only (its colours come from the vertices, so a
+    finer carrier adds texels to bake, not colour detail): fast-simplification's
     quadric collapse (0.1 s for a 68k-triangle mug to 12k, against Open3D's 1.1 s, the same
     distance to the truth within 0.001 mm, closed)."""
     import fast_simplification
@@ -31,7 +32,7 @@ def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> 
 def bake_vertex_colors(
     mesh: trimesh.Trimesh, colors: np.ndarray, *, size_px: int = 1024
 ) -> tuple[trimesh.Trimesh, np.ndarray, np.ndarray]:
-    """The mesh split along xatlas seams, its UVs (OpenGL, v up) and an (H, W, 3) uint8 image.
+    """The mesh split along the atlas's chart seams, its UVs (OpenGL, v up) and an (H, W, 3) uint8 image.
 
     Each texel takes the barycentric blend of its triangle's vertex colours; texels outside
     every chart take the nearest chart's colour, so mip-mapping does not bleed black in.
@@ -39,7 +40,7 @@ def bake_vertex_colors(
     colors = np.asarray(colors, dtype=np.float64)
     if colors.shape != (len(mesh.vertices), 3):
         raise ValueError(f"{colors.shape=} but expected ({len(mesh.vertices)}, 3)")
-    atlas = uv_atlas(mesh, size_px=size_px, padding_px=2)
+    atlas = chart_atlas(mesh, size_px=size_px, padding_px=2)
     texels = atlas_texels(atlas, size_px)
     texel_colors = texels.interpolate(colors[atlas.source_vertex])
     image = texels.paint((np.clip(texel_colors, 0.0, 1.0) * 255).round().astype(np.uint8))

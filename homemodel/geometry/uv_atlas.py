@@ -1,5 +1,6 @@
-"""A UV atlas (xatlas) and its texels on the surface: the part of baking a texture that does not
-depend on where the colour comes from (the turntable's vertex colours, the photos).
+"""A UV atlas (laid out by `chart_atlas`) and its texels on the surface: the part of baking a
+texture that does not depend on where the colour comes from (the turntable's vertex colours,
+the photos).
 
 Texture images follow the OpenGL convention of the exporters: uv (0, 0) is the bottom-left
 corner, row 0 of the image is its top (v = 1), texel centres sit at half-integer uv * size.
@@ -18,31 +19,6 @@ class Atlas:
     mesh: trimesh.Trimesh  # the input's vertices split along the chart seams
     uv: np.ndarray  # (V, 2) per vertex of `mesh`
     source_vertex: np.ndarray  # (V,) the input vertex each vertex of `mesh` copies
-
-
-def uv_atlas(mesh: trimesh.Trimesh, *, size_px: int, padding_px: int, charts: int | None = 300) -> Atlas:
-    """Charts of `mesh` packed for a `size_px` square texture with `padding_px` texels between
-    them. `charts`: no chart larger than the mesh's area over this; None: xatlas's own chart
-    sizes. xatlas is fast with many small charts and slow with a few large ones: a turntable
-    box of 12k triangles took 8.0 s with its own charts, 0.6 s with 300 (its charts then cover
-    20% fewer texels of a 1024 px texture: enough for colours baked from its vertices)."""
-    import xatlas
-
-    chart_options = xatlas.ChartOptions()
-    chart_options.max_iterations = 1
-    if charts is not None:
-        chart_options.max_chart_area = float(mesh.area) / charts
-    pack_options = xatlas.PackOptions()
-    pack_options.resolution = size_px
-    pack_options.padding = padding_px
-    pack_options.bilinear = True
-    atlas = xatlas.Atlas()
-    # xatlas needs float32 vertices and uint32 faces (other types crash it).
-    atlas.add_mesh(mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32))
-    atlas.generate(chart_options, pack_options)
-    vmapping, faces, uv = atlas[0]
-    split = trimesh.Trimesh(mesh.vertices[vmapping], faces.astype(np.int64), process=False)
-    return Atlas(mesh=split, uv=uv.astype(np.float64), source_vertex=vmapping.astype(np.int64))
 
 
 @dataclass(kw_only=True)

@@ -1,4 +1,4 @@
-"""The projection-chart UV atlas the photo texture is baked on: every face gets its own texels
+"""The projection-chart UV atlas the photo texture and the turntable's colours are baked on: every face gets its own texels
 (no chart folds onto another), at one density within the projection's shrink, the colour a
 surface point is given comes back at its UV, and a large mesh is laid out in seconds."""
 
@@ -9,8 +9,8 @@ import time
 import numpy as np
 import trimesh
 
+from homemodel.geometry.chart_atlas import chart_atlas
 from homemodel.geometry.uv_atlas import atlas_texels
-from photogrammetry.chart_atlas import chart_atlas
 
 SIZE = 1024
 
