@@ -17,6 +17,9 @@ from articulation.gate.report import ValidationReport
 from articulation.model import Model
 from semantic_map import SemanticMap, save_map
 
+# CPU seconds per test phase into a JSON file, when HOMEMODEL_CPU_PROFILE names one.
+pytest_plugins = ("cpu_profile",)
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
 # What `homemodel build` runs: a change to any of it builds the kitchen again.
