@@ -1,5 +1,7 @@
-"""The articulated model every pipeline produces, its URDF and glTF export, URDF import,
-posing at a joint configuration, and the validation gate."""
+"""The articulated model every pipeline produces (links, joints and their types, inertials),
+posing at a joint configuration, scenes of placed models, and the simulator decisions the
+writers consume (joint dynamics). Its files are `homemodel.exchange`'s (URDF, glTF, MJCF, SDF,
+USD); the validation gate and the model folder are `homemodel.model_folder`'s."""
 
 from articulation.model import (
     Box,

@@ -21,7 +21,7 @@ from homemodel.core.transforms import (
     axis_angle_transform,
     translation_transform,
 )
-from homemodel.exchange.joint_types import JOINT_TYPES, MOVABLE_JOINT_TYPES, ROTATING_JOINT_TYPES, JointType
+from articulation.joint_types import JOINT_TYPES, MOVABLE_JOINT_TYPES, ROTATING_JOINT_TYPES, JointType
 
 
 

@@ -21,9 +21,9 @@ import trimesh
 from rich.console import Console
 from rich.table import Table
 
-from articulation.gltf_export import glb_bytes
-from articulation.urdf_export import write_urdf
-from articulation.gate.validate import validate_path
+from homemodel.exchange.gltf import glb_bytes
+from homemodel.exchange.urdf.write import write_urdf
+from homemodel.model_folder.gate.validate import validate_path
 from modeller import build_model
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

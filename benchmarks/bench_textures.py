@@ -21,8 +21,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from articulation.export import write_model_files
-from articulation.gate.validate import validate_path
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate.validate import validate_path
 from modeller.build import build_textured
 from modeller.comparison_picture import PictureOptions, comparison_picture
 from modeller.spec_loading import load_spec

@@ -47,7 +47,7 @@ def kitchen() -> Path:
 def prior_map(map_path: Path, folder: Path, rng: np.random.Generator) -> Path:
     """The map with each large object 2 cm (in a random direction) and 2 degrees (either way) off."""
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import load_map, save_map
+    from homemodel.exchange.map_xml import load_map, save_map
     from tracking.observe import rebase_model_refs
 
     smap = load_map(map_path)

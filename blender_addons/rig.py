@@ -49,7 +49,7 @@ POSITION = "hm_q"
 GRASP = "hm_grasp"
 GRASP_KIND = "hm_grasp_kind"
 FROM_MESHES = "from_meshes"
-JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")  # homemodel.exchange.joint_types (a test checks)
+JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")  # articulation.joint_types (a test checks)
 # A continuous joint's slider still needs an end: one turn either way.
 CONTINUOUS_RANGE_RAD = 2 * math.pi
 

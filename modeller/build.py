@@ -27,11 +27,11 @@ from modeller.spec_loading import load_spec
 from modeller.specs import Spec
 from modeller.specs.cabinets import CabinetSpec
 from modeller.specs.cabinet_geometry import hinge_tape_warnings
-from semantic_map import MapEntry
-from semantic_map.model_result import ModelResult
+from homemodel.model_folder.map_entry import MapEntry
+from homemodel.model_folder.result import ModelResult
 
 if TYPE_CHECKING:
-    from articulation.gate.validate import ValidationReport
+    from homemodel.model_folder.gate.validate import ValidationReport
     from modeller.comparison_picture import PictureOptions, PictureRow
 
 logger = logging.getLogger(__name__)
@@ -142,12 +142,12 @@ def build(
     (model.urdf, model.glb, meshes/ with the textures, model.blend, summary.json with the
     figures and the validation report; comparison pictures with `options.pictures`).
 
-    The model is validated by the gate (`articulation.gate`); a model that fails it is still
+    The model is validated by the gate (`homemodel.model_folder.gate`); a model that fails it is still
     written, with `valid` false. Refuses a non-empty `out_dir` unless `force`; the folder
     appears whole or not at all; registered into `options.map_entry` when given. Raises
     `SpecError` for a bad spec or photo. Progress stages: build, export, validate, render.
     """
-    from articulation.model_folder import PipelineSummary, write_model_folder
+    from homemodel.model_folder.write import PipelineSummary, write_model_folder
 
     options = options or BuildOptions()
     options.check()

@@ -40,8 +40,8 @@ from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_image_
 from photogrammetry.support_plane import camera_up, find_support_plane, focus_point
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
-from semantic_map import MapEntry
-from semantic_map.model_result import ModelResult
+from homemodel.model_folder.map_entry import MapEntry
+from homemodel.model_folder.result import ModelResult
 
 
 @dataclass(kw_only=True)
@@ -297,7 +297,7 @@ def write_reconstruction(
     cameras.json and cameras.png (`options.picture`); sets `result.summary`."""
     import cv2
 
-    from articulation.model_folder import PipelineSummary, write_model_folder
+    from homemodel.model_folder.write import PipelineSummary, write_model_folder
     from articulation.scan_meshes import scan_meshes
     from articulation.scan_model import scan_model
 

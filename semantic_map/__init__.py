@@ -10,21 +10,14 @@ object's pose and default positions are in its parent object's frame; joint orig
 axes and grasp points are in the owning object's frame (its model's root link frame with
 every joint at zero). `SemanticMap.world_from_object` composes them.
 
-`scene_from_map` turns a map into a simulator scene and `export_home` writes it as URDF, MJCF,
-SDF, USD or glTF (`homemodel map export`).
-
-`add_model_folder` registers a model folder into a map file (the command `homemodel map add`
-and the pipelines' maps); `add_asset` imports a raw asset (a glb or OBJ, a ROS URDF) into a
-model folder first.
-
-Files follow `schema/semantic_map.xsd` (namespace https://homemodel.dev/semantic-map/1) and
-are validated on load and on save; updates keep the previous pose or joint state in the
-object's timestamped history.
+The map's file is a format, so it lives with the others: `homemodel.exchange.map_xml` loads and
+saves it (XML following its `semantic_map.xsd`, namespace https://homemodel.dev/semantic-map/1,
+validated on load and on save), and `homemodel.exchange.home_scene` writes a home as one
+simulator scene. `homemodel.model_folder.map_entry` registers a model folder into a map file.
+Updates keep the previous pose or joint state in the object's timestamped history.
 """
 
 from semantic_map.hierarchy import SemanticMap
-from semantic_map.home_scene import export_home, scene_from_map
-from semantic_map.model_folder import MapEntry, Registration, add_asset, add_model_folder
 from semantic_map.nodes import (
     Apartment,
     DefaultPosition,
@@ -43,16 +36,13 @@ from semantic_map.nodes import (
     SmallObject,
     Switch,
 )
-from semantic_map.xml_io import SCHEMA_PATH, load_map, map_to_bytes, save_map
 
 __all__ = [
-    "SCHEMA_PATH",
     "Apartment",
     "DefaultPosition",
     "JointStateRecord",
     "LargeArticulatedObject",
     "LargeObject",
-    "MapEntry",
     "MapObject",
     "NamedState",
     "Node",
@@ -61,16 +51,8 @@ __all__ = [
     "ParkingPosition",
     "Pose",
     "PoseRecord",
-    "Registration",
     "Room",
     "SemanticMap",
     "SmallObject",
     "Switch",
-    "add_asset",
-    "add_model_folder",
-    "export_home",
-    "load_map",
-    "map_to_bytes",
-    "save_map",
-    "scene_from_map",
 ]

@@ -33,7 +33,7 @@ from homemodel.core.transforms import (
     translation_transform,
     xyz_rpy_from_transform,
 )
-from homemodel.exchange.joint_types import MOVABLE_JOINT_TYPES, MovableJointType
+from articulation.joint_types import MOVABLE_JOINT_TYPES, MovableJointType
 
 Relation = Literal["on", "in", "under"]
 SwitchType = Literal["rotational", "prismatic"]

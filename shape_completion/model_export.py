@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from articulation.model_folder import PipelineSummary, write_model_folder
+from homemodel.model_folder.write import PipelineSummary, write_model_folder
 from articulation.naming import check_model_name
 from articulation.scan_meshes import ScanMeshOptions, scan_meshes
 from articulation.scan_model import scan_model
@@ -23,7 +23,7 @@ from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested, require_positive
 from homemodel.core.progress import Progress, StageClock
-from semantic_map import MapEntry
+from homemodel.model_folder.map_entry import MapEntry
 from shape_completion.pipeline import Completion, ShapeCompleter
 from shape_completion.support import SupportPlane
 from shape_completion.upright import object_frame

@@ -50,7 +50,7 @@ from shape_completion.symmetry import (
     revolution_axis,
     symmetry_planes,
 )
-from semantic_map.model_result import ModelResult
+from homemodel.model_folder.result import ModelResult
 from shape_completion.upright import ObjectFrame
 
 logger = logging.getLogger(__name__)

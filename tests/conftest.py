@@ -4,6 +4,7 @@ through the validation gate."""
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 from typing import NamedTuple
@@ -13,30 +14,38 @@ from fixture_cache import cached_folder, content_key
 from model_summaries import model_summary_files, schema_problems
 from sample_house import build_house
 
-from articulation.gate.report import ValidationReport
+from homemodel.model_folder.gate.report import ValidationReport
 from articulation.model import Model
-from semantic_map import SemanticMap, save_map
+from semantic_map import SemanticMap
+from homemodel.exchange.map_xml import save_map
 
 # CPU seconds per test phase into a JSON file, when HOMEMODEL_CPU_PROFILE names one.
 pytest_plugins = ("cpu_profile",)
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_DATA = REPO.parent / "shared" / "data"
+# ../shared/data beside the checkout; HOMEMODEL_SHARED_DATA moves it (a test shows the skips without it).
+SHARED_DATA = Path(os.environ.get("HOMEMODEL_SHARED_DATA", REPO.parent / "shared" / "data"))
 # What `homemodel build` runs: a change to any of it builds the kitchen again.
 KITCHEN_CODE = ("homemodel", "modeller", "articulation", "semantic_map")
 NO_SHARED_DATA = f"needs the shared data folder {SHARED_DATA} (real photos and tag images), which is absent"
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Without ../shared/data, skip what reads it: tests marked `shared_data` or using the fixture.
-    The longest test files go first."""
-    longest_files_first(items)
-    if SHARED_DATA.is_dir():
-        return
-    skip = pytest.mark.skip(reason=NO_SHARED_DATA)
+    """Tests using the `shared_data` fixture are marked `shared_data` too (`-m "not shared_data"`
+    leaves out all that read it; -m selects after this hook). The longest test files go first."""
     for item in items:
-        if item.get_closest_marker("shared_data") or "shared_data" in getattr(item, "fixturenames", ()):
-            item.add_marker(skip)
+        if "shared_data" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.shared_data)
+    longest_files_first(items)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """Without ../shared/data, the tests marked `shared_data` are skipped before their fixtures
+    are made. Raised here, every such skip has this one place, so `-ra` sums them up in one line."""
+    if item.get_closest_marker("shared_data") and not SHARED_DATA.is_dir():
+        pytest.skip(NO_SHARED_DATA)
 
 
 # `make test` runs `-n auto --dist loadfile --no-loadscope-reorder`: xdist gives each worker a
@@ -86,9 +95,8 @@ def model_summaries_follow_the_schema(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    """`../shared/data` beside the repository: real photos and tag images (see its README)."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip(NO_SHARED_DATA)
+    """`../shared/data` beside the repository: real photos and tag images (see its README).
+    Where it is absent, the tests asking for it are skipped before this is reached."""
     return SHARED_DATA
 
 
@@ -152,8 +160,8 @@ class Catalogue:
 
     def __getitem__(self, name: str) -> BuiltExample:
         if name not in self._built:
-            from articulation.export import export_model
-            from articulation.gate.validate import validate_path
+            from homemodel.exchange.model_files import export_model
+            from homemodel.model_folder.gate.validate import validate_path
             from modeller import build_model, load_spec
 
             path = self._specs_dir / f"{name}.yaml"

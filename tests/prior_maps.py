@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from semantic_map import load_map, save_map
+from homemodel.exchange.map_xml import load_map, save_map
 from tracking.observe import rebase_model_refs
 
 

@@ -24,7 +24,7 @@ from PIL import Image
 from scipy.spatial import cKDTree
 
 from articulation.model import Model
-from articulation.urdf_import import load_urdf
+from homemodel.exchange.urdf.read import load_urdf
 from turntable.reconstruct import STAGES as TURNTABLE_STAGES
 
 pytestmark = pytest.mark.bpy
@@ -416,7 +416,7 @@ def test_a_partnet_mobility_urdf_imports_rigged_and_exports_through_the_gate(sce
     np.testing.assert_allclose(np.array(next(link for link in rig.links_of(root) if link[rig.LINK] == "link_1").matrix_world), expected, atol=1e-5)
     rig.set_position(joints["joint_1"], 0.0)
     assert bpy.ops.homemodel.export_model(directory=str(tmp_path / "out")) == {"FINISHED"}
-    from articulation.gate.validate import validate_path
+    from homemodel.model_folder.gate.validate import validate_path
     from blender_addons.model_operators import GATE_REPORT
 
     # PartNet gives no inertials, nor a limit's effort and velocity (check_urdf wants them):
@@ -555,7 +555,7 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
 
     from blender_addons import home, rig
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import load_map, save_map
+    from homemodel.exchange.map_xml import load_map, save_map
 
     original = load_map(kitchen / "map.xml")
     original.node("fridge_1").properties["brand"] = "Bosch"  # the map's own, not the model's

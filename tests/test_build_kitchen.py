@@ -49,7 +49,8 @@ def test_the_figure_47_scenario_is_in_the_map(built: Path) -> None:
     """D3.1 Figure 47: a kitchen and a bathroom; a table, cupboard, fridge and oven in the
     kitchen, each with parking positions; four small objects on the table; the pill box in
     the cupboard with its lid's hinge; the oven's knobs with their discrete states."""
-    from semantic_map import LargeArticulatedObject, load_map
+    from semantic_map import LargeArticulatedObject
+    from homemodel.exchange.map_xml import load_map
 
     smap = load_map(built / "map.xml")
     assert [r.id for r in smap.apartment.rooms] == ["kitchen", "bathroom"]
@@ -76,8 +77,8 @@ def test_every_built_model_passes_the_gate_from_the_cli(built: Path) -> None:
 
 
 def test_built_models_survive_import_and_re_export_byte_for_byte(built: Path, tmp_path: Path) -> None:
-    from articulation.export import export_model
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.model_files import export_model
+    from homemodel.exchange.urdf.read import load_urdf
 
     for folder in sorted((built / "models").iterdir()):
         export_model(load_urdf(folder / "model.urdf"), tmp_path / folder.name)
@@ -86,7 +87,7 @@ def test_built_models_survive_import_and_re_export_byte_for_byte(built: Path, tm
 
 
 def test_the_blue_cup_walk_from_the_cli_and_the_api(built: Path) -> None:
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     result = runner.invoke(app, ["map", "find", str(built / "map.xml"), "--type", "cup", "--property", "colour=blue"])
     assert result.exit_code == 0, result.output
@@ -105,8 +106,8 @@ def test_the_blue_cup_walk_from_the_cli_and_the_api(built: Path) -> None:
 
 
 def test_cupboard_joints_and_handles_flow_into_the_map(built: Path) -> None:
-    from articulation.urdf_import import load_urdf
-    from semantic_map import load_map
+    from homemodel.exchange.urdf.read import load_urdf
+    from homemodel.exchange.map_xml import load_map
 
     model = load_urdf(built / "models" / "cupboard_1" / "model.urdf")
     node = load_map(built / "map.xml").node("cupboard_1")
@@ -117,7 +118,7 @@ def test_cupboard_joints_and_handles_flow_into_the_map(built: Path) -> None:
 def test_blender_imports_the_glb_back_at_the_right_size(built: Path) -> None:
     import bpy
 
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.urdf.read import load_urdf
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=str(built / "models" / "table_1" / "model.glb"))
@@ -194,7 +195,8 @@ def test_small_objects_set_on_their_parents_stay_put(built: Path) -> None:
 
     from homemodel.core.c_stdio_capture import captured_c_output
     from homemodel.core.transforms import rpy_from_rotation
-    from semantic_map import SmallObject, load_map
+    from semantic_map import SmallObject
+    from homemodel.exchange.map_xml import load_map
 
     smap = load_map(built / "map.xml")
     objects = [o for room in smap.apartment.rooms for o in room.objects]

@@ -246,8 +246,8 @@ ENTRIES = [
 
 @pytest.mark.parametrize("package, entry", ENTRIES)
 def test_every_entry_keeps_one_result_contract(package: str, entry: str) -> None:
-    from semantic_map import MapEntry, Registration
-    from semantic_map.model_result import ModelResult
+    from homemodel.model_folder.map_entry import MapEntry, Registration
+    from homemodel.model_folder.result import ModelResult
 
     function = getattr(importlib.import_module(package), entry)
     signature = inspect.signature(function)
@@ -271,7 +271,8 @@ def test_every_entry_keeps_one_result_contract(package: str, entry: str) -> None
 
 def test_the_modeller_entry_registers_into_a_map(tmp_path: Path, house_file: Path, kitchen_dir: Path) -> None:
     from modeller import BuildOptions, build
-    from semantic_map import MapEntry, load_map
+    from homemodel.model_folder.map_entry import MapEntry
+    from homemodel.exchange.map_xml import load_map
 
     entry = MapEntry(map_path=house_file, object_id="green_cup", parent_id="table")
     built = build(kitchen_dir / "blue_cup.yaml", tmp_path / "cup", BuildOptions(name="green_cup", map_entry=entry))

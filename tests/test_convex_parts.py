@@ -9,8 +9,8 @@ import pytest
 import trimesh
 
 from articulation.convex_parts import spans_a_volume, decompose, is_concave
-from articulation.export import write_model_files
-from articulation.gate.validate import validate_path
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate.validate import validate_path
 from articulation.model import MeshGeometry
 from articulation.scan_model import scan_model
 

@@ -152,7 +152,8 @@ def test_list_show_find_export_remove_and_map_add(built, tmp_path) -> None:
     assert run("db", "export", "cabinet", "--db", db, "--out", out).exit_code == 0
     assert (out / "model.urdf").is_file() and (out / "model.glb").is_file()
 
-    from semantic_map import SemanticMap, load_map, save_map
+    from semantic_map import SemanticMap
+    from homemodel.exchange.map_xml import load_map, save_map
 
     smap = SemanticMap.new(apartment_id="flat", name="Flat")
     smap.add_room(room_id="kitchen", name="Kitchen")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.export import export_model
+from homemodel.exchange.model_files import export_model
 from articulation.model import Link, Material, Model, Visual
 from homemodel.core.errors import InputError
 from homemodel.evaluation import (

@@ -19,8 +19,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sample_house import cupboard_model
 
-from articulation.export import export_model
-from articulation.urdf_import import load_urdf
+from homemodel.exchange.model_files import export_model
+from homemodel.exchange.urdf.read import load_urdf
 from homemodel.app.home.build import load_home
 from homemodel.core.errors import InputError
 from modeller import load_spec

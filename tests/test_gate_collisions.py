@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.export import write_model_files
-from articulation.gate.collisions import MESH_PENETRATION_TOLERANCE_M, CollisionOptions, collisions_check
-from articulation.gate.real_meshes import RealMeshes
-from articulation.gate.validate import validate_path
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate.collisions import MESH_PENETRATION_TOLERANCE_M, CollisionOptions, collisions_check
+from homemodel.model_folder.gate.real_meshes import RealMeshes
+from homemodel.model_folder.gate.validate import validate_path
 
 INERTIAL = '<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.export import write_model_files
-from articulation.gate.validate import validate_path
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate.validate import validate_path
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError
 from homemodel.geometry import mesh_io

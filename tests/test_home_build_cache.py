@@ -28,7 +28,7 @@ rooms:
 
 
 def _objects(map_path: Path) -> dict:
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     return {o.id: (o.type, len(o.grasp_points), len(getattr(o, "joints", []))) for o in load_map(map_path).objects()}
 

@@ -13,7 +13,7 @@ import pytest
 from cli_promise import assert_refused, listing, run_cli
 from typer.testing import CliRunner
 
-from articulation.urdf_import import load_urdf
+from homemodel.exchange.urdf.read import load_urdf
 from homemodel.app.home.build import load_home
 from homemodel.cli import app
 from homemodel.core.errors import InputError

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from spec_edits import read_spec, with_field, write_spec
 
-from articulation.export import write_model_files
+from homemodel.exchange.model_files import write_model_files
 from articulation.joint_loads import (
     STANDARD_GRAVITY_M_S2,
     gravity_load,

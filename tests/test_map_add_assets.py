@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 
 from homemodel.cli import app
 from ros_sample import write_ros_workspace
-from semantic_map import load_map
+from homemodel.exchange.map_xml import load_map
 
 RADIUS_M, HEIGHT_M, WALL_M, FLOOR_M = 0.04, 0.1, 0.005, 0.006
 

@@ -1,4 +1,4 @@
-"""Every pipeline entry returns one result type (`semantic_map.model_result.ModelResult`: the
+"""Every pipeline entry returns one result type (`homemodel.model_folder.result.ModelResult`: the
 summary, the map entry asked for and the registration; tests/test_cli_options.py checks each
 entry's annotation), and each pipeline's own figures in summary.json are typed: a model per
 source, published in the schema."""
@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 from homemodel.core.model_summary import SOURCES, ModelSummary, schema_path, summary_schema
-from semantic_map.model_result import ModelResult
+from homemodel.model_folder.result import ModelResult
 
 
 def test_a_result_without_a_map_entry_registers_nothing(tmp_path: Path) -> None:

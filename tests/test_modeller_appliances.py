@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from spec_edits import read_spec, with_field, write_spec
 
-from articulation.export import write_model_files
-from articulation.gate.validate import validate_path
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate.validate import validate_path
 from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points
 from modeller import build_model, load_spec, write_spec_schemas

@@ -130,7 +130,7 @@ def test_worktop_slab_has_its_cutouts_and_the_sink_its_basin(catalogue) -> None:
 @pytest.mark.bpy
 def test_run_of_units_stands_side_by_side_under_its_worktop(tmp_path: Path) -> None:
     from homemodel.app.home.build import build_home
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     result = build_home(REPO / "examples" / "kitchen_run", tmp_path / "out")
     assert result.ok
@@ -194,8 +194,8 @@ def test_a_panel_standing_out_into_a_closed_door_is_refused(tmp_path: Path) -> N
 
 @pytest.mark.bpy
 def test_inset_drawer_front_closes_flush_and_slides_clear(tmp_path: Path) -> None:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     data = read_spec(CATALOGUE / "base_unit_inset.yaml")
@@ -215,8 +215,8 @@ def test_inset_drawer_front_closes_flush_and_slides_clear(tmp_path: Path) -> Non
 
 @pytest.mark.bpy
 def test_inset_door_in_a_face_frame_clears_the_frame(tmp_path: Path) -> None:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     # A 38 mm frame round a single inset door 2 mm clear of it all round, on butt hinges.

@@ -297,8 +297,8 @@ def _inset_unit(tmp_path: Path, name: str, doors: tuple[int, ...] = (0, 1), **do
 def test_gate_accepts_an_inset_door_that_clears_its_frame_and_refuses_one_that_does_not(
     tmp_path: Path, hinge: dict, clears: bool
 ) -> None:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     spec_path = _inset_unit(tmp_path, "unit", **hinge)

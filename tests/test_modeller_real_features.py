@@ -236,8 +236,8 @@ def test_door_and_drawer_corners_at_their_limits_match_the_real_ones(rebuilt_uni
 
 @pytest.mark.bpy
 def test_the_rebuilt_unit_matches_the_real_one_open_and_passes_the_gate(rebuilt_unit: dict) -> None:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from homemodel.evaluation.voxels import voxel_iou
 
     parts, axes = _real_unit()
@@ -318,8 +318,8 @@ def test_open_at_90_with_the_door_thickness_wrong_is_off_and_free_corner_says_so
 
 @pytest.mark.bpy
 def test_the_rebuilt_microwave_opens_like_the_real_one_and_passes_the_gate(tmp_path: Path) -> None:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from homemodel.evaluation.voxels import voxel_iou
     from modeller import build, build_model
 
@@ -508,8 +508,8 @@ def test_the_gate_refuses_inset_doors_without_clearance(tmp_path: Path, meeting_
     each door's free corner cuts its neighbour in its first degrees (the last round passed it)."""
     from spec_edits import read_spec, with_field
 
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     data = read_spec(REPO / "examples" / "catalogue" / "base_unit_inset.yaml")

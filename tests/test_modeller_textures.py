@@ -220,7 +220,7 @@ def test_photo_paths_are_taken_from_the_spec_folder(
 @pytest.fixture(scope="module")
 def textured_cupboard(tmp_path_factory: pytest.TempPathFactory, door_photo: tuple[Path, np.ndarray], cupboard_spec):
     """The kitchen cupboard with the checkerboard photo on door 0, built and exported."""
-    from articulation.export import export_model
+    from homemodel.exchange.model_files import export_model
     from modeller.build import build_textured
 
     folder = tmp_path_factory.mktemp("cupboard")
@@ -310,7 +310,7 @@ def _extent_m(link) -> np.ndarray:
 
 @pytest.mark.bpy
 def test_textured_models_pass_the_gate_and_keep_their_shape_and_mass(textured_cupboard, kitchen_dir: Path) -> None:
-    from articulation.gate.validate import validate_path
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     built, folder = textured_cupboard
@@ -352,8 +352,8 @@ def test_blender_reads_the_textured_glb_back_with_its_texture(textured_cupboard)
 @pytest.mark.bpy
 def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path, textured_dir: Path) -> None:
     """The example mug: its label's red circle faces -x (wrap_centre_deg 180), the handle side stays white."""
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     model = build_model(textured_dir / "cup.yaml")
@@ -377,8 +377,8 @@ def test_cup_wrap_puts_the_label_centre_where_the_camera_looked(tmp_path: Path, 
 
 @pytest.mark.bpy
 def test_packet_example_has_three_textured_faces_of_its_size(tmp_path: Path, textured_dir: Path) -> None:
-    from articulation.export import export_model
-    from articulation.gate.validate import validate_path
+    from homemodel.exchange.model_files import export_model
+    from homemodel.model_folder.gate.validate import validate_path
     from modeller import build_model
 
     model = build_model(textured_dir / "packet.yaml")

@@ -46,7 +46,7 @@ photogrammetry.stereo.DenseOptions photogrammetry.synthetic_scene.SceneOptions p
 photogrammetry.pipeline.ReconstructOptions shape_completion.benchmark.BenchmarkOptions
 shape_completion.model_export.CompletionOptions turntable.meshing.MeshingOptions turntable.pose.PoseOptions
 turntable.simulate.SimulationOptions turntable.tags.DetectionOptions turntable.reconstruct.ReconstructOptions
-articulation.repair.RepairOptions articulation.asset_import.ImportOptions homemodel.app.database.build.DatabaseBuildOptions""".split()
+homemodel.model_folder.repair.RepairOptions homemodel.model_folder.asset_import.ImportOptions homemodel.app.database.build.DatabaseBuildOptions""".split()
 
 
 @pytest.mark.parametrize("name", OPTIONS_CLASSES, ids=lambda n: n.rsplit(".", 1)[1])

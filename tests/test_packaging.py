@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 PROBE = """
 import json, sys
 from pathlib import Path
-import articulation.gate.gltf as gltf
+import homemodel.model_folder.gate.gltf as gltf
 import homemodel, homemodel.app.blender.spec_forms as forms
 kinds = forms.spec_kinds()
 check = gltf.khronos_check(Path(sys.argv[1]))

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from articulation.export import write_model_files
-from articulation.gate import validate_path
-from articulation.partnet import import_partnet
-from articulation.repair import RepairOptions, find_gaps, repair
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate import validate_path
+from homemodel.exchange.partnet import import_partnet
+from homemodel.model_folder.repair import RepairOptions, find_gaps, repair
 from homemodel.core.errors import InputError
 from partnet_sample import HANDLE, HEIGHT_M, WIDTH_M, write_partnet_cabinet
 

@@ -66,7 +66,7 @@ def test_kermit_mesh_is_what_the_cameras_converge_on(kermit_model: Path) -> None
 
 @pytest.mark.shared_data
 def test_kermit_model_passes_the_validation_gate(kermit_model: Path) -> None:
-    from articulation.gate.validate import validate_path
+    from homemodel.model_folder.gate.validate import validate_path
 
     report = validate_path(kermit_model)
     assert report.ok, report.format()
@@ -136,7 +136,7 @@ def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
     came out about 1 % short of the truth, up to 6.2 mm off, over the 4 mm asserted below."""
     from sample_house import build_house
 
-    from semantic_map import save_map
+    from homemodel.exchange.map_xml import save_map
 
     folder = tmp_path_factory.mktemp("rendered")
     map_path = folder / "map.xml"
@@ -249,7 +249,8 @@ def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered
 @pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
-    from semantic_map import SmallObject, load_map
+    from semantic_map import SmallObject
+    from homemodel.exchange.map_xml import load_map
 
     out, map_path = rendered_run
     smap = load_map(map_path)
@@ -262,7 +263,7 @@ def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
 @pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_model_passes_the_validation_gate(rendered_model: Path) -> None:
-    from articulation.gate.validate import validate_path
+    from homemodel.model_folder.gate.validate import validate_path
 
     report = validate_path(rendered_model)
     assert report.ok, report.format()

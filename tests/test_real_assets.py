@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.asset_import import ImportOptions, import_asset
-from articulation.export import write_model_files
-from articulation.gate import validate_path
-from articulation.repair import RepairOptions, repair
+from homemodel.model_folder.asset_import import ImportOptions, import_asset
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate import validate_path
+from homemodel.model_folder.repair import RepairOptions, repair
 from homemodel.core.errors import InputError
 from partnet_sample import REAL_D, REAL_H, REAL_W, write_partnet_real_traits
 from ros_sample import write_ros_workspace
@@ -272,7 +272,7 @@ def test_a_flat_mesh_file_gets_a_thin_collision_box(tmp_path: Path) -> None:
 
 
 def test_a_mesh_file_where_a_model_is_needed_says_how_to_import_it(tmp_path: Path) -> None:
-    from articulation.urdf_import import find_urdf
+    from homemodel.exchange.urdf.read import find_urdf
 
     trimesh.creation.box().export(tmp_path / "cup.glb")
     with pytest.raises(InputError, match=r"cup\.glb: a mesh file, not a model: import it first"):

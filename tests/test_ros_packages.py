@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from articulation.gate import validate_path
+from homemodel.model_folder.gate import validate_path
 from homemodel.core.errors import InputError
 from homemodel.geometry.mesh_io import load_mesh
 from ros_sample import write_ros_workspace
@@ -61,7 +61,7 @@ def test_map_add_registers_a_ros_urdf_whose_meshes_are_in_other_packages(workspa
     from typer.testing import CliRunner
 
     from homemodel.cli import app
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     add = ["map", "add", str(house_file), str(workspace / URDF), "--id", "arm", "--parent", "kitchen", "--parking", "1 0 0"]
     refused = CliRunner().invoke(app, add)

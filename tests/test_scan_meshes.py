@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from lxml import etree
 
-from articulation.model_folder import PipelineSummary, write_model_folder
+from homemodel.model_folder.write import PipelineSummary, write_model_folder
 from articulation.scan_meshes import ScanMeshOptions, scan_meshes
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError

@@ -23,16 +23,8 @@ from sample_house import (
 
 from homemodel.core.errors import MapError, UnsafeXMLError
 from homemodel.core.transforms import transform_from_xyz_rpy
-from semantic_map import (
-    LargeArticulatedObject,
-    LargeObject,
-    PoseRecord,
-    SemanticMap,
-    SmallObject,
-    load_map,
-    map_to_bytes,
-    save_map,
-)
+from semantic_map import LargeArticulatedObject, LargeObject, PoseRecord, SemanticMap, SmallObject
+from homemodel.exchange.map_xml import load_map, map_to_bytes, save_map
 
 
 # The blue-cup walk (D3.1 section 6.2.2, Figures 47-53)

@@ -10,10 +10,11 @@ import typer
 from sample_house import HOSTILE, box_model, cup_model
 from typer.testing import CliRunner
 
-import articulation.urdf_import
+from homemodel.exchange.urdf import read as urdf_read
 from articulation.model import Model
 from homemodel.cli.map_commands import map_app
-from semantic_map import LargeObject, SmallObject, load_map
+from semantic_map import LargeObject, SmallObject
+from homemodel.exchange.map_xml import load_map
 
 app = typer.Typer()
 app.add_typer(map_app, name="map")
@@ -89,7 +90,7 @@ def urdf_reads(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
         reads.append(Path(path))
         return cup_model(colour="green")
 
-    monkeypatch.setattr(articulation.urdf_import, "load_urdf", load_urdf)
+    monkeypatch.setattr(urdf_read, "load_urdf", load_urdf)
     return reads
 
 
@@ -122,7 +123,7 @@ def test_add_small_object_to_a_new_file(
 
 
 def test_add_large_object_in_place(house_file: Path, model_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(articulation.urdf_import, "load_urdf", lambda path, package_paths=(): box_model("chair", (0.4, 0.4, 0.9)))
+    monkeypatch.setattr(urdf_read, "load_urdf", lambda path, package_paths=(): box_model("chair", (0.4, 0.4, 0.9)))
     result = run("add", house_file, model_dir, "--id", "chair", "--parent", "kitchen", "--xyz", "1", "2", "0",
                  "--parking", "front=1 1 1.5", "--parking", "0 2 0")
     assert result.exit_code == 0, result.output

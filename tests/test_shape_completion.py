@@ -14,7 +14,7 @@ import yaml
 from fixture_cache import cached_folder, content_key
 from typer.testing import CliRunner
 
-from articulation.gate.validate import validate_path
+from homemodel.model_folder.gate.validate import validate_path
 from homemodel.cli import app
 from homemodel.core.errors import InputError
 from homemodel.core.limits import MODEL_BYTES

@@ -105,7 +105,7 @@ def test_kitchen_mjcf_walls_stand_outside_the_outline(kitchen_exports: dict[str,
 def test_kitchen_mjcf_keyframes_are_the_knob_states(kitchen_exports: dict[str, Path], built_kitchen: Path) -> None:
     import mujoco
 
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     model = load_mjcf(kitchen_exports["mjcf"] / "scene.xml")
     data = mujoco.MjData(model)
@@ -124,14 +124,14 @@ def test_map_joint_states_are_the_exports_initial_state(built_kitchen: Path, tmp
     import mujoco
     from pxr import Usd, UsdGeom
 
-    from semantic_map import load_map, save_map
+    from homemodel.exchange.map_xml import load_map, save_map
 
     smap = load_map(built_kitchen / "map.xml")
     smap.set_joint_state("fridge_1", "door_0_hinge", 0.6)
     home = tmp_path / "home"
     shutil.copytree(built_kitchen / "models", home / "models")
     save_map(smap, home / "map.xml")
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.urdf.read import load_urdf
 
     fridge = load_urdf(home / "models" / "fridge_1" / "model.urdf")
     limits = fridge.joint("door_0_hinge").limits
@@ -189,7 +189,7 @@ def test_a_broken_sdf_fails_gazebos_check(kitchen_exports: dict[str, Path], tmp_
 def test_kitchen_usd_passes_usds_validators_and_matches_the_models(kitchen_exports: dict[str, Path], built_kitchen: Path) -> None:
     from pxr import Usd, UsdPhysics
 
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.urdf.read import load_urdf
 
     path = kitchen_exports["usd"] / "scene.usda"
     assert usd_errors(path) == []
@@ -231,7 +231,7 @@ def test_mesh_colliders_are_convex_hulls_in_every_format(tmp_path: Path) -> None
 
     from articulation import Collision, Inertial, Link, Material, MeshGeometry, Model, Visual
     from articulation.scene import single_model_scene
-    from articulation.simulator_export import export_scene
+    from homemodel.exchange.simulator import export_scene
 
     ring = trimesh.creation.annulus(r_min=0.05, r_max=0.08, height=0.04)
     link = Link(
@@ -268,7 +268,7 @@ def test_kitchen_scene_urdf_loads_in_pybullet_and_every_joint_moves(
 ) -> None:
     import pybullet as pb
 
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.urdf.read import load_urdf
 
     urdf = kitchen_exports["urdf"] / "scene.urdf"
     root = etree.parse(str(urdf)).getroot()
@@ -291,13 +291,13 @@ def test_kitchen_scene_urdf_loads_in_pybullet_and_every_joint_moves(
             assert moved > 1e-3, name
     finally:
         pb.disconnect(physicsClientId=client)
-    from articulation.gate.clients import find_check_urdf
+    from homemodel.model_folder.gate.clients import find_check_urdf
 
     assert subprocess.run([find_check_urdf(), str(urdf)], capture_output=True, timeout=60).returncode == 0
 
 
 def test_kitchen_scene_glb_passes_the_khronos_validator(kitchen_exports: dict[str, Path]) -> None:
-    from articulation.gate.gltf import gltf_checks
+    from homemodel.model_folder.gate.gltf import gltf_checks
 
     checks = gltf_checks(kitchen_exports["glb"] / "scene.glb")
     assert all(c.passed for c in checks), [c for c in checks if not c.passed]
@@ -322,7 +322,7 @@ def _check_model_everywhere(model_dir: Path, out: Path) -> None:
 
 
 def _catalogue_model_dir(catalogue, name: str, tmp_path: Path) -> Path:
-    from articulation.export import export_model
+    from homemodel.exchange.model_files import export_model
 
     return export_model(catalogue[name].model, tmp_path / "model")
 
@@ -347,9 +347,9 @@ def test_every_catalogue_model_in_every_simulator(catalogue, tmp_path: Path) -> 
 def test_ros_package_resolves_every_uri_and_loads(built_kitchen: Path, tmp_path: Path) -> None:
     import yourdfpy
 
-    from articulation.gate.clients import find_check_urdf
-    from articulation.gate.validate import validate_path
-    from articulation.mesh_paths import resolve_mesh
+    from homemodel.model_folder.gate.clients import find_check_urdf
+    from homemodel.model_folder.gate.validate import validate_path
+    from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 
     package = _export_model(built_kitchen / "models" / "oven_1", tmp_path / "kitchen_oven", "urdf-ros", "--package", "kitchen_oven")
     manifest = etree.parse(str(package / "package.xml")).getroot()
@@ -379,7 +379,7 @@ def test_ros_package_resolves_every_uri_and_loads(built_kitchen: Path, tmp_path:
 
 
 def test_package_uris_outside_the_package_are_refused(tmp_path: Path) -> None:
-    from articulation.mesh_paths import resolve_mesh
+    from homemodel.exchange.urdf.mesh_paths import resolve_mesh
     from homemodel.core.errors import InputError
 
     package = tmp_path / "pkg"
@@ -423,7 +423,7 @@ def test_a_map_whose_model_is_missing_names_the_object(built_kitchen: Path, tmp_
 
 def test_room_outline_comes_from_home_yaml_and_round_trips(built_kitchen: Path, tmp_path: Path) -> None:
     from homemodel.core.errors import MapError
-    from semantic_map import load_map, map_to_bytes, save_map
+    from homemodel.exchange.map_xml import load_map, map_to_bytes, save_map
 
     smap = load_map(built_kitchen / "map.xml")
     kitchen = smap.node("kitchen")
@@ -444,7 +444,7 @@ def test_photo_textures_on_flat_faces_in_mjcf_sdf_and_usd(tmp_path: Path) -> Non
 
     from articulation import Box, Collision, Inertial, Link, Material, Model, Visual
     from articulation.scene import single_model_scene
-    from articulation.simulator_export import export_scene
+    from homemodel.exchange.simulator import export_scene
 
     photo = tmp_path / "front.jpg"
     Image.new("RGB", (64, 32), (200, 40, 30)).save(photo)
@@ -520,8 +520,8 @@ def test_a_door_with_named_states_gets_keyframes_but_no_actuator(built_kitchen: 
 
     from articulation import JointState
     from articulation.scene import single_model_scene
-    from articulation.simulator_export import export_scene
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.simulator import export_scene
+    from homemodel.exchange.urdf.read import load_urdf
 
     cupboard = load_urdf(built_kitchen / "models" / "cupboard_1" / "model.urdf")
     cupboard.joint("door_0_hinge").states = [JointState(name="closed", position=0.0), JointState(name="open", position=1.5)]

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import re
+import subprocess
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -29,3 +33,22 @@ def test_the_longest_files_go_first_and_every_file_stays_whole_and_in_order() ->
         ("test_a.py", 1),
         ("test_b.py", 4),
     ]
+
+
+def test_without_the_shared_data_its_tests_are_skipped_under_one_line(tmp_path: Path) -> None:
+    """A checkout with no ../shared/data: every test that reads it (marked, or using the
+    fixture) is skipped, none fails, and the summary says why in one line."""
+    absent = tmp_path / "no-shared-data"
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST_", "HOMEMODEL_CPU_PROFILE"))}
+    run = subprocess.run(
+        [sys.executable, "-m", "pytest", str(TESTS), "-m", "shared_data", "-q", "-rs", "-p", "no:xdist",
+         "-p", "no:cacheprovider"],
+        env={**env, "HOMEMODEL_SHARED_DATA": str(absent)}, cwd=TESTS.parent, capture_output=True, text=True, timeout=300,
+    )
+    output = run.stdout + run.stderr
+    assert run.returncode == 0, output
+    skipped = re.search(r"(\d+) skipped", output)
+    assert skipped and int(skipped.group(1)) >= 20 and " passed" not in output and "failed" not in output, output
+    lines = [line for line in output.splitlines() if line.startswith("SKIPPED")]
+    assert len(lines) == 1 and f"needs the shared data folder {absent}" in lines[0] and "absent" in lines[0], output
+    assert f"[{skipped.group(1)}]" in lines[0], output

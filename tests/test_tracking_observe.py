@@ -19,7 +19,7 @@ from homemodel.cli import app
 from homemodel.core.transforms import transform_from_xyz_rpy, world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
 from prior_maps import write_prior_map
-from semantic_map import load_map
+from homemodel.exchange.map_xml import load_map
 from tracking import observe
 from tracking.scene import HomeScene
 from tracking.sensor_noise import SensorNoise

@@ -188,9 +188,9 @@ def test_bad_frames_are_skipped_and_counted(captures: dict[str, Path], tmp_path:
 def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_path: Path) -> None:
     from sample_house import build_house
 
-    from articulation.gate.validate import validate_path
+    from homemodel.model_folder.gate.validate import validate_path
     from homemodel.cli import app
-    from semantic_map import load_map, save_map
+    from homemodel.exchange.map_xml import load_map, save_map
 
     map_path = tmp_path / "map.xml"
     save_map(build_house(), map_path)

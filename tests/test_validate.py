@@ -18,10 +18,10 @@ import trimesh
 import typer
 from typer.testing import CliRunner
 
-from articulation.gate import clients as gate_clients, gltf as gate_gltf, process as gate_process
-from articulation.gate import resident_validator, validate as validate_module
-from articulation.gate.clients import find_check_urdf
-from articulation.gate.validate import validate_path
+from homemodel.model_folder.gate import clients as gate_clients, gltf as gate_gltf, process as gate_process
+from homemodel.model_folder.gate import resident_validator, validate as validate_module
+from homemodel.model_folder.gate.clients import find_check_urdf
+from homemodel.model_folder.gate.validate import validate_path
 
 REPO = Path(__file__).resolve().parents[1]
 RULE_CHECKS = ["kinematic tree", "finite numbers", "joint limits", "joint axes", "inertials", "meshes", "mesh geometry"]
@@ -120,7 +120,7 @@ def test_a_models_report_is_the_same_in_a_fresh_process_and_after_other_models(t
     bodies, gravity, its joints' motors) reaches the next."""
     write_cupboard(tmp_path / "cupboard")
     write_cupboard(tmp_path / "tilted", axis="1 0 0", mass="0.5")  # its door swings about x, under gravity
-    code = "import sys; from articulation.gate.validate import validate_path; print(validate_path(sys.argv[1]).format())"
+    code = "import sys; from homemodel.model_folder.gate.validate import validate_path; print(validate_path(sys.argv[1]).format())"
     fresh = subprocess.run([sys.executable, "-c", code, str(tmp_path / "cupboard")], capture_output=True, text=True, check=True, cwd=REPO)
     validate_path(tmp_path / "tilted")
     validate_path(tmp_path / "cupboard")
@@ -283,7 +283,7 @@ def test_pybullet_pose_mismatch_is_caught(tmp_path: Path, monkeypatch: pytest.Mo
 def test_the_gate_prints_nothing(tmp_path: Path) -> None:
     """In a fresh process, where pybullet prints its build time on import and warnings on load."""
     write_cupboard(tmp_path, door_inertial="<inertial><mass value='1'/></inertial>")  # warns: no inertia
-    code = "import sys; from articulation.gate.validate import validate_path; validate_path(sys.argv[1])"
+    code = "import sys; from homemodel.model_folder.gate.validate import validate_path; validate_path(sys.argv[1])"
     result = subprocess.run(
         [sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, cwd=REPO, timeout=60
     )

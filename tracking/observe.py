@@ -399,7 +399,7 @@ def write_observed(result: ObserveResult, map_path: Path, out_path: Path, report
     file's folder, and the report JSON; each atomically, replacing what is there (the robot
     writes each observation's map over the last, or over `map_path` itself)."""
     from homemodel.core.atomic import write_json
-    from semantic_map.xml_io import save_map
+    from homemodel.exchange.map_xml import save_map
 
     out_path, map_path = Path(out_path), Path(map_path)
     rebase_model_refs(result.smap, map_path, out_path)

@@ -30,9 +30,9 @@ from homemodel.core.transforms import as_transform
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import Hits, RayCaster
 from semantic_map.hierarchy import SemanticMap
-from semantic_map.home_scene import model_path
+from homemodel.exchange.home_scene import model_path
 from semantic_map.nodes import Jointed, MapObject, ObjectJoint, SmallObject
-from semantic_map.xml_io import load_map
+from homemodel.exchange.map_xml import load_map
 
 FLOOR_RGB = (0.62, 0.58, 0.52)
 WALL_RGB = (0.88, 0.87, 0.84)
@@ -98,7 +98,7 @@ class HomeScene:
     def load(cls, map_path: Path, *, structure: bool = True, smap: SemanticMap | None = None) -> HomeScene:
         """Read the map (or use `smap`, loaded from `map_path`) and every object's model.
         `structure` adds the floor (z = 0) and walls on the rooms' outlines as parts."""
-        from articulation.urdf_import import load_urdf
+        from homemodel.exchange.urdf.read import load_urdf
 
         map_path = Path(map_path)
         if smap is None:

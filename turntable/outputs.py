@@ -19,7 +19,7 @@ from homemodel.core.progress import Progress
 from homemodel.exchange.cameras import CAMERAS_FILE, CameraView, write_cameras
 
 if TYPE_CHECKING:
-    from articulation.model_folder import ModelFolder
+    from homemodel.model_folder.write import ModelFolder
     from turntable.reconstruct import Reconstruction, ReconstructOptions
 
 MESH_PLY = "mesh.ply"
@@ -40,7 +40,7 @@ def write_reconstruction(
     holds the capture folder."""
     import cv2
 
-    from articulation.model_folder import PipelineSummary, write_model_folder
+    from homemodel.model_folder.write import PipelineSummary, write_model_folder
 
     (capture_dir,) = inputs
     with tempfile.TemporaryDirectory(prefix="homemodel-turntable-") as staging:

@@ -25,8 +25,8 @@ from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
-from semantic_map import MapEntry
-from semantic_map.model_result import ModelResult
+from homemodel.model_folder.map_entry import MapEntry
+from homemodel.model_folder.result import ModelResult
 from turntable.capture import Capture, FrameError, FramePaths, load_capture, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, ObjectPixels, VoxelAccumulator, object_pixels, pixel_points
 from turntable.meshing import MeshingFigures, MeshingOptions, object_mesh

@@ -48,7 +48,7 @@ def build(
     force: bool = FORCE,
 ) -> None:
     """Build the spec into a model folder, with `blender.json`, the model document, beside it."""
-    from articulation.urdf_import import find_urdf, load_urdf
+    from homemodel.exchange.urdf.read import find_urdf, load_urdf
     from homemodel.app.blender.model_document import model_document
     from homemodel.core.atomic import write_json
     from homemodel.core.yaml_specs import read_yaml_mapping
@@ -70,7 +70,7 @@ def describe(
 ) -> None:
     """Write the model document of a URDF model, or of a glb Blender's exporter wrote from a
     scene laid out with the extension (custom properties included)."""
-    from articulation.urdf_import import find_urdf, load_urdf
+    from homemodel.exchange.urdf.read import find_urdf, load_urdf
     from homemodel.app.blender.model_document import model_document, spec_of_model_folder
     from homemodel.exchange.blender_glb import model_document_from_glb
     from homemodel.core.atomic import write_json
@@ -91,7 +91,7 @@ def export(
 ) -> None:
     """Write the model folder (URDF, glb, meshes) of a model document and run the validation
     gate on it; print the gate's report; exit 1 when a check failed."""
-    from articulation.model_folder import PipelineSummary, write_model_folder
+    from homemodel.model_folder.write import PipelineSummary, write_model_folder
     from homemodel.app.blender.model_document import model_from_document
     from homemodel.exchange.blender_document import read_document
 

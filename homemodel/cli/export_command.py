@@ -13,7 +13,7 @@ from homemodel.cli.option_fields import field_option, from_options
 @from_options
 def export(
     model_dir: Path = typer.Argument(..., metavar="MODEL_DIR", help="model folder (model.urdf or mobility.urdf) or a .urdf file"),
-    fmt: str = field_option("articulation.simulator_export:export_model_for.fmt", "--format", help="mjcf (MuJoCo), sdf (Gazebo), usd (Isaac), urdf-ros (a ROS 2 package)"),
+    fmt: str = field_option("homemodel.exchange.simulator:export_model_for.fmt", "--format", help="mjcf (MuJoCo), sdf (Gazebo), usd (Isaac), urdf-ros (a ROS 2 package)"),
     out: Path = typer.Option(..., "--out", help="output folder"),
     package: str | None = typer.Option(None, "--package", help="urdf-ros: the ROS package name (default: the model's name)"),
     free: bool = typer.Option(False, "--free", help="a free body standing on a floor (a cup, a jar), not fixed to the world"),
@@ -21,8 +21,8 @@ def export(
 ) -> None:
     """Export one model for a simulator at the origin with its joints at zero: fixed to the
     world, or with --free a body standing on a floor."""
-    from articulation.simulator_export import export_model_for
-    from articulation.urdf_import import find_urdf, load_urdf
+    from homemodel.exchange.simulator import export_model_for
+    from homemodel.exchange.urdf.read import find_urdf, load_urdf
 
     with exit_on_error():
         urdf = find_urdf(model_dir)

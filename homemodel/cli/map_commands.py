@@ -15,7 +15,8 @@ from homemodel.cli.errors import exit_on_error
 from homemodel.cli.option_fields import field_option, from_options, old_spellings
 
 if TYPE_CHECKING:
-    from semantic_map import MapEntry, MapObject, Node, ParkingPosition, Registration, SemanticMap
+    from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
+    from homemodel.model_folder.map_entry import MapEntry, Registration
 
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
@@ -27,8 +28,8 @@ PARENT_OPTION = old_spellings(
 )
 ID_OPTION = typer.Option(None, "--id", help="with --map: the object's id (default: the model's name)")
 XYZ_OPTION = typer.Option((0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent's frame (m)")
-IMPORT = "articulation.asset_import:ImportOptions"  # `map add`'s import of a raw asset
-REPAIR = "articulation.repair:RepairOptions"
+IMPORT = "homemodel.model_folder.asset_import:ImportOptions"  # `map add`'s import of a raw asset
+REPAIR = "homemodel.model_folder.repair:RepairOptions"
 
 
 def map_entry_from_flags(
@@ -38,7 +39,7 @@ def map_entry_from_flags(
     without `--map`."""
     from homemodel.core.errors import InputError
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import MapEntry
+    from homemodel.model_folder.map_entry import MapEntry
 
     if (map_path is None) != (parent_id is None):
         raise InputError("--map and --parent go together (the parent: the room, or large object, the object belongs to)")
@@ -118,7 +119,7 @@ def show(map_path: Path = MAP_ARGUMENT) -> None:
     from rich.markup import escape
     from rich.tree import Tree
 
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     with exit_on_error():
         smap = load_map(map_path)
@@ -154,7 +155,7 @@ def find(
     properties: list[str] = typer.Option([], "--property", help="key=value, e.g. colour=blue (repeatable)"),
 ) -> None:
     """Find objects by type and properties; print the path to each, its parent and where to park."""
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     wanted = key_values(properties, "--property")
     with exit_on_error():
@@ -178,7 +179,7 @@ def add(
     object_id: str = typer.Option(..., "--id", help="id of the new object"),
     parent_id: str = typer.Option(..., "--parent", help="a room (large object) or a large object (small object)"),
     relation: str | None = field_option(
-        "semantic_map.model_folder:MapEntry.relation", help="small objects: on, in or under (default: on)"
+        "homemodel.model_folder.map_entry:MapEntry.relation", help="small objects: on, in or under (default: on)"
     ),
     xyz: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--xyz", help="position in the parent's frame (m)"),
     rpy: tuple[float, float, float] = typer.Option((0.0, 0.0, 0.0), "--rpy", help="roll pitch yaw in the parent's frame (rad)"),
@@ -205,12 +206,12 @@ def add(
     """Register the model MODEL under PARENT_ID and save the map atomically. A raw asset (a
     downloaded glb or OBJ, a ROS package's URDF with --import) is imported first, as
     `add_asset` says, and the repairs are printed."""
-    from articulation.asset_import import ImportOptions
-    from articulation.repair import RepairOptions
-    from articulation.urdf_import import MESH_FILE_SUFFIXES
+    from homemodel.model_folder.asset_import import ImportOptions
+    from homemodel.model_folder.repair import RepairOptions
+    from homemodel.exchange.urdf.read import MESH_FILE_SUFFIXES
     from homemodel.app.database.queries import resolve_model_ref
     from homemodel.core.transforms import transform_from_xyz_rpy
-    from semantic_map import MapEntry, add_asset, add_model_folder
+    from homemodel.model_folder.map_entry import MapEntry, add_asset, add_model_folder
 
     with exit_on_error():
         model = resolve_model_ref(model_dir, db)
@@ -251,7 +252,7 @@ def echo_registration(registration: Registration) -> None:
 @map_app.command()
 def validate(map_path: Path = MAP_ARGUMENT) -> None:
     """Check a map against the schema and the map's own rules."""
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     with exit_on_error():
         smap = load_map(map_path)
@@ -263,14 +264,14 @@ def validate(map_path: Path = MAP_ARGUMENT) -> None:
 @from_options
 def export_(
     map_path: Path = MAP_ARGUMENT,
-    fmt: str = field_option("semantic_map.home_scene:export_home.fmt", "--format", help="urdf (pybullet, ROS), mjcf (MuJoCo), sdf (Gazebo), usd (Isaac), glb (viewers)"),
+    fmt: str = field_option("homemodel.exchange.home_scene:export_home.fmt", "--format", help="urdf (pybullet, ROS), mjcf (MuJoCo), sdf (Gazebo), usd (Isaac), glb (viewers)"),
     out: Path = typer.Option(..., "--out", help="output folder"),
     room: str | None = typer.Option(None, "--room", help="export only this room (its id), e.g. kitchen"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """The whole home (or one room) as one simulator scene: every object at its map pose and
     joint state, small objects free, a floor, and walls on rooms with an outline."""
-    from semantic_map import export_home
+    from homemodel.exchange.home_scene import export_home
 
     with exit_on_error():
         result = export_home(map_path, out, fmt, room_id=room, force=force)

@@ -25,7 +25,7 @@ def validate(
 ) -> None:
     """Check a model with our rules, check_urdf, yourdfpy, pybullet and the Khronos glTF validator."""
     # Imported here so `homemodel --help` does not pay for trimesh and lxml.
-    from articulation.gate.validate import validate_path
+    from homemodel.model_folder.gate.validate import validate_path
 
     with exit_on_error():
         report = validate_path(path, package_paths=package_paths)

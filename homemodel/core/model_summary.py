@@ -37,7 +37,7 @@ class GateCheck(_Strict):
 
 
 class GateResult(_Strict):
-    """The validation gate's verdict on the folder as written (`articulation.gate`)."""
+    """The validation gate's verdict on the folder as written (`homemodel.model_folder.gate`)."""
 
     valid: bool
     failed_checks: list[str] = Field(description="`name: detail` of every failed check")

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 
-from articulation.gate.report import Check, ValidationReport
+from homemodel.model_folder.gate.report import Check, ValidationReport
 from articulation.model import Model
 from homemodel.app.database.index import MODELS_DIR, EntryRow
 from homemodel.app.database.manifest import Job, RepairSpec
@@ -105,7 +105,7 @@ def _build_spec(job: Job, out: Path) -> _Built:
 
 def _written(out: Path, repairs: list[str] | None = None) -> _Built:
     """What the pipeline's model folder says of itself: the gate ran when it was written."""
-    from articulation.model_folder import report_from_summary
+    from homemodel.model_folder.write import report_from_summary
 
     summary = read_summary(out)
     return _Built(report=report_from_summary(summary, out), times_s=dict(summary.times_s), repairs=repairs or [])
@@ -135,9 +135,9 @@ def _build_completion(job: Job, out: Path) -> _Built:
 
 
 def _build_import(job: Job, out: Path, repair: RepairSpec | None) -> _Built:
-    from articulation.asset_import import ImportOptions, import_model_folder
-    from articulation.gate import validate_path
-    from articulation.repair import RepairOptions
+    from homemodel.model_folder.asset_import import ImportOptions, import_model_folder
+    from homemodel.model_folder.gate import validate_path
+    from homemodel.model_folder.repair import RepairOptions
 
     start = time.perf_counter()
     options = _options(ImportOptions, job)
@@ -183,7 +183,7 @@ def _worker_name() -> str:
 def build_entry(request: BuildRequest) -> EntryRow:
     """Build `request.job` into `db_dir/models/<id>/` (replacing what was there only when the
     new folder is whole) and return its index row; never raises for a bad entry."""
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.urdf.read import load_urdf
     from homemodel.app.database.worker_setup import note_blender_thread  # imports distributed: only in workers
 
     job = request.job

@@ -20,7 +20,7 @@ entries:
 
 Paths are relative to the manifest's folder. `options` mirrors the source's options class
 (`modeller.BuildOptions`, `turntable.ReconstructOptions`, `photogrammetry.ReconstructOptions`,
-`shape_completion.CompletionOptions`, `articulation.asset_import.ImportOptions`), nested ones
+`shape_completion.CompletionOptions`, `homemodel.model_folder.asset_import.ImportOptions`), nested ones
 included (`options: {sfm: {max_num_features: 8192}}` sets that one field of the sfm options);
 it is checked field by field when the manifest is read (`entries.3.options.sfm...: problem`).
 The fields the entry itself decides (the model's name is its id; a photos entry's
@@ -144,7 +144,7 @@ OPTIONS_CLASSES = {
     "turntable": ("turntable.reconstruct", "ReconstructOptions"),
     "photos": ("photogrammetry.pipeline", "ReconstructOptions"),
     "completion": ("shape_completion.model_export", "CompletionOptions"),
-    "urdf": ("articulation.asset_import", "ImportOptions"),
+    "urdf": ("homemodel.model_folder.asset_import", "ImportOptions"),
 }
 # Options fields the entry decides: the build sets them, so `options` may not.
 ENTRY_FIELDS = {

@@ -78,7 +78,7 @@ class ServeOptions:
 def map_tree(map_path: Path, db_dir: Path, entry_ids: set[str]) -> dict:
     """The semantic map as nested {id, kind, type, model, children}; `model` is the database
     entry an object's model comes from (its model_ref inside DIR/models/<id>, or its own id)."""
-    from semantic_map import load_map
+    from homemodel.exchange.map_xml import load_map
 
     smap = load_map(map_path)
     models = (db_dir / MODELS_DIR).resolve()
@@ -282,7 +282,7 @@ def make_server(db_dir: Path, options: ServeOptions | None = None, *, map_path: 
     ModelIndex(db_dir).close()  # a missing database fails here, before the port is taken
     three_dir()  # a missing three.js fails here, before the port is taken
     if map_path is not None:
-        from semantic_map import load_map
+        from homemodel.exchange.map_xml import load_map
 
         load_map(map_path)  # a bad map fails now
     return DatabaseServer(db_dir, options, map_path)

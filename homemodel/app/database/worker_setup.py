@@ -36,9 +36,9 @@ WARM_MODULES = {
     "turntable": ("turntable", "open3d"),
     "photos": ("photogrammetry", "open3d"),
     "completion": ("shape_completion", "open3d"),
-    "urdf": ("articulation.asset_import",),
+    "urdf": ("homemodel.model_folder.asset_import",),
 }
-SHARED_MODULES = ("articulation.gate.validate", "homemodel.app.database.entry_build")
+SHARED_MODULES = ("homemodel.model_folder.gate.validate", "homemodel.app.database.entry_build")
 
 _bpy_off_main_thread = False  # whether bpy ran on a thread other than the main one
 

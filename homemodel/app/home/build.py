@@ -161,7 +161,7 @@ def _parking_positions(large: LargeObjectSpec, parking_type: type) -> list:
 
 def _cached_object(previous: Path, key: str, folder: Path):  # noqa: ANN202 (a Model and its summary, or None)
     """The earlier output's model of this object, copied into `folder`, if its key matches."""
-    from articulation.urdf_import import load_urdf
+    from homemodel.exchange.urdf.read import load_urdf
 
     key_file = previous / KEY_FILE
     if not (key_file.is_file() and key_file.read_text() == key):
@@ -186,7 +186,8 @@ def _warnings(summary: ModelSummary) -> list[str]:
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
     from modeller import BuildOptions, build, load_spec
-    from semantic_map import ParkingPosition, SemanticMap, save_map
+    from semantic_map import ParkingPosition, SemanticMap
+    from homemodel.exchange.map_xml import save_map
 
     example_dir = Path(example_dir)
     home_file = example_dir / HOME_FILE

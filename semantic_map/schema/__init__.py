@@ -1,1 +1,0 @@
-"""The XML Schema of the semantic map, shipped as package data."""
