@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from homemodel.app.database.manifest import Job
-from homemodel.app.database.tasks import MAX_BATCH, TASKS_PER_WORKER, BuildRequest, batches, task_key
+from homemodel.app.database.build_request import BuildRequest
+from homemodel.app.database.tasks import MAX_BATCH, TASKS_PER_WORKER, batches, task_key
 
 ROOT = Path(__file__).resolve().parents[1]
 

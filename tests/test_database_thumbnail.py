@@ -80,7 +80,8 @@ from pathlib import Path
 from homemodel.app.database.worker_setup import warm_up
 from homemodel.app.database.build import repair_for
 from homemodel.app.database.manifest import load_manifest
-from homemodel.app.database.tasks import BuildRequest, build_batch
+from homemodel.app.database.build_request import BuildRequest
+from homemodel.app.database.tasks import build_batch
 warm_up(("urdf",))
 jobs, repair = load_manifest(Path({str(tmp_path / "manifest.yaml")!r}))
 [row] = build_batch([BuildRequest(job=jobs[0], key="k", db_dir=Path({str(tmp_path / "db")!r}), repair=repair_for(jobs[0], repair, False))])

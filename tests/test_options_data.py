@@ -45,7 +45,7 @@ modeller.photo_texture.FaceTextureOptions photogrammetry.cleaning.CleaningOption
 photogrammetry.stereo.DenseOptions photogrammetry.synthetic_scene.SceneOptions photogrammetry.texturing.TextureBakingOptions
 photogrammetry.pipeline.ReconstructOptions shape_completion.benchmark.BenchmarkOptions
 shape_completion.model_export.CompletionOptions turntable.meshing.MeshingOptions turntable.pose.PoseOptions
-turntable.simulate.SimulationOptions turntable.tags.DetectionOptions turntable.reconstruct.ReconstructOptions
+turntable.simulate.SimulationOptions turntable.tags.DetectionOptions turntable.reconstruction.ReconstructOptions
 homemodel.model_folder.repair.RepairOptions homemodel.model_folder.asset_import.ImportOptions homemodel.app.database.build.DatabaseBuildOptions""".split()
 
 

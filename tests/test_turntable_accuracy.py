@@ -22,7 +22,8 @@ from typer.testing import CliRunner
 from homemodel.evaluation import camera_pose_errors, mean_surface_distance_m, voxel_iou
 from turntable.capture import load_capture
 from homemodel.exchange.cameras import read_cameras
-from turntable.reconstruct import Reconstruction, reconstruct_capture
+from turntable.reconstruct import reconstruct_capture
+from turntable.reconstruction import Reconstruction
 from turntable.simulate import SimulationOptions, resimulate_depth, simulate_capture
 
 pytestmark = [pytest.mark.bpy, pytest.mark.slow]

@@ -29,7 +29,8 @@ from turntable.recordings import import_recording, ImportOptions
 from turntable.recordings.associate import associate
 from turntable.recordings.realsense import RealSenseSource
 from turntable.recordings.register import register_depth
-from turntable.reconstruct import ReconstructOptions, reconstruct_capture
+from turntable.reconstruct import reconstruct_capture
+from turntable.reconstruction import ReconstructOptions
 from turntable.simulate import SimulationOptions, render_depth, simulate_capture
 
 CAPTURE = dict(

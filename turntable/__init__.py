@@ -16,6 +16,7 @@ No module here imports bpy: `blender_render` builds its Cycles scene with
 See docs/turntable.md.
 """
 
-from turntable.reconstruct import Reconstruction, ReconstructOptions, reconstruct
+from turntable.reconstruct import reconstruct
+from turntable.reconstruction import Reconstruction, ReconstructOptions
 
 __all__ = ["Reconstruction", "ReconstructOptions", "reconstruct"]

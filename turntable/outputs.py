@@ -20,7 +20,7 @@ from homemodel.exchange.cameras import CAMERAS_FILE, CameraView, write_cameras
 
 if TYPE_CHECKING:
     from homemodel.model_folder.write import ModelFolder
-    from turntable.reconstruct import Reconstruction, ReconstructOptions
+    from turntable.reconstruction import Reconstruction, ReconstructOptions
 
 MESH_PLY = "mesh.ply"
 TEXTURE_PNG = "texture.png"

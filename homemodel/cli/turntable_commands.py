@@ -27,7 +27,7 @@ from homemodel.cli.progress import figures_table, make_console, stage_bars
 turntable_app = typer.Typer(no_args_is_help=True)
 
 SIMULATION = "turntable.simulate:SimulationOptions"
-RECONSTRUCT = "turntable.reconstruct:ReconstructOptions"
+RECONSTRUCT = "turntable.reconstruction:ReconstructOptions"
 IMPORT = "turntable.recordings.importer:ImportOptions"
 
 

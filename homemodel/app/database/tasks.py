@@ -15,25 +15,13 @@ that crashes its process never takes the others down with it.
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
-from pathlib import Path
 
+from homemodel.app.database.build_request import BuildRequest
 from homemodel.app.database.index import EntryRow
-from homemodel.app.database.manifest import Job, RepairSpec
 
 SMALL_SOURCES = frozenset({"spec", "urdf"})  # entries of about 0.1-0.5 s
 MAX_BATCH = 4
 TASKS_PER_WORKER = 8
-
-
-@dataclass(kw_only=True)
-class BuildRequest:
-    """What a worker needs: the job, its key, where the database lives, how to repair."""
-
-    job: Job
-    key: str
-    db_dir: Path
-    repair: RepairSpec | None  # None: imported assets are not repaired
 
 
 def batches(requests: list[BuildRequest], workers: int) -> list[list[BuildRequest]]:
