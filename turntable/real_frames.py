@@ -64,14 +64,21 @@ def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: i
     edges[:, :-1] |= gx
     edges[1:] |= gy
     edges[:-1] |= gy
-    ys, xs = np.nonzero(edges[max_shift_px:-max_shift_px, max_shift_px:-max_shift_px])
+    m = max_shift_px
+    edges[:m], edges[-m:], edges[:, :m], edges[:, -m:] = False, False, False, False
+    ys, xs = np.nonzero(edges)
     if len(xs) < 50:
         return None
-    ys, xs = ys + max_shift_px, xs + max_shift_px
-    g = gray.astype(np.float32)
+    # The mean colour-edge strength along the depth edges at each shift: one cross-correlation
+    # of the edges' box with the colour edges' magnitude about it.
+    top, bottom, left, right = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    pad = m + 5  # Sobel and the Gaussian's reach beyond the shifted box
+    y0, x0 = max(top - pad, 0), max(left - pad, 0)
+    g = gray[y0 : bottom + pad, x0 : right + pad].astype(np.float32)
     magnitude = cv2.GaussianBlur(np.hypot(cv2.Sobel(g, cv2.CV_32F, 1, 0), cv2.Sobel(g, cv2.CV_32F, 0, 1)), (0, 0), 1.0)
-    shifts = np.arange(-max_shift_px, max_shift_px + 1)
-    score = np.array([[magnitude[ys + dy, xs + dx].mean() for dx in shifts] for dy in shifts])
+    around = magnitude[top - m - y0 : bottom + m - y0, left - m - x0 : right + m - x0]
+    box = edges[top:bottom, left:right].astype(np.float32)
+    score = cv2.matchTemplate(around, box, cv2.TM_CCORR) / len(xs)  # (2m + 1, 2m + 1): [dy + m, dx + m]
     iy, ix = np.unravel_index(np.argmax(score), score.shape)
 
     def vertex(values: np.ndarray, i: int) -> float:  # the parabola's peak through three samples
@@ -81,7 +88,7 @@ def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: i
                 return float(i + 0.5 * (values[i - 1] - values[i + 1]) / denominator)
         return float(i)
 
-    return np.array([vertex(score[iy], ix), vertex(score[:, ix], iy)]) - max_shift_px
+    return np.array([vertex(score[iy], ix), vertex(score[:, ix], iy)]) - m
 
 
 def table_turn_rad(first_camera_from_table: np.ndarray, camera_from_table: np.ndarray) -> float:

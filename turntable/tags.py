@@ -122,30 +122,34 @@ def detect_tags(gray: np.ndarray, options: DetectionOptions | None = None) -> di
         raise ValueError(f"unknown tag detector {options.detector!r}")
     found = {tag_id: c for tag_id, c in found.items() if np.all(np.isfinite(c))}
     if options.edge_refinement and found:
-        linear = gray.astype(np.float32) / 255.0
-        if options.intensity == "srgb":
-            linear = np.where(linear <= 0.04045, linear / 12.92, ((linear + 0.055) / 1.055) ** 2.4).astype(np.float32)
         ids = sorted(found)
-        refined = refine_edges(linear, np.stack([found[i] for i in ids]))
+        refined = refine_edges(gray, np.stack([found[i] for i in ids]), _LINEAR[options.intensity])
         found = dict(zip(ids, refined))
     return found
+
+
+_LEVELS = np.arange(256) / 255.0
+# Each 8-bit level's linear intensity: the sides are found on the linear image (see `refine_edges`).
+_LINEAR = {
+    "linear": _LEVELS,
+    "srgb": np.where(_LEVELS <= 0.04045, _LEVELS / 12.92, ((_LEVELS + 0.055) / 1.055) ** 2.4),
+}
 
 
 _ALONG = np.linspace(0.15, 0.85, 12)  # where along each side the profiles are taken (clear of corners)
 _MIN_ROWS = 4  # profiles with one clear crossing a side needs for its line
 
 
-def refine_edges(image: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    """Corners (T, 4, 2) as intersections of the tags' refined sides; a corner stays as
-    detected where one of its sides is unclear.
+def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = _LINEAR["linear"]) -> np.ndarray:
+    """Corners (T, 4, 2) as intersections of the tags' refined sides in an (H, W) uint8 image
+    whose levels have the linear intensities `linear` (256,); a corner stays as detected where
+    one of its sides is unclear.
 
     Each side is moved to where a linear image's intensity crosses halfway between the black
     border (inside) and the white margin (outside): the edge itself for any symmetric blur.
     The detectors' own corners sat 0.4 px (AprilTag) to 0.9 px (OpenCV) inside the tag on
     renders of known poses; these within 0.01 px on average. All sides of all tags at once.
     """
-    from scipy.ndimage import map_coordinates
-
     corners = np.asarray(corners, dtype=np.float64)
     start, side = corners, np.roll(corners, -1, axis=1) - corners  # side i runs from corner i to i + 1
     length = np.linalg.norm(side, axis=-1)  # (T, 4)
@@ -163,8 +167,7 @@ def refine_edges(image: np.ndarray, corners: np.ndarray) -> np.ndarray:
         + _ALONG[None, None, :, None, None] * side[:, :, None, None, :]
         + offsets[:, :, None, :, None] * outward[:, :, None, None, :]
     )  # (T, 4, N, M, 2) as x, y
-    profiles = map_coordinates(image, [samples[..., 1].ravel(), samples[..., 0].ravel()], order=1, mode="nearest")
-    profiles = profiles.reshape(samples.shape[:-1])
+    profiles = _bilinear(gray, linear, samples[..., 0], samples[..., 1])
     k = max(2, steps // 5)
     dark = profiles[..., :k].mean(axis=-1)
     bright = profiles[..., -k:].mean(axis=-1)
@@ -201,3 +204,17 @@ def refine_edges(image: np.ndarray, corners: np.ndarray) -> np.ndarray:
     t = (rhs[..., 0] * (-d2[..., 1]) - (-d2[..., 0]) * rhs[..., 1]) / np.where(good, determinant, 1.0)
     refined = p1 + t[..., None] * d1
     return np.where(good[..., None], refined, corners)
+
+
+def _bilinear(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The linear intensity at (x, y), interpolated between the four pixels around each point,
+    points beyond the border taking the border's (as SciPy's map_coordinates with order 1 and
+    mode "nearest", without converting the whole image first). Images of 2 x 2 pixels or more."""
+    height, width = gray.shape
+    x, y = np.clip(x, 0, width - 1), np.clip(y, 0, height - 1)
+    x0, y0 = np.minimum(x.astype(np.intp), width - 2), np.minimum(y.astype(np.intp), height - 2)
+    fx, fy = x - x0, y - y0
+    flat, i = gray.reshape(-1), y0 * width + x0
+    top = linear[flat[i]] * (1 - fx) + linear[flat[i + 1]] * fx
+    bottom = linear[flat[i + width]] * (1 - fx) + linear[flat[i + width + 1]] * fx
+    return top * (1 - fy) + bottom * fy
