@@ -71,7 +71,8 @@ from modeller.specs.cabinet_geometry import (
     panel_face_x_m,
     shelf_span_m,
 )
-from modeller.specs.cabinets import CabinetSpec, Panel
+from modeller.specs.cabinet_parts import Panel
+from modeller.specs.cabinets import CabinetSpec
 from modeller.specs.handles import PushButton
 
 if TYPE_CHECKING:

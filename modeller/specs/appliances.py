@@ -12,9 +12,8 @@ from pydantic import Field
 
 from homemodel.core.yaml_specs import FieldError
 from modeller.specs.cabinet_geometry import drawer_box_bounds_m
-from modeller.specs.cabinets import (
+from modeller.specs.cabinet_parts import (
     GLASS_COLOUR,
-    CabinetSpec,
     Divider,
     DoorShelf,
     DoorSpec,
@@ -24,6 +23,7 @@ from modeller.specs.cabinets import (
     Shelf,
     Window,
 )
+from modeller.specs.cabinets import CabinetSpec
 from modeller.specs.common import _EPS_M, Colour, Length, Offset, _Spec
 from modeller.specs.handles import ControlKnob, DoorHandle, DrawerHandle
 

@@ -28,10 +28,11 @@ from modeller.specs.hinges import (
 _MIN_HINGE_GAP_M = 0.0005
 
 if TYPE_CHECKING:
-    from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Panel, Shelf
+    from modeller.specs.cabinet_body import CabinetBody
+    from modeller.specs.cabinet_parts import DoorShelf, DoorSpec, DrawerSpec, Panel, Shelf
 
 
-def shelf_span_m(spec: CabinetSpec, shelf: Shelf) -> tuple[float, float, float]:
+def shelf_span_m(spec: CabinetBody, shelf: Shelf) -> tuple[float, float, float]:
     """(left, right) from the body's left edge and depth from the back wall's inner face."""
     t = spec.wall_thickness_m
     left = t if shelf.left_m is None else shelf.left_m
@@ -40,7 +41,7 @@ def shelf_span_m(spec: CabinetSpec, shelf: Shelf) -> tuple[float, float, float]:
     return left, right, default_depth if shelf.depth_m is None else shelf.depth_m
 
 
-def frame_members_m(spec: CabinetSpec) -> list[tuple[str, float, float, float, float]]:
+def frame_members_m(spec: CabinetBody) -> list[tuple[str, float, float, float, float]]:
     """(name, left, right, bottom, top) of each face frame member seen from in front, left
     and right from the body's left edge (an overhanging stile starts left of it)."""
     frame = spec.face_frame
@@ -68,7 +69,7 @@ def frame_members_m(spec: CabinetSpec) -> list[tuple[str, float, float, float, f
     return members
 
 
-def opening_around_m(spec: CabinetSpec, left_m: float, height_m: float) -> tuple[float, float, float, float]:
+def opening_around_m(spec: CabinetBody, left_m: float, height_m: float) -> tuple[float, float, float, float]:
     """(left, right, bottom, top) of the opening round a point of the front (`left_m` from the
     body's left edge, `height_m` above the floor): inside the carcass' edges or the face
     frame, between the dividers and the frame's middle stiles and rails either side of it."""
@@ -89,7 +90,7 @@ def opening_around_m(spec: CabinetSpec, left_m: float, height_m: float) -> tuple
     return left, right, bottom, top
 
 
-def drawer_box_bounds_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[float, float, float, float]:
+def drawer_box_bounds_m(spec: CabinetBody, drawer: DrawerSpec) -> tuple[float, float, float, float]:
     """(y_min, y_max, z_min, z_max) of a drawer's box: behind its front, inside the body
     between the walls, dividers and frame members either side of the front's middle, or
     where the spec puts it (`box_bottom_m`, `box_offset_m`, `box_width_m`)."""
@@ -115,21 +116,21 @@ def drawer_box_bounds_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[float, f
     return y_min, y_max, z_min, z_max
 
 
-def drawer_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+def drawer_front_x_m(spec: CabinetBody, drawer: DrawerSpec) -> float:
     """x of a closed drawer front's inner face: behind it the inner board, then the box."""
     if drawer.mounting == "inset":
         return spec.depth_m / 2 - spec.door_thickness_m
     return spec.depth_m / 2 + spec.door_gap_m
 
 
-def drawer_board_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+def drawer_board_front_x_m(spec: CabinetBody, drawer: DrawerSpec) -> float:
     """x of a closed drawer's second board's front face: right behind the front, or where measured."""
     if drawer.inner_board_inside_m is None:
         return drawer_front_x_m(spec, drawer)
     return spec.depth_m / 2 - drawer.inner_board_inside_m
 
 
-def drawer_board_top_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+def drawer_board_top_m(spec: CabinetBody, drawer: DrawerSpec) -> float:
     """Height above the floor of a drawer's second board's top edge: as measured, or up to
     the front's top, `door_gap_m` inside the opening."""
     z_min = drawer_box_bounds_m(spec, drawer)[2]
@@ -138,12 +139,12 @@ def drawer_board_top_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
     return min(drawer.top_m, opening_around_m(spec, drawer.left_m + drawer.width_m / 2, z_min)[3]) - spec.door_gap_m
 
 
-def drawer_box_front_x_m(spec: CabinetSpec, drawer: DrawerSpec) -> float:
+def drawer_box_front_x_m(spec: CabinetBody, drawer: DrawerSpec) -> float:
     """x of a closed drawer box's front face (behind the front and its inner board)."""
     return drawer_board_front_x_m(spec, drawer) - drawer.inner_board_m
 
 
-def panel_at(spec: CabinetSpec, left_m: float, height_m: float) -> Panel | None:
+def panel_at(spec: CabinetBody, left_m: float, height_m: float) -> Panel | None:
     """The panel a knob or button at (`left_m`, `height_m`) sits on."""
     for panel in spec.panels:
         if panel.left_m <= left_m <= panel.right_m and panel.bottom_m <= height_m <= panel.top_m:
@@ -151,7 +152,7 @@ def panel_at(spec: CabinetSpec, left_m: float, height_m: float) -> Panel | None:
     return None
 
 
-def panel_bounds_m(spec: CabinetSpec, panel: Panel) -> tuple[float, float, float, float]:
+def panel_bounds_m(spec: CabinetBody, panel: Panel) -> tuple[float, float, float, float]:
     """(y_min, y_max, z_min, z_max) of the slab a panel is built as, in the model frame:
     inside the carcass' edges, which show round it (empty where it lies wholly on them)."""
     t = spec.wall_thickness_m
@@ -160,18 +161,18 @@ def panel_bounds_m(spec: CabinetSpec, panel: Panel) -> tuple[float, float, float
     return y0, y1, max(panel.bottom_m, spec.inner_floor_m), min(panel.top_m, spec.inner_top_m)
 
 
-def panel_face_x_m(spec: CabinetSpec, left_m: float, height_m: float) -> float:
+def panel_face_x_m(spec: CabinetBody, left_m: float, height_m: float) -> float:
     """x of the face of the panel a knob or button at (`left_m`, `height_m`) sits on."""
     panel = panel_at(spec, left_m, height_m)
     return spec.depth_m / 2 + (0.0 if panel is None else panel.forward_m)
 
 
-def front_x_m(spec: CabinetSpec) -> float:
+def front_x_m(spec: CabinetBody) -> float:
     """x of an overlay front's outer face (closed)."""
     return spec.depth_m / 2 + spec.door_gap_m + spec.door_thickness_m
 
 
-def door_face_x_m(spec: CabinetSpec, door: DoorSpec) -> float:
+def door_face_x_m(spec: CabinetBody, door: DoorSpec) -> float:
     """x of a closed door's outer face: in front of the body, or flush with its front if
     inset; a door partly inside the opening stands out by the rest of its thickness."""
     if door.mounting == "inset":
@@ -181,14 +182,14 @@ def door_face_x_m(spec: CabinetSpec, door: DoorSpec) -> float:
     return spec.depth_m / 2 + spec.door_gap_m + spec.door_board_m(door)
 
 
-def door_slab_m(spec: CabinetSpec, door: DoorSpec) -> float:
+def door_slab_m(spec: CabinetBody, door: DoorSpec) -> float:
     """Thickness of the door's slab in front of the opening (all of it, but for a plug)."""
     if door.in_opening_m > 0:
         return door_face_x_m(spec, door) - spec.depth_m / 2 - spec.door_gap_m
     return spec.door_board_m(door)
 
 
-def door_plug_bounds_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float, float, float]:
+def door_plug_bounds_m(spec: CabinetBody, door: DoorSpec) -> tuple[float, float, float, float]:
     """(y_min, y_max, z_min, z_max) in the model frame of a door's part inside the opening:
     the opening round the door's middle, `door_gap_m` clear of its edges, within the door."""
     gap = spec.door_gap_m
@@ -198,7 +199,7 @@ def door_plug_bounds_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float,
     return y0, y1, max(bottom + gap, door.bottom_m), min(top - gap, door.top_m)
 
 
-def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
+def opening_bounds_m(spec: CabinetBody) -> tuple[float, float, float, float]:
     """(left, right, bottom, top) of the front opening an inset front sits in: inside the
     carcass' edges, or inside the face frame; left and right from the body's left edge."""
     frame = 0.0 if spec.face_frame is None else spec.face_frame.width_m
@@ -209,7 +210,7 @@ def opening_bounds_m(spec: CabinetSpec) -> tuple[float, float, float, float]:
     return side, spec.width_m - side, spec.carcass_bottom_m + bottom, spec.carcass_top_m - top
 
 
-def hinge_divider(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float] | None:
+def hinge_divider(spec: CabinetBody, door: DoorSpec) -> tuple[float, float] | None:
     """(left, right) faces, from the body's left edge, of the middle panel (a divider or a
     face frame's middle stile) a side-hinged door hangs on, if its hinge-side edge is over one."""
     if not door.side_hinged:
@@ -221,7 +222,7 @@ def hinge_divider(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float] | No
     return next((faces for faces in middles if faces[0] - 1e-9 <= edge <= faces[1] + 1e-9), None)
 
 
-def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
+def door_edge_in_m(spec: CabinetBody, door: DoorSpec) -> float:
     """How far the door's hinge-side edge is in from the outer face of what it hangs on: the
     body's side (its top or underside for a flap), or, for a door hung on a middle panel
     (a divider or a middle stile), that panel's face on the far side from the door."""
@@ -237,7 +238,7 @@ def door_edge_in_m(spec: CabinetSpec, door: DoorSpec) -> float:
     }[door.hinge]
 
 
-def open_at_90_thickness_m(spec: CabinetSpec, door: DoorSpec) -> float:
+def open_at_90_thickness_m(spec: CabinetBody, door: DoorSpec) -> float:
     """The thickness `open_at_90` is solved with: its own (outer face to inner face, open
     square) when both faces were read, else the door's."""
     tape = door.hinge_measured
@@ -245,7 +246,7 @@ def open_at_90_thickness_m(spec: CabinetSpec, door: DoorSpec) -> float:
     return spec.door_board_m(door) if measured is None else measured
 
 
-def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
+def hinge_offsets_m(spec: CabinetBody, door: DoorSpec) -> tuple[float, float]:
     """(behind_face_m, in_from_edge_m) of the door's hinge line (see `modeller.specs.hinges`)."""
     thick = open_at_90_thickness_m(spec, door)
     if door.hinge_line is not None:
@@ -289,7 +290,7 @@ def hinge_offsets_m(spec: CabinetSpec, door: DoorSpec) -> tuple[float, float]:
     return 0.0, 0.0
 
 
-def hinge_tape_warnings(spec: CabinetSpec) -> list[str]:
+def hinge_tape_warnings(spec: CabinetBody) -> list[str]:
     """What the solver has to say about doors measured both ways: `open_at_90` relies on the
     door's thickness (outer face to inner face), `free_corner` does not. Where they put the
     hinge line more than `TAPE_AGREEMENT_M` apart, the thickness that reconciles them."""
@@ -330,7 +331,7 @@ def hinge_tape_warnings(spec: CabinetSpec) -> list[str]:
     return warnings
 
 
-def door_hinge_point_m(spec: CabinetSpec, door: DoorSpec) -> np.ndarray:
+def door_hinge_point_m(spec: CabinetBody, door: DoorSpec) -> np.ndarray:
     """A point on the door's hinge line in the model frame: at its bottom end for a
     side-hinged door, at its left end for a top- or bottom-hinged one."""
     behind, inward = hinge_offsets_m(spec, door)
@@ -344,7 +345,7 @@ def door_hinge_point_m(spec: CabinetSpec, door: DoorSpec) -> np.ndarray:
     return np.array([door_face_x_m(spec, door) - behind, *point])
 
 
-def door_shelf_box_m(spec: CabinetSpec, door: DoorSpec, shelf: DoorShelf) -> tuple[np.ndarray, np.ndarray]:
+def door_shelf_box_m(spec: CabinetBody, door: DoorSpec, shelf: DoorShelf) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of a closed door's bin in the model frame."""
     inner_x = door_face_x_m(spec, door) - spec.door_board_m(door)
     y0 = -spec.width_m / 2 + door.left_m + shelf.margin_m
@@ -353,7 +354,7 @@ def door_shelf_box_m(spec: CabinetSpec, door: DoorSpec, shelf: DoorShelf) -> tup
     return np.array([inner_x - shelf.depth_m, y0, z0]), np.array([inner_x, y1, z0 + shelf.lip_height_m])
 
 
-def shelf_box_m(spec: CabinetSpec, shelf: Shelf) -> tuple[np.ndarray, np.ndarray]:
+def shelf_box_m(spec: CabinetBody, shelf: Shelf) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of a fixed shelf in the model frame."""
     left, right, depth = shelf_span_m(spec, shelf)
     back = spec.back_inner_x_m
@@ -364,7 +365,7 @@ def shelf_box_m(spec: CabinetSpec, shelf: Shelf) -> tuple[np.ndarray, np.ndarray
     )
 
 
-def drawer_reach_m(spec: CabinetSpec, drawer: DrawerSpec) -> tuple[np.ndarray, np.ndarray]:
+def drawer_reach_m(spec: CabinetBody, drawer: DrawerSpec) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) corners of the space a closed drawer's box takes in the model frame."""
     y_min, y_max, z_min, z_max = drawer_box_bounds_m(spec, drawer)
     front = drawer_box_front_x_m(spec, drawer)

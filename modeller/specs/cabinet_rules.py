@@ -36,8 +36,8 @@ from modeller.specs.cabinet_geometry import (
 from modeller.specs.common import _EPS_M
 
 if TYPE_CHECKING:
-    from modeller.specs.cabinets import CabinetSpec, DoorShelf, DoorSpec, DrawerSpec, Front, Panel
-    from modeller.specs.handles import Handle, Orientation
+    from modeller.specs.cabinet_body import CabinetBody
+    from modeller.specs.cabinet_parts import DoorShelf, DoorSpec, DrawerSpec, Front, Panel
 
 # Angles at which a door's sweep is checked against the body (door shelves).
 _SWEEP_SAMPLES = 91
@@ -46,94 +46,10 @@ _SWEEP_SAMPLES = 91
 _TAPE_SLACK_M = 0.001
 
 
-# ---------------------------------------------------------------------------- a front alone
-
-
-def check_door_front(door: DoorSpec) -> None:
-    """A door on its own: its shape, its handle on it, its window and bins inside it."""
-    if door.shape == "round" and abs(door.width_m - door.height_m) > _EPS_M:
-        raise FieldError(
-            ("height_m",),
-            f"a round door is {door.width_m} m wide, so it is {door.width_m} m high, not {door.height_m}",
-        )
-    if not door.side_hinged and door.handle.type == "channel":
-        raise FieldError(("handle", "type"), f"a grip channel is over a side-hinged door, not a {door.hinge}-hinged one")
-    if door.side_hinged and door.handle.from_left_m is not None:
-        raise FieldError(("handle", "from_left_m"), f"a {door.hinge}-hinged door's handle is placed by height_m")
-    if not door.side_hinged and door.handle.height_m is not None:
-        raise FieldError(("handle", "height_m"), f"a {door.hinge}-hinged door's handle is placed by from_left_m")
-    centre = door.handle_offset_m()
-    fields = ("from_free_edge_m", "height_m") if door.side_hinged else ("from_left_m", "from_free_edge_m")
-    _check_handle_on_front(door, door.handle, centre, door.handle_orientation(), fields)
-    if door.shape == "round":
-        half_across, half_up = door.handle.half_extent_m(door.handle_orientation())
-        reach = math.hypot(
-            abs(centre[0] - door.width_m / 2) + half_across, abs(centre[1] - door.height_m / 2) + half_up
-        )
-        if reach > door.width_m / 2 + _EPS_M:
-            raise FieldError(
-                ("handle", "from_free_edge_m"),
-                f"{door.handle.type} handle reaches {reach:.3f} m from the centre of a round door "
-                f"{door.width_m / 2:.3f} m in radius",
-            )
-    if door.window is not None and 2 * door.window.margin_m >= min(door.width_m, door.height_m):
-        raise FieldError(
-            ("window", "margin_m"),
-            f"a window {door.window.margin_m} m in from the edges leaves no glass in a "
-            f"{door.width_m} x {door.height_m} m door",
-        )
-    for k, shelf in enumerate(door.shelves):
-        if not door.side_hinged:
-            raise FieldError(("shelves", k), f"door shelves need a side-hinged door, not a {door.hinge}-hinged one")
-        if 2 * shelf.margin_m >= door.width_m:
-            raise FieldError(("shelves", k, "margin_m"), f"leaves no bin on a {door.width_m} m wide door")
-        if shelf.height_m + shelf.lip_height_m > door.height_m + _EPS_M:
-            raise FieldError(
-                ("shelves", k, "height_m"),
-                f"bin reaches {shelf.height_m + shelf.lip_height_m:.3f} m up a {door.height_m} m high door",
-            )
-
-
-def check_drawer_front(drawer: DrawerSpec) -> None:
-    """A drawer on its own: its handle on its front, its travel within its box."""
-    _check_handle_on_front(
-        drawer, drawer.handle, drawer.handle_offset_m(), drawer.handle_orientation(), ("from_left_m", "height_m")
-    )
-    if drawer.travel_m > drawer.depth_m + _EPS_M:
-        raise FieldError(
-            ("travel_m",), f"drawer travels {drawer.travel_m} m but its box is only {drawer.depth_m} m deep"
-        )
-
-
-def _check_handle_on_front(
-    front: Front,
-    handle: Handle,
-    centre_m: tuple[float, float],
-    orientation: Orientation,
-    fields: tuple[str, str],
-) -> None:
-    """The handle's footprint (centre from the left and bottom edges) must lie on the front;
-    `fields` are the handle's fields placing it across and up, to blame."""
-    (across, up), (half_across, half_up) = centre_m, handle.half_extent_m(orientation)
-    across_field, up_field = fields
-    if across - half_across < -_EPS_M or across + half_across > front.width_m + _EPS_M:
-        raise FieldError(
-            ("handle", across_field),
-            f"{handle.type} handle spans {across - half_across:.3f}..{across + half_across:.3f} m across a "
-            f"{front.width_m} m wide front",
-        )
-    if up - half_up < -_EPS_M or up + half_up > front.height_m + _EPS_M:
-        raise FieldError(
-            ("handle", up_field),
-            f"{handle.type} handle spans {up - half_up:.3f}..{up + half_up:.3f} m above the bottom edge of a "
-            f"{front.height_m} m high front",
-        )
-
-
 # ---------------------------------------------------------------------------- the whole cabinet
 
 
-def check_cabinet(spec: CabinetSpec) -> None:
+def check_cabinet(spec: CabinetBody) -> None:
     """The rules every cabinet-like kind shares, on a spec whose layout is filled in."""
     _check_walls(spec)
     _check_frame_and_top(spec)
@@ -158,7 +74,7 @@ def check_cabinet(spec: CabinetSpec) -> None:
     _check_buttons(spec)
 
 
-def _check_walls(spec: CabinetSpec) -> None:
+def _check_walls(spec: CabinetBody) -> None:
     t = spec.wall_thickness_m
     carcass_height = spec.carcass_top_m - spec.carcass_bottom_m
     if 2 * t >= spec.width_m:
@@ -182,7 +98,7 @@ def _check_walls(spec: CabinetSpec) -> None:
         )
 
 
-def _check_frame_and_top(spec: CabinetSpec) -> None:
+def _check_frame_and_top(spec: CabinetBody) -> None:
     """A face frame's members on the front, its overhang narrower than its stiles; top rails
     over an open top."""
     frame = spec.face_frame
@@ -220,7 +136,7 @@ def _check_frame_and_top(spec: CabinetSpec) -> None:
             raise FieldError(("top_rails", i, "thickness_m"), f"a rail {thickness} m thick fills the body")
 
 
-def _check_shelves_and_dividers(spec: CabinetSpec) -> None:
+def _check_shelves_and_dividers(spec: CabinetBody) -> None:
     t = spec.wall_thickness_m
     for i, divider in enumerate(spec.dividers):
         if divider.left_m < t - _EPS_M or divider.left_m + t > spec.width_m - t + _EPS_M:
@@ -261,7 +177,7 @@ def _check_shelves_and_dividers(spec: CabinetSpec) -> None:
                 )
 
 
-def _check_on_body(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
+def _check_on_body(spec: CabinetBody, group: str, i: int, front: Front) -> None:
     """A front lies on the body's front; doors and drawers may also cover a face frame's
     stiles where they stand out past the sides."""
     what = group[:-1]
@@ -311,7 +227,7 @@ def _check_no_overlap(fronts: list[tuple[str, int, Front]]) -> None:
                 )
 
 
-def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
+def _check_drawer(spec: CabinetBody, i: int, drawer: DrawerSpec) -> None:
     room = min(drawer_box_front_x_m(spec, drawer), spec.depth_m / 2) - spec.back_inner_x_m
     if drawer.depth_m > room + _EPS_M:
         raise FieldError(
@@ -376,7 +292,7 @@ def _check_drawer(spec: CabinetSpec, i: int, drawer: DrawerSpec) -> None:
             )
 
 
-def _check_door(spec: CabinetSpec, i: int, door: DoorSpec) -> None:
+def _check_door(spec: CabinetBody, i: int, door: DoorSpec) -> None:
     try:
         hinge_offsets_m(spec, door)  # measurements solved here, so a misread tape fails on load
     except FieldError as exc:
@@ -403,7 +319,7 @@ def _check_door(spec: CabinetSpec, i: int, door: DoorSpec) -> None:
         _check_door_shelf(spec, i, door, k, shelf)
 
 
-def _check_door_shelf(spec: CabinetSpec, i: int, door: DoorSpec, k: int, shelf: DoorShelf) -> None:
+def _check_door_shelf(spec: CabinetBody, i: int, door: DoorSpec, k: int, shelf: DoorShelf) -> None:
     """A closed door's bin must sit inside the body, clear of shelves and drawers, and swing out clear."""
     t, where = spec.wall_thickness_m, ("doors", i, "shelves", k)
     low, high = door_shelf_box_m(spec, door, shelf)
@@ -440,7 +356,7 @@ def _check_door_shelf(spec: CabinetSpec, i: int, door: DoorSpec, k: int, shelf: 
             )
 
 
-def _check_inset(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
+def _check_inset(spec: CabinetBody, group: str, i: int, front: Front) -> None:
     """An inset front sits inside the opening (the carcass' edges or the face frame)."""
     left, right, bottom, top = opening_around_m(spec, front.left_m + front.width_m / 2, front.bottom_m + front.height_m / 2)
     if front.left_m < left - _EPS_M or front.right_m > right + _EPS_M:
@@ -456,7 +372,7 @@ def _check_inset(spec: CabinetSpec, group: str, i: int, front: Front) -> None:
         )
 
 
-def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
+def _check_panel(spec: CabinetBody, i: int, panel: Panel) -> None:
     for j, door in enumerate(spec.doors):
         over = (
             min(door.right_m, panel.right_m) - max(door.left_m, panel.left_m) > _EPS_M
@@ -479,7 +395,7 @@ def _check_panel(spec: CabinetSpec, i: int, panel: Panel) -> None:
         raise FieldError(("panels", i, "hole"), f"hole {hole.diameter_m} m across is not inside its panel")
 
 
-def _on_a_panel(spec: CabinetSpec, left_m: float, height_m: float, radius_m: float, up_m: float | None = None) -> bool:
+def _on_a_panel(spec: CabinetBody, left_m: float, height_m: float, radius_m: float, up_m: float | None = None) -> bool:
     """Whether the rectangle `radius_m` either side and `up_m` (default: the same) above and
     below the point lies on one panel."""
     up_m = radius_m if up_m is None else up_m
@@ -492,7 +408,7 @@ def _on_a_panel(spec: CabinetSpec, left_m: float, height_m: float, radius_m: flo
     )
 
 
-def _check_buttons(spec: CabinetSpec) -> None:
+def _check_buttons(spec: CabinetBody) -> None:
     for i, button in enumerate(spec.buttons):
         across, up = button.half_size_m
         if not _on_a_panel(spec, button.left_m, button.height_m, across, up):
@@ -521,7 +437,7 @@ def _boxes_overlap(x0: float, z0: float, half0: tuple[float, float], x1: float, 
     return abs(x0 - x1) < half0[0] + half1[0] - _EPS_M and abs(z0 - z1) < half0[1] + half1[1] - _EPS_M
 
 
-def _check_pocket(spec: CabinetSpec, group: str, i: int, part) -> None:
+def _check_pocket(spec: CabinetBody, group: str, i: int, part) -> None:
     """A pocket lies in one panel without a hole, shallower than the panel is thick."""
     panel = panel_at(spec, part.left_m, part.height_m)
     if panel is None or panel.hole is not None:
@@ -543,7 +459,7 @@ def _check_pocket(spec: CabinetSpec, group: str, i: int, part) -> None:
         )
 
 
-def _check_knobs(spec: CabinetSpec) -> None:
+def _check_knobs(spec: CabinetBody) -> None:
     for i, knob in enumerate(spec.knobs):
         r = knob.half_size_m[0]
         if not _on_a_panel(spec, knob.left_m, knob.height_m, r):
