@@ -1,8 +1,9 @@
 """The layers of setup.cfg's import-linter contracts, measured independently of import-linter:
 every module's imports are read with `ast`, those inside functions and under TYPE_CHECKING
 included, and no module may import a layer above its own or a sibling package of its layer;
-the packages then have no cycle, the package root imports nothing of the project, and the
-Blender add-on imports none of it."""
+the packages then have no cycle, no two modules import each other even through others (an
+import for type checking or inside a function is a loop too), the package root imports nothing
+of the project, and the Blender add-on imports none of it."""
 
 from __future__ import annotations
 
@@ -159,6 +160,16 @@ def test_the_code_keeps_the_layers_of_setup_cfg() -> None:
     assert layer_violations(graph, layering) == []
 
 
+def module_cycles(graph: dict[str, set[str]]) -> list[str]:
+    """Every set of modules that import one another, directly or round a loop."""
+    return [" <-> ".join(cycle) for cycle in _cycles(graph)]
+
+
+def test_no_module_imports_itself_round_a_loop() -> None:
+    layering = read_layering(REPO / "setup.cfg")
+    assert module_cycles(import_graph(REPO, layering.roots)) == []
+
+
 def _tree(root: Path, files: dict[str, str]) -> None:
     for name, text in files.items():
         (root / name).parent.mkdir(parents=True, exist_ok=True)
@@ -184,3 +195,20 @@ def test_an_upward_import_inside_a_function_a_sibling_and_a_root_import_are_foun
         "low.core -> top.cli: low imports top, a layer above it",
         "packages in a cycle: a <-> low <-> top",
     ]
+
+
+def test_a_loop_through_a_type_checking_import_or_a_function_is_found(tmp_path: Path) -> None:
+    _tree(tmp_path, {
+        "setup.cfg": "[importlinter]\nroot_packages =\n    p\n[importlinter:contract:layers]\nlayers =\n    p\n",
+        "p/__init__.py": "",
+        "p/spec.py": "from p.rules import check\n",
+        "p/rules.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from p.spec import Spec\n",  # type-only
+        "p/tasks.py": "from p.request import Request\ndef run():\n    from p.worker import work\n",
+        "p/worker.py": "from p.tasks import run\n",  # back to tasks: a loop through a function's import
+        "p/request.py": "",
+        "p/alone.py": "import p.request\n",  # downwards only: no loop
+    })  # fmt: skip
+    layering = read_layering(tmp_path / "setup.cfg")
+    graph = import_graph(tmp_path, layering.roots)
+    assert sorted(module_cycles(graph)) == ["p.rules <-> p.spec", "p.tasks <-> p.worker"]
+    assert layer_violations(graph, layering) == []  # within one package: only the loop test sees it
