@@ -25,6 +25,7 @@ from typing import Literal
 
 import numpy as np
 
+from articulation.joint_types import MOVABLE_JOINT_TYPES, MovableJointType
 from homemodel.core.errors import MapError
 from homemodel.core.transforms import (
     as_transform,
@@ -33,7 +34,6 @@ from homemodel.core.transforms import (
     translation_transform,
     xyz_rpy_from_transform,
 )
-from articulation.joint_types import MOVABLE_JOINT_TYPES, MovableJointType
 
 Relation = Literal["on", "in", "under"]
 SwitchType = Literal["rotational", "prismatic"]

@@ -14,10 +14,10 @@ from fixture_cache import cached_folder, content_key
 from model_summaries import model_summary_files, schema_problems
 from sample_house import build_house
 
-from homemodel.model_folder.gate.report import ValidationReport
 from articulation.model import Model
-from semantic_map import SemanticMap
 from homemodel.exchange.map_xml import save_map
+from homemodel.model_folder.gate.report import ValidationReport
+from semantic_map import SemanticMap
 
 # CPU seconds per test phase into a JSON file, when HOMEMODEL_CPU_PROFILE names one.
 pytest_plugins = ("cpu_profile",)

@@ -23,11 +23,11 @@ from articulation import (
     Model,
     Visual,
 )
-from homemodel.exchange.model_files import export_model
 from articulation.inertia import inertial_from_meshes
-from homemodel.exchange.urdf.read import load_urdf
 from homemodel.core.errors import InputError, ModelError, UnsafeXMLError
 from homemodel.core.transforms import transform_from_xyz_rpy
+from homemodel.exchange.model_files import export_model
+from homemodel.exchange.urdf.read import load_urdf
 
 
 def _panel(size, centre) -> trimesh.Trimesh:
@@ -237,8 +237,8 @@ def test_a_partnet_mobility_folder_registers_into_a_map_from_the_cli(tmp_path: P
     from typer.testing import CliRunner
 
     from homemodel.cli import app
-    from semantic_map import SemanticMap
     from homemodel.exchange.map_xml import load_map, save_map
+    from semantic_map import SemanticMap
 
     folder = _partnet_folder(tmp_path / "7128").parent
     smap = SemanticMap.new(apartment_id="flat", name="Flat")
@@ -259,8 +259,8 @@ def test_joint_dynamics_round_trip_through_urdf(tmp_path):
     import trimesh
 
     from articulation import Joint, JointDynamics, JointLimits, Link, Material, Model, Visual
-    from homemodel.exchange.urdf.write import write_urdf
     from homemodel.exchange.urdf.read import load_urdf
+    from homemodel.exchange.urdf.write import write_urdf
 
     box = trimesh.creation.box((0.1, 0.1, 0.1))
     grey = Material(name="grey")

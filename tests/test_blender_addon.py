@@ -416,8 +416,8 @@ def test_a_partnet_mobility_urdf_imports_rigged_and_exports_through_the_gate(sce
     np.testing.assert_allclose(np.array(next(link for link in rig.links_of(root) if link[rig.LINK] == "link_1").matrix_world), expected, atol=1e-5)
     rig.set_position(joints["joint_1"], 0.0)
     assert bpy.ops.homemodel.export_model(directory=str(tmp_path / "out")) == {"FINISHED"}
-    from homemodel.model_folder.gate.validate import validate_path
     from blender_addons.model_operators import GATE_REPORT
+    from homemodel.model_folder.gate.validate import validate_path
 
     # PartNet gives no inertials, nor a limit's effort and velocity (check_urdf wants them):
     # the export still lacks the inertials the original lacks, and gains the limits' defaults.

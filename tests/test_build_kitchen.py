@@ -49,8 +49,8 @@ def test_the_figure_47_scenario_is_in_the_map(built: Path) -> None:
     """D3.1 Figure 47: a kitchen and a bathroom; a table, cupboard, fridge and oven in the
     kitchen, each with parking positions; four small objects on the table; the pill box in
     the cupboard with its lid's hinge; the oven's knobs with their discrete states."""
-    from semantic_map import LargeArticulatedObject
     from homemodel.exchange.map_xml import load_map
+    from semantic_map import LargeArticulatedObject
 
     smap = load_map(built / "map.xml")
     assert [r.id for r in smap.apartment.rooms] == ["kitchen", "bathroom"]
@@ -106,8 +106,8 @@ def test_the_blue_cup_walk_from_the_cli_and_the_api(built: Path) -> None:
 
 
 def test_cupboard_joints_and_handles_flow_into_the_map(built: Path) -> None:
-    from homemodel.exchange.urdf.read import load_urdf
     from homemodel.exchange.map_xml import load_map
+    from homemodel.exchange.urdf.read import load_urdf
 
     model = load_urdf(built / "models" / "cupboard_1" / "model.urdf")
     node = load_map(built / "map.xml").node("cupboard_1")
@@ -195,8 +195,8 @@ def test_small_objects_set_on_their_parents_stay_put(built: Path) -> None:
 
     from homemodel.core.c_stdio_capture import captured_c_output
     from homemodel.core.transforms import rpy_from_rotation
-    from semantic_map import SmallObject
     from homemodel.exchange.map_xml import load_map
+    from semantic_map import SmallObject
 
     smap = load_map(built / "map.xml")
     objects = [o for room in smap.apartment.rooms for o in room.objects]

@@ -270,9 +270,9 @@ def test_every_entry_keeps_one_result_contract(package: str, entry: str) -> None
 
 
 def test_the_modeller_entry_registers_into_a_map(tmp_path: Path, house_file: Path, kitchen_dir: Path) -> None:
-    from modeller import BuildOptions, build
-    from homemodel.model_folder.map_entry import MapEntry
     from homemodel.exchange.map_xml import load_map
+    from homemodel.model_folder.map_entry import MapEntry
+    from modeller import BuildOptions, build
 
     entry = MapEntry(map_path=house_file, object_id="green_cup", parent_id="table")
     built = build(kitchen_dir / "blue_cup.yaml", tmp_path / "cup", BuildOptions(name="green_cup", map_entry=entry))

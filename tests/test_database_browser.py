@@ -70,10 +70,9 @@ def built(tmp_path_factory):  # noqa: ANN201
     (root / "manifest.yaml").write_text(yaml.safe_dump({"entries": entries}))
     db = root / "db"
     build_database(root / "manifest.yaml", db, DatabaseBuildOptions(workers=1, repair=True))
-    from semantic_map import SemanticMap
-    from homemodel.model_folder.map_entry import add_model_folder
     from homemodel.exchange.map_xml import save_map
-    from homemodel.model_folder.map_entry import MapEntry
+    from homemodel.model_folder.map_entry import MapEntry, add_model_folder
+    from semantic_map import SemanticMap
     from semantic_map.nodes import ParkingPosition
 
     smap = SemanticMap.new(apartment_id="flat", name="Flat")

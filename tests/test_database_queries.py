@@ -10,11 +10,11 @@ import pytest
 from sample_house import cup_model
 from typer.testing import CliRunner
 
-from homemodel.exchange.model_files import export_model
 from homemodel.app.database.index import EntryRow, ModelIndex
 from homemodel.app.database.queries import PropertyCondition
 from homemodel.cli import app
 from homemodel.core.errors import InputError
+from homemodel.exchange.model_files import export_model
 
 runner = CliRunner()
 
@@ -69,8 +69,8 @@ def test_a_bad_condition_is_one_line_and_exit_2(db: Path) -> None:
 
 
 def test_map_add_db_id_carries_the_manifests_category_and_properties(db: Path, tmp_path: Path) -> None:
-    from semantic_map import SemanticMap
     from homemodel.exchange.map_xml import load_map, save_map
+    from semantic_map import SemanticMap
 
     smap = SemanticMap.new(apartment_id="flat", name="Flat")
     smap.add_room(room_id="kitchen", name="Kitchen")

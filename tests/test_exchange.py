@@ -13,12 +13,12 @@ import pytest
 from sample_house import cupboard_model
 from typer.testing import CliRunner
 
-from homemodel.exchange.model_files import export_model
-from homemodel.core.errors import InputError
 from articulation import joint_types
+from homemodel.core.errors import InputError
 from homemodel.exchange import blender_document
 from homemodel.exchange.blender_glb import model_document_from_glb
 from homemodel.exchange.glb import BIN_CHUNK, JSON_CHUNK, pack_glb, read_glb
+from homemodel.exchange.model_files import export_model
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -19,10 +19,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sample_house import cupboard_model
 
-from homemodel.exchange.model_files import export_model
-from homemodel.exchange.urdf.read import load_urdf
 from homemodel.app.home.build import load_home
 from homemodel.core.errors import InputError
+from homemodel.exchange.model_files import export_model
+from homemodel.exchange.urdf.read import load_urdf
 from modeller import load_spec
 
 REPO = Path(__file__).resolve().parents[1]

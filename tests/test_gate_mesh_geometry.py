@@ -11,11 +11,11 @@ import pytest
 from sample_house import box_model
 from typer.testing import CliRunner
 
+from homemodel.cli import app
+from homemodel.core.safe_xml import parse_xml_file
 from homemodel.exchange.model_files import export_model
 from homemodel.model_folder.gate.mesh_geometry import mesh_geometry_check
 from homemodel.model_folder.gate.urdf_rules import meshes_check
-from homemodel.cli import app
-from homemodel.core.safe_xml import parse_xml_file
 
 runner = CliRunner()
 BOX_OBJ = "meshes/body_body.obj"

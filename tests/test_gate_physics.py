@@ -6,9 +6,9 @@ import math
 import time
 from pathlib import Path
 
+from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.model_folder.gate.physics import MAX_DRIFT_M, physics_check, physics_problems
 from homemodel.model_folder.gate.validate import PYBULLET_MAX_JOINTS, validate_path
-from homemodel.core.c_stdio_capture import captured_c_output
 
 INERTIAL = '<inertial><origin xyz="{com}"/><mass value="{kg}"/><inertia ixx="{i}" ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/></inertial>'
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from homemodel.exchange.model_files import write_model_files
-from homemodel.model_folder.gate.validate import validate_path
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError
+from homemodel.exchange.model_files import write_model_files
 from homemodel.geometry import mesh_io
 from homemodel.geometry.mesh_io import load_mesh, meshes_read_once
+from homemodel.model_folder.gate.validate import validate_path
 
 
 def _counting_reads(monkeypatch: pytest.MonkeyPatch) -> dict[Path, int]:

@@ -13,12 +13,12 @@ import pytest
 from cli_promise import assert_refused, listing, run_cli
 from typer.testing import CliRunner
 
-from homemodel.exchange.urdf.read import load_urdf
 from homemodel.app.home.build import load_home
 from homemodel.cli import app
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
 from homemodel.core.yaml_specs import read_yaml_mapping
+from homemodel.exchange.urdf.read import load_urdf
 from homemodel.geometry.mesh_io import load_mesh
 from modeller import load_spec
 from shape_completion.shape_codes import ShapeBasis

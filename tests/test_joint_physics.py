@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from spec_edits import read_spec, with_field, write_spec
 
-from homemodel.exchange.model_files import write_model_files
 from articulation.joint_loads import (
     STANDARD_GRAVITY_M_S2,
     gravity_load,
     worst_gravity_load,
 )
 from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.exchange.model_files import write_model_files
 from modeller import BuildOptions, build, build_model
 from modeller.joint_physics import HOLD_FRACTION, MAX_SINK_RAD_S
 

@@ -12,10 +12,10 @@ import pytest
 import trimesh
 from model_summaries import schema_problems, validator
 
-from homemodel.model_folder.write import PipelineSummary, report_from_summary, write_model_folder
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError, OutputExistsError
 from homemodel.core.model_summary import ModelSummary, read_summary, schema_path
+from homemodel.model_folder.write import PipelineSummary, report_from_summary, write_model_folder
 
 REPO = Path(__file__).resolve().parents[1]
 

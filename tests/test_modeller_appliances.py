@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from spec_edits import read_spec, with_field, write_spec
 
-from homemodel.exchange.model_files import write_model_files
-from homemodel.model_folder.gate.validate import validate_path
 from homemodel.core.errors import SpecError
 from homemodel.core.transforms import transform_points
+from homemodel.exchange.model_files import write_model_files
+from homemodel.model_folder.gate.validate import validate_path
 from modeller import build_model, load_spec, write_spec_schemas
 
 NAMES = [

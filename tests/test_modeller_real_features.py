@@ -236,9 +236,9 @@ def test_door_and_drawer_corners_at_their_limits_match_the_real_ones(rebuilt_uni
 
 @pytest.mark.bpy
 def test_the_rebuilt_unit_matches_the_real_one_open_and_passes_the_gate(rebuilt_unit: dict) -> None:
+    from homemodel.evaluation.voxels import voxel_iou
     from homemodel.exchange.model_files import export_model
     from homemodel.model_folder.gate.validate import validate_path
-    from homemodel.evaluation.voxels import voxel_iou
 
     parts, axes = _real_unit()
     model = rebuilt_unit["model"]
@@ -318,9 +318,9 @@ def test_open_at_90_with_the_door_thickness_wrong_is_off_and_free_corner_says_so
 
 @pytest.mark.bpy
 def test_the_rebuilt_microwave_opens_like_the_real_one_and_passes_the_gate(tmp_path: Path) -> None:
+    from homemodel.evaluation.voxels import voxel_iou
     from homemodel.exchange.model_files import export_model
     from homemodel.model_folder.gate.validate import validate_path
-    from homemodel.evaluation.voxels import voxel_iou
     from modeller import build, build_model
 
     w, d, h, t = MW["width"], MW["depth"], MW["height"], MW["wall"]

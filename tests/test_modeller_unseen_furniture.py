@@ -305,9 +305,9 @@ def measure(piece: RealPiece, folder: Path, *, whole: bool = True, grid_shifts: 
     open and closed and the gate's report. With `grid_shifts` > 1, `iou_open_shifted` also
     holds the open IOU with both pieces moved by k / grid_shifts of a voxel along (1, 1, 1):
     how much of a thin board's score is where the voxel grid happens to fall."""
+    from homemodel.evaluation.voxels import voxel_iou
     from homemodel.exchange.model_files import export_model
     from homemodel.model_folder.gate.validate import validate_path
-    from homemodel.evaluation.voxels import voxel_iou
     from modeller import build_model
 
     spec_path = write_spec(folder, piece.spec)

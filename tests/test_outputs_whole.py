@@ -16,9 +16,9 @@ import pytest
 from cli_promise import REPO, assert_refused, listing, run_cli
 from sample_house import box_model
 
-from homemodel.exchange.model_files import export_model
 from homemodel.core.atomic import atomic_dir, write_bytes_atomic
 from homemodel.core.errors import OutputExistsError, SpecError
+from homemodel.exchange.model_files import export_model
 from modeller import load_spec
 
 

@@ -249,8 +249,8 @@ def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered
 @pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
-    from semantic_map import SmallObject
     from homemodel.exchange.map_xml import load_map
+    from semantic_map import SmallObject
 
     out, map_path = rendered_run
     smap = load_map(map_path)

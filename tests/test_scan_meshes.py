@@ -12,11 +12,11 @@ import pytest
 import trimesh
 from lxml import etree
 
-from homemodel.model_folder.write import PipelineSummary, write_model_folder
 from articulation.scan_meshes import ScanMeshOptions, scan_meshes
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError
 from homemodel.evaluation.surface import distances_to_surface
+from homemodel.model_folder.write import PipelineSummary, write_model_folder
 
 TOLERANCE_M = 0.005
 

@@ -10,11 +10,11 @@ import typer
 from sample_house import HOSTILE, box_model, cup_model
 from typer.testing import CliRunner
 
-from homemodel.exchange.urdf import read as urdf_read
 from articulation.model import Model
 from homemodel.cli.map_commands import map_app
-from semantic_map import LargeObject, SmallObject
 from homemodel.exchange.map_xml import load_map
+from homemodel.exchange.urdf import read as urdf_read
+from semantic_map import LargeObject, SmallObject
 
 app = typer.Typer()
 app.add_typer(map_app, name="map")

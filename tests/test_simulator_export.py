@@ -347,9 +347,9 @@ def test_every_catalogue_model_in_every_simulator(catalogue, tmp_path: Path) -> 
 def test_ros_package_resolves_every_uri_and_loads(built_kitchen: Path, tmp_path: Path) -> None:
     import yourdfpy
 
+    from homemodel.exchange.urdf.mesh_paths import resolve_mesh
     from homemodel.model_folder.gate.clients import find_check_urdf
     from homemodel.model_folder.gate.validate import validate_path
-    from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 
     package = _export_model(built_kitchen / "models" / "oven_1", tmp_path / "kitchen_oven", "urdf-ros", "--package", "kitchen_oven")
     manifest = etree.parse(str(package / "package.xml")).getroot()
@@ -379,8 +379,8 @@ def test_ros_package_resolves_every_uri_and_loads(built_kitchen: Path, tmp_path:
 
 
 def test_package_uris_outside_the_package_are_refused(tmp_path: Path) -> None:
-    from homemodel.exchange.urdf.mesh_paths import resolve_mesh
     from homemodel.core.errors import InputError
+    from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 
     package = tmp_path / "pkg"
     (package / "urdf").mkdir(parents=True)

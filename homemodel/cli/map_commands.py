@@ -15,8 +15,8 @@ from homemodel.cli.errors import exit_on_error
 from homemodel.cli.option_fields import field_option, from_options, old_spellings
 
 if TYPE_CHECKING:
-    from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
     from homemodel.model_folder.map_entry import MapEntry, Registration
+    from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
 
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
@@ -206,12 +206,12 @@ def add(
     """Register the model MODEL under PARENT_ID and save the map atomically. A raw asset (a
     downloaded glb or OBJ, a ROS package's URDF with --import) is imported first, as
     `add_asset` says, and the repairs are printed."""
-    from homemodel.model_folder.asset_import import ImportOptions
-    from homemodel.model_folder.repair import RepairOptions
-    from homemodel.exchange.urdf.read import MESH_FILE_SUFFIXES
     from homemodel.app.database.queries import resolve_model_ref
     from homemodel.core.transforms import transform_from_xyz_rpy
+    from homemodel.exchange.urdf.read import MESH_FILE_SUFFIXES
+    from homemodel.model_folder.asset_import import ImportOptions
     from homemodel.model_folder.map_entry import MapEntry, add_asset, add_model_folder
+    from homemodel.model_folder.repair import RepairOptions
 
     with exit_on_error():
         model = resolve_model_ref(model_dir, db)

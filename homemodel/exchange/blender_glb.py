@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
+from articulation.joint_types import ROTATING_JOINT_TYPES
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.transforms import axis_angle_transform, translation_transform
 from homemodel.exchange import blender_document as doc_keys
 from homemodel.exchange.blender_document import FROM_MESHES, MAX_DOCUMENT_BYTES, MODEL_FORMAT, matrix_list
 from homemodel.exchange.glb import read_glb
-from articulation.joint_types import ROTATING_JOINT_TYPES
 
 # Blender's exporter writes (x, y, z) as (x, z, -y); this undoes it.
 Z_UP_FROM_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])

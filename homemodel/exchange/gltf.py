@@ -14,17 +14,17 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from articulation.joint_types import LIMITED_JOINT_TYPES
 from articulation.model import Joint, Link, Material, Model
+from homemodel.core.atomic import write_bytes_atomic
+from homemodel.core.transforms import Y_UP_FROM_Z_UP, rotation_from_rpy
+from homemodel.exchange.glb import pack_glb
 from homemodel.exchange.numbers import (
     canonical_transform,
     canonical_xyz_rpy,
     rounded,
     significant,
 )
-from homemodel.core.atomic import write_bytes_atomic
-from homemodel.core.transforms import Y_UP_FROM_Z_UP, rotation_from_rpy
-from homemodel.exchange.glb import pack_glb
-from articulation.joint_types import LIMITED_JOINT_TYPES
 
 _FLOAT, _UINT32 = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963

@@ -8,11 +8,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from articulation.scene import Scene, SceneObject, walls_from_outlines
-from homemodel.exchange.simulator import SceneFormat, SimulatorExport, export_scene
 from homemodel.core.errors import InputError, MapError, ModelError
+from homemodel.exchange.map_xml import load_map
+from homemodel.exchange.simulator import SceneFormat, SimulatorExport, export_scene
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, MapObject, Room
-from homemodel.exchange.map_xml import load_map
 
 
 def model_path(map_path: Path, obj: MapObject) -> Path:

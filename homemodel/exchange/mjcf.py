@@ -26,14 +26,14 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from homemodel.exchange.gltf import quaternion_xyzw
 from articulation.export_dynamics import actuator_effort, export_dynamics
 from articulation.joint_loads import subtree_links
 from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Model, Sphere
-from homemodel.exchange.numbers import fixed, fixed_list, significant
 from articulation.scene import Scene, SceneObject
-from homemodel.exchange.scene_meshes import SceneMeshes
 from homemodel.core.atomic import write_text_atomic
+from homemodel.exchange.gltf import quaternion_xyzw
+from homemodel.exchange.numbers import fixed, fixed_list, significant
+from homemodel.exchange.scene_meshes import SceneMeshes
 
 SCENE_FILE = "scene.xml"
 VISUAL_GROUP, COLLISION_GROUP = 2, 3

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from homemodel.exchange.gltf import write_glb
 from articulation.model import Model
-from homemodel.exchange.urdf.write import write_urdf
 from homemodel.core.atomic import atomic_dir
+from homemodel.exchange.gltf import write_glb
+from homemodel.exchange.urdf.write import write_urdf
 
 
 def write_model_files(model: Model, folder: Path) -> list[Path]:

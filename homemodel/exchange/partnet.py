@@ -21,9 +21,9 @@ import numpy as np
 
 from articulation.model import GraspPoint, Model
 from articulation.reframe import reframed
-from homemodel.exchange.urdf.read import load_urdf
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
+from homemodel.exchange.urdf.read import load_urdf
 
 META_FILE = "meta.json"
 PARTS_FILE = "mobility_v2.json"

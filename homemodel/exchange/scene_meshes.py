@@ -12,9 +12,9 @@ import trimesh
 from PIL import Image
 
 from articulation.naming import file_stem, unique
-from homemodel.exchange.obj import obj_text
 from articulation.scene import SceneObject
 from homemodel.core.atomic import write_bytes_atomic, write_text_atomic
+from homemodel.exchange.obj import obj_text
 
 MESH_DIR = "meshes"
 

@@ -18,15 +18,15 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from homemodel.exchange.urdf.scene import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
 from articulation.export_dynamics import export_dynamics
-from articulation.model import Box, Cylinder, Link, Material, MeshGeometry, Sphere
-from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
 from articulation.joint_loads import STANDARD_GRAVITY_M_S2
+from articulation.model import Box, Cylinder, Link, Material, MeshGeometry, Sphere
 from articulation.scene import Scene, SceneObject
-from homemodel.exchange.scene_meshes import SceneMeshes
 from homemodel.core.atomic import write_text_atomic
 from homemodel.core.transforms import translation_transform
+from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
+from homemodel.exchange.scene_meshes import SceneMeshes
+from homemodel.exchange.urdf.scene import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
 
 SCENE_FILE = "scene.sdf"
 SDF_VERSION = "1.9"

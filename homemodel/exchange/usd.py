@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.exchange.urdf.scene import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
 from articulation.export_dynamics import export_dynamics
+from articulation.joint_loads import STANDARD_GRAVITY_M_S2
 from articulation.model import (
     Box,
     Collision,
@@ -41,10 +41,10 @@ from articulation.model import (
     Sphere,
 )
 from articulation.naming import unique
-from articulation.joint_loads import STANDARD_GRAVITY_M_S2
 from articulation.scene import Scene, SceneObject
-from homemodel.exchange.scene_meshes import SceneMeshes
 from homemodel.core.errors import ModelError
+from homemodel.exchange.scene_meshes import SceneMeshes
+from homemodel.exchange.urdf.scene import FLOOR_MATERIAL, WALL_MATERIAL, floor_box
 
 SCENE_FILE = "scene.usda"
 

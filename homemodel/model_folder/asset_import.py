@@ -17,14 +17,21 @@ import numpy as np
 import trimesh
 
 from articulation.model import Collision, Link, Material, MeshGeometry, Model, Visual
-from homemodel.model_folder.write import ModelFolder, PipelineSummary, write_model_folder
-from homemodel.exchange.partnet import import_partnet, is_partnet_folder
-from homemodel.model_folder.repair import AssetGaps, RepairOptions, find_gaps, model_flat_collisions, model_hollow_collisions, repair
 from articulation.scan_model import LINK
-from homemodel.exchange.urdf.read import MESH_FILE_SUFFIXES, find_urdf, load_urdf, read_mesh_parts
 from homemodel.core.checks import require_choice
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import Y_UP_FROM_Z_UP
+from homemodel.exchange.partnet import import_partnet, is_partnet_folder
+from homemodel.exchange.urdf.read import MESH_FILE_SUFFIXES, find_urdf, load_urdf, read_mesh_parts
+from homemodel.model_folder.repair import (
+    AssetGaps,
+    RepairOptions,
+    find_gaps,
+    model_flat_collisions,
+    model_hollow_collisions,
+    repair,
+)
+from homemodel.model_folder.write import ModelFolder, PipelineSummary, write_model_folder
 
 _GLTF = (".glb", ".gltf")
 # Metres per unit of a mesh file's coordinates. glTF is in metres by its specification and a

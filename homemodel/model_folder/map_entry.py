@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from homemodel.core.errors import MapError, ModelError, OutputExistsError
+from homemodel.exchange.map_xml import load_map, save_map
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import MapObject, ParkingPosition, Relation
-from homemodel.exchange.map_xml import load_map, save_map
 
 if TYPE_CHECKING:
     from homemodel.model_folder.asset_import import ImportOptions

@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.model_folder.gate.mesh_geometry import VOLUME_TOLERANCE
-from homemodel.model_folder.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 from articulation.inertia import link_mass
 from articulation.model import Box, Collision, Link, MeshGeometry, Model
 from homemodel.core.checks import require_positive
 from homemodel.exchange import urdf as urdf_doc
-from homemodel.geometry.mesh_ops import zero_area_faces
 from homemodel.exchange.urdf import Element
+from homemodel.geometry.mesh_ops import zero_area_faces
+from homemodel.model_folder.gate.mesh_geometry import VOLUME_TOLERANCE
+from homemodel.model_folder.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 
 
 @dataclass(kw_only=True)

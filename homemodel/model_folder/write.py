@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from homemodel.model_folder.gate.report import Check, ValidationReport
 from articulation.model import Model
 from articulation.scan_meshes import warnings as mesh_warnings
 from homemodel.core.atomic import atomic_dir, write_json
@@ -27,6 +26,7 @@ from homemodel.core.model_summary import (
     failed_check_lines,
 )
 from homemodel.core.progress import Progress, StageClock
+from homemodel.model_folder.gate.report import Check, ValidationReport
 
 
 @dataclass(kw_only=True)

@@ -30,9 +30,9 @@ HOME_FORMAT = "homemodel.blender-home/1"
 
 def describe_map(map_path: Path, out_dir: Path, *, force: bool = False) -> Path:
     """Write `out_dir/home.json` and `out_dir/models/<id>.json` for the map at `map_path`."""
+    from homemodel.exchange.map_xml import load_map
     from homemodel.exchange.urdf.read import load_urdf
     from semantic_map import LargeObject
-    from homemodel.exchange.map_xml import load_map
 
     map_path = Path(map_path)
     smap = load_map(map_path)
@@ -101,9 +101,9 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
     """Write `out_dir/map.xml` (checked against the XSD on save), `out_dir/models/<id>/`
     (URDF, glb, meshes, summary.json with the gate's report) for every object of the home
     document, and `out_dir/summary.json`. Atomic: on any error `out_dir` is left as it was."""
+    from homemodel.exchange.map_xml import save_map
     from homemodel.model_folder.write import PipelineSummary, write_model_folder
     from semantic_map import ParkingPosition, SemanticMap
-    from homemodel.exchange.map_xml import save_map
 
     home_path = Path(home_path)
     home = read_document(home_path)

@@ -185,9 +185,9 @@ def _warnings(summary: ModelSummary) -> list[str]:
 
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
+    from homemodel.exchange.map_xml import save_map
     from modeller import BuildOptions, build, load_spec
     from semantic_map import ParkingPosition, SemanticMap
-    from homemodel.exchange.map_xml import save_map
 
     example_dir = Path(example_dir)
     home_file = example_dir / HOME_FILE

@@ -11,9 +11,9 @@ from lxml import etree
 from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.errors import MapError, OutputError
 from homemodel.core.safe_xml import parse_xml_bytes, parse_xml_file
-from semantic_map.hierarchy import SemanticMap
 from homemodel.exchange.map_xml.read import apartment_from_tree
 from homemodel.exchange.map_xml.write import NAMESPACE, apartment_to_bytes
+from semantic_map.hierarchy import SemanticMap
 
 SCHEMA_PATH = Path(__file__).parent / "semantic_map.xsd"
 

@@ -14,6 +14,7 @@ from typing import TypeVar
 from lxml import etree
 
 from homemodel.core.errors import MapError
+from homemodel.exchange.map_xml.write import q
 from semantic_map.nodes import (
     Apartment,
     DefaultPosition,
@@ -30,7 +31,6 @@ from semantic_map.nodes import (
     SmallObject,
     Switch,
 )
-from homemodel.exchange.map_xml.write import q
 
 T = TypeVar("T")
 

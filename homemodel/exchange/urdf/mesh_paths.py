@@ -14,8 +14,8 @@ from pathlib import Path
 
 from homemodel.core.errors import HomemodelError, InputError
 from homemodel.core.input_files import confined_path
-from homemodel.exchange import urdf as urdf_doc
 from homemodel.core.safe_xml import parse_xml_file
+from homemodel.exchange import urdf as urdf_doc
 
 
 def _enclosing_package(urdf_dir: Path) -> tuple[str, Path] | None:

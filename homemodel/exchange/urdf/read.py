@@ -15,8 +15,7 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from homemodel.geometry.collada import collada_unit_m
-from homemodel.exchange.urdf.mesh_paths import resolve_mesh
+from articulation.joint_types import JOINT_TYPES
 from articulation.model import (
     Box,
     Collision,
@@ -37,10 +36,11 @@ from articulation.model import (
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import MESH_TRIANGLES
-from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
 from homemodel.core.transforms import transform_from_xyz_rpy
-from articulation.joint_types import JOINT_TYPES
 from homemodel.exchange import urdf as urdf_doc
+from homemodel.exchange.urdf.mesh_paths import resolve_mesh
+from homemodel.geometry.collada import collada_unit_m
+from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
 
 _NUMBER_LIST = re.compile(r"\s+")
 

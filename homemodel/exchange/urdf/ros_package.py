@@ -19,10 +19,10 @@ from pathlib import Path
 from lxml import etree
 
 from articulation.model import Model
-from homemodel.exchange.urdf.write import MESH_DIR, urdf_bytes
 from homemodel.core.atomic import write_text_atomic
 from homemodel.core.errors import InputError
 from homemodel.exchange import urdf as urdf_doc
+from homemodel.exchange.urdf.write import MESH_DIR, urdf_bytes
 
 # REP 144: lower case letters, digits and underscores, starting with a letter.
 _PACKAGE_NAME = re.compile(r"^[a-z][a-z0-9_]*$")

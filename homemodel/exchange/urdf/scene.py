@@ -18,12 +18,12 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from homemodel.exchange.gltf import glb_bytes
 from articulation.model import Box, Collision, GraspPoint, Joint, JointState, Link, Material, Model, Visual
-from homemodel.exchange.numbers import fixed
 from articulation.scene import Scene, SceneObject
-from homemodel.exchange.urdf.write import urdf_bytes
 from homemodel.core.atomic import write_bytes_atomic, write_text_atomic
+from homemodel.exchange.gltf import glb_bytes
+from homemodel.exchange.numbers import fixed
+from homemodel.exchange.urdf.write import urdf_bytes
 
 WORLD_LINK = "world"
 FLOOR_THICKNESS_M = 0.05

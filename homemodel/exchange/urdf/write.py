@@ -26,9 +26,9 @@ from articulation.model import (
     Visual,
 )
 from articulation.naming import file_stem, unique
+from homemodel.core.atomic import write_text_atomic
 from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
 from homemodel.exchange.obj import mtl_text, obj_text
-from homemodel.core.atomic import write_text_atomic
 
 MESH_DIR = "meshes"
 

@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from articulation.joint_types import MOVABLE_JOINT_TYPES
+from homemodel.core.c_stdio_capture import captured_c_output
+from homemodel.core.transforms import axis_angle_transform, translation_transform
 from homemodel.model_folder.gate.process import last_lines, run_bounded
 from homemodel.model_folder.gate.pybullet_world import empty_pybullet_client
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
-from homemodel.core.c_stdio_capture import captured_c_output
-from homemodel.core.transforms import axis_angle_transform, translation_transform
-from articulation.joint_types import MOVABLE_JOINT_TYPES
 
 CHECK_URDF_TIMEOUT_S = 30.0
 POSITION_TOLERANCE_M = 1e-4

@@ -52,11 +52,11 @@ from typing import Any
 
 import numpy as np
 
+from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.model_folder.gate.clients import pybullet_errors
 from homemodel.model_folder.gate.pybullet_world import empty_pybullet_client
 from homemodel.model_folder.gate.real_meshes import RealMeshes
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
-from homemodel.core.c_stdio_capture import captured_c_output
 
 CHECK_NAME = "collisions"
 PENETRATION_TOLERANCE_M = 5e-5

@@ -7,9 +7,8 @@ from __future__ import annotations
 
 import math
 
-
-from homemodel.model_folder.gate.report import Check, check_from_problems
 from homemodel.exchange.urdf import Element
+from homemodel.model_folder.gate.report import Check, check_from_problems
 
 # Attributes that hold names or paths, never numbers (a link named "inf" is fine).
 _TEXT_ATTRIBUTES = frozenset({"name", "type", "link", "joint", "filename", "kind", "category", "value"})

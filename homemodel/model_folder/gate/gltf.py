@@ -7,13 +7,13 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from homemodel.model_folder.gate.report import Check, check_from_problems, count
-from homemodel.model_folder.gate.resident_validator import ValidatorFailed, validate_resident
-from homemodel.model_folder.gate.urdf_rules import AXIS_UNIT_TOLERANCE
+from articulation.joint_types import JOINT_TYPES, LIMITED_JOINT_TYPES
 from homemodel.core.errors import InputError
 from homemodel.core.node_packages import find_node_package, install_hint
 from homemodel.exchange.glb import read_glb
-from articulation.joint_types import JOINT_TYPES, LIMITED_JOINT_TYPES
+from homemodel.model_folder.gate.report import Check, check_from_problems, count
+from homemodel.model_folder.gate.resident_validator import ValidatorFailed, validate_resident
+from homemodel.model_folder.gate.urdf_rules import AXIS_UNIT_TOLERANCE
 
 VALIDATOR_TIMEOUT_S = 60.0
 # Shipped with the package; it runs the npm package gltf-validator, which is installed apart.

@@ -13,14 +13,14 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.model_folder.gate.report import Check, check_from_problems, count
-from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 from homemodel.core.errors import InputError
 from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.exchange import urdf as urdf_doc
+from homemodel.exchange.urdf import Element
+from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 from homemodel.geometry.mesh_io import load_mesh
 from homemodel.geometry.mesh_ops import zero_area_faces
-from homemodel.exchange.urdf import Element
+from homemodel.model_folder.gate.report import Check, check_from_problems, count
 
 # Relative to the cubed size of the mesh's bounding box: below this a solid has no volume.
 VOLUME_TOLERANCE = 1e-12

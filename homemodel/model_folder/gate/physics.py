@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
+from articulation.joint_loads import STANDARD_GRAVITY_M_S2
+from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.model_folder.gate.clients import pybullet_errors
 from homemodel.model_folder.gate.pybullet_world import empty_pybullet_client
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
-from articulation.joint_loads import STANDARD_GRAVITY_M_S2
-from homemodel.core.c_stdio_capture import captured_c_output
 
 CHECK_NAME = "physics"
 SIMULATED_S = 1.0

@@ -18,9 +18,9 @@ import numpy as np
 import trimesh
 from trimesh.collision import CollisionManager
 
-from homemodel.exchange.urdf.mesh_paths import resolve_mesh
-from homemodel.exchange import urdf as urdf_doc
 from homemodel.core.transforms import transform_from_xyz_rpy
+from homemodel.exchange import urdf as urdf_doc
+from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 from homemodel.geometry.mesh_io import load_mesh
 
 # Tessellation of primitives for FCL; boxes are exact.

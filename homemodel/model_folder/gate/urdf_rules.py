@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from homemodel.model_folder.gate.report import Check, check_from_problems, count
-from homemodel.exchange.urdf.mesh_paths import resolve_mesh
+from articulation.joint_types import LIMITED_JOINT_TYPES, URDF_JOINT_TYPES
 from homemodel.core.errors import InputError
 from homemodel.exchange import urdf as urdf_doc
-from articulation.joint_types import LIMITED_JOINT_TYPES, URDF_JOINT_TYPES
-from homemodel.geometry.mesh_io import load_mesh
 from homemodel.exchange.urdf import Element
+from homemodel.exchange.urdf.mesh_paths import resolve_mesh
+from homemodel.geometry.mesh_io import load_mesh
+from homemodel.model_folder.gate.report import Check, check_from_problems, count
 
 AXIS_UNIT_TOLERANCE = 1e-6
 # Relative to the sum of the principal moments. A thin plate sits exactly on the bound, and

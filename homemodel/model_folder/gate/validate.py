@@ -11,7 +11,12 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-
+from homemodel.core.errors import HomemodelError, InputError
+from homemodel.exchange import urdf as urdf_doc
+from homemodel.exchange.urdf import Element
+from homemodel.exchange.urdf.mesh_paths import with_package_uris_resolved
+from homemodel.exchange.urdf.read import find_urdf
+from homemodel.geometry.mesh_io import meshes_read_once
 from homemodel.model_folder.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
 from homemodel.model_folder.gate.collisions import collisions_check
 from homemodel.model_folder.gate.finite_numbers import finite_numbers_check
@@ -28,12 +33,6 @@ from homemodel.model_folder.gate.urdf_rules import (
     tree_check,
     unsafe_mesh_references,
 )
-from homemodel.exchange.urdf.mesh_paths import with_package_uris_resolved
-from homemodel.exchange.urdf.read import find_urdf
-from homemodel.core.errors import HomemodelError, InputError
-from homemodel.exchange import urdf as urdf_doc
-from homemodel.geometry.mesh_io import meshes_read_once
-from homemodel.exchange.urdf import Element
 
 __all__ = ["Check", "ValidationReport", "validate_path"]
 
