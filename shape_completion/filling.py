@@ -19,19 +19,17 @@ Hidden voxels far from all evidence are settled by the deformed model (see EVIDE
 
 from __future__ import annotations
 
-from contextlib import nullcontext
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 import trimesh
 from scipy import ndimage
-from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.ensemble import HistGradientBoostingClassifier
 
 from homemodel.core.errors import ModelError
 from homemodel.evaluation.voxels import VoxelGrid, iou_of_occupancies, solid_occupancy
 from homemodel.geometry.camera import Camera
+from shape_completion.estimator import Estimator
 from shape_completion.symmetry import Plane, RevolutionAxis
 from shape_completion.tree_arrays import BoosterArrays
 
@@ -72,7 +70,6 @@ CLASS_FEATURE = FEATURE_NAMES.index("retrieved_class")
 # 99.3-100% of those far voxels, and they were half of a query's time.
 EVIDENCE_BAND = 0.05
 MARGIN = 0.1  # free space around the query and the deformed mesh, in object extents
-PARALLEL_PREDICTION_ROWS = 50_000
 # A voxel between the coarse lattice's takes its corners' mean when they all lie this far on one side of the level.
 COARSE_MARGIN = 0.2
 FAR = 10.0  # the symmetric distance when there is no symmetry plane, in object sizes
@@ -387,7 +384,7 @@ class TrainingGrid:
         return float(hits / max(claimed + self.true - hits, 1.0))
 
 
-class VoxelFiller(ClassifierMixin, BaseEstimator):
+class VoxelFiller(Estimator):
     """The boosted decision tree that decides an ambiguous voxel's occupancy from its features
     (FEATURE_NAMES), and the probability level it must pass (`level_`).
 
@@ -405,6 +402,8 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
         self.random_state = random_state
 
     def fit(self, features: np.ndarray, occupied: np.ndarray) -> VoxelFiller:
+        from sklearn.ensemble import HistGradientBoostingClassifier
+
         booster = HistGradientBoostingClassifier(
             max_iter=self.max_iter,
             learning_rate=self.learning_rate,
@@ -440,10 +439,7 @@ class VoxelFiller(ClassifierMixin, BaseEstimator):
         """P(occupied) per row."""
         if len(features) == 0:
             return np.zeros(0)
-        # A query's grid (10^5 voxels) is predicted on every core: measured 0.88 s on one
-        # thread, 0.47 s on two. Small batches stay on one (see `single_threaded`).
-        with single_threaded() if len(features) < PARALLEL_PREDICTION_ROWS else nullcontext():
-            return self.trees_.probability(features)
+        return self.trees_.probability(features)
 
 
 def mesh_from_field(field: np.ndarray, grid: VoxelGrid, *, level: float = 0.5) -> trimesh.Trimesh:

@@ -12,15 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import cKDTree
-from sklearn.base import BaseEstimator
-from sklearn.ensemble import RandomForestRegressor
 
 from homemodel.geometry.camera import Camera
+from shape_completion.estimator import Estimator
 from shape_completion.registration import apply
 from shape_completion.tree_arrays import ForestArrays
 
 
-class ViewForest(BaseEstimator):
+class ViewForest(Estimator):
     """Retrieves the training views that share the most leaves with a query's features."""
 
     def __init__(
@@ -37,6 +36,8 @@ class ViewForest(BaseEstimator):
         self.random_state = random_state
 
     def fit(self, features: np.ndarray, codes: np.ndarray) -> ViewForest:
+        from sklearn.ensemble import RandomForestRegressor
+
         forest = RandomForestRegressor(
             n_estimators=self.n_estimators,
             min_samples_leaf=self.min_samples_leaf,

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
-from sklearn.base import BaseEstimator
 
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.progress import Progress, StageClock, no_progress
@@ -28,6 +27,7 @@ from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
 from shape_completion.deformation import deformation_is_trusted, symmetric_controls, tps_deform
+from shape_completion.estimator import Estimator
 from shape_completion.features import PixelTests, view_features
 from shape_completion.filling import CarvedGrid, TrainingGrid, VoxelFiller, best_mesh_level, carve, mesh_from_field
 from shape_completion.library import Library, training_fingerprint, working_mesh
@@ -138,7 +138,7 @@ def view_distance_m(radius_m: float) -> float:
     return radius_m / np.tan(np.arctan(0.5 * VIEW_IMAGE_PX / VIEW_CAMERA.fx) * 0.8)
 
 
-class ShapeCompleter(BaseEstimator):
+class ShapeCompleter(Estimator):
     """Rock et al.'s Matching, Fitting and Filling, trained on a class library (scikit-learn contract)."""
 
     def __init__(

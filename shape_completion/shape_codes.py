@@ -14,8 +14,6 @@ import warnings
 import numpy as np
 import trimesh
 from scipy.optimize import nnls
-from sklearn.decomposition import NMF
-from sklearn.exceptions import ConvergenceWarning
 
 from homemodel.evaluation.voxels import VoxelGrid, solid_occupancy
 
@@ -54,6 +52,9 @@ class ShapeBasis:
         self.random_state = random_state
 
     def fit(self, occupancies: np.ndarray) -> ShapeBasis:
+        from sklearn.decomposition import NMF
+        from sklearn.exceptions import ConvergenceWarning
+
         # NNDSVD starts from an SVD, which has at most min(views, voxels) components: a small
         # library (one class of two meshes, few views) asks for more than that.
         components = min(self.n_components, *occupancies.shape)

@@ -1,24 +1,34 @@
 """The trained trees of shape completion as plain arrays, so a model file carries no code.
 
 scikit-learn grows the trees; what prediction needs of them is copied out into numeric
-arrays (`arrays()`), which `from_arrays` checks before any compiled code walks them: a child
+arrays (`arrays()`), which `from_arrays` checks before prediction walks them: a child
 index past the end, or one that points back up the tree, would read outside the array or
-never end. The retrieval forest is walked in numpy (one query row at a time); the filler's
-boosted trees by scikit-learn's compiled `TreePredictor`, given the checked arrays.
+never end. Prediction is numpy's, so a query imports no scikit-learn (1.2 CPU-s): the
+retrieval forest is walked one query row at a time; the filler's boosted trees are
+evaluated all at once from tables of their leaves (`BoosterArrays`, after QuickScorer).
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy.special import expit
-from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestRegressor
-from sklearn.ensemble._hist_gradient_boosting.common import PREDICTOR_RECORD_DTYPE
-from sklearn.ensemble._hist_gradient_boosting.predictor import TreePredictor
-from sklearn.utils._openmp_helpers import _openmp_effective_n_threads
 
 from homemodel.core.errors import InputError
 
+if TYPE_CHECKING:
+    from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestRegressor
+
 BITSET_WORDS = 8  # scikit-learn's categorical bitsets: 8 x 32 bits, categories 0..255
+# scikit-learn's record of a boosted tree's node (PREDICTOR_RECORD_DTYPE), as model files hold it.
+NODE_DTYPE = np.dtype([
+    ("value", "<f8"), ("count", "<u4"), ("feature_idx", "<i8"), ("num_threshold", "<f8"),
+    ("missing_go_to_left", "u1"), ("left", "<u4"), ("right", "<u4"), ("gain", "<f8"), ("depth", "<u4"),
+    ("is_leaf", "u1"), ("bin_threshold", "u1"), ("is_categorical", "u1"), ("bitset_idx", "<u4"),
+])
+MAX_LEAVES = 64  # a tree's leaves are the bits of one uint64
+ROWS_PER_BLOCK = 8192  # rows evaluated together: (rows, trees) tables of a few MB
 
 
 def _check_children(left: np.ndarray, right: np.ndarray, is_leaf: np.ndarray, name: str) -> None:
@@ -104,7 +114,14 @@ class BoosterArrays:
 
     With categorical features scikit-learn first encodes each one's values as their index
     among the sorted categories seen in training (unknown -> NaN) and moves those columns to
-    the front (its OrdinalEncoder in a ColumnTransformer); `encoded` does the same."""
+    the front (its OrdinalEncoder in a ColumnTransformer); `encoded` does the same.
+
+    Prediction follows QuickScorer (Lucchese et al., SIGIR 2015): a tree's leaves, left to
+    right, are the bits of a mask; a split a row fails (it goes right) clears the bits of its
+    left subtree's leaves, and the row's leaf is the lowest bit left once every failed split
+    is applied. Per feature, its splits sorted by threshold give a table of the masks a value
+    leaves (row r: the AND of the r lowest thresholds' masks), so a row's leaves in all trees
+    are one table lookup per feature and an AND: a few numpy passes instead of walking nodes."""
 
     def __init__(self, *, n_features: int, baseline: float, classes: np.ndarray, offsets: np.ndarray,
                  nodes: np.ndarray, bitset_offsets: np.ndarray, left_cat_bitsets: np.ndarray,
@@ -116,10 +133,7 @@ class BoosterArrays:
         self.offsets, self.nodes = offsets, nodes  # tree t holds nodes offsets[t]:offsets[t + 1]
         self.bitset_offsets, self.left_cat_bitsets = bitset_offsets, left_cat_bitsets
         self.known_cat_bitsets, self.f_idx_map = known_cat_bitsets, f_idx_map
-        self._predictors = [
-            TreePredictor(nodes[a:b], None, left_cat_bitsets[c:d])
-            for a, b, c, d in zip(offsets[:-1], offsets[1:], bitset_offsets[:-1], bitset_offsets[1:])
-        ]
+        self._tables = _LeafTables(self)
 
     @classmethod
     def from_sklearn(cls, booster: HistGradientBoostingClassifier) -> BoosterArrays:
@@ -137,7 +151,7 @@ class BoosterArrays:
             baseline=float(np.ravel(booster._baseline_prediction)[0]),
             classes=np.asarray(booster.classes_),
             offsets=np.cumsum([0] + [len(tree.nodes) for tree in trees]).astype(np.int64),
-            nodes=np.concatenate([tree.nodes for tree in trees]),
+            nodes=np.concatenate([tree.nodes for tree in trees]).astype(NODE_DTYPE),
             bitset_offsets=np.cumsum([0] + [len(tree.raw_left_cat_bitsets) for tree in trees]).astype(np.int64),
             left_cat_bitsets=np.concatenate([tree.raw_left_cat_bitsets for tree in trees]).reshape(-1, BITSET_WORDS),
             known_cat_bitsets=np.asarray(known, dtype=np.uint32).reshape(-1, BITSET_WORDS),
@@ -160,7 +174,7 @@ class BoosterArrays:
     def from_arrays(cls, arrays: dict[str, np.ndarray], name: str) -> BoosterArrays:
         nodes, offsets, bitset_offsets = arrays["nodes"], arrays["offsets"], arrays["bitset_offsets"]
         n_features = int(arrays["n_features"])
-        if nodes.dtype != PREDICTOR_RECORD_DTYPE:
+        if nodes.dtype != NODE_DTYPE:
             raise InputError(f"{name}: the filler's tree nodes are not in scikit-learn's record layout")
         for label, bounds, total in (("tree", offsets, len(nodes)), ("bitset", bitset_offsets, None)):
             if bounds.ndim != 1 or len(bounds) != len(offsets) or bounds[0] != 0 or np.any(np.diff(bounds) < 0):
@@ -181,16 +195,22 @@ class BoosterArrays:
         if (columns.ndim != 1 or np.any(columns < 0) or np.any(columns >= n_features)
                 or len(np.unique(columns)) != len(columns) or category_offsets.shape != (len(columns) + 1,)
                 or category_offsets[0] != 0 or np.any(np.diff(category_offsets) < 0)
-                or category_offsets[-1] != len(categories)):
+                or category_offsets[-1] != len(categories)
+                or np.any(np.diff(category_offsets) > BITSET_WORDS * 32)):
             raise InputError(f"{name}: the filler's categorical columns do not fit its {n_features} features")
         for a, b, c, d in zip(offsets[:-1], offsets[1:], bitset_offsets[:-1], bitset_offsets[1:]):
             tree = nodes[a:b]
             is_leaf = tree["is_leaf"].astype(bool)
             _check_children(tree["left"].astype(np.int64), tree["right"].astype(np.int64), is_leaf, name)
             _check_features(tree["feature_idx"].astype(np.int64), is_leaf, n_features, name)
+            if np.count_nonzero(is_leaf) > MAX_LEAVES:
+                raise InputError(f"{name}: a filler tree has more than {MAX_LEAVES} leaves")
             categorical = ~is_leaf & tree["is_categorical"].astype(bool)
             if np.any(tree["bitset_idx"][categorical] >= d - c) or (np.any(categorical) and len(known) == 0):
                 raise InputError(f"{name}: a filler tree's category bitset index lies outside its bitsets")
+            # The encoded rows hold the categorical columns first: their splits must be categorical.
+            if np.any(categorical != (~is_leaf & (tree["feature_idx"] < len(columns)))):
+                raise InputError(f"{name}: a filler tree splits a categorical column by threshold, or the reverse")
         return cls(n_features=n_features, baseline=float(arrays["baseline"]), classes=arrays["classes"],
                    offsets=offsets, nodes=nodes, bitset_offsets=bitset_offsets, left_cat_bitsets=bitsets,
                    known_cat_bitsets=known, f_idx_map=f_idx_map, categorical_columns=columns,
@@ -215,14 +235,116 @@ class BoosterArrays:
         return np.column_stack([*codes, rows[:, numeric]]).astype(np.float64)
 
     def probability(self, features: np.ndarray) -> np.ndarray:
-        """P(classes[1]) per row, computed as scikit-learn's `predict_proba` does (same sums, same order)."""
+        """P(classes[1]) per row, equal to scikit-learn's `predict_proba` (the trees' values
+        summed in the same order)."""
         rows = np.asarray(features, dtype=np.float64)
         if rows.ndim != 2 or rows.shape[1] != self.n_features:
             raise ValueError(f"{rows.shape=} but expected (N, {self.n_features})")
         rows = self.encoded(rows)
         raw = np.zeros(len(rows), dtype=np.float64)
         raw += self.baseline
-        threads = _openmp_effective_n_threads()
-        for predictor in self._predictors:
-            raw += predictor.predict(rows, self.known_cat_bitsets, self.f_idx_map, threads)
+        for start in range(0, len(rows), ROWS_PER_BLOCK):
+            values = self._tables.tree_values(rows[start:start + ROWS_PER_BLOCK])  # (rows, trees)
+            block = raw[start:start + ROWS_PER_BLOCK]
+            for tree in range(values.shape[1]):
+                block += values[:, tree]
         return expit(raw)
+
+
+def _leaf_ranges(tree: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per node of one tree, the range [low, high) of its subtree's leaves numbered left to
+    right, and the leaves' node indices in that order."""
+    low, high = np.zeros(len(tree), dtype=np.int64), np.zeros(len(tree), dtype=np.int64)
+    leaves: list[int] = []
+    stack = [(0, False)]
+    while stack:  # depth first, left before right; a node is closed after its children
+        node, closing = stack.pop()
+        if closing:
+            low[node], high[node] = low[tree["left"][node]], high[tree["right"][node]]
+        elif tree["is_leaf"][node]:
+            low[node], high[node] = len(leaves), len(leaves) + 1
+            leaves.append(node)
+        else:
+            stack += [(node, True), (int(tree["right"][node]), False), (int(tree["left"][node]), False)]
+    return low, high, np.asarray(leaves, dtype=np.int64)
+
+
+class _LeafTables:
+    """The boosted trees as QuickScorer's tables (see `BoosterArrays`), built from checked arrays."""
+
+    def __init__(self, booster: BoosterArrays) -> None:
+        nodes, offsets = booster.nodes, booster.offsets
+        n_trees = len(offsets) - 1
+        most_leaves = max(int(np.count_nonzero(nodes["is_leaf"][a:b])) for a, b in zip(offsets[:-1], offsets[1:]))
+        # Half the bytes to gather when every tree has at most 32 leaves (the filler has 31).
+        self.dtype = np.dtype(np.uint32 if most_leaves <= 32 else np.uint64)
+        all_leaves = self.dtype.type(2 ** (8 * self.dtype.itemsize) - 1)
+        split_tree, split_node, split_keeps = [], [], []  # per split: its tree, its node, the mask of going right
+        self.leaf_values = np.zeros((n_trees, MAX_LEAVES))
+        for t, (start, stop) in enumerate(zip(offsets[:-1], offsets[1:])):
+            tree = nodes[start:stop]
+            low, high, leaves = _leaf_ranges(tree)
+            self.leaf_values[t, : len(leaves)] = tree["value"][leaves]
+            for node in np.nonzero(tree["is_leaf"] == 0)[0]:
+                left = tree["left"][node]
+                cleared = (2 ** int(high[left]) - 1) ^ (2 ** int(low[left]) - 1)  # the left subtree's bits
+                split_tree.append(t)
+                split_node.append(start + node)
+                split_keeps.append(all_leaves ^ self.dtype.type(cleared))
+        split_tree, split_node = np.asarray(split_tree, dtype=np.int64), np.asarray(split_node, dtype=np.int64)
+        split_keeps = np.asarray(split_keeps, dtype=self.dtype)
+        n_categorical = len(booster.categorical_columns)
+        self.n_trees, self.all_leaves = n_trees, all_leaves
+        self.columns: list[tuple[int, np.ndarray | None, np.ndarray]] = []  # (column, thresholds or None, table)
+        for column in np.unique(nodes["feature_idx"][split_node]) if len(split_node) else []:
+            on_column = nodes["feature_idx"][split_node] == column
+            trees, at, keeps = split_tree[on_column], split_node[on_column], split_keeps[on_column]
+            goes_right_if_missing = nodes["missing_go_to_left"][at] == 0
+            if column < n_categorical:  # rows: each category's code, then missing
+                count = int(np.diff(booster.category_offsets)[column])
+                known_row = booster.known_cat_bitsets[booster.f_idx_map[column]] if len(booster.known_cat_bitsets) else None
+                bitsets = booster.left_cat_bitsets[booster.bitset_offsets[trees] + nodes["bitset_idx"][at]]
+                right = np.zeros((count + 1, len(at)), dtype=bool)
+                for code in range(count):
+                    word, bit = divmod(code, 32)
+                    is_known = known_row is not None and (known_row[word] >> np.uint32(bit)) & 1
+                    in_left = (bitsets[:, word] >> np.uint32(bit)) & 1 == 1
+                    right[code] = ~in_left if is_known else goes_right_if_missing
+                right[count] = goes_right_if_missing
+                table = np.full((count + 1, n_trees), all_leaves)
+                for row in range(count + 1):
+                    np.bitwise_and.at(table[row], trees[right[row]], keeps[right[row]])
+                self.columns.append((int(column), None, table))
+                continue
+            # Rows: r = how many of the sorted thresholds a value passes (x > threshold: right), then missing.
+            order = np.argsort(nodes["num_threshold"][at], kind="stable")
+            thresholds = nodes["num_threshold"][at][order]
+            table = np.full((len(at) + 2, n_trees), all_leaves)
+            for r, split in enumerate(order):
+                table[r + 1] = table[r]
+                table[r + 1, trees[split]] &= keeps[split]
+            np.bitwise_and.at(table[-1], trees[goes_right_if_missing], keeps[goes_right_if_missing])
+            self.columns.append((int(column), thresholds, table))
+
+    def tree_values(self, rows: np.ndarray) -> np.ndarray:
+        """(rows, trees): the value of the leaf each encoded row reaches in each tree."""
+        common = np.full(self.n_trees, self.all_leaves)  # what columns with one value for all rows leave
+        mask = None
+        for column, thresholds, table in self.columns:
+            values = rows[:, column]
+            missing = np.isnan(values)
+            if thresholds is None:
+                index = np.where(missing, len(table) - 1, np.nan_to_num(values)).astype(np.int64)
+            else:
+                index = np.where(missing, len(table) - 1, np.searchsorted(thresholds, values, side="left"))
+            if len(index) and np.all(index == index[0]):  # a query's match and fit distances, its class
+                common &= table[index[0]]
+            elif mask is None:
+                mask = table[index]
+            else:
+                mask &= table[index]
+        mask = np.broadcast_to(common, (len(rows), self.n_trees)) if mask is None else mask & common
+        lowest = mask & (~mask + self.dtype.type(1))  # the lowest set bit: the row's leaf
+        _, exponent = np.frexp(lowest.astype(np.float64))
+        leaf = exponent.astype(np.int64) - 1
+        return np.take(self.leaf_values.ravel(), leaf + MAX_LEAVES * np.arange(self.n_trees))

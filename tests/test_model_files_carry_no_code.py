@@ -23,7 +23,7 @@ from homemodel.core.safe_npz import read_npz, write_npz
 from homemodel.geometry.camera import Camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from shape_completion.model_io import load_model
-from shape_completion.tree_arrays import BoosterArrays, ForestArrays
+from shape_completion.tree_arrays import NODE_DTYPE, BoosterArrays, ForestArrays
 
 
 class CreatesFile:
@@ -133,6 +133,9 @@ def fitted():
 
 
 def test_tree_arrays_predict_exactly_as_scikit_learn(fitted) -> None:
+    from sklearn.ensemble._hist_gradient_boosting.common import PREDICTOR_RECORD_DTYPE
+
+    assert NODE_DTYPE == PREDICTOR_RECORD_DTYPE  # model files hold scikit-learn's node records
     booster, forest, queries = fitted
     assert np.array_equal(BoosterArrays.from_sklearn(booster).probability(queries), booster.predict_proba(queries)[:, 1])
     assert np.array_equal(ForestArrays.from_sklearn(forest).apply(queries[:40]), forest.apply(queries[:40]))
@@ -141,6 +144,23 @@ def test_tree_arrays_predict_exactly_as_scikit_learn(fitted) -> None:
     assert np.array_equal(booster_arrays.probability(queries), booster.predict_proba(queries)[:, 1])
     forest_arrays = ForestArrays.from_arrays(ForestArrays.from_sklearn(forest).arrays(), "m.npz")
     assert np.array_equal(forest_arrays.apply(queries[:40]), forest.apply(queries[:40]))
+
+
+def test_trees_of_more_than_32_leaves_predict_exactly_as_scikit_learn(fitted) -> None:
+    """Their leaves do not fit the 32-bit masks of the filler's 31-leaf trees: 64-bit ones are used."""
+    from threadpoolctl import threadpool_limits
+
+    _, _, queries = fitted
+    rng = np.random.default_rng(1)
+    features = rng.normal(size=(4000, 6))
+    features[:, 2] = rng.integers(0, 3, len(features))
+    labels = np.sin(3 * features[:, 0]) + features[:, 1] * features[:, 3] + rng.normal(size=len(features)) > 0
+    with threadpool_limits(limits=1, user_api="openmp"):
+        booster = HistGradientBoostingClassifier(max_iter=8, max_leaf_nodes=60, categorical_features=[2],
+                                                 random_state=0).fit(features, labels)
+    arrays = BoosterArrays.from_arrays(BoosterArrays.from_sklearn(booster).arrays(), "m.npz")
+    assert np.count_nonzero(arrays.nodes["is_leaf"]) > 32 * len(arrays.offsets[1:])  # most trees past 32 leaves
+    assert np.array_equal(arrays.probability(queries), booster.predict_proba(queries)[:, 1])
 
 
 @pytest.mark.parametrize("tamper", ["child past the end", "child before its parent", "feature out of range",
