@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import configparser
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +30,12 @@ def read_layering(setup_cfg: Path) -> Layering:
         roots=config["importlinter"]["root_packages"].split(),
         layers=[[p.strip() for p in line.split("|")] for line in layers if line.strip()],
     )
+
+
+@functools.cache
+def _parsed(path: Path) -> ast.Module:
+    """A file's syntax tree, parsed once for all the checks here (the whole tree takes seconds)."""
+    return ast.parse(path.read_text(encoding="utf-8"), str(path))
 
 
 def module_files(repo: Path, roots: list[str]) -> dict[str, Path]:
@@ -53,7 +60,7 @@ def imported_modules(module: str, path: Path, modules: dict[str, Path]) -> set[s
 
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+    for node in ast.walk(_parsed(path)):
         if isinstance(node, ast.Import):
             found.update(known(alias.name) for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -170,6 +177,39 @@ def test_no_module_imports_itself_round_a_loop() -> None:
     assert module_cycles(import_graph(REPO, layering.roots)) == []
 
 
+def format_importers(repo: Path, roots: list[str], libraries: set[str]) -> dict[str, set[str]]:
+    """module -> the format libraries (setup.cfg's `formats` contract) it imports anywhere."""
+    found: dict[str, set[str]] = {}
+    for module, path in module_files(repo, roots).items():
+        for node in ast.walk(_parsed(path)):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+                names = [node.module]
+            for name in names:
+                if name.split(".")[0] in libraries:
+                    found.setdefault(module, set()).add(name.split(".")[0])
+    return found
+
+
+def read_formats(setup_cfg: Path) -> tuple[list[str], set[str]]:
+    """The `formats` contract: the packages that may open no format library, and those libraries."""
+    config = configparser.ConfigParser()
+    config.read(setup_cfg)
+    contract = config["importlinter:contract:formats"]
+    return contract["source_modules"].split(), set(contract["forbidden_modules"].split())
+
+
+def test_formats_are_opened_only_in_exchange_and_core() -> None:
+    layering = read_layering(REPO / "setup.cfg")
+    sources, libraries = read_formats(REPO / "setup.cfg")
+    packages = {package for layer in layering.layers for package in layer}
+    assert packages - set(sources) == {"homemodel.exchange", "homemodel.core"}  # every other package is bound
+    importers = format_importers(REPO, layering.roots, libraries)
+    outside = {m: libs for m, libs in importers.items() if not m.startswith(("homemodel.exchange.", "homemodel.core."))}
+    assert outside == {}
+    assert {"lxml", "pxr"} <= set().union(*importers.values())  # the scan sees the formats' own (pxr: in a function)
+
+
 def _tree(root: Path, files: dict[str, str]) -> None:
     for name, text in files.items():
         (root / name).parent.mkdir(parents=True, exist_ok=True)
@@ -212,3 +252,13 @@ def test_a_loop_through_a_type_checking_import_or_a_function_is_found(tmp_path: 
     graph = import_graph(tmp_path, layering.roots)
     assert sorted(module_cycles(graph)) == ["p.rules <-> p.spec", "p.tasks <-> p.worker"]
     assert layer_violations(graph, layering) == []  # within one package: only the loop test sees it
+
+
+def test_a_format_library_opened_inside_a_function_or_for_type_checking_is_found(tmp_path: Path) -> None:
+    _tree(tmp_path, {
+        "p/__init__.py": "",
+        "p/model.py": "def save():\n    from lxml import etree\n",
+        "p/nodes.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import xml.etree.ElementTree as ET\n",
+        "p/plain.py": "import json\nfrom . import model\n",  # json and a relative import: not formats
+    })  # fmt: skip
+    assert format_importers(tmp_path, ["p"], {"lxml", "xml", "pygltflib"}) == {"p.model": {"lxml"}, "p.nodes": {"xml"}}
