@@ -180,12 +180,11 @@ def _worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def build_entry(request: BuildRequest, c_output_fds: tuple[int, ...] = (1, 2)) -> EntryRow:
+def build_entry(request: BuildRequest) -> EntryRow:
     """Build `request.job` into `db_dir/models/<id>/` (replacing what was there only when the
-    new folder is whole) and return its index row; never raises for a bad entry. What C code
-    prints to `c_output_fds` meanwhile is logged at debug level, not shown."""
+    new folder is whole) and return its index row; never raises for a bad entry."""
     from homemodel.exchange.urdf.read import load_urdf
-    from homemodel.app.database.worker_setup import note_blender_thread
+    from homemodel.app.database.worker_setup import note_blender_thread  # imports distributed: only in workers
 
     job = request.job
     start = time.perf_counter()
@@ -203,7 +202,7 @@ def build_entry(request: BuildRequest, c_output_fds: tuple[int, ...] = (1, 2)) -
     try:
         with atomic_dir(final, force=True) as tmp:
             # COLMAP, Blender and pybullet print from C; in a worker that would bury the build's lines.
-            with captured_c_output(c_output_fds) as said:
+            with captured_c_output() as said:
                 built = _run_source(request, tmp)
             log.debug("entry %s printed:\n%s", job.id, "\n".join(said[-50:]))
             built.report.path = final  # where the model will be, not the temporary folder
