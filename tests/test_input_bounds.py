@@ -155,10 +155,14 @@ def test_evaluation_options_are_checked_before_the_meshes_are_read(tmp_path: Pat
 
 
 def test_a_huge_render_is_refused_before_blender_starts(tmp_path: Path) -> None:
+    """In this process (tests/test_blender_addon.py runs `turntable simulate` as a child process)."""
     mesh = tmp_path / "box.obj"
     mesh.write_text("v 0 0 0\nv .1 0 0\nv 0 .1 0\nv 0 0 .1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
-    run = run_cli("turntable", "simulate", mesh, "--out", tmp_path / "capture", "--width", "100000", timeout_s=60)
-    assert_refused(run, names="HOMEMODEL_MAX_RENDER_PIXELS", out=tmp_path / "capture")
+    result = runner.invoke(app, ["turntable", "simulate", str(mesh), "--out", str(tmp_path / "capture"), "--width", "100000"])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "HOMEMODEL_MAX_RENDER_PIXELS" in lines[0], result.output
+    assert not (tmp_path / "capture").exists()
 
 
 @pytest.mark.parametrize("value", ["1e300", "1e20", "-1e300", ".inf", ".nan", "101"])

@@ -4,8 +4,6 @@ in `--package-path` folders, then ROS_PACKAGE_PATH; never a traceback."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -52,9 +50,13 @@ def test_a_ros_urdf_passes_the_gate_once_its_packages_are_found(workspace: Path,
 
 
 def test_validate_takes_package_paths_on_the_command_line(workspace: Path) -> None:
-    command = [sys.executable, "-m", "homemodel", "validate", str(workspace / URDF), "--package-path", str(workspace)]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
-    assert done.returncode == 0 and "OK: all 13 checks passed" in done.stdout, done.stdout + done.stderr
+    """In this process (tests/test_input_bounds.py runs `validate` as a child process)."""
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    done = CliRunner().invoke(app, ["validate", str(workspace / URDF), "--package-path", str(workspace)])
+    assert done.exit_code == 0 and "OK: all 13 checks passed" in done.output, done.output
 
 
 def test_map_add_registers_a_ros_urdf_whose_meshes_are_in_other_packages(workspace: Path, house_file: Path) -> None:
