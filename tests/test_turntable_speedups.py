@@ -6,8 +6,6 @@ decimation keeps a closed mesh closed and on the surface."""
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 import trimesh
@@ -15,13 +13,12 @@ import trimesh
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
 from turntable.board import grid_board
-from turntable.capture import Capture
 from turntable.fusion import Cylinder, object_pixels, pixel_points
 from turntable.meshing import snap_to_points
 from turntable.real_frames import drop_flying_pixels
+from turntable.tag_search import tag_decimation
 from turntable.texture import decimated
 
-reconstruct_module = sys.modules["turntable.reconstruct"]  # the package exports a function of that name
 CAMERA = Camera(width=320, height=240, fx=280.0, fy=280.0, cx=159.5, cy=119.5)
 
 
@@ -70,10 +67,9 @@ def test_object_pixels_give_the_whole_image_points_inside_the_cylinder() -> None
 @pytest.mark.parametrize(("tag_size_m", "expected"), [(0.06, 1.5), (0.015, 1.0)])
 def test_tag_decimation_follows_the_tags_size_in_the_image(tag_size_m: float, expected: float) -> None:
     board = grid_board(table_diameter_m=0.4, tag_size_m=tag_size_m)
-    capture = Capture(folder=None, camera=CAMERA, board=board, frames=[], unpaired=[])  # type: ignore[arg-type]
-    assert reconstruct_module.tag_decimation(capture, _camera_from_table()) == expected
+    assert tag_decimation(board, CAMERA, _camera_from_table()) == expected
     behind = np.diag([1.0, 1.0, -1.0, 1.0]) @ _camera_from_table()  # the board behind the camera: no coarse search
-    assert reconstruct_module.tag_decimation(capture, behind) == 1.0
+    assert tag_decimation(board, CAMERA, behind) == 1.0
 
 
 def test_snapping_moves_a_smoothed_surface_onto_the_points_and_leaves_unseen_parts() -> None:

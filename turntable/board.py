@@ -69,10 +69,10 @@ class Board(pydantic.BaseModel):
 
     def corners_table(self) -> dict[int, np.ndarray]:
         """Each tag's four corners, (4, 3) in the table frame, in ArUco corner order."""
-        half = self.tag_size_m / 2
-        return {
-            tag.id: np.column_stack([np.asarray(tag.center_m) + _CORNER_SIGNS * half, np.zeros(4)]) for tag in self.tags
-        }
+        centers = np.array([tag.center_m for tag in self.tags], dtype=np.float64)  # all at once: called per frame
+        corners = np.zeros((len(self.tags), 4, 3))
+        corners[..., :2] = centers[:, None] + _CORNER_SIGNS * (self.tag_size_m / 2)
+        return dict(zip((tag.id for tag in self.tags), corners))
 
     @property
     def radius_m(self) -> float:

@@ -20,6 +20,7 @@ from turntable.fusion import Cylinder, MergedCloud
 # below the footprint instead of being cut open by the cube's face.
 _POISSON_SCALE = 1.5
 _UNMEASURED_SKIN = 0.25  # of the signed-distance solid's skin: more is a leak (see `distance_surface`)
+_SPLAT_CHUNK = 4096  # points whose contributions to the grid are added at once (about 40 MB)
 
 
 @dataclass(kw_only=True)
@@ -146,7 +147,6 @@ def distance_surface(
     is smoothed by a Gaussian `smoothing_voxels` wide before marching cubes. The mesh may have
     small islands; it is empty when the outside leaked in after all."""
     from scipy import ndimage
-    from scipy.spatial import cKDTree
     from skimage.measure import marching_cubes
 
     reach_m = reach_voxels * voxel_size_m
@@ -155,23 +155,8 @@ def distance_surface(
     # footprint) would be exactly zero, which marching cubes meshes with holes.
     origin = np.floor(points.min(axis=0) / voxel_size_m - pad) * voxel_size_m - 0.5 * voxel_size_m
     shape = tuple(int(n) for n in np.ceil((points.max(axis=0) - origin) / voxel_size_m) + pad + 1)
-    near = np.zeros(shape, dtype=bool)
-    near[tuple(np.round((points - origin) / voxel_size_m).astype(np.int64).T)] = True
-    near = ndimage.binary_dilation(near, np.ones((3, 3, 3), dtype=bool), iterations=int(np.ceil(reach_voxels)))
-    nodes = np.argwhere(near)
-    xyz = origin + nodes * voxel_size_m
-    distances, index = cKDTree(points).query(xyz, k=8, distance_upper_bound=reach_m, workers=-1)
-    found = np.isfinite(distances)
-    index = np.where(found, index, 0)
-    weights = found * np.exp(-((np.where(found, distances, 0.0) / voxel_size_m) ** 2))
-    offsets = np.einsum("nkd,nkd->nk", xyz[:, None] - points[index], normals[index])
-    total = weights.sum(axis=1)
-    measured = total > 0
-    values = (weights[measured] * offsets[measured]).sum(axis=1) / total[measured]
-    field = np.zeros(shape)
-    known = np.zeros(shape, dtype=bool)
-    known[tuple(nodes[measured].T)] = True
-    field[known] = np.where(values == 0.0, 1e-9 * voxel_size_m, values)
+    field, known = _plane_distances(points, normals, origin, shape, voxel_size_m, reach_voxels)
+    field[known & (field == 0.0)] = 1e-9 * voxel_size_m
     # The outside: where a ball `seal_voxels` wide rolls in from the border without touching
     # the band (a flood fill of the band's complement, opened by that ball).
     blocked = ndimage.binary_dilation(known, iterations=seal_voxels) if seal_voxels else known
@@ -202,6 +187,43 @@ def distance_surface(
     if np.einsum("ij,ij->", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) < 0:  # its volume, cheaply
         mesh.invert()
     return mesh
+
+
+def _plane_distances(
+    points: np.ndarray,
+    normals: np.ndarray,
+    origin: np.ndarray,
+    shape: tuple[int, int, int],
+    voxel_size_m: float,
+    reach_voxels: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each grid node's Gaussian-weighted (sigma: a voxel over the square root of 2) mean signed
+    distance to the tangent planes of the points within `reach_voxels`, and which nodes have
+    any. Each point adds itself to the nodes round it (one bin count per chunk of points), not
+    each node looking for its points: a third of a k-d tree's CPU time on the bench mug."""
+    reach = int(np.ceil(reach_voxels + np.sqrt(3) / 2))  # a point lies within half a cell of its nearest node
+    steps = np.stack(np.meshgrid(*[np.arange(-reach, reach + 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    steps = steps[np.linalg.norm(steps, axis=1) <= reach_voxels + np.sqrt(3) / 2]
+    strides = np.array([shape[1] * shape[2], shape[2], 1])
+    offsets = (steps * voxel_size_m).astype(np.float32)  # (S, 3)
+    nearest = np.round((points - origin) / voxel_size_m).astype(np.int64)
+    to_nearest = (origin + nearest * voxel_size_m - points).astype(np.float32)  # from each point to its node
+    weight_sums = np.zeros(int(np.prod(shape)))
+    value_sums = np.zeros(int(np.prod(shape)))
+    for start in range(0, len(points), _SPLAT_CHUNK):
+        chunk = slice(start, start + _SPLAT_CHUNK)
+        here, normal = to_nearest[chunk], normals[chunk].astype(np.float32)
+        squared = np.sum(offsets**2, axis=1) + 2 * here @ offsets.T + np.sum(here**2, axis=1)[:, None]  # (P, S)
+        inside = squared <= np.float32((reach_voxels * voxel_size_m) ** 2)
+        weights = np.exp(-squared[inside] / np.float32(voxel_size_m**2))
+        values = (normal @ offsets.T + np.sum(normal * here, axis=1)[:, None])[inside]
+        nodes = ((nearest[chunk] @ strides)[:, None] + steps @ strides)[inside]
+        weight_sums += np.bincount(nodes, weights, minlength=len(weight_sums))
+        value_sums += np.bincount(nodes, weights * values, minlength=len(value_sums))
+    known = weight_sums > 0
+    field = np.zeros(len(weight_sums))
+    field[known] = value_sums[known] / weight_sums[known]
+    return field.reshape(shape), known.reshape(shape)
 
 
 def _poisson_closed(

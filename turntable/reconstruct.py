@@ -28,22 +28,19 @@ from turntable.outputs import write_reconstruction
 from turntable.orbit import TableAxis, table_axis
 from turntable.real_frames import (
     depth_color_offset_px,
-    drop_flying_pixels,
     sharpness,
     turn_rate_rad_s,
     turned_table,
 )
-from turntable.pose import FramePose, PoseSkip, estimate_camera_from_table
+from turntable.pose import FramePose, PoseSkip
 from turntable.reconstruction import Reconstruction, ReconstructOptions
-from turntable.tags import DetectionOptions, detect_tags
+from turntable.tag_search import TagSearch, capture_search, frame_pose
 from turntable.turntable_model import fit_turntable
 
 STAGES = ("poses", "axis", "merge", "mesh", "texture", "export")
 _MISREGISTRATION_FRAMES = 8
 _REGION_MARGIN_M = 0.03  # kept pixels reach this far beyond the object's cylinder, wherever the axis is
-_DECIMATION_TRIES = 5  # frames read at full resolution before a coarser tag search is given up
-_COARSE_DECIMATION = 1.5
-_COARSE_TAG_PX = 18.0  # the tags' tenth-percentile size (square root of the area) it needs
+_SEARCH_TRIES = 5  # frames searched whole at full resolution before a window and a coarser search are given up
 
 
 def _parallel(workers: int, function: Callable, items: list) -> Iterator:
@@ -88,25 +85,6 @@ def object_region(capture: Capture, options: ReconstructOptions) -> Cylinder:
     )
 
 
-def tag_decimation(capture: Capture, camera_from_table: np.ndarray) -> float:
-    """AprilTag's decimation for a capture, from one frame's pose: the board's tags seen in
-    that frame, projected, are large enough or not for a 1.5 x coarser search (the fixed
-    camera sees the turning board's tags at the same sizes). On the 640 x 480 mug (tags' tenth
-    percentile 20 px) it halves the detection's time, losing 2 % of the tags, none of the poses'
-    accuracy; half again (2 x) lost 40 %."""
-    corners = np.stack(list(capture.board.corners_table().values()))  # (T, 4, 3)
-    in_camera = corners @ camera_from_table[:3, :3].T + camera_from_table[:3, 3]
-    in_front = np.all(in_camera[..., 2] > 0, axis=1)
-    if not np.any(in_front):
-        return 1.0
-    pixels = capture.camera.project(in_camera[in_front].reshape(-1, 3)).reshape(-1, 4, 2)
-    x, y = pixels[..., 0], pixels[..., 1]
-    area = 0.5 * np.abs(np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1))
-    inside = np.all((x >= 0) & (x < capture.camera.width) & (y >= 0) & (y < capture.camera.height), axis=1)
-    sizes = np.sqrt(area[inside])
-    return _COARSE_DECIMATION if len(sizes) and np.percentile(sizes, 10) >= _COARSE_TAG_PX else 1.0
-
-
 def read_frames(capture: Capture, options: ReconstructOptions, report: Progress) -> FrameReadings:
     """Each frame read once: its pose from the tags and the depth pixels where the object may
     be, kept for the merge. Frames with unreadable images, too few tags or blur are skipped
@@ -114,12 +92,12 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
     import cv2
 
     camera = capture.camera
-    rays = camera.pixel_rays()
+    rays = camera.pixel_rays().astype(np.float32)  # float32 halves the per-pixel arithmetic; 0.1 um at 1 m
     region = object_region(capture, options)
     # The misregistration is measured on a few frames spread over the turn.
     probes = {f.stem for f in capture.frames[:: max(1, len(capture.frames) // _MISREGISTRATION_FRAMES)]}
 
-    def one(frame: FramePaths, detection: DetectionOptions) -> FrameReading:
+    def one(frame: FramePaths, search: TagSearch) -> FrameReading:
         try:
             rgb = read_color(frame.color, camera)
         except FrameError as exc:
@@ -127,13 +105,7 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         sharp = sharpness(gray)
         try:
-            try:
-                pose = estimate_camera_from_table(detect_tags(gray, detection), capture.board, camera, options.pose)
-            except PoseSkip:
-                if (detection.decimate or 1.0) <= 1.0:
-                    raise
-                fine = replace(detection, decimate=1.0)  # the coarse search missed too many: look closer
-                pose = estimate_camera_from_table(detect_tags(gray, fine), capture.board, camera, options.pose)
+            pose = frame_pose(gray, search, capture.board, camera, options.pose)
         except PoseSkip as exc:
             return FrameReading(stem=frame.stem, pose=f"pose: {exc}", sharpness=sharp)
         try:
@@ -160,14 +132,15 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
         readings[reading.stem] = reading
         report("poses", len(readings), len(capture.frames))
 
-    # Unless the options fix it, the tags' decimation comes from the first frame with a pose,
-    # read at full resolution first.
-    detection, frames = options.detection, list(capture.frames)
-    while frames and detection.decimate is None and len(readings) < _DECIMATION_TRIES:
-        keep(reading := one(frames.pop(0), replace(detection, decimate=1.0)))
+    # The tag search's window and (unless the options fix it) decimation come from the first
+    # frame with a pose, searched over the whole image at full resolution.
+    whole = TagSearch(detection=replace(options.detection, decimate=options.detection.decimate or 1.0))
+    search, frames = None, list(capture.frames)
+    while frames and search is None and len(readings) < _SEARCH_TRIES:
+        keep(reading := one(frames.pop(0), whole))
         if isinstance(reading.pose, FramePose):
-            detection = replace(detection, decimate=tag_decimation(capture, reading.pose.camera_from_table))
-    for reading in _parallel(options.workers, lambda frame: one(frame, detection), frames):
+            search = capture_search(capture.board, camera, reading.pose.camera_from_table, options.detection)
+    for reading in _parallel(options.workers, lambda frame: one(frame, search or whole), frames):
         keep(reading)
 
     poses = {stem: r.pose for stem, r in readings.items() if isinstance(r.pose, FramePose)}

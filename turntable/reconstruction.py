@@ -33,7 +33,10 @@ class ReconstructOptions:
     max_height_m: float = 1.0
     min_frames: int = 3
     turntable_refinement: bool = True  # refine all poses together under the turntable's motion
-    texture_size_px: int = 1024  # 0: no texture (vertex colours in the PLY only)
+    # 0: no texture (vertex colours in the PLY only). The texture carries the carrier's vertex
+    # colours, linear over each triangle: 512 px gave the bench mug's surface the same colours
+    # as 1024 px (mean error against the full mesh's 4.28 against 4.26 of 255) at 0.3 s, not 0.7.
+    texture_size_px: int = 512
     texture_max_triangles: int = 12_000  # the texture's carrier is decimated to this
     workers: int = 2  # threads reading images and detecting tags
     # Real sensors' frames (turntable.real_frames):

@@ -41,6 +41,26 @@ class DetectionOptions:
         require_at_least("max_hamming", self.max_hamming, 0)
 
 
+@dataclass(frozen=True, kw_only=True)
+class PixelWindow:
+    """Rows top to bottom and columns left to right of an image (ends excluded)."""
+
+    top: int
+    bottom: int
+    left: int
+    right: int
+
+    def holds(self, pixels: np.ndarray, margin_px: float | np.ndarray = 0.0) -> np.ndarray:
+        """Which of (..., 2) pixel coordinates lie `margin_px` (broadcast to (...)) or more inside the window."""
+        x, y = pixels[..., 0], pixels[..., 1]
+        return (
+            (x >= self.left + margin_px)
+            & (x <= self.right - 1 - margin_px)
+            & (y >= self.top + margin_px)
+            & (y <= self.bottom - 1 - margin_px)
+        )
+
+
 _per_thread = threading.local()
 
 
@@ -108,19 +128,25 @@ def _keep_unique(found: dict[int, np.ndarray], tag_id: int, corners: np.ndarray)
         found[tag_id] = corners
 
 
-def detect_tags(gray: np.ndarray, options: DetectionOptions | None = None) -> dict[int, np.ndarray]:
-    """Tag id -> (4, 2) corners in pixels, for each tag36h11 tag found once in the image."""
+def detect_tags(
+    gray: np.ndarray, options: DetectionOptions | None = None, window: PixelWindow | None = None
+) -> dict[int, np.ndarray]:
+    """Tag id -> (4, 2) corners in pixels, for each tag36h11 tag found once in the image, or
+    once in its `window` (the search's time goes with the pixels searched; the corners are
+    refined on the whole image and given in its pixels)."""
     options = options or DetectionOptions()
     gray = np.asarray(gray)
     if gray.ndim != 2 or gray.dtype != np.uint8:
         raise ValueError(f"{gray.shape=}, {gray.dtype=} but expected an (H, W) uint8 image")
+    searched = gray if window is None else np.ascontiguousarray(gray[window.top : window.bottom, window.left : window.right])
     if options.detector == "apriltag":
-        found = _detect_apriltag(gray, options)
+        found = _detect_apriltag(searched, options)
     elif options.detector == "opencv":
-        found = _detect_opencv(gray, options)
+        found = _detect_opencv(searched, options)
     else:
         raise ValueError(f"unknown tag detector {options.detector!r}")
-    found = {tag_id: c for tag_id, c in found.items() if np.all(np.isfinite(c))}
+    shift = np.zeros(2) if window is None else np.array([window.left, window.top], dtype=np.float64)
+    found = {tag_id: c + shift for tag_id, c in found.items() if np.all(np.isfinite(c))}
     if options.edge_refinement and found:
         ids = sorted(found)
         refined = refine_edges(gray, np.stack([found[i] for i in ids]), _LINEAR[options.intensity])

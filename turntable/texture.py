@@ -30,7 +30,7 @@ def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> 
 
 
 def bake_vertex_colors(
-    mesh: trimesh.Trimesh, colors: np.ndarray, *, size_px: int = 1024
+    mesh: trimesh.Trimesh, colors: np.ndarray, *, size_px: int = 512
 ) -> tuple[trimesh.Trimesh, np.ndarray, np.ndarray]:
     """The mesh split along the atlas's chart seams, its UVs (OpenGL, v up) and an (H, W, 3) uint8 image.
 
