@@ -20,6 +20,7 @@ from partnet_sample import write_partnet_cabinet
 from typer.testing import CliRunner
 
 from homemodel.app.database import DatabaseBuildOptions, ModelIndex, build_database
+from homemodel.app.database.dispatch import JOURNAL
 from homemodel.cli import app
 
 pytestmark = [pytest.mark.bpy, pytest.mark.slow]
@@ -91,6 +92,11 @@ def test_every_entry_is_built_or_recorded_with_its_error(built) -> None:
     assert got["guess"].error
     assert got["tall_0"].properties["height_m"] == "0.11"
     assert got["cup"].category == "cup" and got["cup"].properties["colour"] == "white"
+    # The build's own process (this one) built small entries while the cluster started; the
+    # reconstructions went to Dask's worker only.
+    pids = {i: int(r.worker.rsplit(":", 1)[1]) for i, r in got.items()}
+    assert os.getpid() in {pids[i] for i in ("cup", "tall_0", "tall_1", "cabinet")}
+    assert os.getpid() not in {pids[i] for i in ("frog", "scan", "guess")}
 
 
 def test_stored_folders_are_whole_and_match_the_index(built) -> None:
@@ -125,11 +131,14 @@ def test_a_changed_spec_and_repair_rebuild_only_those(built) -> None:
     spec = manifest.parent / "cup.yaml"
     spec.write_text(spec.read_text().replace("colour: white", "colour: blue"))
     before = rows(db)
+    # As a build killed while it built `cup` itself leaves it: that entry now goes to a worker.
+    (db / JOURNAL).write_text("cup")
     # The spec is shared by cup and the sweep: all three are rebuilt (tall_1 fails again), and
     # the cabinet because --repair changes how it is built; the rest are cached.
     result = build_database(manifest, db, DatabaseBuildOptions(workers=2, repair=True))
     assert sorted(r.id for r in result.built) == ["cabinet", "cup", "tall_0", "tall_1"]
     after = rows(db)
+    assert int(after["cup"].worker.rsplit(":", 1)[1]) != os.getpid() and not (db / JOURNAL).exists()
     assert after["frog"].key == before["frog"].key and after["frog"].built_at == before["frog"].built_at
     assert after["cup"].key != before["cup"].key
     cabinet = after["cabinet"]
@@ -216,11 +225,11 @@ def test_a_killed_client_leaves_a_whole_index_and_the_next_build_finishes(tmp_pa
 
 def test_local_workers_keep_glibcs_own_malloc_trim_threshold() -> None:
     """Dask's default (65536) made a cup's gate 55 -> 85 ms; its one thread per library stays."""
-    from homemodel.app.database.build import _client
-
     import dask
 
-    with _client(DatabaseBuildOptions(workers=1)) as client:
+    from homemodel.app.database.cluster import dask_client
+
+    with dask_client(None, workers=1) as client:
         trim = client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_")
         threads = client.run(os.environ.get, "OMP_NUM_THREADS")
         # The quieter Dask settings reach the worker processes (its profiler off: 10 ms samples).

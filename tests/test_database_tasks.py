@@ -1,5 +1,6 @@
-"""How `db build` hands its entries to Dask: small entries a few to a task when there are many,
-long ones alone and first, and the build process free of the pipelines' imports."""
+"""How `db build` hands its entries out: small entries a few to a Dask task when there are many
+and to the build's own process, long ones alone, first and to Dask only, an entry that crashed
+the build's process to Dask only; and the build process free of the pipelines' imports."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from pathlib import Path
 
 from homemodel.app.database.manifest import Job
 from homemodel.app.database.build_request import BuildRequest
-from homemodel.app.database.tasks import MAX_BATCH, TASKS_PER_WORKER, batches, task_key
+from homemodel.app.database.dispatch import JOURNAL, Dispatch, crashed_here
+from homemodel.app.database.tasks import MAX_BATCH, TASKS_PER_WORKER, task_key
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -21,17 +23,41 @@ def _requests(source: str, count: int, prefix: str) -> list[BuildRequest]:
     ]
 
 
+def _tasks(dispatch: Dispatch) -> list[list[BuildRequest]]:
+    """What Dask would get, task by task, if it took everything."""
+    tasks = []
+    while batch := dispatch._next_task():
+        tasks.append(batch)
+    return tasks
+
+
 def test_small_entries_are_batched_only_when_there_are_enough_to_share() -> None:
     photos, specs = _requests("photos", 3, "p"), _requests("spec", 200, "s")
-    tasks = batches(photos + specs, workers=2)
+    tasks = _tasks(Dispatch(None, photos + specs, here=False, processes=2, db_dir=Path("/db")))
     # The long ones alone, first; every entry once, in manifest order.
     assert [t[0].job.id for t in tasks[:3]] == ["p0", "p1", "p2"] and all(len(t) == 1 for t in tasks[:3])
     assert [r.job.id for t in tasks for r in t] == [r.job.id for r in photos + specs]
-    assert {len(t) for t in tasks[3:]} == {MAX_BATCH}
-    # Few entries per worker: one to a task, so the workers still share them evenly.
+    # MAX_BATCH to a task while there are many; fewer as the queue runs down, so all end together.
+    sizes = [len(t) for t in tasks[3:]]
+    assert sizes[0] == MAX_BATCH and sizes[-1] == 1 and sizes == sorted(sizes, reverse=True)
+    assert sum(size == MAX_BATCH for size in sizes) >= (200 - 2 * TASKS_PER_WORKER * MAX_BATCH) // MAX_BATCH
+    # Few entries per process: one to a task, so the processes still share them evenly.
     few = _requests("urdf", 2 * TASKS_PER_WORKER * 2 - 1, "u")
-    assert {len(t) for t in batches(few, workers=2)} == {1}
-    assert {len(t) for t in batches(few, workers=1)} == {3, 1}  # 31 // 8 = 3 to a task
+    assert {len(t) for t in _tasks(Dispatch(None, few, here=False, processes=2, db_dir=Path("/db")))} == {1}
+    assert len(_tasks(Dispatch(None, few, here=False, processes=1, db_dir=Path("/db")))[0]) == 3  # 31 // 8
+
+
+def test_an_entry_that_crashed_the_build_process_goes_to_dask_only(tmp_path) -> None:
+    specs = _requests("spec", 3, "s")
+    assert crashed_here(tmp_path) == set()
+    (tmp_path / JOURNAL).write_text("s1")  # what a build killed while building s1 leaves
+    dask_only = crashed_here(tmp_path)
+    assert dask_only == {"s1"} and not (tmp_path / JOURNAL).exists()
+    dispatch = Dispatch(None, specs, here=True, processes=2, db_dir=tmp_path, dask_only=dask_only)
+    assert [r.job.id for r in (dispatch._next_here(), dispatch._next_here())] == ["s0", "s2"]
+    assert dispatch._next_here() is None and [r.job.id for t in _tasks(dispatch) for r in t] == ["s1"]
+    # Without this process building, the journal changes nothing.
+    assert [r.job.id for t in _tasks(Dispatch(None, specs, here=False, processes=2, db_dir=tmp_path, dask_only={"s1"})) for r in t] == ["s0", "s1", "s2"]
 
 
 def test_a_task_key_changes_with_any_entry_key() -> None:
@@ -43,10 +69,10 @@ def test_a_task_key_changes_with_any_entry_key() -> None:
 
 
 def test_the_build_process_does_not_import_the_pipelines() -> None:
-    """Only the workers import the entry build (trimesh, the gate, bpy): in the process that
-    submits the tasks it cost 1.2 s of CPU before the first entry."""
+    """The process that submits the tasks imports the entry build (trimesh, the gate, bpy) only
+    when it builds entries itself (a local cluster): never for a remote one."""
     code = (
-        "import sys; import homemodel.app.database.build, homemodel.app.database.tasks; "
+        "import sys; import homemodel.app.database.build, homemodel.app.database.tasks, homemodel.app.database.dispatch; "
         "print(sorted(m for m in ('trimesh', 'bpy', 'open3d', 'homemodel.app.database.entry_build') if m in sys.modules))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)

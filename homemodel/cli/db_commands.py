@@ -58,7 +58,9 @@ def _entry_line(row: EntryRow, cached: bool) -> str:
 def build(
     manifest: Path = typer.Argument(..., help="the manifest: entries, their sources, options, categories"),
     db: Path = DB_OPTION,
-    workers: int | None = field_option(f"{BUILD}.workers", help="local worker processes (default: one per core)"),
+    workers: int | None = field_option(
+        f"{BUILD}.workers", help="local processes that build: this one and N - 1 Dask workers (default: one per core)"
+    ),
     scheduler: str | None = field_option(f"{BUILD}.scheduler", help="an existing Dask scheduler, e.g. tcp://host:8786"),
     repair: bool = field_option(f"{BUILD}.repair", help="repair imported assets that lack only inertials or limit effort/velocity"),
     retry_failed: bool = field_option(f"{BUILD}.retry_failed", help="build failed entries again even if unchanged"),
@@ -83,16 +85,17 @@ def build(
 
         def on_start(todo: int, cached: int, dashboard: str | None) -> None:
             bar.update(task, total=todo)
-            if dashboard:
-                console.print(f"Dask dashboard: {dashboard}")
             console.print(f"{todo} to build, {cached} cached")
+
+        def on_dashboard(link: str) -> None:
+            console.print(f"Dask dashboard: {link}")
 
         def on_entry(row: EntryRow, cached: bool) -> None:
             if not cached:
                 console.print(_entry_line(row, cached))
                 bar.advance(task)
 
-        result = build_database(manifest, db, options, on_start=on_start, on_entry=on_entry)
+        result = build_database(manifest, db, options, on_start=on_start, on_entry=on_entry, on_dashboard=on_dashboard)
     counts = {s: result.count(s) for s in ("valid", "invalid", "failed")}
     console.print(
         f"built {len(result.built)} ({counts['valid']} valid, {counts['invalid']} invalid, {counts['failed']} failed), "

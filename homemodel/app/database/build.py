@@ -1,7 +1,8 @@
 """`homemodel db build`: every entry of a manifest through its pipeline, on Dask.
 
-The build runs on Dask's `distributed` scheduler: by default an in-process `LocalCluster`
-with one worker process per core and one thread each (bpy is not thread-safe); given a
+The build runs on Dask's `distributed` scheduler: by default a `LocalCluster` of single-threaded
+worker processes (bpy is not thread-safe), one per core but one, with this process building
+small entries too from the start, while the cluster starts (see `dispatch`); given a
 scheduler address, on an existing cluster whose workers see the database folder (a shared
 file system) and run the same homemodel. Workers build and store model folders; this process
 alone writes the index, one committed row per finished entry.
@@ -15,11 +16,9 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import importlib.util
 import logging
 import os
 import shutil
-import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -29,36 +28,25 @@ from homemodel.app.database.content_key import content_key
 from homemodel.app.database.index import MODELS_DIR, EntryRow, ModelIndex
 from homemodel.app.database.manifest import Job, RepairSpec, load_manifest
 from homemodel.app.database.build_request import BuildRequest
-from homemodel.app.database.tasks import batches, build_batch, task_key
+from homemodel.app.database.cluster import ClusterStart
+from homemodel.app.database.dispatch import Dispatch, crashed_here
+from homemodel.app.database.tasks import SMALL_SOURCES
 from homemodel.core.checks import require_at_least
 from homemodel.core.errors import InputError
 
 log = logging.getLogger(__name__)
 
 LOCK_FILE = ".build.lock"
-# Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536, so that freed memory goes back
-# to the OS at once for its memory monitor. An entry allocates and frees many mid-sized arrays
-# (meshes, the gate's checks): with it, a cup's gate took 85 ms instead of 55 in one process,
-# and more with two side by side. The workers keep glibc's own, adaptive threshold.
-WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
-# What Dask's processes do while the workers build, made rarer: an idle local cluster of 2
-# workers used 13-15 % of a core with Dask's defaults (each event loop's tick every 20 ms,
-# each worker's profiler sampling every 10 ms, the system and memory monitors), 1.6-1.8 %
-# with these; on a 2-core machine that share came out of the entries. The dashboard's
-# profile and resource plots go with them; a killed worker is still noticed at once.
-QUIET_CONFIG = {
-    "distributed.admin.tick.interval": "1s",
-    "distributed.worker.profile.enabled": False,
-    "distributed.admin.system-monitor.interval": "2s",
-    "distributed.worker.memory.monitor-interval": "1s",
-    "distributed.scheduler.work-stealing-interval": "1s",
-}
 COMMIT_EVERY_S = 0.5  # the index's rows are committed at most this often during a build
+# A build of no more small entries than this (and nothing else) runs in this process alone:
+# a Dask worker's start (4 s of CPU, about 5 s on an idle 2-core machine) would take longer
+# than they do (a cup 0.15 s, a cabinet 0.5 s).
+HERE_ALONE_ENTRIES = 16
 
 
 @dataclass(kw_only=True)
 class DatabaseBuildOptions:
-    workers: int | None = None  # local worker processes; None: one per core
+    workers: int | None = None  # local processes that build (this one and N - 1 Dask workers); None: one per core
     scheduler: str | None = None  # an existing Dask scheduler, e.g. tcp://host:8786
     repair: bool = False  # repair every imported asset that lacks only what the gate needs (else: entries with `repair: true`)
     retry_failed: bool = False  # build failed entries again even when their key is unchanged
@@ -86,7 +74,8 @@ class DatabaseBuild:
 
 # Called as each entry finishes (built now, or found cached).
 EntryDone = Callable[[EntryRow, bool], None]
-# Called once the jobs are known: (entries to build, entries cached, dashboard link or None).
+# Called once the jobs are known: (entries to build, entries cached, None: the dashboard's link
+# is known only once the cluster is up, and given to `on_dashboard`).
 BuildStarts = Callable[[int, int, str | None], None]
 
 
@@ -121,77 +110,6 @@ def _settle(index: ModelIndex, row: EntryRow, commit: bool) -> None:
         shutil.rmtree(folder)
 
 
-@contextlib.contextmanager
-def _without_blender_paths() -> Iterator[None]:
-    """sys.path without the folders importing bpy added (Blender's scripts). Worker processes
-    start with the parent's sys.path; with those folders first they would import Blender's
-    Python `bpy` package instead of the bpy module, and fail ("No module named '_bpy'")."""
-    bpy = sys.modules.get("bpy")
-    saved = list(sys.path)
-    if bpy is not None and getattr(bpy, "__file__", None):
-        wheel = next((p for p in reversed(Path(bpy.__file__).parents) if p.name == "bpy"), None)
-        sys.path[:] = [
-            p for p in saved
-            if not ((wheel is not None and Path(p).is_relative_to(wheel)) or f"{os.sep}blender{os.sep}" in p)
-        ]  # fmt: skip
-    try:
-        yield
-    finally:
-        sys.path[:] = saved
-
-
-@contextlib.contextmanager
-def _client(options: DatabaseBuildOptions, sources: tuple[str, ...] = ()) -> Iterator:
-    """A Dask client: of the scheduler given, or of a LocalCluster of this machine's cores,
-    whose workers each import what `sources` need as they start (see `worker_setup`)."""
-    import dask
-    from distributed import Client, LocalCluster
-
-    from homemodel.app.database.worker_setup import PLUGIN_NAME, DatabaseWorker
-
-    if options.scheduler is not None:
-        try:
-            client = Client(options.scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
-            raise InputError(f"scheduler: cannot reach {options.scheduler}: {exc}") from None
-        with client:
-            if sources:
-                client.register_plugin(DatabaseWorker(sources), name=PLUGIN_NAME)
-            try:
-                yield client
-            finally:
-                # A shared cluster's later workers need not warm up for this build.
-                with contextlib.suppress(OSError, TimeoutError, ValueError):
-                    client.unregister_worker_plugin(PLUGIN_NAME)
-        return
-    dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
-    # The plugin goes with the workers' arguments: each starts importing as soon as its
-    # process is up, while the others start, not once this process has them all.
-    with _without_blender_paths(), dask.config.set({**WORKER_CONFIG, **QUIET_CONFIG}), LocalCluster(
-        n_workers=options.workers or os.cpu_count() or 1,
-        threads_per_worker=1,  # bpy is not thread-safe
-        processes=True,
-        dashboard_address=dashboard,
-        silence_logs=logging.ERROR,  # Dask's own INFO lines would bury the build's
-        plugins=(DatabaseWorker(sources),) if sources else (),
-    ) as cluster, Client(cluster) as client:
-        yield client
-
-
-def _dashboard(client) -> str | None:  # noqa: ANN001 (distributed.Client)
-    services = client.scheduler_info().get("services", {})
-    return client.dashboard_link if "dashboard" in services else None
-
-
-def _worker_lost(job: Job, key: str, exc: BaseException) -> EntryRow:
-    """An entry whose task killed every worker that tried it (a crash in C, say)."""
-    return EntryRow(
-        id=job.id, category=job.category or "", source=job.source, key=key, status="failed",
-        error=f"{type(exc).__name__}: {' '.join(str(exc).split())}", inputs={r: str(p) for r, p in job.inputs.items()},
-        properties=dict(job.properties),
-    )  # fmt: skip
-
-
 def repair_for(job: Job, repair_spec: RepairSpec, repair_all: bool) -> RepairSpec | None:
     """The repair settings an entry is built with: None unless `--repair` or its manifest entry
     (`repair: true`) asks for repairs."""
@@ -223,6 +141,7 @@ def build_database(
     *,
     on_start: BuildStarts | None = None,
     on_entry: EntryDone | None = None,
+    on_dashboard: Callable[[str], None] | None = None,
 ) -> DatabaseBuild:
     """Build every entry of the manifest whose key changed into the database at `db_dir`."""
     options = options or DatabaseBuildOptions()
@@ -241,59 +160,52 @@ def build_database(
             if (category, properties) != (row.category, row.properties):
                 index.set_labels(job.id, category, properties)
             result.cached.append(job.id)
-        with _client(options, tuple(job.source for job in todo)) if todo else contextlib.nullcontext() as client:
-            result.dashboard = _dashboard(client) if todo else None
-            if on_start:
-                on_start(len(todo), len(cached), result.dashboard)
-            if on_entry:
-                for job in cached:
-                    on_entry(index.require(job.id), True)
-            if todo:
-                _run(client, todo, keys, db_dir, repairs, index, result, on_entry)
-                _remove_leftovers(db_dir)  # of a worker killed during this build
+        if on_start:
+            on_start(len(todo), len(cached), None)
+        if on_entry:
+            for job in cached:
+                on_entry(index.require(job.id), True)
+        if todo:
+            requests = [BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id]) for job in todo]
+            _run(options, requests, index, result, on_entry, on_dashboard)
+            _remove_leftovers(db_dir)  # of a worker killed during this build
     result.seconds = time.perf_counter() - start
     return result
 
 
-def _workers(client) -> int:  # noqa: ANN001 (distributed.Client)
-    return len(client.scheduler_info().get("workers", {})) or 1
-
-
-def _run(client, todo: list[Job], keys: dict[str, str], db_dir: Path, repairs: dict[str, RepairSpec | None],  # noqa: ANN001
-         index: ModelIndex, result: DatabaseBuild, on_entry: EntryDone | None) -> None:  # fmt: skip
-    from distributed import as_completed
-
-    requests = [BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id]) for job in todo]
-    futures = {}
-
-    def submit(batch: list[BuildRequest]):  # noqa: ANN202 (distributed.Future)
-        future = client.submit(build_batch, batch, key=task_key(batch))
-        futures[future.key] = (future, batch)
-        return future
-
-    pending = as_completed([submit(batch) for batch in batches(requests, _workers(client))])
+def _run(options: DatabaseBuildOptions, requests: list[BuildRequest], index: ModelIndex, result: DatabaseBuild,
+         on_entry: EntryDone | None, on_dashboard: Callable[[str], None] | None) -> None:  # fmt: skip
+    """Build `requests` on the cluster (and here, on a local one), recording each row as it lands."""
+    processes = options.workers or os.cpu_count() or 1
+    dask_only = crashed_here(index.db_dir)
+    # This process builds small entries too on a local cluster of 2 or more cores, and alone a few of them.
+    small = sum(r.job.source in SMALL_SOURCES and r.job.id not in dask_only for r in requests)
+    here = options.scheduler is None and processes > 1 and small > 0
+    alone = here and small == len(requests) and small <= HERE_ALONE_ENTRIES
+    sources = tuple(sorted({r.job.source for r in requests}))
+    cluster = None if alone else ClusterStart(options.scheduler, processes - 1 if here else processes, sources)
     last_commit = time.monotonic()
+
+    def settle(rows: list[EntryRow]) -> None:
+        nonlocal last_commit
+        if result.dashboard is None and cluster is not None and cluster.dashboard:
+            result.dashboard = cluster.dashboard
+            if on_dashboard:
+                on_dashboard(cluster.dashboard)
+        for row in rows:
+            # Rows are committed in batches: a commit (its fsyncs) took 16 ms on the development
+            # machine against 0.7 ms a row in a batch, and a shared file system is slower.
+            commit = time.monotonic() - last_commit > COMMIT_EVERY_S
+            _settle(index, row, commit)
+            last_commit = time.monotonic() if commit else last_commit
+            result.built.append(row)
+            if on_entry:
+                on_entry(row, False)
+
     try:
-        for future in pending:
-            batch = futures[future.key][1]
-            try:
-                rows = future.result()
-            except Exception as exc:  # noqa: BLE001 (KilledWorker and the like: recorded, the build goes on)
-                if len(batch) > 1:  # which of them killed the worker is unknown: each on its own
-                    for request in batch:
-                        pending.add(submit([request]))
-                    continue
-                rows = [_worker_lost(batch[0].job, batch[0].key, exc)]
-            for row in rows:
-                # Rows are committed in batches: a commit (its fsyncs) took 16 ms on the development
-                # machine against 0.7 ms a row in a batch, and a shared file system is slower.
-                commit = time.monotonic() - last_commit > COMMIT_EVERY_S
-                _settle(index, row, commit)
-                last_commit = time.monotonic() if commit else last_commit
-                result.built.append(row)
-                if on_entry:
-                    on_entry(row, False)
+        Dispatch(cluster, requests, here=here, processes=processes, db_dir=index.db_dir, dask_only=dask_only).run(settle)
     finally:
         # On Ctrl-C: nothing more is started; finished entries are committed.
         index.commit()
-        client.cancel([f for f, _ in futures.values()])
+        if cluster is not None:
+            cluster.close()

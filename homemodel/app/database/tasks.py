@@ -1,8 +1,8 @@
 """What `db build` hands Dask: its entries as tasks, several small entries to a task.
 
 Light on purpose (no trimesh, no pipelines): the process that runs the build imports this to
-submit the tasks; only the workers import `entry_build` and what it needs. Importing
-`entry_build` in that process cost 1.2 s of CPU before the workers got their first entry.
+submit the tasks, and imports `entry_build` and what it needs only when it builds entries
+itself (on a local cluster), never for a remote one.
 
 A task costs Dask about 12 ms of CPU over its processes (scheduler, client, worker; measured
 with 400 empty tasks on 2 local workers), much of a 100 ms cup. Entries of the sources
@@ -24,13 +24,10 @@ MAX_BATCH = 4
 TASKS_PER_WORKER = 8
 
 
-def batches(requests: list[BuildRequest], workers: int) -> list[list[BuildRequest]]:
-    """The requests as tasks: the long ones alone and first (they decide when the build ends),
-    then the small ones in batches of up to MAX_BATCH."""
-    small = [r for r in requests if r.job.source in SMALL_SOURCES]
-    size = max(1, min(MAX_BATCH, len(small) // (max(workers, 1) * TASKS_PER_WORKER)))
-    alone = [[r] for r in requests if r.job.source not in SMALL_SOURCES]
-    return alone + [small[i : i + size] for i in range(0, len(small), size)]
+def batch_size(small_left: int, processes: int) -> int:
+    """How many of the small entries still to build go to Dask's next task: up to MAX_BATCH,
+    while each building process can still get TASKS_PER_WORKER tasks, so all end together."""
+    return max(1, min(MAX_BATCH, small_left // (max(processes, 1) * TASKS_PER_WORKER)))
 
 
 def task_key(batch: list[BuildRequest]) -> str:

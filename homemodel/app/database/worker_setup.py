@@ -74,10 +74,13 @@ class DatabaseWorker(WorkerPlugin):
 
     name = PLUGIN_NAME
 
-    def __init__(self, sources: tuple[str, ...]) -> None:
+    def __init__(self, sources: tuple[str, ...], sys_path: list[str] | None = None) -> None:
         self.sources = tuple(sorted(set(sources)))
+        self.sys_path = sys_path  # a local cluster's: its client's, without Blender's folders
 
     async def setup(self, worker) -> None:  # noqa: ANN001 (distributed.Worker)
+        if self.sys_path is not None:
+            sys.path[:] = self.sys_path
         # On the executor's thread (one per worker), and awaited: the worker takes its first
         # entry, which its event loop unpickles, only once these imports are done (imports of
         # the same modules on two threads at once are what a stalled build was suspected of).
