@@ -180,11 +180,12 @@ def _worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def build_entry(request: BuildRequest) -> EntryRow:
+def build_entry(request: BuildRequest, c_output_fds: tuple[int, ...] = (1, 2)) -> EntryRow:
     """Build `request.job` into `db_dir/models/<id>/` (replacing what was there only when the
-    new folder is whole) and return its index row; never raises for a bad entry."""
+    new folder is whole) and return its index row; never raises for a bad entry. What C code
+    prints to `c_output_fds` meanwhile is logged at debug level, not shown."""
     from homemodel.exchange.urdf.read import load_urdf
-    from homemodel.app.database.worker_setup import note_blender_thread  # imports distributed: only in workers
+    from homemodel.app.database.worker_setup import note_blender_thread
 
     job = request.job
     start = time.perf_counter()
@@ -202,7 +203,7 @@ def build_entry(request: BuildRequest) -> EntryRow:
     try:
         with atomic_dir(final, force=True) as tmp:
             # COLMAP, Blender and pybullet print from C; in a worker that would bury the build's lines.
-            with captured_c_output() as said:
+            with captured_c_output(c_output_fds) as said:
                 built = _run_source(request, tmp)
             log.debug("entry %s printed:\n%s", job.id, "\n".join(said[-50:]))
             built.report.path = final  # where the model will be, not the temporary folder
