@@ -22,12 +22,12 @@ CRASH_WORDS = ("Traceback", "SIGSEGV", "Segmentation fault", "Aborted at", "Erro
 CHEAP_IDS = ("kitchen_cupboard", "base_unit", "turntable_cup", "completed_cup", "partnet_cabinet")
 
 
-def db_build(manifest: Path, db: Path, tmp: Path) -> subprocess.CompletedProcess:
+def db_build(manifest: Path, db: Path, tmp: Path, *more: str) -> subprocess.CompletedProcess:
     """`homemodel db build MANIFEST --db DIR`, as the README says, in a fresh process whose
     temporary files (Blender's session folders among them) go to `tmp`."""
     tmp.mkdir(exist_ok=True)
     env = {**os.environ, "PYTHONPATH": str(ROOT), "TMPDIR": str(tmp), "COLUMNS": "200"}
-    command = [sys.executable, "-m", "homemodel", "db", "build", str(manifest), "--db", str(db)]
+    command = [sys.executable, "-m", "homemodel", "db", "build", str(manifest), "--db", str(db), *more]
     return subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
 
 
@@ -85,7 +85,8 @@ def test_the_example_builds_with_the_readme_command(tmp_path) -> None:
 @pytest.mark.slow
 def test_workers_that_ran_blender_end_without_a_crash(tmp_path) -> None:
     """bpy runs on a Dask executor thread, and its module teardown crashed the worker when the
-    cluster closed; pycolmap's glog (imported for a photo entry) printed the crash."""
+    cluster closed; pycolmap's glog (imported for a photo entry) printed the crash. With one
+    worker, it builds every entry (the command's process builds none)."""
     folder = tmp_path / "inputs"
     (folder / "photos").mkdir(parents=True)
     for i in range(3):
@@ -96,9 +97,11 @@ def test_workers_that_ran_blender_end_without_a_crash(tmp_path) -> None:
         {"id": "frog", "source": "photos", "path": "photos"},
     ]
     (folder / "manifest.yaml").write_text(yaml.safe_dump({"entries": entries}))
-    done = db_build(folder / "manifest.yaml", tmp_path / "db", tmp_path / "tmp")
+    done = db_build(folder / "manifest.yaml", tmp_path / "db", tmp_path / "tmp", "--workers", "1")
     assert done.returncode == 0, done.stdout + done.stderr
     assert "built 3 (2 valid, 0 invalid, 1 failed)" in done.stdout
+    with ModelIndex(tmp_path / "db") as index:
+        assert len({row.worker for row in index.rows()}) == 1
     assert done.stderr.strip() == "", done.stderr
     # Blender's session folders (one per worker) are removed, as Blender's own exit would.
     assert not list((tmp_path / "tmp").glob("blender_*"))

@@ -179,10 +179,14 @@ def _run(options: DatabaseBuildOptions, requests: list[BuildRequest], index: Mod
     processes = options.workers or os.cpu_count() or 1
     dask_only = crashed_here(index.db_dir)
     # This process builds small entries too on a local cluster of 2 or more cores, and alone a few of them.
-    small = sum(r.job.source in SMALL_SOURCES and r.job.id not in dask_only for r in requests)
-    here = options.scheduler is None and processes > 1 and small > 0
-    alone = here and small == len(requests) and small <= HERE_ALONE_ENTRIES
-    sources = tuple(sorted({r.job.source for r in requests}))
+    small = {r.job.id for r in requests if r.job.source in SMALL_SOURCES and r.job.id not in dask_only}
+    here = options.scheduler is None and processes > 1 and bool(small)
+    alone = here and len(small) == len(requests) <= HERE_ALONE_ENTRIES
+    # What the workers import as they start: with this process building the small entries, what
+    # only the workers build, if anything (a worker given a small entry imports its pipeline
+    # then); else everything.
+    theirs = {r.job.source for r in requests if not (here and r.job.id in small)}
+    sources = tuple(sorted(theirs or {r.job.source for r in requests}))
     cluster = None if alone else ClusterStart(options.scheduler, processes - 1 if here else processes, sources)
     last_commit = time.monotonic()
 
