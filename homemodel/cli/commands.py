@@ -99,6 +99,10 @@ PARTS: dict[str, Callable[[typer.Typer], None]] = {
 }  # fmt: skip
 
 
+def _no_options() -> None:
+    """The command's top level takes no options of its own."""
+
+
 def make_app(parts: Iterable[str] | None = None) -> typer.Typer:
     """The command line with `parts` (names in PARTS; None: all of them)."""
     app = typer.Typer(
@@ -108,6 +112,9 @@ def make_app(parts: Iterable[str] | None = None) -> typer.Typer:
         add_completion=False,
         pretty_exceptions_enable=False,
     )
+    # A Typer app with one command and no callback runs that command directly (`homemodel X.urdf`),
+    # so the group always has a callback: `homemodel validate X.urdf` parses the same with one part.
+    app.callback()(_no_options)
     wanted = set(PARTS if parts is None else parts)
     for name, add in PARTS.items():
         if name in wanted:
