@@ -52,7 +52,7 @@ def test_the_z_buffer_finds_the_triangles_the_ray_caster_hits(make, size_px: int
     camera = Camera(width=size_px, height=size_px, fx=focal, fy=focal, cx=(size_px - 1) / 2, cy=(size_px - 1) / 2)
     camera_from_mesh = np.linalg.inv(world_from_camera_looking_at(eye, centre))
     _, hits = RayCaster(mesh).camera_hits(camera, camera_from_mesh)
-    drawn = nearest_triangles(mesh, camera, camera_from_mesh)
+    drawn = nearest_triangles(mesh.vertices, mesh.faces, camera, camera_from_mesh)
     assert 0.05 < np.mean(drawn >= 0) < 0.95
     # Pixel centres exactly on a shared edge may go to either triangle: a few per thousand at most.
     assert np.mean((drawn >= 0) == hits.hit) >= 0.999

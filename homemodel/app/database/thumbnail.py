@@ -11,7 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from articulation.model import Model
 from homemodel.core.atomic import write_bytes_atomic
@@ -23,25 +22,37 @@ BACKGROUND = (245, 245, 245)
 AMBIENT = 0.35
 
 
-def _coloured_mesh(model: Model) -> tuple[trimesh.Trimesh, np.ndarray]:
-    """Every visual in the model frame, at rest, and an RGB per triangle."""
+def _coloured_triangles(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every visual's vertices in the model frame, at rest, its triangles (indices into them)
+    and an RGB per triangle. In numpy: trimesh's copies, transforms and concatenation were a
+    third of a cup's thumbnail."""
     world_from_links = model.world_from_links()
-    parts, colours = [], []
+    vertices, faces, colours, count = [], [], [], 0
     for link in model.links:
         for visual in link.visuals:
-            mesh = visual.mesh.copy()
-            mesh.apply_transform(world_from_links[link.name] @ visual.link_from_visual)
-            parts.append(mesh)
-            colours.append(np.tile(np.asarray(visual.material.rgba[:3]), (len(mesh.faces), 1)))
-    return trimesh.util.concatenate(parts), np.vstack(colours)
+            world_from_visual = world_from_links[link.name] @ visual.link_from_visual
+            points = np.asarray(visual.mesh.vertices, dtype=np.float64)
+            vertices.append(points @ world_from_visual[:3, :3].T + world_from_visual[:3, 3])
+            faces.append(np.asarray(visual.mesh.faces, dtype=np.int64) + count)
+            colours.append(np.tile(np.asarray(visual.material.rgba[:3], dtype=np.float64), (len(faces[-1]), 1)))
+            count += len(points)
+    return np.vstack(vertices), np.vstack(faces), np.vstack(colours)
 
 
-def nearest_triangles(mesh: trimesh.Trimesh, camera: Camera, camera_from_mesh: np.ndarray) -> np.ndarray:
-    """(height * width,) the index of the triangle nearest the camera at each pixel centre, row
-    by row, -1 where none is: a z-buffer over the triangles wholly in front of the camera,
-    with 1/z (linear in the image) as the depth."""
-    points = np.asarray(mesh.vertices, dtype=np.float64) @ camera_from_mesh[:3, :3].T + camera_from_mesh[:3, 3]
-    faces = np.asarray(mesh.faces)
+def _unit_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3) each triangle's unit normal; zero for a degenerate one (as trimesh gives)."""
+    corners = vertices[faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
+
+
+def nearest_triangles(vertices: np.ndarray, faces: np.ndarray, camera: Camera, camera_from_mesh: np.ndarray) -> np.ndarray:
+    """(height * width,) the index of the triangle (a row of `faces`) nearest the camera at each
+    pixel centre, row by row, -1 where none is: a z-buffer over the triangles wholly in front
+    of the camera, with 1/z (linear in the image) as the depth."""
+    points = np.asarray(vertices, dtype=np.float64) @ camera_from_mesh[:3, :3].T + camera_from_mesh[:3, 3]
+    faces = np.asarray(faces)
     in_front = np.all(points[faces, 2] > 1e-9, axis=1)
     faces, indices = faces[in_front], np.flatnonzero(in_front)
     corners = camera.project(np.where(points[:, 2:] > 1e-9, points, [0.0, 0.0, 1.0]))[faces]  # (F, 3, 2) pixels
@@ -87,21 +98,22 @@ def nearest_triangles(mesh: trimesh.Trimesh, camera: Camera, camera_from_mesh: n
 
 def render_thumbnail(model: Model, size_px: int = THUMBNAIL_PX) -> np.ndarray:
     """(size, size, 3) uint8 RGB: the model seen from the front-right, above (its front is +x)."""
-    mesh, colours = _coloured_mesh(model)
-    centre = mesh.bounding_box.centroid
-    radius = float(np.linalg.norm(mesh.extents)) / 2 or 1.0
+    vertices, faces, colours = _coloured_triangles(model)
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    centre = (low + high) / 2
+    radius = float(np.linalg.norm(high - low)) / 2 or 1.0
     fov_half = np.radians(20.0)
     eye = centre + radius / np.sin(fov_half) * np.array([0.75, -0.45, 0.5]) / np.linalg.norm([0.75, -0.45, 0.5])
     focal = size_px / 2 / np.tan(fov_half)
     camera = Camera(width=size_px, height=size_px, fx=focal, fy=focal, cx=(size_px - 1) / 2, cy=(size_px - 1) / 2)
     world_from_camera = world_from_camera_looking_at(eye, centre)
-    triangle = nearest_triangles(mesh, camera, np.linalg.inv(world_from_camera))
+    triangle = nearest_triangles(vertices, faces, camera, np.linalg.inv(world_from_camera))
     image = np.tile(np.asarray(BACKGROUND, dtype=np.float64), (size_px * size_px, 1))
     hit = triangle >= 0
     view = camera.pixel_rays()[hit] @ world_from_camera[:3, :3].T
     view /= np.linalg.norm(view, axis=1, keepdims=True)
     # Two-sided: scans and imported assets come with either winding.
-    shade = AMBIENT + (1 - AMBIENT) * np.abs(np.sum(mesh.face_normals[triangle[hit]] * view, axis=1))
+    shade = AMBIENT + (1 - AMBIENT) * np.abs(np.sum(_unit_normals(vertices, faces)[triangle[hit]] * view, axis=1))
     image[hit] = 255 * colours[triangle[hit]] * shade[:, None]
     return np.clip(image, 0, 255).astype(np.uint8).reshape(size_px, size_px, 3)
 
