@@ -139,7 +139,11 @@ def view_distance_m(radius_m: float) -> float:
 
 
 class ShapeCompleter(Estimator):
-    """Rock et al.'s Matching, Fitting and Filling, trained on a class library (scikit-learn contract)."""
+    """Rock et al.'s Matching, Fitting and Filling, trained on a class library (scikit-learn contract).
+
+    `fill_resolution`: voxels of the filling grid along the object's longest extent. 64 rather
+    than 96: on the same 17 queries (a 96-voxel model queried at 64), mean IoU 0.691 -> 0.688,
+    CPU per query 41 % less, and a mesh of 23,000 faces instead of 53,000 to export and gate."""
 
     def __init__(
         self,
@@ -151,7 +155,7 @@ class ShapeCompleter(Estimator):
         n_trees: int = 40,
         n_candidates: int = 8,
         tps_smoothing: float = 0.05,
-        fill_resolution: int = 96,
+        fill_resolution: int = 64,
         filler_queries_per_class: int = 20,
         random_state: int = 0,
     ) -> None:
