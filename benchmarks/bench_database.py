@@ -292,7 +292,7 @@ def throughput(kind: str, entries: int, rounds: int, console: Console, baseline:
     side_entries_s = median(lambda r: r["side_entries_s"])
     serial_entry_s = serial_entries_s / entries
     side_entry_s, db_entry_s = (WORKERS * span / entries for span in (side_entries_s, db_entries_s))  # a process's time per entry
-    title = f"{entries} {kind} entries: the database on {WORKERS} Dask workers vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
+    title = f"{entries} {kind} entries: the database ({WORKERS} processes: its own and Dask workers) vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
     table = Table(title=title)
     table.add_column("figure")
     table.add_column("serial loop", justify="right")
