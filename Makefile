@@ -33,9 +33,13 @@ demo: setup
 # Tests run on every core (pytest-xdist), a test file per worker at a time, the longest files
 # first (tests/conftest.py): a file's module fixtures are made once, and the costly session
 # fixtures are shared through tests/fixture_cache.py.
+# Bytecode caches are written (into .venv and the gitignored __pycache__ folders) even where
+# PYTHONDONTWRITEBYTECODE is set: uv installs no .pyc, and without them every worker and every
+# child process compiles numpy, scipy, trimesh, scikit-learn... from source again (collecting
+# the suite: 26 CPU-s against 8-12; five CLI-heavy test files: 113 CPU-s against 64).
 test: setup
-	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q --durations=15 -n auto --dist loadfile --no-loadscope-reorder
+	env -u PYTHONDONTWRITEBYTECODE $(VENV)/bin/lint-imports
+	env -u PYTHONDONTWRITEBYTECODE $(PY) -m pytest -q --durations=15 -n auto --dist loadfile --no-loadscope-reorder
 
 setup: $(APT_STAMP) $(STAMP) $(NODE_TOOLS)
 
