@@ -55,6 +55,7 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 LONGEST_FIRST = (
     "test_photogrammetry_pipeline.py",  # renders the rendered set and reconstructs it; Kermit
     "test_photogrammetry_registration.py",  # the Buddha sets
+    "test_photogrammetry_support.py",  # the Kermit and Buddha cuts
     "test_turntable_accuracy.py",
     "test_blender_addon.py",
     "test_shape_completion.py",
@@ -62,6 +63,15 @@ LONGEST_FIRST = (
     "test_simulator_export.py",
     "test_database_example.py",
     "test_database.py",
+    # 15-50 CPU-s each (tests/cpu_profile.py, cold, s5), which in name order came near the end.
+    "test_outputs_whole.py",
+    "test_tracking_unseen_furniture.py",
+    "test_database_cluster.py",
+    "test_tracking_observe.py",
+    "test_modeller_unseen_sweep.py",
+    "test_input_bounds.py",
+    "test_modeller_unseen_furniture.py",
+    "test_evaluation.py",
 )
 
 
