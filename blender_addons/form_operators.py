@@ -125,8 +125,13 @@ def _build(operator, context) -> bpy.types.Object | None:
     work = Path(tempfile.mkdtemp(prefix="homemodel-build-"))
     spec_path = work / f"{spec.get('name') or form.loaded_kind}.json"
     spec_path.write_text(json.dumps(spec), encoding="utf-8")
-    problems = json.loads(toolkit.run(["addon", "check-spec", str(spec_path)], preference(context), accept=(0, 1)).stdout)
-    if problems:
+    # Built straight away: a spec the toolkit refuses (exit 2) is then checked field by field
+    # for the form, so a good spec costs one start of the toolkit, not two.
+    built = toolkit.run(["addon", "build", str(spec_path), "--out", str(work / "model"), "--force"], preference(context), accept=(0, 1, 2))
+    if built.returncode == 2:
+        problems = json.loads(toolkit.run(["addon", "check-spec", str(spec_path)], preference(context), accept=(0, 1)).stdout)
+        if not problems:  # refused for another reason than a field
+            raise toolkit.ToolkitError(built.error_line())
         by_path = {item.path: item for item in form.rows}
         for problem in problems:
             # The deepest row the field path names: a list's problem lands on its header.
@@ -139,7 +144,6 @@ def _build(operator, context) -> bpy.types.Object | None:
         form.message = f"{problems[0]['field']}: {problems[0]['message']}"
         operator.report({"ERROR"}, form.message)
         return None
-    built = toolkit.run(["addon", "build", str(spec_path), "--out", str(work / "model"), "--force"], preference(context), accept=(0, 1))
     GATE_REPORT[:] = built.stdout.splitlines()
     failed = [line for line in GATE_REPORT if line.startswith("FAIL ")]
     if failed:  # built, but the gate refused it: the installer sees why in the panel
