@@ -65,11 +65,11 @@ def scene(addon):
 
 
 @pytest.fixture(scope="module")
-def kitchen(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The Figure 47 kitchen built by `homemodel build`: map.xml and models/."""
-    out = tmp_path_factory.mktemp("kitchen") / "out"
-    result = homemodel("build", str(REPO / "examples" / "kitchen"), "--out", str(out))
-    assert result.returncode == 0, result.stderr
+def kitchen(built_kitchen: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The Figure 47 kitchen built by `homemodel build` (the suite's shared build): map.xml and
+    models/, copied, as a test writes a map beside them."""
+    out = tmp_path_factory.mktemp("addon_kitchen") / "out"
+    shutil.copytree(built_kitchen, out)
     return out
 
 
@@ -687,11 +687,17 @@ needs_a_window = pytest.mark.skipif(
 )
 
 
-def _in_a_blender_window(tmp_path: Path, script: Path, *args: str) -> subprocess.CompletedProcess:
-    """Run `script` in Debian's Blender with a window on xvfb, on an empty scene."""
-    empty = tmp_path / "empty.blend"
+@pytest.fixture(scope="module")
+def empty_blend(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An empty scene saved by Debian's Blender, for the window tests to open."""
+    empty = tmp_path_factory.mktemp("window") / "empty.blend"
     subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
                     f"import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); bpy.ops.wm.save_as_mainfile(filepath={str(empty)!r})"], capture_output=True, check=True)
+    return empty
+
+
+def _in_a_blender_window(empty: Path, script: Path, *args: str) -> subprocess.CompletedProcess:
+    """Run `script` in Debian's Blender with a window on xvfb, on the `empty` scene."""
     env = {**ENV, "HOMEMODEL_COMMAND": f"{sys.executable} -m homemodel"}
     return subprocess.run(
         ["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", "blender", "--factory-startup", "--enable-event-simulate",
@@ -702,10 +708,10 @@ def _in_a_blender_window(tmp_path: Path, script: Path, *args: str) -> subprocess
 
 @pytest.mark.slow
 @needs_a_window
-def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path) -> None:
+def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, empty_blend: Path, tmp_path: Path) -> None:
     from homemodel.core.images import read_image
 
-    run = _in_a_blender_window(tmp_path, REPO / "tools" / "addon_screenshots.py", str(kitchen / "map.xml"), str(tmp_path / "shots"))
+    run = _in_a_blender_window(empty_blend, REPO / "tools" / "addon_screenshots.py", str(kitchen / "map.xml"), str(tmp_path / "shots"))
     output = run.stdout + run.stderr
     assert "Traceback" not in output and "Error" not in output and "FAILED" not in output, output
     drew = json.loads((tmp_path / "shots" / "screenshots.json").read_text())
@@ -725,17 +731,15 @@ def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, tmp_path: Path)
 
 @pytest.mark.slow
 @needs_a_window
-def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_next(tmp_path: Path) -> None:
+def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_next(empty_blend: Path, tmp_path: Path) -> None:
     """The modal path an installer uses: the job's timer polls the child, the panel's status and
     progress move, the model lands at the 3D cursor; Esc stops a second job and its child."""
-    trimesh.creation.box((0.1, 0.08, 0.12)).export(tmp_path / "box.ply")
-    capture = tmp_path / "capture"
-    simulated = homemodel("turntable", "simulate", str(tmp_path / "box.ply"), "--out", str(capture), "--frames", "12",
-                          "--width", "320", "--height", "240", "--samples", "2",
-                          "--camera-distance-m", "0.3", "--camera-height-m", "0.55", "--tag-size-m", "0.04")
-    assert simulated.returncode == 0, simulated.stderr
+    from turntable_l_block import l_block_capture
+
+    capture = tmp_path / "capture"  # a path of this test's own, for pgrep below
+    shutil.copytree(l_block_capture(), capture)
     work_folders = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*"))
-    run = _in_a_blender_window(tmp_path, REPO / "tests" / "blender_window_job.py", str(capture), str(tmp_path / "seen.json"))
+    run = _in_a_blender_window(empty_blend, REPO / "tests" / "blender_window_job.py", str(capture), str(tmp_path / "seen.json"))
     [kept] = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*")) - work_folders  # the cancelled one is gone
     assert (kept / "model" / "model.urdf").exists()  # the landed model's, whose textures Blender reads
     shutil.rmtree(kept)

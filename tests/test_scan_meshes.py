@@ -159,18 +159,8 @@ def test_distances_agree_with_the_shared_metric() -> None:
 # Every scan pipeline's folder holds both meshes: a turntable capture of a concave block and a
 # completed cup, each written by its pipeline's own export.
 
-from fixture_cache import cached_folder, content_key  # noqa: E402
 from test_shape_completion import trained  # noqa: E402,F401 (the shared trained model fixture)
-
-L_BLOCK_CAPTURE = dict(frames=12, width_px=320, height_px=240, samples=2, camera_distance_m=0.3,
-                       camera_height_m=0.55, tag_size_m=0.04)  # fmt: skip
-
-
-def _l_block() -> trimesh.Trimesh:
-    """An L of two 4 cm thick blocks, 12 cm long and 10 cm high: its hull fills the inner corner."""
-    base = trimesh.creation.box((0.12, 0.08, 0.04)).apply_translation((0, 0, 0.02))
-    upright = trimesh.creation.box((0.04, 0.08, 0.1)).apply_translation((-0.04, 0, 0.05))
-    return base.union(upright)
+from turntable_l_block import l_block_capture  # noqa: E402
 
 
 def _check_folder(folder: Path) -> dict:
@@ -199,15 +189,8 @@ def _check_folder(folder: Path) -> dict:
 @pytest.mark.bpy
 def test_a_turntable_scans_folder_holds_both_meshes(tmp_path: Path) -> None:
     from turntable import ReconstructOptions, reconstruct
-    from turntable.simulate import SimulationOptions, simulate_capture
 
-    def simulate(root: Path) -> None:
-        _l_block().export(root / "l_block.ply")
-        simulate_capture(root / "l_block.ply", root / "capture", SimulationOptions(**L_BLOCK_CAPTURE))
-
-    key = content_key(inputs=[Path(__file__)], packages=("turntable",), settings=repr(L_BLOCK_CAPTURE))
-    capture = cached_folder("scan_meshes_turntable", key, simulate) / "capture"
-    reconstruct(capture, tmp_path / "scan", ReconstructOptions(name="l_block"))
+    reconstruct(l_block_capture(), tmp_path / "scan", ReconstructOptions(name="l_block"))
     meshes = _check_folder(tmp_path / "scan")
     # The merged depth points lie on the visual surface within their spacing; the block's inner
     # corner needs parts, and they keep within 5 mm of the visual both ways.
