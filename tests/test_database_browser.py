@@ -69,7 +69,8 @@ def built(tmp_path_factory):  # noqa: ANN201
     entries = [{"id": "cabinet", "source": "urdf", "path": "cabinet"}, {"id": "locker", "source": "urdf", "path": "locker", "category": "locker"}]
     (root / "manifest.yaml").write_text(yaml.safe_dump({"entries": entries}))
     db = root / "db"
-    build_database(root / "manifest.yaml", db, DatabaseBuildOptions(workers=1, repair=True))
+    # Two imports on 2 processes: built in this process, with no cluster to start.
+    build_database(root / "manifest.yaml", db, DatabaseBuildOptions(workers=2, repair=True))
     from homemodel.exchange.map_xml import save_map
     from homemodel.model_folder.map_entry import MapEntry, add_model_folder
     from semantic_map import SemanticMap
