@@ -37,6 +37,18 @@ def homemodel(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "homemodel", *args], capture_output=True, text=True, env=ENV)
 
 
+def cli(*args: str) -> subprocess.CompletedProcess:
+    """`homemodel ARGS` in this process, for the checks of what the extension wrote (the
+    extension's own calls cross the process boundary); not for builds, whose Blender scene
+    would land in this process's bpy."""
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    result = CliRunner().invoke(app, list(args))
+    return subprocess.CompletedProcess(list(args), result.exit_code, result.stdout, result.stderr)
+
+
 @pytest.fixture(scope="module")
 def addon():
     """The extension registered in this process's bpy, the toolkit found through HOMEMODEL_COMMAND."""
@@ -311,7 +323,7 @@ def test_import_then_export_with_no_edits_gives_the_same_model(scene, cupboard_d
     assert bpy.ops.homemodel.export_model(directory=str(tmp_path / "out")) == {"FINISHED"}
     assert GATE_REPORT[-1].startswith("OK: all")
     _same_model(load_urdf(cupboard_dir / "model.urdf"), load_urdf(tmp_path / "out" / "model.urdf"))
-    assert homemodel("validate", str(tmp_path / "out")).returncode == 0
+    assert cli("validate", str(tmp_path / "out")).returncode == 0
 
 
 def _colour_per_triangle(model: Model) -> tuple[np.ndarray, np.ndarray]:
@@ -533,8 +545,8 @@ def test_the_scheme_survives_save_reopen_and_the_gltf_exporter(scene, cupboard_d
     assert extras[rig.POSITION] == pytest.approx(0.5) and len(extras[rig.AXIS]) == 3
     assert json.loads(nodes[root.name][rig.MODEL])["category"] == "cupboard"
     # The toolkit reads that glb back as the same model (the open door is not a change).
-    assert homemodel("addon", "describe", str(tmp_path / "scene.glb"), "--out", str(tmp_path / "glb.json")).returncode == 0
-    assert homemodel("addon", "export", str(tmp_path / "glb.json"), "--out", str(tmp_path / "toolkit_glb")).returncode == 0
+    assert cli("addon", "describe", str(tmp_path / "scene.glb"), "--out", str(tmp_path / "glb.json")).returncode == 0
+    assert cli("addon", "export", str(tmp_path / "glb.json"), "--out", str(tmp_path / "toolkit_glb")).returncode == 0
     _same_model(load_urdf(cupboard_dir / "model.urdf"), load_urdf(tmp_path / "toolkit_glb" / "model.urdf"))
     # That glb comes back as the same model, rigged.
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -577,8 +589,8 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: P
     fridge_door = next(j for j in rig.joints_of(roots["fridge_1"]) if j[rig.JOINT_TYPE] == "revolute")
     rig.set_position(fridge_door, 0.4)
     assert bpy.ops.homemodel.export_home(directory=str(tmp_path / "home")) == {"FINISHED"}
-    assert homemodel("map", "validate", str(tmp_path / "home" / "map.xml")).returncode == 0
-    walk = homemodel("map", "find", str(tmp_path / "home" / "map.xml"), "--type", "cup", "--property", "colour=blue")
+    assert cli("map", "validate", str(tmp_path / "home" / "map.xml")).returncode == 0
+    walk = cli("map", "find", str(tmp_path / "home" / "map.xml"), "--type", "cup", "--property", "colour=blue")
     assert walk.returncode == 0, walk.stderr
     assert "demo_house > kitchen > table_1 > blue_cup" in walk.stdout and "1. south (default)" in walk.stdout
     exported = load_map(tmp_path / "home" / "map.xml")
@@ -618,7 +630,7 @@ def test_a_home_laid_out_by_hand_answers_the_blue_cup_walk(scene, tmp_path: Path
     assert bpy.ops.homemodel.place(small=True) == {"FINISHED"}
     assert (cup[home.PARENT], cup[home.RELATION]) == ("table_1", "on")
     assert bpy.ops.homemodel.export_home(directory=str(tmp_path / "home")) == {"FINISHED"}
-    walk = homemodel("map", "find", str(tmp_path / "home" / "map.xml"), "--type", "cup", "--property", "colour=blue")
+    walk = cli("map", "find", str(tmp_path / "home" / "map.xml"), "--type", "cup", "--property", "colour=blue")
     assert walk.returncode == 0, walk.stderr
     assert "home > kitchen > table_1 > blue_cup" in walk.stdout and "1. south (default): x=2.000 m, y=0.600 m, yaw=1.571 rad" in walk.stdout
 
