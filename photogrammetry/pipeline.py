@@ -87,6 +87,9 @@ class Reconstruction(ModelResult):
     figures: dict  # the stages' figures (summary.json's `photogrammetry` key) and their times
     work_dir: Path  # holds the texture image until the export copies it (gone after `reconstruct`)
     object_points: np.ndarray | None = None  # (N, 3) the object's fused dense points the mesh was made from
+    # (N, 3) the fused dense points the cleaning started from: where the photos look, free space
+    # removed, the support surface and any stray pieces still in (what the cut is judged against)
+    scene_points: np.ndarray | None = None
 
     @property
     def mesh(self) -> trimesh.Trimesh:
@@ -256,7 +259,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         "times_s": {k: round(v, 3) for k, v in {**sparse.times_s, **clock.times_s}.items()},
     }
     return Reconstruction(textured=textured, views=views, frame=frame, figures=figures, work_dir=work_dir,
-                          object_points=obj.points)  # fmt: skip
+                          object_points=obj.points, scene_points=frame.apply(points[keep]))  # fmt: skip
 
 
 def reconstruct(

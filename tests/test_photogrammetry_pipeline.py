@@ -9,6 +9,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import photo_runs
 import pytest
 import trimesh
 from typer.testing import CliRunner
@@ -29,10 +30,9 @@ def _reconstruct(*args: str):
 
 @pytest.fixture(scope="module")
 def kermit_model(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("kermit") / "model"
-    result = _reconstruct(str(KERMIT), "--out", str(out), "--texture-px", "1024", "--picture")
-    assert result.exit_code == 0, result.output
-    return out
+    """The default command on Kermit (a 1024 px texture, the cameras' picture), run once for
+    this file and the support cut's test (tests/photo_runs.py)."""
+    return photo_runs.model_copy(photo_runs.kermit_run(DATA / "photogrammetry"), tmp_path_factory.mktemp("kermit"))
 
 
 @pytest.mark.shared_data

@@ -9,15 +9,13 @@ import json
 from pathlib import Path
 
 import numpy as np
+import photo_runs
 import pytest
 import trimesh
-from fixture_cache import cached_folder, content_key
 
 from photogrammetry.support_plane import camera_up, find_support_plane
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
-BUDDHA_SIDE = ["00008.jpg", "00010.jpg", "00012.jpg", "00016.jpg", "00017.jpg", "00018.jpg", "00024.jpg",
-               "00026.jpg", "00034.jpg", "00035.jpg", "00040.jpg", "00043.jpg", "00056.jpg", "00067.jpg"]  # fmt: skip
 
 
 def _look_at(centre: np.ndarray, target: np.ndarray, up: np.ndarray, roll_deg: float = 0.0) -> np.ndarray:
@@ -92,63 +90,34 @@ def test_support_plane_is_the_table_under_the_object_not_the_wall_or_the_box_top
     assert find_support_plane(points, box, poses, np.array([0.0, 0.0, 0.15]), threshold=0.006) is None
 
 
-def _reconstruct_pair(photos: Path, folder: Path) -> None:
-    """The reconstruction with and without the support cut, each as mesh.ply, object_points.npy,
-    model_from_sfm.npy and figures.json in `folder`."""
-    from photogrammetry.cleaning import CleaningOptions
-    from photogrammetry.pipeline import ReconstructOptions, reconstruct_photos, temporary_work_dir
-    from photogrammetry.stereo import DenseOptions
-    from photogrammetry.texturing import TextureBakingOptions
-
-    for name, remove in (("cut", True), ("uncut", False)):
-        # Depth maps at 640 px: the cut is what is tested, and the photos' own size (1,223 px
-        # on the Buddha's 14) made the pair take 18 minutes on busy cores.
-        options = ReconstructOptions(
-            cleaning=CleaningOptions(remove_support=remove), texture=TextureBakingOptions(size_px=256),
-            dense=DenseOptions(max_image_size_px=640),
-        )
-        with temporary_work_dir() as work:
-            result = reconstruct_photos(photos, options, work_dir=Path(work))
-        (folder / name).mkdir()
-        result.mesh.export(folder / name / "mesh.ply")
-        np.save(folder / name / "object_points.npy", result.object_points)
-        np.save(folder / name / "model_from_sfm.npy", result.frame.model_from_sfm)
-        (folder / name / "figures.json").write_text(json.dumps(result.figures, default=str))
-
-
-def _pair(name: str, photos: Path) -> Path:
-    key = content_key(inputs=[photos], packages=["photogrammetry"], settings=name)
-    return cached_folder(f"support_{name}", key, lambda folder: _reconstruct_pair(photos, folder))
+@pytest.fixture(scope="module")
+def kermit_run() -> Path:
+    """Kermit's default command, the run test_photogrammetry_pipeline checks (tests/photo_runs.py)."""
+    return photo_runs.kermit_run(DATA)
 
 
 @pytest.fixture(scope="module")
-def kermit_pair() -> Path:
-    return _pair("kermit", DATA / "kermit")
+def buddha_side(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
+    """The 14 side photos' run (the one test_photogrammetry_registration checks), and the
+    object's points of the same photos reconstructed without the cut, in the cut model's frame
+    (SfM repeats itself: the two runs share its frame). From one side, what lies behind the head
+    stays in every frame: the scene's fused points hold more than the object, so the object as
+    the pipeline finds it without the cut is what the cut must keep."""
+    scratch = tmp_path_factory.mktemp("buddha_side")
+    run, uncut = photo_runs.buddha_side_run(DATA, scratch), photo_runs.buddha_side_uncut(DATA, scratch)
+    cut_from_uncut = np.load(run / "model_from_sfm.npy") @ np.linalg.inv(np.load(uncut / "model_from_sfm.npy"))
+    points = np.load(uncut / "object_points.npy")
+    return run, points @ cut_from_uncut[:3, :3].T + cut_from_uncut[:3, 3]
 
 
-@pytest.fixture(scope="module")
-def buddha_pair(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    photos = tmp_path_factory.mktemp("buddha_side") / "photos"
-    photos.mkdir()
-    for name in BUDDHA_SIDE:
-        (photos / name).symlink_to(DATA / "buddha" / "images" / name)
-    return _pair("buddha_side", photos)
-
-
-def _uncut_in_cut_frame(pair: Path) -> np.ndarray:
-    """The reconstruction's object points without the cut, in the cut model's frame (z up from the plane)."""
-    cut_from_uncut = np.load(pair / "cut" / "model_from_sfm.npy") @ np.linalg.inv(np.load(pair / "uncut" / "model_from_sfm.npy"))
-    return np.load(pair / "uncut" / "object_points.npy") @ cut_from_uncut[:3, :3].T + cut_from_uncut[:3, 3]
-
-
-def _check_cut(pair: Path) -> dict:
+def _check_cut(run: Path, kept: np.ndarray) -> dict:
     """The cut mesh leaves nothing of the support (no face below the plane beyond 0.3 % of the
     scene, no upward-facing surface lying on it beyond 1 % of the mesh's area) and keeps the
-    object: the uncut reconstruction's points above the plane (plus a margin) lie on the cut
-    mesh (95 % within 1 % of the object's size)."""
-    figures = json.loads((pair / "cut" / "figures.json").read_text())
+    object: the `kept` points (model frame) above the plane (plus a margin) lie on the cut mesh
+    (95 % within 1 % of the object's size)."""
+    figures = json.loads((run / "figures.json").read_text())
     assert figures["support_plane_found"] is True and figures["support_plane"]["inlier_share"] > 0.03
-    mesh = trimesh.load(pair / "cut" / "mesh.ply", force="mesh")
+    mesh = trimesh.load(run / "mesh.ply", force="mesh")
     size = float(np.linalg.norm(mesh.extents))
     scene = size  # the model frame's unit: SfM units (no markers), z up from the plane
     heights = mesh.vertices[:, 2]
@@ -157,27 +126,27 @@ def _check_cut(pair: Path) -> dict:
     low = mesh.triangles[:, :, 2].max(axis=1) < 0.01 * size
     skirt = low & (mesh.face_normals[:, 2] > 0.7)
     assert mesh.area_faces[skirt].sum() < 0.01 * mesh.area, mesh.area_faces[skirt].sum() / mesh.area
-    uncut = _uncut_in_cut_frame(pair)
-    above = uncut[uncut[:, 2] > 0.03 * size]
-    assert len(above) > 0.3 * len(uncut), (len(above), len(uncut))
+    above = kept[kept[:, 2] > 0.03 * size]
+    assert len(above) > 0.3 * len(kept), (len(above), len(kept))
     distance = np.abs(trimesh.proximity.signed_distance(mesh, above[:: max(1, len(above) // 5000)]))
     assert np.percentile(distance, 95) < 0.01 * size, np.percentile(distance, [50, 95]) / size
     return figures
 
 
 @pytest.mark.shared_data
-@pytest.mark.timeout(1200)  # two reconstructions when the cache is cold and the cores are shared
-def test_kermit_chair_seat_is_found_and_cut_with_kermit_intact(kermit_pair: Path) -> None:
+@pytest.mark.timeout(1200)  # the run, when the cache is cold and the cores are shared
+def test_kermit_chair_seat_is_found_and_cut_with_kermit_intact(kermit_run: Path) -> None:
     """The plane is the seat, not a slab through the board and his legs lying on it: of the
-    scene the photos keep in frame, 2.1 % lies below it (the seat's front edge and the chair's
-    frame), where a plane through the board had 7.7 %."""
-    figures = _check_cut(kermit_pair)
+    scene's fused points the photos keep in frame, 2.6 % lie below it (the seat's front edge and
+    the chair's frame), where a plane through the board had 7.7 % (of a reconstruction without
+    the cut); 95 % of the points above it lie within 0.70 % of the size of the cut mesh."""
+    figures = _check_cut(kermit_run, np.load(kermit_run / "scene_points.npy"))
     assert figures["support_plane"]["tilt_from_camera_up_deg"] < 25
     size = float(np.linalg.norm(figures["extents"]))
-    assert np.mean(_uncut_in_cut_frame(kermit_pair)[:, 2] < -0.006 * size) < 0.04
+    assert np.mean(np.load(kermit_run / "scene_points.npy")[:, 2] < -0.006 * size) < 0.04
 
 
 @pytest.mark.shared_data
-@pytest.mark.timeout(1800)
-def test_buddha_table_is_found_and_cut_with_the_head_intact(buddha_pair: Path) -> None:
-    _check_cut(buddha_pair)
+@pytest.mark.timeout(1800)  # two reconstructions when the cache is cold and the cores are shared
+def test_buddha_table_is_found_and_cut_with_the_head_intact(buddha_side: tuple[Path, np.ndarray]) -> None:
+    _check_cut(*buddha_side)

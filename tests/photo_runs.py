@@ -1,0 +1,117 @@
+"""The real photo sets reconstructed once for every test that reads them: a run through the
+command line (`homemodel photogrammetry reconstruct`) kept with what the pipeline held in
+memory on the way, made once per content of the photos, the settings and the code
+(fixture_cache), so the pipeline, registration and support tests share one run per set
+instead of reconstructing the same photos three times.
+
+A folder holds `model/` (the command's model folder), and from the same run `mesh.ply` (the
+final mesh, model frame), `scene_points.npy` (the fused dense points the cleaning started
+from, support surface included, model frame), `model_from_sfm.npy` (the model frame in SfM's)
+and `figures.json` (the pipeline's figures).
+Treat it as read-only: `model_copy` gives a test its own copy.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fixture_cache import cached_folder, content_key
+
+# What `photogrammetry reconstruct` runs: a change to any of it reconstructs again.
+PIPELINE_CODE = ("photogrammetry", "homemodel", "articulation")
+
+
+def cli_run(name: str, photos: Path, args: list[str]) -> Path:
+    """The folder of `homemodel photogrammetry reconstruct PHOTOS --out model ARGS`, made once."""
+
+    def make(folder: Path) -> None:
+        from typer.testing import CliRunner
+
+        from homemodel.cli import app
+        from photogrammetry import pipeline
+
+        kept = []
+        run = pipeline.reconstruct_photos
+
+        def keeping(*a, **kw):  # the CLI's own run, its in-memory result kept on the way
+            kept.append(run(*a, **kw))
+            return kept[-1]
+
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(pipeline, "reconstruct_photos", keeping)
+            command = ["photogrammetry", "reconstruct", str(photos), "--out", str(folder / "model"), *args]
+            result = CliRunner().invoke(app, command, catch_exceptions=False)
+        assert result.exit_code == 0, result.output
+        (result_in_memory,) = kept
+        result_in_memory.mesh.export(folder / "mesh.ply")
+        np.save(folder / "scene_points.npy", result_in_memory.scene_points)
+        np.save(folder / "model_from_sfm.npy", result_in_memory.frame.model_from_sfm)
+        (folder / "figures.json").write_text(json.dumps(result_in_memory.figures, default=str))
+
+    key = content_key(inputs=[photos, Path(__file__)], packages=PIPELINE_CODE, settings=json.dumps([name, args]))
+    return cached_folder(f"photo_run_{name}", key, make)
+
+
+def model_copy(run: Path, into: Path) -> Path:
+    """The run's model folder copied under `into` (a test's tmp folder: the summary-schema check
+    of conftest.py reads model folders made there)."""
+    return Path(shutil.copytree(run / "model", into / "model"))
+
+
+# The default command on Kermit's 11 photos (640 x 480), with a smaller texture and the cameras' picture.
+KERMIT_ARGS = ["--texture-size-px", "1024", "--picture"]
+# 14 neighbouring photos of the Buddha set (the 13 nearest to 00040.jpg by the reference
+# camera centres: about a quarter of the way round, at several heights), in no order.
+BUDDHA_SIDE = ["00008.jpg", "00010.jpg", "00012.jpg", "00016.jpg", "00017.jpg", "00018.jpg", "00024.jpg",
+               "00026.jpg", "00034.jpg", "00035.jpg", "00040.jpg", "00043.jpg", "00056.jpg", "00067.jpg"]  # fmt: skip
+# SfM with the defaults (what the registration test is about); depth maps at 640 px, not the
+# 1,223 px the 1600 px photos give (the cut and the registration are what is tested there;
+# at 1,223 px the run took 18 minutes of busy cores), a 1024 px texture.
+BUDDHA_SIDE_DEPTH_PX = 640
+BUDDHA_SIDE_ARGS = ["--depth-image-px", str(BUDDHA_SIDE_DEPTH_PX), "--texture-size-px", "1024"]
+
+
+def kermit_run(data: Path) -> Path:
+    return cli_run("kermit", data / "kermit", KERMIT_ARGS)
+
+
+def _buddha_side_photos(data: Path, scratch: Path) -> Path:
+    """The 14 side photos linked into `scratch/photos` (a key reads their bytes, not the folder's path)."""
+    photos = scratch / "photos"
+    photos.mkdir(exist_ok=True)
+    for name in BUDDHA_SIDE:
+        if not (photos / name).exists():
+            (photos / name).symlink_to(data / "buddha" / "images" / name)
+    return photos
+
+
+def buddha_side_run(data: Path, scratch: Path) -> Path:
+    return cli_run("buddha_side", _buddha_side_photos(data, scratch), BUDDHA_SIDE_ARGS)
+
+
+def buddha_side_uncut(data: Path, scratch: Path) -> Path:
+    """The same 14 photos reconstructed in memory without the support cut (at the run's depth
+    size, a small texture): `object_points.npy` and `model_from_sfm.npy`."""
+    from photogrammetry.cleaning import CleaningOptions
+    from photogrammetry.pipeline import ReconstructOptions, reconstruct_photos, temporary_work_dir
+    from photogrammetry.stereo import DenseOptions
+    from photogrammetry.texturing import TextureBakingOptions
+
+    photos = _buddha_side_photos(data, scratch)
+
+    def make(folder: Path) -> None:
+        options = ReconstructOptions(
+            cleaning=CleaningOptions(remove_support=False), texture=TextureBakingOptions(size_px=256),
+            dense=DenseOptions(max_image_size_px=BUDDHA_SIDE_DEPTH_PX),
+        )
+        with temporary_work_dir() as work:
+            result = reconstruct_photos(photos, options, work_dir=Path(work))
+        np.save(folder / "object_points.npy", result.object_points)
+        np.save(folder / "model_from_sfm.npy", result.frame.model_from_sfm)
+
+    key = content_key(inputs=[photos, Path(__file__)], packages=PIPELINE_CODE, settings="buddha_side_uncut")
+    return cached_folder("photo_run_buddha_side_uncut", key, make)
