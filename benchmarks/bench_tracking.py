@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -226,7 +227,9 @@ def _print(rows, outcomes, seen, times, cpu_times, per_object, per_object_cpu, t
     table.add_row("large objects' pose within 1 cm (x, y)", _within([v * 1000 for v in rows["pose_m"]["fit"]], 10.0),
                   _within([v * 1000 for v in rows["pose_m"]["base"]], 10.0), "")
     table.add_row("large objects' yaw within 0.5 deg", _within(rows["pose_deg"]["fit"], 0.5), _within(rows["pose_deg"]["base"], 0.5), "")
-    table.add_row("seconds per observation (wall)", f"median {np.median(times):.2f}, max {np.max(times):.2f}", "", "< 2")
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+    table.add_row(f"seconds per observation (wall; load average {load} on {os.cpu_count()} cores)",
+                  f"median {np.median(times):.2f}, max {np.max(times):.2f}", "", "< 2")
     table.add_row("CPU seconds per observation", f"median {np.median(cpu_times):.2f}, max {np.max(cpu_times):.2f}", "", "")
     table.add_row("seconds per object in view (wall)", f"median {np.median(per_object):.2f}, max {np.max(per_object):.2f}", "", "< 0.5")
     table.add_row("CPU seconds per object in view (observation / objects)",

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
 
 from homemodel.core.checks import require_between, require_positive
 from semantic_map.nodes import SmallObject
@@ -84,8 +85,10 @@ def find_small_objects(
     smalls = [obj for obj in state.scene.objects.values() if isinstance(obj.node, SmallObject)]
     if not smalls or not in_view:
         return []
-    scene_depth = state.renderer.depth(state.map_from_parts(), full.camera, full.map_from_camera, state.context_parts)
-    clusters = _clusters(state, full, scene_depth, in_view, search)
+    surfaces = {owner: _upward_faces(state, owner) for owner in in_view}
+    surfaces = {owner: faces for owner, faces in surfaces.items() if len(faces[0])}
+    clusters = _clusters(state, full, surfaces, search)
+    bounds = {obj.id: obj.model.world_mesh().bounds for obj in smalls}
     reports: dict[str, SmallObjectReport] = {}
     # Where the map has them first, for all of them; then the moved ones anywhere else (an
     # object whose parent is out of view can only have moved into view).
@@ -94,7 +97,7 @@ def find_small_objects(
             if obj.id in reports or (not moved and obj.node.parent not in in_view):
                 continue
             home = state.map_from_objects[obj.id][:2, 3]
-            size = obj.model.world_mesh().extents
+            size = bounds[obj.id][1] - bounds[obj.id][0]
             choices = [
                 c for c in clusters
                 if not c.used and _fits(c, size)
@@ -102,7 +105,7 @@ def find_small_objects(
             ]
             choices.sort(key=lambda c: np.linalg.norm(c.centre_xy - home))
             for cluster in choices:
-                candidate = _fit_on_cluster(state, full, scene_depth, obj.id, cluster, search)
+                candidate = _fit_on_cluster(state, full, obj.id, bounds[obj.id], cluster, search)
                 if candidate is None:
                     continue
                 cluster.used = True
@@ -117,7 +120,7 @@ def find_small_objects(
                 break
     for obj in smalls:
         if obj.id not in reports and obj.node.parent in in_view:
-            status = "not found" if _place_in_view(state, full, scene_depth, obj.id, search) else "not seen"
+            status = "not found" if _place_in_view(state, full, obj.id, bounds[obj.id], search) else "not seen"
             reports[obj.id] = SmallObjectReport(id=obj.id, status=status, parent=obj.node.parent,
                                                 previous_parent=obj.node.parent, relation=obj.node.relation)
     return [reports[obj.id] for obj in smalls if obj.id in reports]
@@ -158,49 +161,57 @@ def _upward_faces(state: FitState, object_id: str) -> tuple[np.ndarray, float]:
     return np.concatenate(triangles) if triangles else np.empty((0, 3, 3)), top
 
 
-def _under(points_xy: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(N, F) whether each point lies over each triangle (in x, y)."""
-    a, b, c = (triangles[None, :, k, :2] for k in range(3))
-    p = points_xy[:, None, :]
+def _scene_depth(state: FitState, view: FitView) -> np.ndarray:
+    """Depth of the large objects, floor and walls at their estimates in `view` (a window)."""
+    return state.renderer.depth(state.map_from_parts(), view.camera, view.map_from_camera, state.context_parts)
 
-    def side(u, v, w):
-        return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
 
-    d1, d2, d3 = side(a, b, p), side(b, c, p), side(c, a, p)
-    negative = (d1 < 0) | (d2 < 0) | (d3 < 0)
-    positive = (d1 > 0) | (d2 > 0) | (d3 > 0)
-    return ~(negative & positive)
+def _support_heights(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(N,) height of the highest of the upward `triangles` 3 mm to MAX_HEIGHT_M below each
+    point (NaN where there is none): a ray cast straight down from each point."""
+    from homemodel.geometry.raycast import RayCaster
+
+    mesh = trimesh.Trimesh(triangles.reshape(-1, 3), np.arange(3 * len(triangles)).reshape(-1, 3), process=False)
+    hits = RayCaster(mesh).first_hits(points - [0.0, 0.0, 0.003], np.array([0.0, 0.0, -1.0]))
+    heights = triangles[:, :, 2].mean(axis=1)
+    found = hits.hit & (hits.t < MAX_HEIGHT_M - 0.003)
+    return np.where(found, heights[np.maximum(hits.triangle, 0)], np.nan)
 
 
 def _clusters(
-    state: FitState, view: FitView, scene_depth: np.ndarray, in_view: list[str], search: SmallObjectSearch
+    state: FitState, full: FitView, surfaces: dict[str, tuple[np.ndarray, float]], search: SmallObjectSearch
 ) -> list[_Cluster]:
-    """Clusters of unexplained points standing on an upward surface of an object in view."""
+    """Clusters of unexplained points standing on an upward surface (`surfaces`: the
+    triangles and top height of each object in view). The scene is rendered only over the
+    image box of the points that stand on a surface: what the rest shows is no small object."""
     import open3d as o3d
 
-    with np.errstate(invalid="ignore"):
-        unexplained = view.valid & (view.depth_m < scene_depth - view.tolerance_m)
-    points = view.points_map(view.depth_m, unexplained)
-    if len(points) < search.min_cluster_points:
+    if not surfaces:
         return []
+    corners = np.concatenate([_space_above(triangles) for triangles, _ in surfaces.values()])
+    window = full.around(box_corners(corners))
+    if window is None:
+        return []
+    view = window[0]
+    v, u = np.nonzero(view.valid)
+    points = view.points_map(view.depth_m, view.valid)
     clusters: list[_Cluster] = []
-    for owner in in_view:
-        triangles, top = _upward_faces(state, owner)
-        if not len(triangles):
+    for owner, (triangles, top) in surfaces.items():
+        low, high = _space_above(triangles)
+        inside = np.flatnonzero(((points > low) & (points < high)).all(axis=1))
+        support = _support_heights(points[inside], triangles) if len(inside) else np.empty(0)
+        inside, support = inside[np.isfinite(support)], support[np.isfinite(support)]
+        if len(inside) < search.min_cluster_points:
             continue
-        heights = triangles[:, :, 2].mean(axis=1)
-        low, high = triangles.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).max(axis=0)
-        near = points[
-            (points[:, 0] >= low[0]) & (points[:, 0] <= high[0]) & (points[:, 1] >= low[1]) & (points[:, 1] <= high[1])
-            & (points[:, 2] > low[2]) & (points[:, 2] < high[2] + MAX_HEIGHT_M)
-        ]
-        above = (near[:, 2:3] - heights[None, :] > 0.003) & (near[:, 2:3] - heights[None, :] < MAX_HEIGHT_M)
-        over = _under(near[:, :2], triangles) & above
-        # Each point stands on the highest surface beneath it.
-        support = np.where(over, heights[None, :], -np.inf).max(axis=1)
-        on = np.isfinite(support)
-        for height in np.unique(np.round(support[on], 3)):
-            chosen = near[on & (np.abs(support - height) < 0.0015)]
+        rows = slice(int(v[inside].min()), int(v[inside].max()) + 1)
+        columns = slice(int(u[inside].min()), int(u[inside].max()) + 1)
+        crop = view.crop(rows, columns)
+        scene_depth = _scene_depth(state, crop)[v[inside] - rows.start, u[inside] - columns.start]
+        with np.errstate(invalid="ignore"):
+            unexplained = view.depth_m[v[inside], u[inside]] < scene_depth - view.tolerance_m[v[inside], u[inside]]
+        near, support = points[inside[unexplained]], support[unexplained]
+        for height in np.unique(np.round(support, 3)):
+            chosen = near[np.abs(support - height) < 0.0015]
             if len(chosen) < search.min_cluster_points:
                 continue
             cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(chosen))
@@ -213,6 +224,12 @@ def _clusters(
     return clusters
 
 
+def _space_above(triangles: np.ndarray) -> np.ndarray:
+    """(2, 3) low and high corner of the box a small object standing on `triangles` stays in."""
+    corners = triangles.reshape(-1, 3)
+    return np.array([corners.min(axis=0), corners.max(axis=0) + [0.0, 0.0, MAX_HEIGHT_M]])
+
+
 def _planar_pose(x: float, y: float, z: float, yaw: float) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     pose = np.eye(4)
@@ -222,13 +239,12 @@ def _planar_pose(x: float, y: float, z: float, yaw: float) -> np.ndarray:
 
 
 def _fit_on_cluster(
-    state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, cluster: _Cluster, search: SmallObjectSearch
+    state: FitState, view: FitView, object_id: str, bounds: np.ndarray, cluster: _Cluster, search: SmallObjectSearch
 ) -> _Candidate | None:
     """The object on the cluster's surface at its best yaw, or None when no yaw explains it.
 
     The camera sees the near side, so the centre lies beyond the points' centroid by up to
     half a footprint (a cup) or about on it (a bowl, whose inside is seen too): both start."""
-    bounds = state.scene.object(object_id).model.world_mesh().bounds
     radius = float(np.linalg.norm(bounds[1, :2] - bounds[0, :2])) / 4
     # Every candidate stays within the gates' reach of its start: only that window is rendered.
     reach = 4 * radius + sum(search.gates_m)
@@ -237,19 +253,20 @@ def _fit_on_cluster(
     window = view.around(box_corners(np.array([low, high])))
     if window is None:
         return None
-    view, (rows, columns) = window
-    scene_depth = scene_depth[rows, columns]
+    view = window[0]
+    scene_depth = _scene_depth(state, view)
     away = cluster.centre_xy - view.map_from_camera[:2, 3]
     away /= max(np.linalg.norm(away), 1e-9)
     best: _Candidate | None = None
-    for start_xy in (cluster.centre_xy, cluster.centre_xy + radius * away):
-        for yaw in np.linspace(0, 2 * np.pi, search.yaw_candidates, endpoint=False):
-            pose = _planar_pose(*start_xy, cluster.height_m, yaw)
-            candidate = _refine(state, view, scene_depth, object_id, pose, cluster, search)
-            if candidate is not None and (best is None or candidate.score > best.score):
-                best = candidate
-            if best is not None and best.score > search.sure:
-                break
+    starts = [(xy, yaw) for xy in (cluster.centre_xy, cluster.centre_xy + radius * away)
+              for yaw in np.linspace(0, 2 * np.pi, search.yaw_candidates, endpoint=False)]
+    for start_xy, yaw in starts:
+        pose = _planar_pose(*start_xy, cluster.height_m, yaw)
+        candidate = _refine(state, view, scene_depth, object_id, pose, cluster, search)
+        if candidate is not None and (best is None or candidate.score > best.score):
+            best = candidate
+        if best is not None and best.score > search.sure:
+            break
     if best is None or best.explained < search.min_explained or best.cluster_explained < search.min_cluster_explained:
         return None
     return best
@@ -312,16 +329,15 @@ def _refine(
     )
 
 
-def _place_in_view(state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, search: SmallObjectSearch) -> bool:
+def _place_in_view(state: FitState, view: FitView, object_id: str, bounds: np.ndarray, search: SmallObjectSearch) -> bool:
     """Whether the map's place of the object is in the image, in front of the scene and not covered."""
     map_from_object = state.map_from_objects[object_id]
-    bounds = state.scene.object(object_id).model.world_mesh().bounds
     corners = box_corners(bounds) @ map_from_object[:3, :3].T + map_from_object[:3, 3]
     window = view.around(corners)
     if window is None:
         return False
-    view, (rows, columns) = window
-    scene_depth = scene_depth[rows, columns]
+    view = window[0]
+    scene_depth = _scene_depth(state, view)
     rendering = _render_object(state, view, object_id, map_from_object)
     visible = rendering.hit & (rendering.depth_m < scene_depth)
     if visible.sum() < search.min_cluster_points:

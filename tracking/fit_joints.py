@@ -139,13 +139,14 @@ def _moving_depths(
     state: FitState, view: FitView, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray:
     """(len(values), H, W) depth of the moving part alone at each position; inf where it is not hit."""
-    poses = state.map_from_parts()
-    depths = []
+    base = state.map_from_parts()
+    poses = []
     for value in values:
+        at_value = list(base)
         for i, pose in zip(moving, state.part_poses_at(object_id, joint, value, moving)):
-            poses[i] = pose
-        depths.append(state.renderer.depth(poses, view.camera, view.map_from_camera, moving))
-    return np.stack(depths)
+            at_value[i] = pose
+        poses.append(at_value)
+    return state.renderer.depth_stack(poses, view.camera, view.map_from_camera, moving)
 
 
 def _costs(

@@ -44,7 +44,7 @@ def refine_pose(
     re-rendered before each; `planar` keeps the motion to x, y and yaw (an object
     standing on the floor or on a surface). None, pose unchanged, when fewer than
     `min_points` points are seen."""
-    fit: PoseFit | None = None
+    last = None  # the last correction's points, for how well the pose fits
     rotation = view.map_from_camera[:3, :3]
     for gate_m in gates_m:
         rendering = state.renderer.render(
@@ -54,7 +54,7 @@ def refine_pose(
         close = np.abs(np.nan_to_num(view.depth_m, nan=-1.0) - rendering.depth_m) < gate_m
         source_mask = mine & view.valid & close
         if source_mask.sum() < min_points:
-            return fit
+            break
         source = view.points_map(view.depth_m, source_mask)
         target = view.points_map(rendering.depth_m, mine)
         target_normals = rendering.normals_camera[mine] @ rotation.T
@@ -64,11 +64,11 @@ def refine_pose(
             source, target, target_normals, gate_m=gate_m, kernel_m=max(kernel_m, gate_m / 2), planar=planar
         )
         if target_from_source is None:
-            return fit
+            break
         # The source is the object where it is, the target where the map has it.
         state.map_from_objects[object_id] = np.linalg.inv(target_from_source) @ state.map_from_objects[object_id]
-        fit = fit_quality(source, target, target_normals, target_from_source, kernel_m)
-    return fit
+        last = (source, target, target_normals, target_from_source)
+    return None if last is None else fit_quality(*last, kernel_m)
 
 
 def icp_correction(

@@ -8,7 +8,6 @@ blocks' centres, so the scene renders onto it directly.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,9 +46,7 @@ class FitView:
         if factor > 1:
             h, w = depth.shape[0] // factor, depth.shape[1] // factor
             blocks = depth[: h * factor, : w * factor].reshape(h, factor, w, factor).transpose(0, 2, 1, 3)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # all-empty blocks stay NaN
-                depth = np.nanmedian(blocks.reshape(h, w, -1), axis=2)
+            depth = _nan_median(blocks.reshape(h, w, -1))
             camera = _scaled(camera, factor, w, h)
         tolerance = np.maximum(min_tolerance_m, tolerance_sigmas * axial_sigma_m(np.nan_to_num(depth, nan=0.0)))
         return cls(camera=camera, map_from_camera=np.asarray(map_from_camera, dtype=np.float64), depth_m=depth,
@@ -72,12 +69,17 @@ class FitView:
         u1, v1 = np.minimum(np.ceil(uv.max(axis=0)).astype(int) + margin_px, [self.camera.width - 1, self.camera.height - 1])
         if u0 > u1 or v0 > v1:
             return None
-        rows, columns = slice(v0, v1 + 1), slice(u0, u1 + 1)
-        camera = Camera(**{**self.camera.model_dump(), "width": int(u1 - u0 + 1), "height": int(v1 - v0 + 1),
-                           "cx": self.camera.cx - u0, "cy": self.camera.cy - v0})
+        rows, columns = slice(int(v0), int(v1) + 1), slice(int(u0), int(u1) + 1)
+        return self.crop(rows, columns), (rows, columns)
+
+    def crop(self, rows: slice, columns: slice) -> FitView:
+        """The view of the pixels `rows` x `columns` (slices with a start and a stop, in the image)."""
+        camera = Camera(**{**self.camera.model_dump(), "width": columns.stop - columns.start,
+                           "height": rows.stop - rows.start, "cx": self.camera.cx - columns.start,
+                           "cy": self.camera.cy - rows.start})
         color = None if self.color_rgb is None else self.color_rgb[rows, columns]
         return FitView(camera=camera, map_from_camera=self.map_from_camera, depth_m=self.depth_m[rows, columns],
-                       tolerance_m=self.tolerance_m[rows, columns], color_rgb=color), (rows, columns)
+                       tolerance_m=self.tolerance_m[rows, columns], color_rgb=color)
 
     @property
     def valid(self) -> np.ndarray:
@@ -92,6 +94,16 @@ class FitView:
         """(N, 3) rays (z = 1 in the camera) through the pixels of `mask`, in the map frame."""
         v, u = np.nonzero(mask)
         return self.camera.rays(np.column_stack([u, v])) @ self.map_from_camera[:3, :3].T
+
+
+def _nan_median(values: np.ndarray) -> np.ndarray:
+    """`np.nanmedian` over the last axis (NaN where all are NaN) by one sort: NaNs sort last,
+    so the k valid values' middle two sit at (k - 1) // 2 and k // 2 (one, for odd k)."""
+    ordered = np.sort(values, axis=-1)
+    count = np.isfinite(ordered).sum(axis=-1, keepdims=True)
+    low = np.take_along_axis(ordered, np.maximum(count - 1, 0) // 2, axis=-1)
+    high = np.take_along_axis(ordered, np.minimum(count // 2, values.shape[-1] - 1), axis=-1)
+    return np.where(count > 0, (low + high) / 2, np.nan)[..., 0]
 
 
 def _scaled(camera: Camera, factor: int, width: int, height: int) -> Camera:

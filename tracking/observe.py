@@ -307,20 +307,21 @@ def _slides(state: FitState, object_id: str, part: int) -> bool:
 
 def _share_seen(state: FitState, view: FitView, object_id: str, parts: list[int], background: np.ndarray) -> float:
     """The share of the object's observed pixels (at the current joint estimates) that `parts` cover."""
-    rendering = state.renderer.render(
-        state.map_from_parts(), view.camera, view.map_from_camera, only=state.object_parts(object_id)
-    )
-    seen = rendering.hit & (rendering.depth_m < background) & view.valid
-    return float(np.isin(rendering.part_index[seen], parts).mean()) if seen.any() else 0.0
+    whole = _object_depth(state, view, state.object_parts(object_id))
+    seen = np.isfinite(whole) & (whole < background) & view.valid
+    return float((_object_depth(state, view, parts)[seen] <= whole[seen]).mean()) if seen.any() else 0.0
 
 
 def _kernel_m(state: FitState, view: FitView, object_id: str, options: ObserveOptions) -> float:
     """The robust kernel's width for an object: the tolerance at its median observed depth."""
-    rendering = state.renderer.render(
-        state.map_from_parts(), view.camera, view.map_from_camera, only=state.object_parts(object_id)
-    )
-    tolerance = view.tolerance_m[rendering.hit & view.valid]
+    whole = _object_depth(state, view, state.object_parts(object_id))
+    tolerance = view.tolerance_m[np.isfinite(whole) & view.valid]
     return float(np.median(tolerance)) if tolerance.size else options.min_tolerance_m
+
+
+def _object_depth(state: FitState, view: FitView, parts: list[int]) -> np.ndarray:
+    """Depth of `parts` at the current estimates (inf where none is hit)."""
+    return state.renderer.depth(state.map_from_parts(), view.camera, view.map_from_camera, parts)
 
 
 def _joint_order(state: FitState, object_id: str) -> list[str]:

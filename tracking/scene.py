@@ -16,6 +16,7 @@ angle needs no new acceleration structure.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -297,6 +298,8 @@ class Renderer:
         self._casters = [RayCaster(trimesh.Trimesh(p.vertices_link, p.faces, process=False)) for p in self.parts]
         self._corners = [box_corners(p.vertices_link) for p in self.parts]
         self._rays: dict[Camera, np.ndarray] = {}
+        self._depths: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
+        self._depth_pixels = 0
 
     def pixel_rays(self, camera: Camera) -> np.ndarray:
         """(H * W, 3) rays with z = 1 through every pixel of `camera`, row by row (kept for
@@ -355,17 +358,71 @@ class Renderer:
         self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int]
     ) -> np.ndarray:
         """(H, W) depth of the parts `only` alone, inf where none is hit: what a fitter
-        scoring many poses of one part needs, without `render`'s normals and colours."""
+        scoring many poses of one part needs, without `render`'s normals and colours.
+        Each part's depth is kept for the last few poses asked (a fitter renders the parts
+        it does not move, and the floor and walls, again and again)."""
         depth = np.full(camera.width * camera.height, np.inf)
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
         for i in only:
-            cast = self._cast(i, camera, camera_from_map @ as_transform(map_from_parts[i]))
-            if cast is None:
-                continue
-            pixels, hits = cast
-            t = np.where(hits.hit & (hits.t >= NEAR_M), hits.t.astype(np.float64), np.inf)
+            camera_from_part = camera_from_map @ as_transform(map_from_parts[i])
+            key = (i, camera, camera_from_part.tobytes())
+            if key in self._depths:
+                self._depths.move_to_end(key)
+                pixels, t = self._depths[key]
+            else:
+                pixels, t = self._cast_depths(i, camera, [camera_from_part])[0]
+                self._remember(key, pixels, t)
             depth[pixels] = np.minimum(depth[pixels], t)
         return depth.reshape(camera.height, camera.width)
+
+    def depth_stack(
+        self,
+        map_from_parts: Sequence[Sequence[np.ndarray]],
+        camera: Camera,
+        map_from_camera: np.ndarray,
+        only: Sequence[int],
+    ) -> np.ndarray:
+        """(K, H, W) depth of the parts `only` at K poses each (`map_from_parts[k]`: one pose
+        per part of the scene, as for `depth`), inf where none is hit: a joint's candidate
+        positions, each part's K poses cast in one batch."""
+        n = camera.width * camera.height
+        stack = np.full(len(map_from_parts) * n, np.inf)
+        camera_from_map = np.linalg.inv(as_transform(map_from_camera))
+        for i in only:
+            casts = self._cast_depths(i, camera, [camera_from_map @ as_transform(poses[i]) for poses in map_from_parts])
+            cells = np.concatenate([k * n + pixels for k, (pixels, _) in enumerate(casts)])
+            stack[cells] = np.minimum(stack[cells], np.concatenate([t for _, t in casts]))
+        return stack.reshape(len(map_from_parts), camera.height, camera.width)
+
+    # Pixels of part depths kept by `depth` (float64 and int64: 16 bytes each).
+    DEPTH_CACHE_PIXELS = 2_000_000
+
+    def _remember(self, key: tuple, pixels: np.ndarray, t: np.ndarray) -> None:
+        self._depths[key] = (pixels, t)
+        self._depth_pixels += len(pixels)
+        while self._depth_pixels > self.DEPTH_CACHE_PIXELS and len(self._depths) > 1:
+            _, (dropped, _) = self._depths.popitem(last=False)
+            self._depth_pixels -= len(dropped)
+
+    def _cast_depths(
+        self, index: int, camera: Camera, camera_from_parts: Sequence[np.ndarray]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(flat pixel indices, float64 depth there, inf where missed or nearer than
+        `NEAR_M`) of part `index` at each pose, all the poses' rays in one cast."""
+        rays = self.pixel_rays(camera)
+        pixel_sets, origins, directions = [], [], []
+        for camera_from_part in camera_from_parts:
+            pixels = _pixels_in_view(camera, rays, camera_from_part, self._corners[index])
+            pixels = np.empty(0, dtype=np.int64) if pixels is None else pixels
+            part_from_camera = np.linalg.inv(camera_from_part)
+            pixel_sets.append(pixels)
+            directions.append(rays[pixels] @ part_from_camera[:3, :3].T)
+            origins.append(np.broadcast_to(part_from_camera[:3, 3], (len(pixels), 3)))
+        if not sum(len(p) for p in pixel_sets):
+            return [(p, np.empty(0)) for p in pixel_sets]
+        t = self._casters[index].hit_distances(np.concatenate(origins), np.concatenate(directions)).astype(np.float64)
+        t[t < NEAR_M] = np.inf
+        return list(zip(pixel_sets, np.split(t, np.cumsum([len(p) for p in pixel_sets])[:-1])))
 
     def pixels_alone(self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray) -> int:
         """How many pixels part `index` at `map_from_part` covers with nothing else in the scene."""

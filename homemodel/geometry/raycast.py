@@ -64,6 +64,18 @@ class RayCaster:
             normals=result["primitive_normals"].numpy(),
         )
 
+    def hit_distances(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(N,) float32 `t` of each ray's first hit (inf where it misses): `first_hits` without
+        the triangles, barycentrics and normals, whose conversions cost more than the casting
+        when only depth is wanted. (N, 3) or (3,) origins, (N, 3) directions."""
+        directions = np.asarray(directions)
+        if directions.ndim != 2 or directions.shape[1] != 3:
+            raise ValueError(f"{directions.shape=} but expected (N, 3)")
+        rays = np.empty((len(directions), 6), dtype=np.float32)
+        rays[:, :3] = origins
+        rays[:, 3:] = directions
+        return self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()
+
     def camera_hits(self, camera: Camera, camera_from_mesh: np.ndarray) -> tuple[np.ndarray, Hits]:
         """The rays through every pixel centre (mesh frame, z = 1 in the camera's frame, row by
         row) and what they hit: `t` is then the depth along the optical axis."""
