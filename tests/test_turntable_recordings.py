@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from fixture_cache import cached_folder, content_key
 from typer.testing import CliRunner
 
 import recording_sim as rsim
@@ -65,29 +66,6 @@ def _write_capture(recorded: rsim.Recorded, board_yaml: Path, folder: Path) -> N
     shutil.copy(board_yaml, folder / "board.yaml")
 
 
-@pytest.fixture(scope="module")
-def clean(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("recordings")
-    mesh = trimesh.creation.box((0.1, 0.07, 0.12))
-    mesh = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, 0.012))
-    mesh.visual.vertex_colors = np.column_stack(
-        [(0.5 + 2 * mesh.vertices[:, :3]) .clip(0, 1) * 255, np.full(len(mesh.vertices), 255)]
-    ).astype(np.uint8)
-    mesh.export(root / "box.ply")
-    return simulate_capture(root / "box.ply", root / "clean", SimulationOptions(**CAPTURE)).out_dir
-
-
-@pytest.fixture(scope="module")
-def baseline_mm(clean: Path, tmp_path_factory: pytest.TempPathFactory) -> float:
-    """The same capture with the same depth noise, but none of the other faults."""
-    camera = load_camera(clean / "camera.yaml")
-    recorded = rsim.record(clean, rsim.Rig(color_camera=camera, period_s=PERIOD_S), drop_fraction=0, jitter_s=0)
-    folder = tmp_path_factory.mktemp("baseline") / "capture"
-    _write_capture(recorded, clean / "board.yaml", folder)
-    result = _reconstruct(folder)
-    return 1000 * mean_surface_distance_m(result.mesh, trimesh.load(clean / "ground_truth.ply", force="mesh"))
-
-
 def _rig(clean: Path, *, lens: dict, separate_depth: bool, depth_scale_m: float) -> rsim.Rig:
     camera = load_camera(clean / "camera.yaml")
     # A depth camera of its own: 4:3, wider, 15 mm beside colour and turned 0.6 degrees.
@@ -111,19 +89,61 @@ FORMATS = {
 }
 
 
+# What makes the clean capture and the recordings: a change to any of it (or to this module)
+# makes them again (tests/fixture_cache.py).
+RECORDING_CODE = ("turntable", "homemodel.geometry", "homemodel.core", "homemodel.exchange")
+
+
 @pytest.fixture(scope="module")
-def recordings(clean: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, rsim.Rig]]:
+def made() -> Path:
+    """The clean capture (a Cycles render), the baseline's capture folder and each format's
+    recording, made once per content; tests only read them."""
+
+    def make(root: Path) -> None:
+        mesh = trimesh.creation.box((0.1, 0.07, 0.12))
+        mesh = trimesh.Trimesh(*trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, 0.012))
+        mesh.visual.vertex_colors = np.column_stack(
+            [(0.5 + 2 * mesh.vertices[:, :3]) .clip(0, 1) * 255, np.full(len(mesh.vertices), 255)]
+        ).astype(np.uint8)
+        mesh.export(root / "box.ply")
+        clean = simulate_capture(root / "box.ply", root / "clean", SimulationOptions(**CAPTURE)).out_dir
+        # The baseline: the same capture with the same depth noise, but none of the other faults.
+        camera = load_camera(clean / "camera.yaml")
+        recorded = rsim.record(clean, rsim.Rig(color_camera=camera, period_s=PERIOD_S), drop_fraction=0, jitter_s=0)
+        _write_capture(recorded, clean / "board.yaml", root / "baseline")
+        for seed, (name, (lens, separate, scale, write)) in enumerate(FORMATS.items()):
+            rig = _rig(clean, lens=lens, separate_depth=separate, depth_scale_m=scale)
+            folder = root / "recordings" / name
+            folder.mkdir(parents=True)
+            write(rsim.record(clean, rig, blurred=BLURRED, seed=seed), folder)
+
+    key = content_key(
+        inputs=[Path(__file__), Path(rsim.__file__)],
+        packages=RECORDING_CODE,
+        distributions=["bpy", "pyrealsense2", "rosbags"],
+        settings=repr(CAPTURE),
+    )
+    return cached_folder("turntable_recordings", key, make)
+
+
+@pytest.fixture(scope="module")
+def clean(made: Path) -> Path:
+    return made / "clean"
+
+
+@pytest.fixture(scope="module")
+def baseline_mm(made: Path, clean: Path) -> float:
+    result = _reconstruct(made / "baseline")
+    return 1000 * mean_surface_distance_m(result.mesh, trimesh.load(clean / "ground_truth.ply", force="mesh"))
+
+
+@pytest.fixture(scope="module")
+def recordings(made: Path, clean: Path) -> dict[str, tuple[Path, rsim.Rig]]:
     out = {}
-    for seed, (name, (lens, separate, scale, write)) in enumerate(FORMATS.items()):
+    for name, (lens, separate, scale, _) in FORMATS.items():
         rig = _rig(clean, lens=lens, separate_depth=separate, depth_scale_m=scale)
-        recorded = rsim.record(clean, rig, blurred=BLURRED, seed=seed)
-        folder = tmp_path_factory.mktemp(name.replace("-", "_"))
-        write(recorded, folder)
-        path = next(folder.iterdir())
-        out[name] = (path, rig)
+        out[name] = (next((made / "recordings" / name).iterdir()), rig)
     return out
-
-
 
 
 @pytest.mark.bpy
