@@ -3,9 +3,9 @@ a baseline run in the same process on the same frames and poses: Open3D's TSDF i
 (UniformTSDFVolume) of the segmented depth, then marching cubes. Run at 40 frames (every fifth
 of the capture) and at 200, in one run; ratios, since the machines are shared and noisy.
 
-Times are CPU seconds of the process (all its threads: ours reads frames on two, Open3D
-integrates on its own), taken per stage; the machines are shared, so wall times are printed
-but not compared.
+Times are CPU seconds of the process (all its threads: ours reads frames on two, Open3D's
+integration runs OpenMP threads on every core), taken per stage; the ratios compare CPU, as the
+machines are shared. Wall seconds per stage are printed beside, for runs on idle cores.
 
 What each column includes. Ours: every stage from the capture folder to the textured mesh:
 poses (each frame read once: colour and depth decoded, tags, PnP, the object's pixels kept),
@@ -34,6 +34,7 @@ import argparse
 import dataclasses
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -92,8 +93,8 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
     from turntable.capture import read_color, read_depth
 
     camera = capture.camera
-    start = time.process_time()
-    reading = 0.0
+    start, wall_start = time.process_time(), time.perf_counter()
+    reading = reading_wall = 0.0
     cylinder = result.cylinder
     voxel = 0.0015
     side = 2 * (max(np.ptp(result.mesh.bounds[:, :2], axis=0)) / 2 + 0.02)
@@ -114,10 +115,11 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
         if frame.stem not in result.poses:
             continue
         camera_from_table = result.poses[frame.stem].camera_from_table
-        read_start = time.process_time()
+        read_start, read_wall = time.process_time(), time.perf_counter()
         depth = read_depth(frame.depth, camera)
         color = np.ascontiguousarray(read_color(frame.color, camera))
         reading += time.process_time() - read_start
+        reading_wall += time.perf_counter() - read_wall
         # The same segmentation as the pipeline: above the table top, inside the cylinder.
         points = rays * depth.reshape(-1, 1)
         table = points @ np.linalg.inv(camera_from_table)[:3, :3].T + np.linalg.inv(camera_from_table)[:3, 3]
@@ -132,11 +134,16 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
             convert_rgb_to_intensity=False,
         )
         volume.integrate(rgbd, intrinsic, camera_from_table)
-    integrated = time.process_time()
+    integrated, integrated_wall = time.process_time(), time.perf_counter()
     o3d_mesh = volume.extract_triangle_mesh()
     times = {"read": reading, "integrate": integrated - start - reading, "extract": time.process_time() - integrated}
+    walls = {
+        "read": reading_wall,
+        "integrate": integrated_wall - wall_start - reading_wall,
+        "extract": time.perf_counter() - integrated_wall,
+    }
     mesh = trimesh.Trimesh(np.asarray(o3d_mesh.vertices), np.asarray(o3d_mesh.triangles))
-    return mesh, times
+    return mesh, times, walls
 
 
 def pose_error_mm_deg(result, capture_dir: Path) -> tuple[float, float]:  # noqa: ANN001
@@ -153,8 +160,8 @@ class Run:
     frames: int
     ours_s: dict[str, float]  # CPU seconds per stage, and "total"
     tsdf_s: dict[str, float]  # CPU seconds: read, integrate, extract
-    ours_wall_s: float
-    tsdf_wall_s: float
+    ours_wall_s: dict[str, float]  # wall seconds, the same keys
+    tsdf_wall_s: dict[str, float]
     ours_msd_mm: float
     tsdf_msd_mm: float
     ours_iou: float
@@ -187,12 +194,13 @@ class Run:
 
 class StageCPU:
     """A progress callback noting the process's CPU seconds per stage (the pipeline's own
-    `times_s` are wall seconds)."""
+    `times_s` are wall seconds), and the wall seconds beside."""
 
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
+        self.wall: dict[str, float] = {}
         self._stage: str | None = None
-        self._start = time.process_time()
+        self._start, self._wall = time.process_time(), time.perf_counter()
 
     def __call__(self, stage: str, done: int, total: int | None) -> None:
         if stage != self._stage:
@@ -200,10 +208,11 @@ class StageCPU:
             self._stage = stage
 
     def stop(self) -> None:
-        now = time.process_time()
+        now, wall = time.process_time(), time.perf_counter()
         if self._stage is not None:
             self.seconds[self._stage] = self.seconds.get(self._stage, 0.0) + now - self._start
-        self._start = now
+            self.wall[self._stage] = self.wall.get(self._stage, 0.0) + wall - self._wall
+        self._start, self._wall = now, wall
 
 
 def run_once(capture, capture_dir: Path, truth: trimesh.Trimesh) -> Run:  # noqa: ANN001
@@ -212,17 +221,15 @@ def run_once(capture, capture_dir: Path, truth: trimesh.Trimesh) -> Run:  # noqa
     from homemodel.evaluation import mean_surface_distance_m, voxel_iou
     from turntable.reconstruct import reconstruct_capture
 
-    clock, wall = StageCPU(), time.perf_counter()
+    clock = StageCPU()
     result = reconstruct_capture(capture, progress=clock)
     clock.stop()
-    ours_wall = time.perf_counter() - wall
     ours = {**clock.seconds, "total": sum(clock.seconds.values())}
+    ours_wall = {**clock.wall, "total": sum(clock.wall.values())}
     # One BLAS thread, as the turntable runs: the baseline's per-frame numpy is the same kind
     # of small product, which OpenBLAS's threads slow down many times on a busy machine.
-    wall = time.perf_counter()
     with threadpool_limits(1, user_api="blas"):
-        baseline, tsdf = tsdf_baseline(capture, result)
-    tsdf_wall = time.perf_counter() - wall
+        baseline, tsdf, tsdf_wall = tsdf_baseline(capture, result)
     centre_mm, angle_deg = pose_error_mm_deg(result, capture_dir)
     return Run(
         frames=len(result.poses),
@@ -251,23 +258,34 @@ def _row(label: str, cells: list[str], width: int = 11) -> None:
     print(f"{label:<42}" + "".join(f"{cell:>{width}}" for cell in cells))
 
 
+def _stage_rows(runs: list[Run], ours_of: Callable[[Run], dict], tsdf_of: Callable[[Run], dict]) -> None:
+    def shared(r: Run) -> float:
+        return sum(ours_of(r).get(stage, 0.0) for stage in SHARED_STAGES)
+
+    rows = (
+        ("poses: read, tags, PnP (shared)", lambda r: ours_of(r).get("poses", 0.0), lambda r: ours_of(r).get("poses", 0.0)),
+        ("axis: circle, fit (shared)", lambda r: ours_of(r).get("axis", 0.0), lambda r: ours_of(r).get("axis", 0.0)),
+        ("TSDF: reading the frames", None, lambda r: tsdf_of(r)["read"]),
+        ("merge | segment + integrate", lambda r: ours_of(r).get("merge", 0.0), lambda r: tsdf_of(r)["integrate"]),
+        ("mesh | marching cubes", lambda r: ours_of(r).get("mesh", 0.0), lambda r: tsdf_of(r)["extract"]),
+        ("texture (TSDF: none)", lambda r: ours_of(r).get("texture", 0.0), None),
+        ("total (TSDF: with our poses and axis)", lambda r: ours_of(r)["total"], lambda r: shared(r) + sum(tsdf_of(r).values())),
+    )
+    for label, ours, tsdf in rows:
+        _row("  " + label, [f"{f(r):.2f}" if f else "-" for r in runs for f in (ours, tsdf)])
+    _row("  TSDF given the poses (read+integ+extr)", [c for r in runs for c in ("", f"{sum(tsdf_of(r).values()):.2f}")])
+
+
 def print_table(runs: list[Run]) -> None:
     heads = [head for r in runs for head in (f"{r.frames} ours", f"{r.frames} TSDF")]
     _row("CPU seconds", heads)
     print("-" * (42 + 11 * len(heads)))
-    rows = (
-        ("poses: read, tags, PnP (shared)", lambda r: r.ours_s.get("poses", 0.0), lambda r: r.ours_s.get("poses", 0.0)),
-        ("axis: circle, fit (shared)", lambda r: r.ours_s.get("axis", 0.0), lambda r: r.ours_s.get("axis", 0.0)),
-        ("TSDF: reading the frames", None, lambda r: r.tsdf_s["read"]),
-        ("merge | segment + integrate", lambda r: r.ours_s.get("merge", 0.0), lambda r: r.tsdf_s["integrate"]),
-        ("mesh | marching cubes", lambda r: r.ours_s.get("mesh", 0.0), lambda r: r.tsdf_s["extract"]),
-        ("texture (TSDF: none)", lambda r: r.ours_s.get("texture", 0.0), None),
-        ("total (TSDF: with our poses and axis)", lambda r: r.ours_s["total"], Run.tsdf_total_s),
-    )
-    for label, ours, tsdf in rows:
-        _row("  " + label, [f"{f(r):.2f}" if f else "-" for r in runs for f in (ours, tsdf)])
-    _row("  TSDF given the poses (read+integ+extr)", [c for r in runs for c in ("", f"{sum(r.tsdf_s.values()):.2f}")])
-    _row("  wall seconds, whole run", [f"{v:.1f}" for r in runs for v in (r.ours_wall_s, r.tsdf_wall_s)])
+    _stage_rows(runs, lambda r: r.ours_s, lambda r: r.tsdf_s)
+    print()
+    # Both sides run threads (our frame reading, Open3D's OpenMP integration): on idle cores
+    # wall seconds are below CPU seconds; on a loaded machine they say little.
+    _row("wall seconds", heads)
+    _stage_rows(runs, lambda r: r.ours_wall_s, lambda r: r.tsdf_wall_s)
     print()
     names = (
         "ours whole, TSDF given the poses",
