@@ -8,9 +8,10 @@ than all of them); `app` is the whole tree, made when first asked for.
 
 from __future__ import annotations
 
+import importlib
 import logging
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from typing import Any
 
 import typer
@@ -23,80 +24,37 @@ except ImportError:
     from click import ClickException
 
 
-def _build(app: typer.Typer) -> None:
-    from homemodel.cli.build_command import build
-
-    app.command()(build)
-
-
-def _validate(app: typer.Typer) -> None:
-    from homemodel.cli.validate_command import validate
-
-    app.command()(validate)
-
-
-def _render(app: typer.Typer) -> None:
-    from homemodel.cli.render_command import render
-
-    app.command()(render)
-
-
-def _export(app: typer.Typer) -> None:
-    from homemodel.cli.export_command import export
-
-    app.command()(export)
-
-
-def _map(app: typer.Typer) -> None:
-    from homemodel.cli.map_commands import map_app
-    from homemodel.cli.map_observe_command import observe_command as _observe_command  # noqa: F401 (registers map observe)
-    from homemodel.cli.map_simulate_command import simulate_view as _simulate_view  # noqa: F401 (registers map simulate-view)
-
-    app.add_typer(map_app, name="map", help="Show, query, extend and validate a hierarchical semantic map.")
-
-
-def _turntable(app: typer.Typer) -> None:
-    from homemodel.cli.turntable_commands import turntable_app
-
-    app.add_typer(turntable_app, name="turntable", help="AprilTag turntable: print a board, simulate a capture, reconstruct a mesh.")
-
-
-def _photogrammetry(app: typer.Typer) -> None:
-    from homemodel.cli.photogrammetry_commands import photogrammetry_app
-
-    app.add_typer(photogrammetry_app, name="photogrammetry", help="Photos to a textured, metric mesh through COLMAP.")
-
-
-def _completion(app: typer.Typer) -> None:
-    from homemodel.cli.completion_commands import completion_app
-
-    app.add_typer(completion_app, name="completion", help="A full mesh of a new object from one depth image.")
-
-
-def _addon(app: typer.Typer) -> None:
-    from homemodel.cli.addon_commands import addon_app
-
-    app.add_typer(addon_app, name="addon", help="Files for the Blender extension: spec forms, model and home documents.")
-
-
-def _db(app: typer.Typer) -> None:
-    from homemodel.cli.db_commands import db_app
-
-    app.add_typer(db_app, name="db", help="The model database: batch builds from a manifest on Dask, queries, a web page.")
-
-
-def _eval(app: typer.Typer) -> None:
-    from homemodel.cli.eval_commands import eval_app
-
-    app.add_typer(eval_app, name="eval", help="Compare a reconstruction with ground truth: VoxelIOU, surface distance, F-score.")
-
-
-# Each part of the command line, by the name it is called with, in the order --help lists them.
-PARTS: dict[str, Callable[[typer.Typer], None]] = {
-    "build": _build, "validate": _validate, "render": _render, "export": _export, "map": _map,
-    "turntable": _turntable, "photogrammetry": _photogrammetry, "completion": _completion, "addon": _addon,
-    "db": _db, "eval": _eval,
+# Each part of the command line, by the name it is called with, in the order --help lists them:
+# the module that defines it, its command (help None) or its sub-app, and the sub-app's help.
+PARTS: dict[str, tuple[str, str, str | None]] = {
+    "build": ("homemodel.cli.build_command", "build", None),
+    "validate": ("homemodel.cli.validate_command", "validate", None),
+    "render": ("homemodel.cli.render_command", "render", None),
+    "export": ("homemodel.cli.export_command", "export", None),
+    "map": ("homemodel.cli.map_commands", "map_app", "Show, query, extend and validate a hierarchical semantic map."),
+    "turntable": ("homemodel.cli.turntable_commands", "turntable_app", "AprilTag turntable: print a board, simulate a capture, reconstruct a mesh."),
+    "photogrammetry": ("homemodel.cli.photogrammetry_commands", "photogrammetry_app", "Photos to a textured, metric mesh through COLMAP."),
+    "completion": ("homemodel.cli.completion_commands", "completion_app", "A full mesh of a new object from one depth image."),
+    "addon": ("homemodel.cli.addon_commands", "addon_app", "Files for the Blender extension: spec forms, model and home documents."),
+    "db": ("homemodel.cli.db_commands", "db_app", "The model database: batch builds from a manifest on Dask, queries, a web page."),
+    "eval": ("homemodel.cli.eval_commands", "eval_app", "Compare a reconstruction with ground truth: VoxelIOU, surface distance, F-score."),
 }  # fmt: skip
+
+# Modules that register further commands on a part's sub-app when imported.
+REGISTERS_ON: dict[str, tuple[str, ...]] = {
+    "map": ("homemodel.cli.map_observe_command", "homemodel.cli.map_simulate_command"),
+}
+
+
+def _add_part(app: typer.Typer, name: str) -> None:
+    module_name, attribute, help_text = PARTS[name]
+    part = getattr(importlib.import_module(module_name), attribute)
+    for module in REGISTERS_ON.get(name, ()):
+        importlib.import_module(module)
+    if help_text is None:
+        app.command()(part)
+    else:
+        app.add_typer(part, name=name, help=help_text)
 
 
 def _no_options() -> None:
@@ -116,9 +74,9 @@ def make_app(parts: Iterable[str] | None = None) -> typer.Typer:
     # so the group always has a callback: `homemodel validate X.urdf` parses the same with one part.
     app.callback()(_no_options)
     wanted = set(PARTS if parts is None else parts)
-    for name, add in PARTS.items():
+    for name in PARTS:
         if name in wanted:
-            add(app)
+            _add_part(app, name)
     return app
 
 
