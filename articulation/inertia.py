@@ -12,12 +12,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from articulation.model import Inertial
 from homemodel.core.errors import ModelError
+
+if TYPE_CHECKING:
+    import trimesh
 
 # Thin or open meshes (a sheet, an unclosed scan) have no trustworthy volume; their
 # convex hull is used instead so every link still gets a physically plausible inertia.
@@ -132,6 +135,8 @@ def link_mass(
     """Mass properties of a link's meshes (in the link frame) at `density_kg_m3`, never NaN:
     closed meshes by their volume, open sheets by a voxel fill at up to `voxel_size_m`, else
     the convex hull, else a cube of `default_size_m` and `default_mass_kg`."""
+    import trimesh
+
     parts = [m.copy() for m in meshes if len(m.faces) and np.all(np.isfinite(m.vertices)) and m.area > 0]
     for part in parts:
         part.merge_vertices()  # an STL repeats each corner per triangle: closed only once merged

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-import trimesh
 
 from homemodel.core.errors import ModelError
 from homemodel.core.transforms import (
@@ -23,6 +22,8 @@ from homemodel.core.transforms import (
 )
 from articulation.joint_types import JOINT_TYPES, MOVABLE_JOINT_TYPES, ROTATING_JOINT_TYPES, JointType
 
+if TYPE_CHECKING:  # trimesh (with scipy, networkx, shapely) is imported by what makes meshes
+    import trimesh
 
 
 @dataclass(kw_only=True)
@@ -299,6 +300,8 @@ class Model:
 
     def world_mesh(self, joint_positions: dict[str, float] | None = None) -> trimesh.Trimesh:
         """All visuals as one mesh in the model frame (for bounds, pictures and checks)."""
+        import trimesh
+
         links = self.world_from_links(joint_positions)
         parts = []
         for link in self.links:

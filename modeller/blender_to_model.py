@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from articulation.inertia import inertial_from_meshes
 from articulation.model import (
@@ -30,6 +29,7 @@ from modeller.blender_scene import LINK_PROPERTY, material_texture_path
 
 if TYPE_CHECKING:
     import bpy
+    import trimesh
     from mathutils import Matrix
 
 # Parts with fixed masses never take more than this share from the rest of the model (its
@@ -120,6 +120,8 @@ def _triangles(
     Blender keeps UVs per face corner, so a vertex where faces meet with different UVs
     (a seam, an edge of the photographed face) is split into one vertex per UV.
     """
+    import trimesh
+
     mesh = evaluated.to_mesh()
     try:
         mesh.calc_loop_triangles()

@@ -11,9 +11,9 @@ so a simulator can put something inside; a closed bottle is its convex hull.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from articulation.model import Box, Collision, Cylinder, GraspPoint, Joint, JointLimits, MeshGeometry
 from homemodel.core.transforms import axis_angle_transform, translation_transform
@@ -35,6 +35,9 @@ from modeller.builders.rigid import (
 from modeller.builders.shapes import bowl_profile_rz, smooth_step_rz
 from modeller.part_masses import jar_lid_mass_kg
 from modeller.specs import BottleSpec, BowlSpec, GlassSpec, JarSpec, PlateSpec
+
+if TYPE_CHECKING:
+    import trimesh
 
 SEGMENTS = 64  # around the axis; a multiple of 4 puts vertices on the x and y extremes
 # How far a jar's lid lifts: clear of the jar for a hand to take it away.
@@ -184,6 +187,8 @@ def bottle_profile_rz(spec: BottleSpec) -> np.ndarray:
 
 
 def _convex_hull(profile_rz: np.ndarray, segments: int = 32) -> trimesh.Trimesh:
+    import trimesh
+
     angles = np.linspace(0, 2 * np.pi, segments, endpoint=False)
     r, z = profile_rz[:, :1], profile_rz[:, 1:]
     points = np.stack([r * np.cos(angles), r * np.sin(angles), np.broadcast_to(z, (len(z), segments))], -1)
