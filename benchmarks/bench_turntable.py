@@ -11,7 +11,8 @@ What each column includes. Ours: every stage from the capture folder to the text
 poses (each frame read once: colour and depth decoded, tags, PnP, the object's pixels kept),
 axis (circle and turntable fit), merge, mesh (outliers, normals, the signed-distance surface),
 texture. TSDF: it needs poses and the object's cylinder and is GIVEN ours; its own work is
-reading each frame's colour and depth, segmenting by our cylinder and integrating
+reading each frame's colour and depth, segmenting by our cylinder (with the pipeline's
+own `object_pixels`, float32, the height above the table first) and integrating
 (UniformTSDFVolume, 1.5 mm voxels, as our merge), then marching cubes. Its column also shows
 our poses and axis stages (the same seconds) for the runs that charge them. Four ratios: our
 whole run against the TSDF's own work given the poses (the issue's comparison, the hardest);
@@ -91,6 +92,7 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
     import open3d as o3d
 
     from turntable.capture import read_color, read_depth
+    from turntable.fusion import object_pixels
 
     camera = capture.camera
     start, wall_start = time.process_time(), time.perf_counter()
@@ -110,7 +112,7 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
     intrinsic = o3d.camera.PinholeCameraIntrinsic(
         camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
     )
-    rays = camera.pixel_rays()
+    rays = camera.pixel_rays().astype(np.float32)
     for frame in capture.frames:
         if frame.stem not in result.poses:
             continue
@@ -120,15 +122,14 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
         color = np.ascontiguousarray(read_color(frame.color, camera))
         reading += time.process_time() - read_start
         reading_wall += time.perf_counter() - read_wall
-        # The same segmentation as the pipeline: above the table top, inside the cylinder.
-        points = rays * depth.reshape(-1, 1)
-        table = points @ np.linalg.inv(camera_from_table)[:3, :3].T + np.linalg.inv(camera_from_table)[:3, 3]
-        radial = np.hypot(table[:, 0] - cylinder.axis_xy_m[0], table[:, 1] - cylinder.axis_xy_m[1])
-        keep = (table[:, 2] > cylinder.z_min_m) & (radial < cylinder.radius_m)
-        depth = np.where(keep.reshape(depth.shape), depth, 0.0).astype(np.float32)
+        # The pipeline's own segmentation (above the table top, inside the cylinder), at its
+        # cost: a whole-image float64 version of it had cost the TSDF more than its integration.
+        pixels, _ = object_pixels(depth, color, rays, np.linalg.inv(camera_from_table), cylinder, drop_flying=False)
+        segmented = np.zeros(depth.size, dtype=np.float32)
+        segmented[pixels.index] = pixels.depth_m
         rgbd = o3d.geometry.RGBDImage.create_from_color_and_depth(
             o3d.geometry.Image(color),
-            o3d.geometry.Image(np.nan_to_num(depth)),
+            o3d.geometry.Image(segmented.reshape(depth.shape)),
             depth_scale=1.0,
             depth_trunc=5.0,
             convert_rgb_to_intensity=False,
