@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from homemodel.geometry.raycast import RayCaster
+from homemodel.geometry.surface_distance import SurfaceDistance
 
 # A closed mesh is split when its hull holds this much more than the mesh: a solid that is
 # nearly convex (a box, a bottle) keeps its hull.
@@ -102,23 +102,25 @@ def fidelity(
     shapes: list[trimesh.Trimesh],
     real: trimesh.Trimesh,
     *,
-    to_real: RayCaster | None = None,
+    to_real: SurfaceDistance | None = None,
     samples: int = _SAMPLES,
     seed: int = _SEED,
 ) -> Fidelity:
     """How far convex `shapes` reach past the `real` surface (points on a shape inside the real
     solid, where parts meet inside a wall, count as zero: by ray parity, which a nearly closed
     scan with a few holes still answers for most points) and how
-    far the real surface lies outside all of them (zero inside any). `to_real`: a ray caster
-    of `real` already built (a large surface measured against several decompositions)."""
+    far the real surface lies outside all of them (zero inside any). `to_real`: `real`'s
+    distance measure already built (a large surface measured against several decompositions)."""
     rng = np.random.default_rng(seed)
-    to_real = to_real or RayCaster(real)
-    # Every shape's samples measured in one batch (one ray-parity pass, not one per shape).
+    to_real = to_real or SurfaceDistance(real)
+    # Every shape's samples measured in one batch (one ray-parity pass, not one per shape);
+    # only those outside the solid are measured.
     on_shapes = np.concatenate(
         [trimesh.sample.sample_surface(shape, samples, seed=int(rng.integers(1 << 31)))[0] for shape in shapes]
     )
-    distance = to_real.distances(on_shapes)
-    distance[real.contains(on_shapes)] = 0.0
+    distance = np.zeros(len(on_shapes))
+    outside = ~real.contains(on_shapes)
+    distance[outside] = to_real.distances(on_shapes[outside])
     distances = np.split(distance, len(shapes))
     overshoots = [float(np.percentile(d, 95)) for d in distances]
     # Over all the shapes: each shape's samples weigh by its area.
@@ -127,8 +129,10 @@ def fidelity(
     at_95 = np.searchsorted(np.cumsum(weights), 0.95 * weights.sum())
     overshoot_all = float(np.concatenate(distances)[order][min(at_95, len(order) - 1)])
     points, _ = trimesh.sample.sample_surface(real, 4 * samples, seed=int(rng.integers(1 << 31)))
-    gap = RayCaster(trimesh.util.concatenate(shapes)).distances(points)
-    gap[_covered(shapes, points, tolerance=1e-6 * float(real.scale))] = 0.0
+    gap = np.zeros(len(points))
+    uncovered = ~_covered(shapes, points, tolerance=1e-6 * float(real.scale))
+    if uncovered.any():
+        gap[uncovered] = SurfaceDistance(trimesh.util.concatenate(shapes)).distances(points[uncovered])
     return Fidelity(
         overshoot_m=np.array(overshoots),
         overshoot_all_m=overshoot_all,
@@ -152,7 +156,7 @@ def _measured(
     meshes: list[trimesh.Trimesh],
     surface: trimesh.Trimesh,
     *,
-    to_surface: RayCaster,
+    to_surface: SurfaceDistance,
     inside: np.ndarray,
     hull_overshoot_m: float | None,
 ) -> Decomposition:
@@ -178,17 +182,17 @@ def decompose(
     max_parts: int = MAX_PARTS,
     resolution: int = VOXEL_RESOLUTION,
     surface: trimesh.Trimesh | None = None,
-    to_surface: RayCaster | None = None,
+    to_surface: SurfaceDistance | None = None,
     hull_overshoot_m: float | None = None,
 ) -> Decomposition:
     """The convex parts of a closed `mesh` (at most `max_parts`, from V-HACD's `resolution`
     voxels) and how faithful they are to `surface` (default: `mesh`; a finer mesh of the same
-    object when `mesh` is a reduced copy; `to_surface` its ray caster, if built;
+    object when `mesh` is a reduced copy; `to_surface` its distance measure, if built;
     `hull_overshoot_m` the hull's overshoot, if measured)."""
     from trimesh.decomposition import convex_decomposition
 
     surface = mesh if surface is None else surface
-    to_surface = to_surface or RayCaster(surface)
+    to_surface = to_surface or SurfaceDistance(surface)
     found = convex_decomposition(mesh, maxConvexHulls=max_parts, resolution=resolution)
     found = found if isinstance(found, list) else [found]
     meshes = [trimesh.Trimesh(**p) if isinstance(p, dict) else p for p in found]
@@ -225,7 +229,7 @@ def cell_decomposition(
     parts: int,
     *,
     points: SolidPoints | None = None,
-    to_surface: RayCaster | None = None,
+    to_surface: SurfaceDistance | None = None,
     hull_overshoot_m: float | None = None,
     seed: int = _SEED,
 ) -> Decomposition:
@@ -247,5 +251,5 @@ def cell_decomposition(
         if len(member) >= 4 and spans_a_volume(member):
             meshes.append(trimesh.convex.convex_hull(member))
     return _measured(
-        meshes, mesh, to_surface=to_surface or RayCaster(mesh), inside=points.inside, hull_overshoot_m=hull_overshoot_m
+        meshes, mesh, to_surface=to_surface or SurfaceDistance(mesh), inside=points.inside, hull_overshoot_m=hull_overshoot_m
     )

@@ -27,7 +27,7 @@ from homemodel.core.errors import ModelError
 from homemodel.core.model_summary import CollisionMesh, MeshFit, ScanMeshes as ScanMeshFigures, VisualMesh
 from homemodel.core.progress import Progress, no_progress
 from homemodel.geometry.mesh_ops import decimate, from_open3d, to_open3d
-from homemodel.geometry.raycast import RayCaster
+from homemodel.geometry.surface_distance import SurfaceDistance
 
 # The k-means cell counts tried on a closed mesh, fewest first. On the completions of 11 real
 # cups, bowls and bottles, 32 cells kept all but one bowl within 5 mm (95th percentiles, both
@@ -98,9 +98,7 @@ def mesh_fit(mesh: trimesh.Trimesh, points: np.ndarray | None) -> dict[str, floa
 
     if points is None or len(points) == 0:
         return {"points_to_surface_median": None, "points_to_surface_p95": None, "surface_to_points_median": None}
-    offset = mesh.bounds.mean(axis=0)  # float32 ray casting: measure near the origin
-    local = trimesh.Trimesh(mesh.vertices - offset, mesh.faces, process=False)
-    to_surface = RayCaster(local).distances(_sample(points, _MEASURED_POINTS) - offset)
+    to_surface = SurfaceDistance(mesh).distances(_sample(points, _MEASURED_POINTS))
     on_surface, _ = trimesh.sample.sample_surface(mesh, _MEASURED_POINTS, seed=_SEED)
     to_points, _ = cKDTree(points).query(on_surface)
     return {
@@ -112,7 +110,7 @@ def mesh_fit(mesh: trimesh.Trimesh, points: np.ndarray | None) -> dict[str, floa
 
 def _collision(solid: trimesh.Trimesh, tolerance: float, options: ScanMeshOptions, progress: Progress):
     """(shapes, decomposition or None, method, overshoot p95, overshoot max, gap p95, gap max)."""
-    to_solid = RayCaster(solid)
+    to_solid = SurfaceDistance(solid)
     hull = solid.convex_hull
     fit = fidelity([hull], solid, to_real=to_solid)
     best = ([hull], None, "convex hull", fit.overshoot_all_m, fit.overshoot_max_m, fit.gap_m, fit.gap_max_m)
