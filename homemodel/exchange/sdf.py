@@ -46,7 +46,8 @@ def _pose(parent: etree._Element, a_from_b: np.ndarray, **attributes: str) -> No
 
 def _material(parent: etree._Element, material: Material, texture_uri: str | None = None) -> None:
     el = etree.SubElement(parent, "material")
-    colour = "1 1 1 1" if texture_uri else fixed_list(material.rgba)
+    # A photo shows its own colours: white, keeping the material's opacity.
+    colour = fixed_list((1.0, 1.0, 1.0, material.rgba[3]) if texture_uri else material.rgba)
     _text(el, "ambient", colour)
     _text(el, "diffuse", colour)
     if texture_uri:

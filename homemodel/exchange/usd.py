@@ -195,11 +195,12 @@ class _StageWriter:
         usd_joint.CreateBody0Rel().SetTargets([f"{object_path}/{obj.name(joint.parent)}"])
         usd_joint.CreateBody1Rel().SetTargets([f"{object_path}/{obj.name(joint.child)}"])
         turn = _rotation_x_to(joint.axis) if joint.is_movable else np.eye(3)
-        child_from_joint = np.linalg.inv(joint.joint_from_child(q))
+        # The joint frame in the child is the child's own frame (as at position zero), so the
+        # bodies, written at the scene's position q, put the joint at q within its own limits.
         usd_joint.CreateLocalPos0Attr(self.Gf.Vec3f(*map(float, joint.parent_from_joint[:3, 3])))
         usd_joint.CreateLocalRot0Attr(self.quat(joint.parent_from_joint[:3, :3] @ turn))
-        usd_joint.CreateLocalPos1Attr(self.Gf.Vec3f(*map(float, child_from_joint[:3, 3])))
-        usd_joint.CreateLocalRot1Attr(self.quat(child_from_joint[:3, :3] @ turn))
+        usd_joint.CreateLocalPos1Attr(self.Gf.Vec3f(0.0, 0.0, 0.0))
+        usd_joint.CreateLocalRot1Attr(self.quat(turn))
         if not joint.is_movable:
             return
         usd_joint.CreateAxisAttr("X")
