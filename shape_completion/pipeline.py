@@ -26,6 +26,7 @@ from homemodel.core.progress import Progress, StageClock, no_progress
 from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
+from homemodel.geometry.surface_distance import SurfaceDistance
 from shape_completion.deformation import deformation_is_trusted, symmetric_controls, tps_deform
 from shape_completion.estimator import Estimator
 from shape_completion.features import PixelTests, view_features
@@ -34,13 +35,7 @@ from shape_completion.library import Library, training_fingerprint, working_mesh
 from shape_completion.matching import ViewForest, aligned_chamfer, quarter_turned
 from shape_completion.queries import FILLER_CAMERA, random_query_pose
 from shape_completion.query_input import MIN_QUERY_PIXELS, check_query
-from shape_completion.registration import (
-    apply,
-    camera_facing_normals,
-    mean_distance_to_surface_m,
-    subsample,
-    trimmed_icp,
-)
+from shape_completion.registration import apply, camera_facing_normals, subsample, trimmed_icp
 from shape_completion.render import camera_from_object_on_sphere, sphere_directions
 from shape_completion.shape_codes import ObjectOccupancy, ShapeBasis
 from shape_completion.spin_images import spin_image_alignment
@@ -344,7 +339,7 @@ class ShapeCompleter(Estimator):
 
         clock.start("deformation")
         deformed = self._deform(query, shape, camera_from_object, planes, size, rng)
-        fit_distance = mean_distance_to_surface_m(query, deformed)
+        fit_distance = float(SurfaceDistance(deformed).distances(query).mean())
         clock.stop()
         return Fit(
             query=query,

@@ -1,10 +1,8 @@
-"""Rigid alignment: Kabsch on correspondences, normals of a partial cloud, a trimmed ICP, and the
-fit's mean distance."""
+"""Rigid alignment: Kabsch on correspondences, normals of a partial cloud, a trimmed ICP."""
 
 from __future__ import annotations
 
 import numpy as np
-import trimesh
 from scipy.spatial import cKDTree
 
 
@@ -35,35 +33,6 @@ def kabsch_batch(source: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 def apply(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ transform[:3, :3].T + transform[:3, 3]
-
-
-def mean_distance_to_surface_m(points: np.ndarray, mesh: trimesh.Trimesh, candidates: int = 4) -> float:
-    """Mean exact distance from `points` to the triangles of `mesh`. A point's distance to its
-    `candidates` triangles with the nearest centroids bounds it from above; only the triangles
-    whose bounding sphere and plane both come nearer than that bound are measured too. Numpy and scipy only,
-    so a query does not import Open3D's ray caster for this one figure."""
-    from scipy.spatial.distance import cdist
-
-    triangles = np.asarray(mesh.triangles)
-    centres = triangles.mean(axis=1)
-    radii = np.linalg.norm(triangles - centres[:, None], axis=2).max(axis=1)
-    to_centres = cdist(points, centres)
-    k = min(candidates, len(triangles))
-    nearest = np.argpartition(to_centres, k - 1, axis=1)[:, :k]
-    rows = np.repeat(np.arange(len(points)), k)
-    bound = _pair_distances(points, triangles, rows, nearest.ravel()).reshape(-1, k).min(axis=1)
-    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
-    to_planes = np.abs(points @ normals.T - np.einsum("ij,ij->i", normals, triangles[:, 0]))
-    rows, cols = np.nonzero(np.maximum(to_centres - radii, to_planes) < bound[:, None])
-    best = bound.copy()
-    np.minimum.at(best, rows, _pair_distances(points, triangles, rows, cols))
-    return float(best.mean())
-
-
-def _pair_distances(points: np.ndarray, triangles: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    closest = trimesh.triangles.closest_point(triangles[cols], points[rows])
-    return np.linalg.norm(closest - points[rows], axis=1)
 
 
 def camera_facing_normals(points: np.ndarray, neighbours: int = 12) -> np.ndarray:

@@ -10,14 +10,17 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-# Triangles measured first per point, by nearest centre: their nearest distance bounds the
-# point's from above, and only triangles whose bounding sphere comes nearer are measured after.
+# Triangles measured first per point, by nearest site (`_covering_sites`): their nearest
+# distance bounds the point's from above, and only triangles with a site near enough to come
+# nearer are measured after.
 _FIRST_CANDIDATES = 8
+_SPLIT_PERCENTILE = 90  # triangles larger than this share of them are covered by several sites
+_MAX_SPLITS = 64  # a triangle's subdivision at most this fine (its sites then reach farther)
 _SLIVER_SINE2 = 1e-10
 
 
 class SurfaceDistance:
-    """One mesh's triangles, ready for many distance queries (the tree is built once)."""
+    """One mesh's triangles, ready for many distance queries (the tree of their sites is built once)."""
 
     def __init__(self, mesh: trimesh.Trimesh) -> None:
         from scipy.spatial import cKDTree
@@ -25,9 +28,9 @@ class SurfaceDistance:
         triangles = np.asarray(mesh.triangles, dtype=np.float64)
         if len(triangles) == 0:
             raise ValueError("the mesh has no triangles to measure distances to")
-        self._centres = triangles.mean(axis=1)
-        self._radii = np.linalg.norm(triangles - self._centres[:, None], axis=2).max(axis=1)
-        self._tree = cKDTree(self._centres)
+        self._sites, self._owner, self._site_reach = _covering_sites(triangles)
+        self._reach = float(self._site_reach.max())
+        self._tree = cKDTree(self._sites)
         # Per triangle: corner a, edges a->b, a->c, b->c, their squared lengths, the unit normal
         # and the barycentric system's terms (NaN for a sliver: never inside).
         self._a, self._b = triangles[:, 0], triangles[:, 1]
@@ -74,19 +77,45 @@ class SurfaceDistance:
             raise ValueError(f"{points.shape=} but expected (N, 3)")
         if len(points) == 0:
             return np.zeros(0)
-        k = min(_FIRST_CANDIDATES, len(self._centres))
-        to_centres, nearest = self._tree.query(points, k=k)
-        to_centres, nearest = to_centres.reshape(len(points), k), nearest.reshape(len(points), k)
-        best = self._pairs(points, np.repeat(np.arange(len(points)), k), nearest.ravel()).reshape(-1, k).min(axis=1)
-        # A triangle nearer than `best` has its centre within best + its radius: when the k-th
-        # centre lies beyond best + the largest radius, the k measured include the nearest.
-        open_rows = np.flatnonzero(to_centres[:, -1] < best + self._radii.max())
+        k = min(_FIRST_CANDIDATES, len(self._sites))
+        to_sites, nearest = self._tree.query(points, k=k)
+        to_sites, nearest = to_sites.reshape(len(points), k), nearest.reshape(len(points), k)
+        rows = np.repeat(np.arange(len(points)), k)
+        best = self._pairs(points, rows, self._owner[nearest.ravel()]).reshape(-1, k).min(axis=1)
+        # Every point of a triangle lies within `reach` of one of its sites, so a triangle
+        # nearer than `best` has a site within best + reach: when the k-th site lies beyond
+        # that, the k measured include the nearest.
+        open_rows = np.flatnonzero(to_sites[:, -1] < best + self._reach)
         if len(open_rows):
-            found = self._tree.query_ball_point(points[open_rows], best[open_rows] + self._radii.max(), return_sorted=False)
+            found = self._tree.query_ball_point(points[open_rows], best[open_rows] + self._reach, return_sorted=False)
             counts = np.fromiter((len(f) for f in found), dtype=np.int64, count=len(found))
             rows = np.repeat(open_rows, counts)
-            cols = np.concatenate(found).astype(np.int64) if counts.sum() else np.zeros(0, dtype=np.int64)
-            near = np.linalg.norm(points[rows] - self._centres[cols], axis=1) - self._radii[cols] < best[rows]
-            rows, cols = rows[near], cols[near]
+            sites = np.concatenate(found).astype(np.int64) if counts.sum() else np.zeros(0, dtype=np.int64)
+            near = np.linalg.norm(points[rows] - self._sites[sites], axis=1) - self._site_reach[sites] < best[rows]
+            rows, cols = rows[near], self._owner[sites[near]]  # a split triangle may come twice: harmless
             np.minimum.at(best, rows, self._pairs(points, rows, cols))
         return best
+
+
+def _covering_sites(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points on the triangles such that every point of a triangle lies within its sites'
+    reach of one of them: a triangle's centre (reach: its farthest corner) when it is no larger
+    than `_SPLIT_PERCENTILE` of them, else the centres of an n x n subdivision of it (n^2
+    similar triangles of 1/n its size and reach). Returns (sites, owning triangle, reach) per site."""
+    centres = triangles.mean(axis=1)
+    radii = np.linalg.norm(triangles - centres[:, None], axis=2).max(axis=1)
+    limit = max(float(np.percentile(radii, _SPLIT_PERCENTILE)), 1e-12 * float(np.ptp(triangles.reshape(-1, 3), axis=0).max()))
+    splits = np.minimum(np.ceil(radii / limit), _MAX_SPLITS).astype(np.int64)
+    whole = np.flatnonzero(splits <= 1)
+    sites, owners, reaches = [centres[whole]], [whole], [radii[whole]]
+    for n in np.unique(splits[splits > 1]):
+        which = np.flatnonzero(splits == n)
+        i, j = (g.ravel() for g in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+        up, down = i + j <= n - 1, i + j <= n - 2
+        u = np.concatenate([(i[up] + 1 / 3) / n, (i[down] + 2 / 3) / n])
+        v = np.concatenate([(j[up] + 1 / 3) / n, (j[down] + 2 / 3) / n])
+        a, b, c = triangles[which, 0], triangles[which, 1], triangles[which, 2]
+        sites.append((a[:, None] + u[:, None] * (b - a)[:, None] + v[:, None] * (c - a)[:, None]).reshape(-1, 3))
+        owners.append(np.repeat(which, len(u)))
+        reaches.append(np.repeat(radii[which] / n, len(u)))
+    return np.concatenate(sites), np.concatenate(owners), np.concatenate(reaches)
