@@ -443,3 +443,26 @@ def test_mutated_usda_gives_a_scene_or_an_input_error(small_exports: dict[str, P
     path = source.with_name("fuzzed.usda")
     path.write_text(data.draw(mutated(source.read_text(), SPECIAL_XML, XML_NOISE, r"= ([^\n]*)")))
     _model_or_input_error(path)
+
+
+def test_export_takes_another_simulators_file_of_one_model(
+    small_exports: dict[str, Path], kitchen_files: dict[str, Path], tmp_path: Path, capfd
+) -> None:
+    """`homemodel export scene.xml --format usd`: a model from MuJoCo to Isaac, joints intact;
+    a file of several objects is one line and nothing written."""
+    from sample_house import cupboard_model
+    from test_fuzz_loaders import _one_line_error
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    runner = CliRunner()
+    out = tmp_path / "usd"
+    result = runner.invoke(app, ["export", str(small_exports["mjcf"]), "--format", "usd", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    original = single_model_scene(cupboard_model()).objects[0]
+    assert_same_model(original, read_scene(out / "scene.usda").objects[0], "usd", TOLERANCE["usd"])
+    capfd.readouterr()
+    result = runner.invoke(app, ["export", str(kitchen_files["mjcf"]), "--format", "sdf", "--out", str(tmp_path / "many")])
+    _one_line_error(result, capfd, str(kitchen_files["mjcf"]), "holds 9 objects")
+    assert not (tmp_path / "many").exists()

@@ -11,7 +11,9 @@ actuators) stay in `articulation` as plain data the writers consume.
 - `glb`: the GLB container, read strictly (version, chunk bounds) and written; `gltf`: a model
   or a scene as glTF binary;
 - `mjcf`, `sdf`, `usd`: MuJoCo, Gazebo and Isaac files of a model or a scene, their meshes by
-  `scene_meshes`; `simulator`: which writer a format name means;
+  `scene_meshes`; `simulator`: which writer a format name means; `mjcf_read`, `sdf_read`,
+  `usd_read`: those files read back into the scene and its models (`scene_read`: what the
+  three share); `simulator_read`: which reader a file means;
 - `obj`: Wavefront OBJ and MTL text; `numbers`: the exporters' fixed number formatting;
 - `model_files`: a model's `model.urdf`, `model.glb` and `meshes/`;
 - `partnet`: a PartNet-Mobility folder read into a model;
