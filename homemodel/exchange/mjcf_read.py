@@ -23,6 +23,7 @@ from lxml import etree
 
 from articulation.model import (
     Box,
+    Collision,
     Cylinder,
     Inertial,
     Joint,
@@ -41,16 +42,14 @@ from homemodel.core.transforms import axis_angle_transform, translation_transfor
 from homemodel.exchange.mjcf import COLLISION_GROUP
 from homemodel.exchange.scene_read import (
     ObjectParts,
-    collision,
     mesh_file,
     object_prefix,
     part_name,
-    plain_visual,
+    read_visual,
     reanchor,
     texture_file,
     wall_from_box,
 )
-from homemodel.exchange.urdf.read import _primitive_mesh as primitive_mesh
 
 _NUMBERS = re.compile(r"\s+")
 _QPOS_SIZE = {"free": 7, "ball": 4, "hinge": 1, "slide": 1}
@@ -230,17 +229,13 @@ class _Reader:
             is_collision = contype != 0 or conaffinity != 0
             if is_visual:
                 material, textured = doc.material(geom, childclass, part_name(scoped, prefix, link.name))
-                visual = plain_visual(
-                    part_name(scoped, prefix, link.name), mesh if mesh is not None else primitive_mesh(shape),
-                    material=material, link_from_visual=link_from_geom, uv=uv if textured else None,
+                link.visuals.append(
+                    read_visual(part_name(scoped, prefix, link.name), shape, mesh, uv, material, textured, link_from_geom)
                 )
-                if visual.uv is None:
-                    visual.material.texture = None
-                link.visuals.append(visual)
             if is_collision:
                 geometry = shape if shape is not None else MeshGeometry(mesh=mesh)
                 name = part_name(scoped, prefix, link.name, ("_collision", "_hull"))
-                link.collisions.append(collision(name, geometry, link_from_geom))
+                link.collisions.append(Collision(name=name, geometry=geometry, link_from_collision=link_from_geom))
 
     def shape(self, geom: etree._Element, kind: str, size: np.ndarray):
         """(primitive shape or None, mesh or None, texture coordinates) of a geom."""

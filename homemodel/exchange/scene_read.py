@@ -15,11 +15,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from articulation.model import Collision, Joint, Link, Model, Visual
+from articulation.model import Joint, Link, Material, Model, Visual
 from articulation.scene import SceneObject, Wall
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.input_files import confined_path
 from homemodel.core.limits import URDF_JOINTS, URDF_LINKS
+from homemodel.exchange.urdf.read import _primitive_mesh as primitive_mesh
 from homemodel.exchange.urdf.read import read_mesh_parts
 
 # `walls_from_outlines` names a wall `<room>__wall_<n>`.
@@ -144,13 +145,27 @@ def joint_motion_position(joint_type: str, axis: np.ndarray, motion: np.ndarray)
     return float(np.arctan2(sine @ axis, (np.trace(rotation) - 1.0) / 2))
 
 
-def plain_visual(name: str, mesh: trimesh.Trimesh, **fields) -> Visual:
-    """A visual of a mesh read from a file; an empty mesh is the file's fault, not a bug."""
+def read_visual(name: str, shape, mesh: trimesh.Trimesh | None, uv: np.ndarray | None, material: Material,
+                textured: bool, link_from_visual: np.ndarray) -> Visual:
+    """A visual read from a file: a primitive `shape`'s mesh where no `mesh` is given, its
+    texture kept only with coordinates for it; an empty mesh is the file's fault (InputError)."""
+    kept_uv = uv if textured else None
+    if kept_uv is None:
+        material.texture = None
     try:
-        return Visual(name=name, mesh=mesh, **fields)
+        return Visual(name=name, mesh=mesh if mesh is not None else primitive_mesh(shape), material=material,
+                      link_from_visual=link_from_visual, uv=kept_uv)
     except (ModelError, ValueError) as exc:
         raise InputError(str(exc)) from None
 
 
-def collision(name: str, geometry, link_from_collision: np.ndarray) -> Collision:
-    return Collision(name=name, geometry=geometry, link_from_collision=link_from_collision)
+def tree_depth(link: str, parent_of: dict[str, str], source: Path) -> int:
+    """How many joints lie between `link` and its tree's root (`parent_of`: child to parent).
+    A reader places the deepest joints first, so a link moved onto its joint (`reanchor`) takes
+    its child joints along."""
+    depth = 0
+    while link in parent_of:
+        link, depth = parent_of[link], depth + 1
+        if depth > len(parent_of):
+            raise InputError(f"{source}: the joints form a cycle")
+    return depth

@@ -23,6 +23,7 @@ from lxml import etree
 from articulation.joint_types import JOINT_TYPES
 from articulation.model import (
     Box,
+    Collision,
     Cylinder,
     Inertial,
     Joint,
@@ -40,17 +41,16 @@ from homemodel.core.safe_xml import parse_xml_file
 from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.exchange.scene_read import (
     ObjectParts,
-    collision,
     mesh_file,
     object_prefix,
     part_name,
-    plain_visual,
+    read_visual,
+    tree_depth,
     reanchor,
     texture_file,
     wall_from_box,
 )
 from homemodel.exchange.sdf import HOMEMODEL_NS
-from homemodel.exchange.urdf.read import _primitive_mesh as primitive_mesh
 
 _NUMBERS = re.compile(r"\s+")
 # Our writer's "no limit" (SDFormat's own default is 1e16 too).
@@ -155,15 +155,12 @@ class _Reader:
             name = part_name(visual.get("name") or "visual", prefix, link.name)
             shape, mesh, uv = self.geometry(visual, f"visual {visual.get('name')!r}")
             material, textured = self.material(visual, name)
-            v = plain_visual(name, mesh if mesh is not None else primitive_mesh(shape), material=material,
-                             link_from_visual=self.pose(visual)[0], uv=uv if textured else None)
-            if v.uv is None:
-                v.material.texture = None
-            link.visuals.append(v)
+            link.visuals.append(read_visual(name, shape, mesh, uv, material, textured, self.pose(visual)[0]))
         for col in el.findall("collision"):
             shape, mesh, _ = self.geometry(col, f"collision {col.get('name')!r}")
             name = part_name(col.get("name") or "collision", prefix, link.name, ("_collision", "_hull"))
-            link.collisions.append(collision(name, shape if shape is not None else MeshGeometry(mesh=mesh), self.pose(col)[0]))
+            geometry = shape if shape is not None else MeshGeometry(mesh=mesh)
+            link.collisions.append(Collision(name=name, geometry=geometry, link_from_collision=self.pose(col)[0]))
         return link
 
     def model_from_links(self, model_el: etree._Element, prefix: str) -> dict[str, np.ndarray]:
@@ -256,8 +253,8 @@ class _Reader:
         parts.links = [self.link(el, prefix) for el in links]
         model_from_link = self.model_from_links(model_el, prefix)
         joints = list(model_el.iterchildren("joint"))
-        # Deepest joints first: a link moved onto its joint (`reanchor`) takes its child joints along.
-        for el in sorted(joints, key=lambda j: -_depth(self, joints, (j.findtext("child") or "").strip())):
+        parent_of = {(j.findtext("child") or "").strip(): (j.findtext("parent") or "").strip() for j in joints}
+        for el in sorted(joints, key=lambda j: -tree_depth((j.findtext("child") or "").strip(), parent_of, self.path)):
             self.joint(el, parts, prefix, model_from_link)
         roots = {link.name for link in parts.links} - {j.child for j in parts.joints}
         if len(roots) == 1:  # else the model's check names the problem
@@ -280,17 +277,6 @@ def _attribute_number(reader: _Reader, el: etree._Element, attribute: str) -> fl
     if not np.isfinite(value):
         raise reader.fail(el, f"<{el.tag} {attribute}={el.get(attribute)!r}> is not finite")
     return value
-
-
-def _depth(reader: _Reader, joints: list[etree._Element], link: str) -> int:
-    """How many joints lie between `link` and its tree's root."""
-    parent_of = {(j.findtext("child") or "").strip(): (j.findtext("parent") or "").strip() for j in joints}
-    depth = 0
-    while link in parent_of and depth <= len(joints):
-        link, depth = parent_of[link], depth + 1
-    if depth > len(joints):
-        raise InputError(f"{reader.path}: the joints form a cycle")
-    return depth
 
 
 def read_sdf(path: Path) -> Scene:

@@ -24,6 +24,7 @@ import trimesh
 
 from articulation.model import (
     Box,
+    Collision,
     Cylinder,
     Inertial,
     Joint,
@@ -42,16 +43,15 @@ from homemodel.core.limits import MESH_TRIANGLES, URDF_LINKS
 from homemodel.core.transforms import Y_UP_FROM_Z_UP, translation_transform
 from homemodel.exchange.scene_read import (
     ObjectParts,
-    collision,
     joint_motion_position,
     object_prefix,
     part_name,
-    plain_visual,
+    read_visual,
+    tree_depth,
     reanchor,
     texture_file,
     wall_from_box,
 )
-from homemodel.exchange.urdf.read import _primitive_mesh as primitive_mesh
 from homemodel.geometry.mesh_io import MAX_MESH_BYTES
 
 _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
@@ -237,15 +237,12 @@ class _Reader:
             is_collider = prim.HasAPI(UsdPhysics.CollisionAPI)
             if is_collider:
                 name = part_name(prim.GetName(), prefix, link.name)
-                link.collisions.append(collision(name, shape if shape is not None else MeshGeometry(mesh=mesh), body_from_prim))
+                geometry = shape if shape is not None else MeshGeometry(mesh=mesh)
+                link.collisions.append(Collision(name=name, geometry=geometry, link_from_collision=body_from_prim))
             if not is_collider or purpose not in (s.UsdGeom.Tokens.guide, s.UsdGeom.Tokens.proxy):
                 name = part_name(prim.GetName(), prefix, link.name)
                 material, textured = self.material(prim, name)
-                visual = plain_visual(name, mesh if mesh is not None else primitive_mesh(shape), material=material,
-                                      link_from_visual=body_from_prim, uv=uv if textured else None)
-                if visual.uv is None:
-                    visual.material.texture = None
-                link.visuals.append(visual)
+                link.visuals.append(read_visual(name, shape, mesh, uv, material, textured, body_from_prim))
         return link
 
     def joint(self, prim, parts: ObjectParts, prefix: str, bodies: dict[str, object]) -> None:
@@ -372,16 +369,8 @@ class _Reader:
             if joint.GetTypeName() != "PhysicsFixedJoint":
                 raise InputError(f"{s.path}: joint {joint.GetPath()}: only a fixed joint holds an object to the world")
         parts.free = not held
-        # Deepest joints first: a link moved onto its joint (`reanchor`) takes its child joints along.
         parent_of = {ends[1]: ends[0] for _, ends in joints}
-
-        def depth(path: str) -> int:
-            d = 0
-            while path in parent_of and d <= len(joints):
-                path, d = parent_of[path], d + 1
-            return d
-
-        for joint, _ in sorted(joints, key=lambda item: -depth(item[1][1])):
+        for joint, _ in sorted(joints, key=lambda item: -tree_depth(item[1][1], parent_of, s.path)):
             self.joint(joint, parts, prefix, links)
         return parts
 
