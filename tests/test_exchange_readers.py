@@ -15,19 +15,17 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scene_compare import TOLERANCE, assert_same_model, assert_same_scene, near
 from test_fuzz_loaders import EXAMPLES, FUZZ, SPECIAL_XML, XML_NOISE, mutated
 
-from articulation.export_dynamics import export_dynamics
 from articulation.model import Box, Cylinder, Link, Material, Model, Sphere, Visual
-from articulation.scene import Scene, SceneObject, single_model_scene
+from articulation.scene import Scene, single_model_scene
 from homemodel.core.errors import InputError
 from homemodel.exchange.home_scene import scene_from_map
 from homemodel.exchange.simulator_read import read_model, read_scene
 from homemodel.exchange.simulator import export_scene
 
 FORMATS = {"mjcf": "scene.xml", "sdf": "scene.sdf", "usd": "scene.usda"}
-# Our writers keep 6 decimals (MJCF, SDF) or float32 (USD); the real clients' files 6 digits.
-TOLERANCE = {"mjcf": 2e-6, "sdf": 2e-6, "usd": 2e-5, "saved": 2e-4}
 # Joints moved off zero in the exported scene: the readers must put them back.
 # Each reading opens the meshes too: fewer examples than the other loaders' fuzz.
 FUZZ_READERS = settings(FUZZ, max_examples=min(EXAMPLES, 60))
@@ -47,70 +45,6 @@ def kitchen_files(kitchen_scene: Scene, tmp_path_factory: pytest.TempPathFactory
     """The kitchen scene exported once in each format (and shared by every test here)."""
     root = tmp_path_factory.mktemp("kitchen_scene")
     return {fmt: export_scene(kitchen_scene, root / fmt, fmt).file for fmt in FORMATS}
-
-
-def _near(a, b, tolerance: float, what: str) -> None:
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    assert a.shape == b.shape and np.allclose(a, b, atol=tolerance, rtol=tolerance), f"{what}: {a} != {b}"
-
-
-def assert_same_model(original: SceneObject, read: SceneObject, fmt: str, tolerance: float) -> None:
-    """What the format carries of `original` is in `read`, within `tolerance`."""
-    model, back = original.model, read.model
-    assert {link.name for link in back.links} == {link.name for link in model.links}
-    assert len(back.joints) == len(model.joints)
-    for joint in model.joints:
-        if not joint.is_movable:  # MJCF has no name for a fixed joint
-            match = [j for j in back.joints if j.child == joint.child]
-            assert len(match) == 1 and match[0].type == "fixed" and match[0].parent == joint.parent, joint.name
-            _near(match[0].parent_from_joint, joint.parent_from_joint, tolerance, f"{joint.name} origin")
-            continue
-        other = back.joint(joint.name)
-        assert (other.type, other.parent, other.child) == (joint.type, joint.parent, joint.child), joint.name
-        _near(other.axis / np.linalg.norm(other.axis), joint.axis / np.linalg.norm(joint.axis), tolerance, f"{joint.name} axis")
-        _near(other.parent_from_joint, joint.parent_from_joint, tolerance, f"{joint.name} origin")
-        if joint.type != "continuous":
-            _near([other.limits.lower, other.limits.upper], [joint.limits.lower, joint.limits.upper], tolerance, f"{joint.name} limits")
-            if fmt != "mjcf":  # MJCF has no effort limit
-                _near(other.limits.effort, joint.limits.effort, tolerance, f"{joint.name} effort")
-        written = export_dynamics(model, joint, gravity_model=original.gravity_model)
-        _near([other.dynamics.damping, other.dynamics.friction], [written.damping, written.friction], tolerance, f"{joint.name} dynamics")
-        if fmt != "usd":  # USD has no named states
-            assert [s.name for s in other.states] == [s.name for s in joint.states], joint.name
-            _near([s.position for s in other.states], [s.position for s in joint.states], tolerance, f"{joint.name} states")
-        _near(read.position(joint.name), original.position(joint.name), tolerance, f"{joint.name} position")
-    for link in model.links:
-        other = back.link(link.name)
-        assert (len(other.visuals), len(other.collisions)) == (len(link.visuals), len(link.collisions)), link.name
-        if link.inertial is not None:
-            _near(other.inertial.mass_kg, link.inertial.mass_kg, tolerance, f"{link.name} mass")
-            _near(other.inertial.com_m, link.inertial.com_m, tolerance, f"{link.name} centre of mass")
-            _near(other.inertial.inertia_kgm2, link.inertial.inertia_kgm2, tolerance, f"{link.name} inertia")
-        for mine, theirs in zip(link.collisions, other.collisions):
-            assert type(theirs.geometry) is type(mine.geometry), link.name
-            if isinstance(mine.geometry, Box):
-                _near(theirs.geometry.size_m, mine.geometry.size_m, tolerance, f"{link.name} box")
-            _near(theirs.link_from_collision, mine.link_from_collision, tolerance, f"{link.name} collision origin")
-        for mine, theirs in zip(link.visuals, other.visuals):
-            _near(theirs.mesh.bounds, mine.mesh.bounds, tolerance, f"{link.name} visual bounds")
-            _near(theirs.material.rgba, mine.material.rgba, 1e-6, f"{link.name} colour")
-    _near(read.world_from_model, original.world_from_model, tolerance, f"{original.id} placement")
-    assert read.free == original.free, original.id
-    positions = {j.name: original.position(j.name) for j in model.movable_joints}
-    _near(back.world_mesh(positions).bounds, model.world_mesh(positions).bounds, tolerance, f"{original.id} bounds")
-
-
-def assert_same_scene(scene: Scene, back: Scene, fmt: str, tolerance: float) -> None:
-    by_id = {o.id: o for o in back.objects}
-    assert set(by_id) == {o.safe_id for o in scene.objects}
-    for obj in scene.objects:
-        assert_same_model(obj, by_id[obj.safe_id], fmt, tolerance)
-    assert back.floor == scene.floor
-    assert sorted(w.name for w in back.walls) == sorted(w.name for w in scene.walls)
-    for wall in scene.walls:
-        other = next(w for w in back.walls if w.name == wall.name)
-        _near([*other.start_xy, *other.end_xy, other.height_m, other.thickness_m],
-              [*wall.start_xy, *wall.end_xy, wall.height_m, wall.thickness_m], tolerance, wall.name)
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
@@ -199,7 +133,7 @@ def test_a_hand_written_mjcf_is_placed_as_mujoco_places_it(tmp_path: Path) -> No
     obj = scene.objects[0]
     hinge, slide = obj.model.joint("hinge"), obj.model.joint("slide")
     assert (hinge.type, slide.type) == ("revolute", "prismatic")
-    _near([hinge.limits.lower, hinge.limits.upper], np.radians([-5, 110]), 1e-12, "degrees")
+    near([hinge.limits.lower, hinge.limits.upper], np.radians([-5, 110]), 1e-12, "degrees")
     assert hinge.dynamics.damping == 0.5  # from the default class
     assert obj.position("hinge") == pytest.approx(np.radians(30))
     door = obj.model.link("door")
@@ -215,9 +149,9 @@ def test_a_hand_written_mjcf_is_placed_as_mujoco_places_it(tmp_path: Path) -> No
             g = mj.geom(name).id if name else next(i for i in range(mj.ngeom) if mj.body(mj.geom_bodyid[i]).name == link_name)
             part = obj.model.link(link_name).collisions[0].link_from_collision if name else obj.model.link(link_name).visuals[0].link_from_visual
             world = obj.world_from_model @ links[link_name] @ part
-            _near(world[:3, 3], data.geom_xpos[g], 1e-9, f"{link_name} at {q}")
+            near(world[:3, 3], data.geom_xpos[g], 1e-9, f"{link_name} at {q}")
             if link_name != "door":  # MuJoCo turns a mesh geom to the mesh's principal axes
-                _near(world[:3, :3], data.geom_xmat[g].reshape(3, 3), 1e-9, f"{link_name} turn at {q}")
+                near(world[:3, :3], data.geom_xmat[g].reshape(3, 3), 1e-9, f"{link_name} turn at {q}")
     inertia = obj.model.link("door").inertial
     assert inertia.mass_kg == 2 and np.linalg.eigvalsh(inertia.inertia_kgm2) == pytest.approx([0.05, 0.06, 0.1])
 
@@ -259,7 +193,7 @@ def test_a_hand_written_sdf_turns_about_its_joint_pose(tmp_path: Path) -> None:
         # The model turned 90 degrees: its x is the world's y. The hinge line is at model
         # (0.32, 0), so world (1, 2.32); the leaf's centre is 0.3 m from it, along model x at 0.
         expected = np.array([1.0, 2.32, 0.4]) + 0.3 * np.array([-np.sin(angle), np.cos(angle), 0.0])
-        _near(centre, expected, 1e-9, f"door centre at {angle}")
+        near(centre, expected, 1e-9, f"door centre at {angle}")
 
 
 def test_a_stage_authored_with_usd_core_alone_reads_in_metres_and_z_up(tmp_path: Path) -> None:
@@ -299,11 +233,11 @@ def test_a_stage_authored_with_usd_core_alone_reads_in_metres_and_z_up(tmp_path:
     assert obj.id == "lamp" and obj.free
     tilt = obj.model.joint("tilt")
     assert tilt.type == "revolute" and obj.position("tilt") == pytest.approx(0.0, abs=1e-9)
-    _near([tilt.limits.lower, tilt.limits.upper], np.radians([-45, 90]), 1e-6, "limits")
+    near([tilt.limits.lower, tilt.limits.upper], np.radians([-45, 90]), 1e-6, "limits")
     plinth = obj.model.link("base").collisions[0].geometry
-    _near(plinth.size_m, (0.4, 0.1, 0.2), 1e-6, "plinth in metres")
+    near(plinth.size_m, (0.4, 0.1, 0.2), 1e-6, "plinth in metres")
     bulb = obj.model.link("arm").visuals[0].mesh
-    _near(bulb.extents, [0.1, 0.1, 0.1], 2e-3, "bulb in metres")
+    near(bulb.extents, [0.1, 0.1, 0.1], 2e-3, "bulb in metres")
     assert obj.model.link("arm").inertial.mass_kg == pytest.approx(0.3)
     # Stage (x, y, z) is world (x, -z, y): the hinge turns about the world's -y, through stage
     # (0.1, 0.5, 0), world (0.1, 0, 0.5). The bulb, 0.1 m towards -x of it, swings down.
@@ -311,7 +245,7 @@ def test_a_stage_authored_with_usd_core_alone_reads_in_metres_and_z_up(tmp_path:
         world = obj.world_from_model @ obj.model.world_from_links({"tilt": angle})["arm"]
         centre = (world @ obj.model.link("arm").visuals[0].link_from_visual)[:3, 3]
         offset = np.array([-0.1 * np.cos(angle), 0.0, -0.1 * np.sin(angle)])
-        _near(centre, np.array([0.1, 0.0, 0.5]) + offset, 1e-6, f"bulb at {angle}")
+        near(centre, np.array([0.1, 0.0, 0.5]) + offset, 1e-6, f"bulb at {angle}")
 
 
 def test_a_photo_texture_and_its_coordinates_survive_every_format(tmp_path: Path) -> None:
@@ -329,7 +263,7 @@ def test_a_photo_texture_and_its_coordinates_survive_every_format(tmp_path: Path
         back = read_model(path).link("frame").visuals[0]
         assert back.material.texture is not None and back.material.texture.is_file(), fmt
         assert np.array_equal(np.asarray(Image.open(back.material.texture)), np.asarray(Image.open(image))), fmt
-        _near(back.uv, uv, 1e-6, f"{fmt} uv")
+        near(back.uv, uv, 1e-6, f"{fmt} uv")
         assert back.material.rgba[3] == pytest.approx(0.9), fmt
 
 
@@ -346,8 +280,8 @@ def test_primitive_collisions_keep_their_kind_and_size(tmp_path: Path) -> None:
         back = read_model(export_scene(single_model_scene(model), tmp_path / fmt, fmt).file).link("body").collisions
         assert [type(c.geometry) for c in back] == [Box, Cylinder, Sphere], fmt
         assert [c.name for c in back] == ["c0", "c1", "c2"], fmt
-        _near(back[0].geometry.size_m, (0.1, 0.2, 0.3), 1e-6, fmt)
-        _near([back[1].geometry.radius_m, back[1].geometry.length_m, back[2].geometry.radius_m], [0.05, 0.2, 0.07], 1e-6, fmt)
+        near(back[0].geometry.size_m, (0.1, 0.2, 0.3), 1e-6, fmt)
+        near([back[1].geometry.radius_m, back[1].geometry.length_m, back[2].geometry.radius_m], [0.05, 0.2, 0.07], 1e-6, fmt)
 
 
 # Hostile and corrupt files
@@ -466,3 +400,45 @@ def test_export_takes_another_simulators_file_of_one_model(
     result = runner.invoke(app, ["export", str(kitchen_files["mjcf"]), "--format", "sdf", "--out", str(tmp_path / "many")])
     _one_line_error(result, capfd, str(kitchen_files["mjcf"]), "holds 9 objects")
     assert not (tmp_path / "many").exists()
+
+
+UNREADABLE = {
+    "ball.xml": ("<mujoco><worldbody><body name='a'><geom size='0.1'/><body name='b'><joint type='ball'/>"
+                 "<geom size='0.1'/></body></body></worldbody></mujoco>", "a ball joint inside a model is not read"),
+    "frame.xml": ("<mujoco><worldbody><body name='a'><frame pos='1 0 0'><geom size='0.1'/></frame></body></worldbody>"
+                  "</mujoco>", "<frame> is not read"),
+    "hinged_to_world.xml": ("<mujoco><worldbody><body name='a'><joint type='hinge'/><geom size='0.1'/></body>"
+                            "</worldbody></mujoco>", "only a free joint joins an object to the world"),
+    "ball.sdf": ("<sdf version='1.9'><model name='m'><link name='a'/><link name='b'/><joint name='j' type='ball'>"
+                 "<parent>a</parent><child>b</child></joint></model></sdf>", "type 'ball' is not read"),
+    "nested.sdf": ("<sdf version='1.9'><model name='m'><link name='a'/><model name='inner'><link name='b'/></model>"
+                   "</model></sdf>", "nested models and <include> are not read"),
+    "old.sdf": ("<sdf version='1.6'><model name='m'><link name='a'/></model></sdf>", "read from 1.7 on"),
+    "include.sdf": ("<sdf version='1.9'><world name='w'><include><uri>model://x</uri></include></world></sdf>",
+                    "<include> is not read"),
+}
+
+
+@pytest.mark.parametrize("name", UNREADABLE)
+def test_what_a_model_cannot_hold_is_refused_by_name(tmp_path: Path, name: str) -> None:
+    path = tmp_path / name
+    text, message = UNREADABLE[name]
+    path.write_text(text)
+    with pytest.raises(InputError, match=message) as caught:
+        read_scene(path)
+    assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+def test_a_spherical_joint_in_a_usd_stage_is_refused(tmp_path: Path) -> None:
+    from pxr import Usd, UsdGeom, UsdPhysics
+
+    path = tmp_path / "ball.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    for body in ("/a", "/b"):
+        UsdPhysics.RigidBodyAPI.Apply(UsdGeom.Xform.Define(stage, body).GetPrim())
+    joint = UsdPhysics.SphericalJoint.Define(stage, "/ball")
+    joint.CreateBody0Rel().SetTargets(["/a"])
+    joint.CreateBody1Rel().SetTargets(["/b"])
+    stage.GetRootLayer().Save()
+    with pytest.raises(InputError, match="PhysicsSphericalJoint is not read"):
+        read_scene(path)

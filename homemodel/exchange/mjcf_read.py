@@ -77,6 +77,10 @@ class _Document:
         include = next(self.root.iter("include"), None)
         if include is not None:
             raise self.fail(include, "<include> is not read (it opens other files): merge them into one file")
+        # MuJoCo 3's composition elements place bodies and geoms a model reader would miss.
+        composed = next(self.root.iter("frame", "replicate", "attach", "composite", "flexcomp"), None)
+        if composed is not None:
+            raise self.fail(composed, f"<{composed.tag}> is not read (it places bodies and geoms of its own)")
         compiler: dict[str, str] = {}
         for el in self.root.findall("compiler"):
             compiler.update(el.attrib)

@@ -249,7 +249,10 @@ class _Reader:
             raise self.fail(model_el, f"model {model_id!r} has no links")
         prefix = object_prefix(links[0].get("name") or "", names)
         static = (model_el.findtext("static") or "").strip() in ("true", "1")
-        parts = ObjectParts(id=model_id, free=not static, world_from_model=self.pose(model_el)[0])
+        world_from_model, relative_to = self.pose(model_el)
+        if relative_to not in ("", "world"):
+            raise self.fail(model_el, f"model {model_id!r}: pose relative to {relative_to!r} is not read (the world)")
+        parts = ObjectParts(id=model_id, free=not static, world_from_model=world_from_model)
         parts.links = [self.link(el, prefix) for el in links]
         model_from_link = self.model_from_links(model_el, prefix)
         joints = list(model_el.iterchildren("joint"))

@@ -38,7 +38,6 @@ from articulation.model import (
 from articulation.scene import Scene
 from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.errors import InputError, ModelError
-from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import MESH_TRIANGLES, URDF_LINKS
 from homemodel.core.transforms import Y_UP_FROM_Z_UP, translation_transform
 from homemodel.exchange.scene_read import (
@@ -75,7 +74,10 @@ class _Stage:
 
         self.path = path
         self.Usd, self.UsdGeom, self.UsdPhysics, self.UsdShade = Usd, UsdGeom, UsdPhysics, UsdShade
-        read_bounded(path, MAX_MESH_BYTES)  # a regular file, within the bound
+        if not path.is_file():
+            raise InputError(f"{path}: {'not a regular file' if path.exists() else 'no such file'}")
+        if path.stat().st_size > MAX_MESH_BYTES:
+            raise InputError(f"{path}: larger than the {MAX_MESH_BYTES}-byte bound for a USD stage")
         with captured_c_output((2,)) as said:
             try:
                 stage = Usd.Stage.Open(str(path))
@@ -223,9 +225,11 @@ class _Reader:
             axes = np.eye(3) if quat is None else s.quat_rotation(quat, f"{body.GetPath()} principal axes")
             link.inertial = Inertial(mass_kg=mass, com_m=com * s.metres,
                                      inertia_kgm2=axes @ np.diag(moments) @ axes.T * s.kilograms * s.metres**2)
-        for prim in self.s.Usd.PrimRange(body):
+        prims = iter(self.s.Usd.PrimRange(body))
+        for prim in prims:
             if prim != body and prim.HasAPI(UsdPhysics.RigidBodyAPI):
-                continue  # another body's (nested bodies are their own links)
+                prims.PruneChildren()  # a nested body is a link of its own
+                continue
             if prim.GetTypeName() not in _GPRIMS:
                 continue
             try:
