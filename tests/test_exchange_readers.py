@@ -216,6 +216,10 @@ def test_a_stage_authored_with_usd_core_alone_reads_in_metres_and_z_up(tmp_path:
     cube.AddScaleOp().Set(Gf.Vec3f(20, 5, 10))  # size 2: a 0.4 x 0.1 x 0.2 m box
     UsdPhysics.CollisionAPI.Apply(cube.GetPrim())
     UsdGeom.Sphere.Define(stage, "/Root/lamp/arm/bulb").CreateRadiusAttr(5.0)
+    panel = UsdGeom.Mesh.Define(stage, "/Root/lamp/base/panel")  # one quad, 20 cm square
+    panel.CreatePointsAttr([(0, 0, 0), (20, 0, 0), (20, 20, 0), (0, 20, 0)])
+    panel.CreateFaceVertexCountsAttr([4])
+    panel.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     mass = UsdPhysics.MassAPI.Apply(arm.GetPrim())
     mass.CreateMassAttr(0.3)
     joint = UsdPhysics.RevoluteJoint.Define(stage, "/Root/lamp/joints/tilt")
@@ -236,6 +240,8 @@ def test_a_stage_authored_with_usd_core_alone_reads_in_metres_and_z_up(tmp_path:
     near([tilt.limits.lower, tilt.limits.upper], np.radians([-45, 90]), 1e-6, "limits")
     plinth = obj.model.link("base").collisions[0].geometry
     near(plinth.size_m, (0.4, 0.1, 0.2), 1e-6, "plinth in metres")
+    quad = next(v.mesh for v in obj.model.link("base").visuals if v.name == "panel")
+    assert len(quad.faces) == 2 and quad.area == pytest.approx(0.04)
     bulb = obj.model.link("arm").visuals[0].mesh
     near(bulb.extents, [0.1, 0.1, 0.1], 2e-3, "bulb in metres")
     assert obj.model.link("arm").inertial.mass_kg == pytest.approx(0.3)

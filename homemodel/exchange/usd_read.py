@@ -150,10 +150,12 @@ class _Reader:
             raise InputError(f"{where}: a face index is out of range")
         if not np.all(np.isfinite(points)):
             raise InputError(f"{where}: has non-finite points")
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        # Polygons as triangle fans.
-        faces = np.array([[indices[st], indices[st + k], indices[st + k + 1]] for st, n in zip(starts, counts)
-                          for k in range(1, n - 1)], dtype=np.int64).reshape(-1, 3)
+        if np.all(counts == 3):
+            faces = indices.reshape(-1, 3)
+        else:  # polygons as triangle fans
+            starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            faces = np.array([[indices[st], indices[st + k], indices[st + k + 1]] for st, n in zip(starts, counts)
+                              for k in range(1, n - 1)], dtype=np.int64).reshape(-1, 3)
         mesh = trimesh.Trimesh(vertices=points @ stretch.T * s.metres, faces=faces, process=False)
         uv = None
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("st")
