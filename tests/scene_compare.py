@@ -11,6 +11,8 @@ from articulation.scene import Scene, SceneObject
 
 # Our writers keep 6 decimals (MJCF, SDF) or float32 (USD); the real clients' files 6 digits.
 TOLERANCE = {"mjcf": 2e-6, "sdf": 2e-6, "usd": 2e-5, "saved": 2e-4}
+# Masses, inertias, efforts, damping and friction are written to 6 significant digits.
+SIGNIFICANT = 1e-5
 
 
 def near(a, b, tolerance: float, what: str) -> None:
@@ -36,9 +38,9 @@ def assert_same_model(original: SceneObject, read: SceneObject, fmt: str, tolera
         if joint.type != "continuous":
             near([other.limits.lower, other.limits.upper], [joint.limits.lower, joint.limits.upper], tolerance, f"{joint.name} limits")
             if fmt != "mjcf":  # MJCF has no effort limit
-                near(other.limits.effort, joint.limits.effort, tolerance, f"{joint.name} effort")
+                near(other.limits.effort, joint.limits.effort, max(tolerance, SIGNIFICANT), f"{joint.name} effort")
         written = export_dynamics(model, joint, gravity_model=original.gravity_model)
-        near([other.dynamics.damping, other.dynamics.friction], [written.damping, written.friction], tolerance, f"{joint.name} dynamics")
+        near([other.dynamics.damping, other.dynamics.friction], [written.damping, written.friction], max(tolerance, SIGNIFICANT), f"{joint.name} dynamics")
         if fmt != "usd":  # USD has no named states
             assert [s.name for s in other.states] == [s.name for s in joint.states], joint.name
             near([s.position for s in other.states], [s.position for s in joint.states], tolerance, f"{joint.name} states")
@@ -47,9 +49,9 @@ def assert_same_model(original: SceneObject, read: SceneObject, fmt: str, tolera
         other = back.link(link.name)
         assert (len(other.visuals), len(other.collisions)) == (len(link.visuals), len(link.collisions)), link.name
         if link.inertial is not None:
-            near(other.inertial.mass_kg, link.inertial.mass_kg, tolerance, f"{link.name} mass")
+            near(other.inertial.mass_kg, link.inertial.mass_kg, max(tolerance, SIGNIFICANT), f"{link.name} mass")
             near(other.inertial.com_m, link.inertial.com_m, tolerance, f"{link.name} centre of mass")
-            near(other.inertial.inertia_kgm2, link.inertial.inertia_kgm2, tolerance, f"{link.name} inertia")
+            near(other.inertial.inertia_kgm2, link.inertial.inertia_kgm2, max(tolerance, SIGNIFICANT), f"{link.name} inertia")
         for mine, theirs in zip(link.collisions, other.collisions):
             assert type(theirs.geometry) is type(mine.geometry), link.name
             if isinstance(mine.geometry, Box):
