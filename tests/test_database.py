@@ -224,18 +224,24 @@ def test_a_killed_client_leaves_a_whole_index_and_the_next_build_finishes(tmp_pa
 
 
 def test_local_workers_keep_glibcs_own_malloc_trim_threshold() -> None:
-    """Dask's default (65536) made a cup's gate 55 -> 85 ms; its one thread per library stays."""
+    """Dask's nanny default (65536) made a cup's gate 55 -> 85 ms; its one thread per library stays."""
     import dask
 
     from homemodel.app.database.cluster import dask_client
 
     with dask_client(None, workers=1) as client:
-        trim = client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_")
-        threads = client.run(os.environ.get, "OMP_NUM_THREADS")
+        client.wait_for_workers(1, timeout=120)
+        trim = client.run(os.getenv, "MALLOC_TRIM_THRESHOLD_")
+        threads = client.run(os.getenv, "OMP_NUM_THREADS")
         # The quieter Dask settings reach the worker processes (its profiler off: 10 ms samples).
         profiler = client.run(dask.config.get, "distributed.worker.profile.enabled")
-    assert list(trim.values()) == [None] and list(threads.values()) == ["1"]
+        pids = client.run(os.getpid)
+    assert list(trim.values()) == [os.environ.get("MALLOC_TRIM_THRESHOLD_")] and list(threads.values()) == ["1"]
     assert list(profiler.values()) == [False]
+    # The closed cluster's worker process has ended.
+    (pid,) = pids.values()
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
 
 
 def _manifest_with(tmp_path: Path, entry: dict) -> Path:

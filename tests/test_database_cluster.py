@@ -22,7 +22,7 @@ pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[1]
 # Enough entries that the build is still running when the first row lands: an imported asset
 # takes about 0.1 s, and the index commits its rows in batches every half second.
-ENTRIES = 40
+ENTRIES = 24
 
 
 def _wait_for(what: str, ready, timeout_s: float = 120.0) -> None:  # noqa: ANN001

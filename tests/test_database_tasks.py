@@ -68,12 +68,16 @@ def test_a_task_key_changes_with_any_entry_key() -> None:
     assert task_key(batch) != key and task_key(batch[:1]).startswith("homemodel-db-s0-")
 
 
-def test_the_build_process_does_not_import_the_pipelines() -> None:
+def test_the_build_process_does_not_import_the_pipelines_or_dask() -> None:
     """The process that submits the tasks imports the entry build (trimesh, the gate, bpy) only
-    when it builds entries itself (a local cluster): never for a remote one."""
+    when it builds entries itself (a local cluster): never for a remote one. Nor does it import
+    Dask before it starts the scheduler, not even to start a local cluster's workers: that
+    half second of CPU would come before its first entry."""
     code = (
         "import sys; import homemodel.app.database.build, homemodel.app.database.tasks, homemodel.app.database.dispatch; "
-        "print(sorted(m for m in ('trimesh', 'bpy', 'open3d', 'homemodel.app.database.entry_build') if m in sys.modules))"
+        "from homemodel.app.database.cluster import ClusterStart; cluster = ClusterStart(None, 1, ()); "
+        "print(sorted(m for m in ('trimesh', 'bpy', 'open3d', 'distributed', 'homemodel.app.database.entry_build') if m in sys.modules)); "
+        "cluster.close()"
     )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT, timeout=120)
     assert done.stdout.strip() == "[]"

@@ -77,7 +77,7 @@ def test_an_import_entry_is_built_without_open3d(tmp_path: Path) -> None:
     script = f"""
 import sys
 from pathlib import Path
-from homemodel.app.database.worker_setup import warm_up
+from homemodel.app.database.warm_up import warm_up
 from homemodel.app.database.build import repair_for
 from homemodel.app.database.manifest import load_manifest
 from homemodel.app.database.build_request import BuildRequest

@@ -1,8 +1,8 @@
 """`homemodel db build`: every entry of a manifest through its pipeline, on Dask.
 
-The build runs on Dask's `distributed` scheduler: by default a `LocalCluster` of single-threaded
+The build runs on Dask's `distributed` scheduler: by default a local one with single-threaded
 worker processes (bpy is not thread-safe), one per core but one, with this process building
-small entries too from the start, while the cluster starts (see `dispatch`); given a
+small entries too from the start, while the cluster starts (see `cluster`, `dispatch`); given a
 scheduler address, on an existing cluster whose workers see the database folder (a shared
 file system) and run the same homemodel. Workers build and store model folders; this process
 alone writes the index, one committed row per finished entry.

@@ -1,9 +1,9 @@
 """A build's entries shared between Dask's workers and, on a local cluster, this process.
 
 This process builds small entries (specs, imports) itself from the first moment, while the
-local cluster starts on a thread (`cluster.ClusterStart`): its own imports and first entries
-overlap the workers' start-up, and with N cores the cluster has N - 1 workers, so N processes
-build, no more. Dask gets its tasks a few at a time (TASKS_IN_FLIGHT per worker: one running,
+local cluster's workers start (`cluster.ClusterStart`; its scheduler once this process's first
+entry begins): its own imports and first entries overlap the workers' start-up, and with N
+cores the cluster has N - 1 workers, so N processes build, no more. Dask gets its tasks a few at a time (TASKS_IN_FLIGHT per worker: one running,
 one waiting, so a worker never idles for a round trip), topped up from Dask's callback thread
 as each task ends; this process takes single entries from the same queue between collecting
 what Dask returned, and records every row (the index is this thread's alone).
@@ -86,6 +86,10 @@ class Dispatch:
         try:
             if self._here and self._shared:
                 self._warm_up()
+            if self._cluster is not None:
+                # Only now: Dask's import and the scheduler's start (a second of CPU) would
+                # otherwise come before this process's first entry.
+                self._cluster.start()
             while True:
                 self._top_up()
                 self._collect(settle, wait_s=0.0)
@@ -106,7 +110,7 @@ class Dispatch:
 
     def _warm_up(self) -> None:
         """Import what this process's entries need before the first (as a worker does)."""
-        from homemodel.app.database.worker_setup import warm_up
+        from homemodel.app.database.warm_up import warm_up
 
         try:
             warm_up(tuple(sorted({r.job.source for r in self._shared})))
@@ -151,7 +155,7 @@ class Dispatch:
             return
         with self._lock:
             if not self._in_flight:
-                self._in_flight = TASKS_IN_FLIGHT * max(len(client.scheduler_info().get("workers", {})), 1)
+                self._in_flight = TASKS_IN_FLIGHT * max(self._cluster.workers(client), 1)
             while not self._closing and len(self._futures) < self._in_flight:
                 batch = self._next_task()
                 if not batch:

@@ -8,6 +8,7 @@ dash its visualisation module imports), which spec and import entries need for n
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from homemodel.geometry.camera import Camera
 THUMBNAIL_PX = 160
 BACKGROUND = (245, 245, 245)
 AMBIENT = 0.35
+FOV_HALF_RAD = np.radians(20.0)
 
 
 def _coloured_triangles(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -47,29 +49,39 @@ def _unit_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
 
 
+def _max3(a: np.ndarray) -> np.ndarray:
+    """(N,) the largest of each row of (N, 3): pairwise, 3-4x faster than numpy's reduction
+    over an axis of length 3, which the z-buffer ran a dozen times a thumbnail."""
+    return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
+
+
+def _min3(a: np.ndarray) -> np.ndarray:
+    return np.minimum(np.minimum(a[:, 0], a[:, 1]), a[:, 2])
+
+
 def nearest_triangles(vertices: np.ndarray, faces: np.ndarray, camera: Camera, camera_from_mesh: np.ndarray) -> np.ndarray:
     """(height * width,) the index of the triangle (a row of `faces`) nearest the camera at each
     pixel centre, row by row, -1 where none is: a z-buffer over the triangles wholly in front
     of the camera, with 1/z (linear in the image) as the depth."""
     points = np.asarray(vertices, dtype=np.float64) @ camera_from_mesh[:3, :3].T + camera_from_mesh[:3, 3]
     faces = np.asarray(faces)
-    in_front = np.all(points[faces, 2] > 1e-9, axis=1)
+    in_front = _min3(points[faces, 2]) > 1e-9
     faces, indices = faces[in_front], np.flatnonzero(in_front)
     corners = camera.project(np.where(points[:, 2:] > 1e-9, points, [0.0, 0.0, 1.0]))[faces]  # (F, 3, 2) pixels
     x0, y0 = corners[:, :, 0], corners[:, :, 1]
-    x1, y1 = np.roll(x0, -1, axis=1), np.roll(y0, -1, axis=1)
-    area = np.sum(x0 * y1 - x1 * y0, axis=1)  # twice the signed area
+    x1, y1 = x0[:, [1, 2, 0]], y0[:, [1, 2, 0]]
+    area = np.einsum("fc,fc->f", x0, y1) - np.einsum("fc,fc->f", x1, y0)  # twice the signed area
     flat = np.abs(area) < 1e-12
     area[flat] = 1.0
     # A corner's barycentric weight is linear in the pixel (x, y): the signed area the pixel
     # makes with the opposite edge, over the triangle's. So is 1/z, interpolated by the weights.
     ex, ey = x1, y1  # corner i's opposite edge runs from corner i + 1 ...
-    fx, fy = np.roll(x0, -2, axis=1), np.roll(y0, -2, axis=1)  # ... to corner i + 2
+    fx, fy = x0[:, [2, 0, 1]], y0[:, [2, 0, 1]]  # ... to corner i + 2
     weights = np.stack([ey - fy, fx - ex, ex * fy - fx * ey], axis=2) / area[:, None, None]  # (F, 3 corners, 3 coefficients)
     inverse_z = 1.0 / points[faces, 2]
     depth = np.einsum("fc,fck->fk", inverse_z, weights)  # 1/z = depth . (x, y, 1)
-    low_y = np.clip(np.ceil(y0.min(axis=1)), 0, camera.height - 1).astype(np.int64)
-    high_y = np.clip(np.floor(y0.max(axis=1)), -1, camera.height - 1).astype(np.int64)
+    low_y = np.clip(np.ceil(_min3(y0)), 0, camera.height - 1).astype(np.int64)
+    high_y = np.clip(np.floor(_max3(y0)), -1, camera.height - 1).astype(np.int64)
     rows = np.where(flat, 0, np.maximum(high_y - low_y + 1, 0))
     # Each triangle's pixel rows; on a row, where every weight a x + b y + c is >= 0.
     f = np.repeat(np.arange(len(faces)), rows)
@@ -77,9 +89,10 @@ def nearest_triangles(vertices: np.ndarray, faces: np.ndarray, camera: Camera, c
     slope, rest = weights[f, :, 0], weights[f, :, 1] * y[:, None] + weights[f, :, 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         bound = -rest / slope
-    left = np.max(np.where(slope > 0, bound - 1e-9, -np.inf), axis=1)
-    right = np.min(np.where(slope < 0, bound + 1e-9, np.inf), axis=1)
-    never = np.any((slope == 0) & (rest < -1e-9), axis=1)  # an edge along the row, the row outside it
+    left = _max3(np.where(slope > 0, bound - 1e-9, -np.inf))
+    right = _min3(np.where(slope < 0, bound + 1e-9, np.inf))
+    outside = (slope == 0) & (rest < -1e-9)  # an edge along the row, the row outside it
+    never = outside[:, 0] | outside[:, 1] | outside[:, 2]
     first = np.clip(np.ceil(left), 0, camera.width - 1)
     last = np.clip(np.floor(right), -1, camera.width - 1)
     widths = np.where(never, 0, np.maximum(last - first + 1, 0)).astype(np.int64)
@@ -96,26 +109,38 @@ def nearest_triangles(vertices: np.ndarray, faces: np.ndarray, camera: Camera, c
     return nearest
 
 
+@functools.lru_cache(maxsize=4)
+def _thumbnail_camera(size_px: int) -> tuple[Camera, np.ndarray]:
+    """The thumbnails' camera (the same for every model: it is placed to fit each) and its
+    unit pixel rays in its own frame."""
+    focal = size_px / 2 / np.tan(FOV_HALF_RAD)
+    camera = Camera(width=size_px, height=size_px, fx=focal, fy=focal, cx=(size_px - 1) / 2, cy=(size_px - 1) / 2)
+    rays = camera.pixel_rays()
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    rays.flags.writeable = False
+    return camera, rays
+
+
 def render_thumbnail(model: Model, size_px: int = THUMBNAIL_PX) -> np.ndarray:
     """(size, size, 3) uint8 RGB: the model seen from the front-right, above (its front is +x)."""
     vertices, faces, colours = _coloured_triangles(model)
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     centre = (low + high) / 2
     radius = float(np.linalg.norm(high - low)) / 2 or 1.0
-    fov_half = np.radians(20.0)
-    eye = centre + radius / np.sin(fov_half) * np.array([0.75, -0.45, 0.5]) / np.linalg.norm([0.75, -0.45, 0.5])
-    focal = size_px / 2 / np.tan(fov_half)
-    camera = Camera(width=size_px, height=size_px, fx=focal, fy=focal, cx=(size_px - 1) / 2, cy=(size_px - 1) / 2)
+    eye = centre + radius / np.sin(FOV_HALF_RAD) * np.array([0.75, -0.45, 0.5]) / np.linalg.norm([0.75, -0.45, 0.5])
+    camera, rays = _thumbnail_camera(size_px)
     world_from_camera = world_from_camera_looking_at(eye, centre)
     triangle = nearest_triangles(vertices, faces, camera, np.linalg.inv(world_from_camera))
-    image = np.tile(np.asarray(BACKGROUND, dtype=np.float64), (size_px * size_px, 1))
-    hit = triangle >= 0
-    view = camera.pixel_rays()[hit] @ world_from_camera[:3, :3].T
-    view /= np.linalg.norm(view, axis=1, keepdims=True)
-    # Two-sided: scans and imported assets come with either winding.
-    shade = AMBIENT + (1 - AMBIENT) * np.abs(np.sum(_unit_normals(vertices, faces)[triangle[hit]] * view, axis=1))
-    image[hit] = 255 * colours[triangle[hit]] * shade[:, None]
-    return np.clip(image, 0, 255).astype(np.uint8).reshape(size_px, size_px, 3)
+    image = np.empty((size_px * size_px, 3), dtype=np.uint8)
+    image[:] = BACKGROUND
+    hit = np.flatnonzero(triangle >= 0)
+    drawn = triangle[hit]
+    # |normal . view| in the camera's frame (a rotation keeps it): two-sided, since scans and
+    # imported assets come with either winding.
+    normals = _unit_normals(vertices, faces)[drawn] @ world_from_camera[:3, :3]
+    shade = AMBIENT + (1 - AMBIENT) * np.abs(np.einsum("ij,ij->i", normals, rays[hit]))
+    image[hit] = np.clip(255 * colours[drawn] * shade[:, None], 0, 255).astype(np.uint8)
+    return image.reshape(size_px, size_px, 3)
 
 
 def write_thumbnail(model: Model, path: Path) -> Path:
