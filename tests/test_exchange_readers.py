@@ -157,7 +157,7 @@ def test_a_hand_written_mjcf_is_placed_as_mujoco_places_it(tmp_path: Path) -> No
 
 
 HAND_SDF = """<?xml version="1.0"?>
-<sdf version="1.10">
+<sdf version="1.9"><world name="w">
   <model name="cabinet">
     <pose degrees="true">1 2 0 0 0 90</pose>
     <link name="carcass">
@@ -170,22 +170,33 @@ HAND_SDF = """<?xml version="1.0"?>
     </link>
     <joint name="hinge" type="revolute">
       <parent>carcass</parent><child>door</child>
-      <pose>-0.3 0 0 0 0 0</pose>
-      <axis><xyz>0 0 1</xyz><limit><lower>0</lower><upper>2</upper></limit></axis>
+      <pose>-0.3 0 0 1.5707963267948966 0 0</pose>
+      <axis><xyz expressed_in="door">0 0 1</xyz><limit><lower>0</lower><upper>2</upper></limit></axis>
     </joint>
     <joint name="fixed_to_world" type="fixed"><parent>world</parent><child>carcass</child></joint>
   </model>
-</sdf>
+  <model name="ground_plane"><static>true</static>
+    <link name="link"><collision name="c"><geometry><plane><normal>0 0 1</normal></plane></geometry></collision></link>
+  </model>
+</world></sdf>
 """
 
 
 def test_a_hand_written_sdf_turns_about_its_joint_pose(tmp_path: Path) -> None:
-    """A link posed relative to another, a joint frame off the child's origin, degrees: the door
-    turns about its left edge (world x = 1, y = 2 + 0.32), worked out by hand."""
+    """A link posed relative to another, a turned joint frame off the child's origin, an axis in
+    the child's axes, degrees, a ground plane: the door turns about its left edge (world x = 1,
+    y = 2 + 0.32), worked out by hand."""
     _door(tmp_path)
     path = tmp_path / "hand.sdf"
     path.write_text(HAND_SDF)
-    obj = read_scene(path).objects[0]
+    if shutil.which("gz") or shutil.which("ign"):  # the hand-written file is valid SDFormat
+        from simulator_clients import sdf_check
+
+        valid, said = sdf_check(path)
+        assert valid, said
+    scene = read_scene(path)
+    assert scene.floor and len(scene.objects) == 1
+    obj = scene.objects[0]
     assert not obj.free and obj.model.root_link == "carcass"
     for angle in (0.0, 0.5, 1.5):
         world_from_door = obj.world_from_model @ obj.model.world_from_links({"hinge": angle})["door"]

@@ -186,7 +186,7 @@ class _Reader:
     def joint(self, el: etree._Element, parts: ObjectParts, prefix: str, model_from_link: dict[str, np.ndarray]) -> None:
         scoped, kind = el.get("name") or "", el.get("type")
         parent = (_child(self, el, "parent").text or "").strip()
-        child = (_child(self, el, "child").text or "").strip()
+        scoped_child = child = (_child(self, el, "child").text or "").strip()
         if parent == "world":
             if kind != "fixed":
                 raise self.fail(el, f"joint {scoped!r}: only a fixed joint holds a model to the world, not {kind!r}")
@@ -212,8 +212,11 @@ class _Reader:
         if kind != "fixed":
             axis_el = el.find("axis")
             axis = np.array([0.0, 0.0, 1.0]) if axis_el is None else self.numbers(_child(self, axis_el, "xyz"), 3)
-            if axis_el is not None and _child(self, axis_el, "xyz").get("expressed_in", child) not in ("", child):
-                raise self.fail(axis_el, f"joint {scoped!r}: axis expressed in another frame is not read")
+            expressed_in = "" if axis_el is None else _child(self, axis_el, "xyz").get("expressed_in", "")
+            if expressed_in == scoped_child:  # the link's own axes, not the joint frame's
+                axis = child_from_joint[:3, :3].T @ axis
+            elif expressed_in:
+                raise self.fail(axis_el, f"joint {scoped!r}: axis expressed in {expressed_in!r} is not read")
             if np.linalg.norm(axis) < 1e-12:
                 raise self.fail(el, f"joint {scoped!r}: axis has no direction")
             limit = None if axis_el is None else axis_el.find("limit")
@@ -306,6 +309,10 @@ def read_sdf(path: Path) -> Scene:
         raise reader.fail(include, "<include> is not read (it opens other files): merge them into one file")
     floor, walls, objects = False, [], []
     for model_el in container.findall("model"):
+        shapes = model_el.findall("link/*/geometry/*")
+        if (model_el.findtext("static") or "").strip() in ("true", "1") and shapes and all(g.tag == "plane" for g in shapes):
+            floor = True  # a ground plane, as Gazebo's worlds have
+            continue
         parts = reader.model(model_el)
         static_box = _static_box(parts)
         if static_box is not None and parts.id == "floor":
