@@ -13,7 +13,7 @@ from homemodel.geometry.camera import Camera
 from turntable.board import TAG_CELLS, Board, grid_board, tag_bits
 from turntable.pose import PoseOptions
 from turntable.real_frames import turned_table
-from turntable.tag_search import TagSearch, capture_search, frame_pose
+from turntable.tag_search import TagSearch, board_codes, capture_search, frame_pose, predicted_pose, tracked_pose
 from turntable.tags import DetectionOptions, PixelWindow
 
 CAMERA = Camera(width=480, height=360, fx=430.0, fy=430.0, cx=239.5, cy=179.5)
@@ -77,3 +77,29 @@ def test_a_windowed_search_gives_the_whole_image_pose_and_a_cut_window_falls_bac
     fallback = frame_pose(gray, left, BOARD, CAMERA, PoseOptions())
     assert fallback.tags == whole.tags
     assert np.allclose(fallback.camera_from_table, whole.camera_from_table, atol=1e-9)
+
+
+def test_a_frame_s_tags_predicted_from_the_two_before_give_its_pose_and_hidden_tags_are_not_used() -> None:
+    detection, options = DetectionOptions(decimate=1.0), PoseOptions()
+    search = capture_search(BOARD, CAMERA, _camera_from_table(), detection)
+    before, last = (frame_pose(_view(BOARD, _camera_from_table(t)), search, BOARD, CAMERA, options) for t in (1.8, 1.9))
+    predicted = predicted_pose(before.camera_from_table, last.camera_from_table)
+    camera_from_table = _camera_from_table(2.0)
+    assert np.abs(predicted[:3, 3] - camera_from_table[:3, 3]).max() < 1e-3  # the detected poses' errors, doubled
+    gray = _view(BOARD, camera_from_table)
+    # An object hides the middle of the board: a flat grey disc.
+    u, v = np.meshgrid(np.arange(CAMERA.width), np.arange(CAMERA.height))
+    gray[np.hypot(u - 240, v - 170) < 45] = 128
+    searched = frame_pose(gray, TagSearch(detection=detection), BOARD, CAMERA, options)
+    tracked = tracked_pose(gray, predicted, board_codes(BOARD), BOARD, CAMERA, detection, options)
+    assert tracked is not None
+    # The tags the disc hides (the search cannot decode them either) are refused by their codes.
+    assert tracked.tags == searched.tags
+    assert tracked.inlier_corners == 4 * tracked.tags
+    assert np.abs(tracked.camera_from_table[:3, 3] - camera_from_table[:3, 3]).max() < 1e-4
+    # A prediction off by a tenth of a turn (more than a tag) finds no tags: the frame is searched.
+    wrong = predicted @ turned_table(np.zeros(2), 0.6)
+    assert tracked_pose(gray, wrong, board_codes(BOARD), BOARD, CAMERA, detection, options) is None
+    fallback = frame_pose(gray, search, BOARD, CAMERA, options, predicted=wrong)
+    assert fallback.tags == searched.tags
+    assert np.abs(fallback.camera_from_table[:3, 3] - camera_from_table[:3, 3]).max() < 1e-4

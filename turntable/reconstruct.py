@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -34,7 +35,7 @@ from turntable.real_frames import (
 )
 from turntable.pose import FramePose, PoseSkip
 from turntable.reconstruction import Reconstruction, ReconstructOptions
-from turntable.tag_search import TagSearch, capture_search, frame_pose
+from turntable.tag_search import TagSearch, capture_search, frame_pose, predicted_pose
 from turntable.turntable_model import fit_turntable
 
 STAGES = ("poses", "axis", "merge", "mesh", "texture", "export")
@@ -43,13 +44,14 @@ _REGION_MARGIN_M = 0.03  # kept pixels reach this far beyond the object's cylind
 _SEARCH_TRIES = 5  # frames searched whole at full resolution before a window and a coarser search are given up
 
 
-def _parallel(workers: int, function: Callable, items: list) -> Iterator:
+@contextmanager
+def _mapper(workers: int) -> Iterator[Callable]:
     """`map` over threads (OpenCV, the AprilTag library and PNG decoding release the GIL)."""
     if workers <= 1:
-        yield from map(function, items)
+        yield map
         return
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        yield from pool.map(function, items)
+        yield pool.map
 
 
 @dataclass(kw_only=True)
@@ -97,7 +99,7 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
     # The misregistration is measured on a few frames spread over the turn.
     probes = {f.stem for f in capture.frames[:: max(1, len(capture.frames) // _MISREGISTRATION_FRAMES)]}
 
-    def one(frame: FramePaths, search: TagSearch) -> FrameReading:
+    def one(frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None) -> FrameReading:
         try:
             rgb = read_color(frame.color, camera)
         except FrameError as exc:
@@ -105,7 +107,7 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         sharp = sharpness(gray)
         try:
-            pose = frame_pose(gray, search, capture.board, camera, options.pose)
+            pose = frame_pose(gray, search, capture.board, camera, options.pose, predicted)
         except PoseSkip as exc:
             return FrameReading(stem=frame.stem, pose=f"pose: {exc}", sharpness=sharp)
         try:
@@ -139,9 +141,29 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
     while frames and search is None and len(readings) < _SEARCH_TRIES:
         keep(reading := one(frames.pop(0), whole))
         if isinstance(reading.pose, FramePose):
-            search = capture_search(capture.board, camera, reading.pose.camera_from_table, options.detection)
-    for reading in _parallel(options.workers, lambda frame: one(frame, search or whole), frames):
-        keep(reading)
+            search = capture_search(
+                capture.board, camera, reading.pose.camera_from_table, options.detection, predict=options.predict_tags
+            )
+    search = search or whole
+    # The rest in `workers` runs of consecutive frames, read in step, one frame of each run at a
+    # time: a run's last two poses predict its next frame's tags (see `tag_search.tracked_pose`).
+    n = options.workers
+    runs = [run for i in range(n) if (run := frames[len(frames) * i // n : len(frames) * (i + 1) // n])]
+    # Each run's last two readings; the first run goes on from the frames read above.
+    last: list[list[FrameReading]] = [list(readings.values())[-2:]] + [[] for _ in runs[1:]]
+
+    def next_of(k: int, frame: FramePaths) -> FrameReading:
+        before = last[k][-2:]
+        posed = len(before) == 2 and all(isinstance(r.pose, FramePose) for r in before)
+        return one(frame, search, predicted_pose(*(r.pose.camera_from_table for r in before)) if posed else None)
+
+    with _mapper(options.workers) as mapper:
+        for step in range(max(map(len, runs), default=0)):
+            batch = [(k, run[step]) for k, run in enumerate(runs) if step < len(run)]
+            for (k, _), reading in zip(batch, mapper(lambda item: next_of(*item), batch)):
+                last[k] = [*last[k][-1:], reading]
+                keep(reading)
+    readings = {f.stem: readings[f.stem] for f in capture.frames if f.stem in readings}  # in the capture's order
 
     poses = {stem: r.pose for stem, r in readings.items() if isinstance(r.pose, FramePose)}
     skipped = {stem: "unpaired: a colour or a depth image without its partner" for stem in capture.unpaired}

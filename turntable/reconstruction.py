@@ -39,6 +39,9 @@ class ReconstructOptions:
     texture_size_px: int = 512
     texture_max_triangles: int = 12_000  # the texture's carrier is decimated to this
     workers: int = 2  # threads reading images and detecting tags
+    # Predict each frame's tags from the two before it (the table turns evenly) and search
+    # the image only where the prediction fails (see `turntable.tag_search.tracked_pose`).
+    predict_tags: bool = True
     # Real sensors' frames (turntable.real_frames):
     blur_ratio: float = 0.35  # frames sharper than this fraction of the median only are skipped; 0: none
     drop_flying_pixels: bool = True

@@ -149,14 +149,14 @@ def detect_tags(
     found = {tag_id: c + shift for tag_id, c in found.items() if np.all(np.isfinite(c))}
     if options.edge_refinement and found:
         ids = sorted(found)
-        refined = refine_edges(gray, np.stack([found[i] for i in ids]), _LINEAR[options.intensity])
+        refined = refine_edges(gray, np.stack([found[i] for i in ids]), LINEAR_LEVELS[options.intensity])
         found = dict(zip(ids, refined))
     return found
 
 
 _LEVELS = np.arange(256) / 255.0
 # Each 8-bit level's linear intensity: the sides are found on the linear image (see `refine_edges`).
-_LINEAR = {
+LINEAR_LEVELS = {
     "linear": _LEVELS,
     "srgb": np.where(_LEVELS <= 0.04045, _LEVELS / 12.92, ((_LEVELS + 0.055) / 1.055) ** 2.4),
 }
@@ -166,10 +166,16 @@ _ALONG = np.linspace(0.15, 0.85, 12)  # where along each side the profiles are t
 _MIN_ROWS = 4  # profiles with one clear crossing a side needs for its line
 
 
-def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = _LINEAR["linear"]) -> np.ndarray:
+def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = LINEAR_LEVELS["linear"]) -> np.ndarray:
     """Corners (T, 4, 2) as intersections of the tags' refined sides in an (H, W) uint8 image
     whose levels have the linear intensities `linear` (256,); a corner stays as detected where
-    one of its sides is unclear.
+    one of its sides is unclear (see `refined_edges`)."""
+    return refined_edges(gray, corners, linear)[0]
+
+
+def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corners (T, 4, 2) refined as `refine_edges` says, and (T, 4) which were: both sides
+    clear.
 
     Each side is moved to where a linear image's intensity crosses halfway between the black
     border (inside) and the white margin (outside): the edge itself for any symmetric blur.
@@ -193,7 +199,7 @@ def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = _LI
         + _ALONG[None, None, :, None, None] * side[:, :, None, None, :]
         + offsets[:, :, None, :, None] * outward[:, :, None, None, :]
     )  # (T, 4, N, M, 2) as x, y
-    profiles = _bilinear(gray, linear, samples[..., 0], samples[..., 1])
+    profiles = bilinear_levels(gray, linear, samples[..., 0], samples[..., 1])
     k = max(2, steps // 5)
     dark = profiles[..., :k].mean(axis=-1)
     bright = profiles[..., -k:].mean(axis=-1)
@@ -229,10 +235,10 @@ def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = _LI
     rhs = p2 - p1
     t = (rhs[..., 0] * (-d2[..., 1]) - (-d2[..., 0]) * rhs[..., 1]) / np.where(good, determinant, 1.0)
     refined = p1 + t[..., None] * d1
-    return np.where(good[..., None], refined, corners)
+    return np.where(good[..., None], refined, corners), good
 
 
-def _bilinear(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def bilinear_levels(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The linear intensity at (x, y), interpolated between the four pixels around each point,
     points beyond the border taking the border's (as SciPy's map_coordinates with order 1 and
     mode "nearest", without converting the whole image first). Images of 2 x 2 pixels or more."""
