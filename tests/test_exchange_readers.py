@@ -417,6 +417,11 @@ def test_export_takes_another_simulators_file_of_one_model(
     result = runner.invoke(app, ["export", str(kitchen_files["mjcf"]), "--format", "sdf", "--out", str(tmp_path / "many")])
     _one_line_error(result, capfd, str(kitchen_files["mjcf"]), "holds 9 objects")
     assert not (tmp_path / "many").exists()
+    corrupt = tmp_path / "corrupt.usda"
+    corrupt.write_text(small_exports["usd"].read_text()[:1500])
+    result = runner.invoke(app, ["export", str(corrupt), "--format", "mjcf", "--out", str(tmp_path / "none")])
+    _one_line_error(result, capfd, str(corrupt), "not a readable USD stage")
+    assert not (tmp_path / "none").exists()
 
 
 UNREADABLE = {
