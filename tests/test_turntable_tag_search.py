@@ -1,7 +1,8 @@
 """The tag search's window (turntable.tag_search) on a ray-traced view of a tag board (no
 Blender, about a second): it holds every tag of the board however the table turns about an
 axis near the board's origin, a pose searched in it is the whole image's, and a window that
-cuts tags off falls back to the whole image."""
+cuts tags off falls back to the whole image; a frame's tags predicted from the two frames before
+give its true pose without the tags an object hides, and a wrong prediction falls back to the search."""
 
 from __future__ import annotations
 
@@ -11,10 +12,10 @@ from scipy.spatial import cKDTree
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
 from turntable.board import TAG_CELLS, Board, grid_board, tag_bits
-from turntable.pose import PoseOptions
+from turntable.pose import PoseOptions, estimate_camera_from_table
 from turntable.real_frames import turned_table
 from turntable.tag_search import TagSearch, board_codes, capture_search, frame_pose, predicted_pose, tracked_pose
-from turntable.tags import DetectionOptions, PixelWindow
+from turntable.tags import DetectionOptions, PixelWindow, detect_tags
 
 CAMERA = Camera(width=480, height=360, fx=430.0, fy=430.0, cx=239.5, cy=179.5)
 BOARD = grid_board(table_diameter_m=0.3, tag_size_m=0.024)
@@ -97,6 +98,11 @@ def test_a_frame_s_tags_predicted_from_the_two_before_give_its_pose_and_hidden_t
     assert tracked.tags == searched.tags
     assert tracked.inlier_corners == 4 * tracked.tags
     assert np.abs(tracked.camera_from_table[:3, 3] - camera_from_table[:3, 3]).max() < 1e-4
+    # Refined from the prediction instead of RANSAC and a global solve: the same pose.
+    found = detect_tags(gray, detection)
+    near = estimate_camera_from_table(found, BOARD, CAMERA, options, near=predicted)
+    assert np.abs(near.camera_from_table - searched.camera_from_table).max() < 1e-9
+    assert near.inlier_corners == searched.inlier_corners
     # A prediction off by a tenth of a turn (more than a tag) finds no tags: the frame is searched.
     wrong = predicted @ turned_table(np.zeros(2), 0.6)
     assert tracked_pose(gray, wrong, board_codes(BOARD), BOARD, CAMERA, detection, options) is None

@@ -44,9 +44,15 @@ class PoseSkip(Exception):
 
 
 def estimate_camera_from_table(
-    detections: dict[int, np.ndarray], board: Board, camera: Camera, options: PoseOptions | None = None
+    detections: dict[int, np.ndarray],
+    board: Board,
+    camera: Camera,
+    options: PoseOptions | None = None,
+    near: np.ndarray | None = None,
 ) -> FramePose:
-    """`camera_from_table` from detected corners (tag id -> (4, 2) pixels); raises PoseSkip."""
+    """`camera_from_table` from detected corners (tag id -> (4, 2) pixels); raises PoseSkip.
+    Given a camera_from_table `near` the answer (a predicted frame's), it is refined from there:
+    no RANSAC and no global solve, so neither the flip ambiguity nor their time."""
     import cv2
 
     options = options or PoseOptions()
@@ -60,6 +66,11 @@ def estimate_camera_from_table(
     seen = image_points  # OpenCV's PnP knows Brown-Conrady only: a fisheye's corners go in undistorted
     if camera.has_distortion and camera.distortion_model == "kannala_brandt":
         image_points, dist = camera.undistorted_pixels(image_points), np.zeros(5)
+    if near is not None:
+        rvec, tvec, inliers = _refined_near(object_points, image_points, K, dist, near, options.ransac_threshold_px)
+        if len(inliers) < options.min_inlier_fraction * len(object_points):
+            raise PoseSkip(f"only {len(inliers)} of {len(object_points)} corners agree on a pose")
+        return _frame_pose(rvec, tvec, object_points, image_points, seen, inliers, K, dist, len(known), options)
     # Minimal (P3P) samples: OpenCV's RANSAC with a non-minimal solver (SQPnP, EPnP) drew
     # samples from one small tag and kept 30 of 104 corners on a steep view where AP3P kept all.
     ok, rvec, tvec, inliers = cv2.solvePnPRansac(
@@ -101,7 +112,47 @@ def estimate_camera_from_table(
         rms = rms_px(rvec, tvec)
         if best is None or rms < best[0]:
             best = (rms, rvec, tvec)
-    rms, rvec, tvec = best
+    _, rvec, tvec = best
+    return _frame_pose(rvec, tvec, object_points, image_points, seen, inliers, K, dist, len(known), options)
+
+
+def _refined_near(
+    object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, dist: np.ndarray, near: np.ndarray, threshold_px: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rvec, tvec, inlier indices): Levenberg-Marquardt from `near` on every corner, then again
+    on the corners within `threshold_px` of that pose if any lay beyond."""
+    import cv2
+
+    rvec, tvec = cv2.Rodrigues(near[:3, :3])[0], near[:3, 3].reshape(3, 1).copy()
+    inliers = np.arange(len(object_points))
+    for _ in range(2):
+        rvec, tvec = cv2.solvePnPRefineLM(object_points[inliers], image_points[inliers], K, dist, rvec, tvec)
+        projected, _ = cv2.projectPoints(object_points, rvec, tvec, K, dist)
+        close = np.flatnonzero(np.linalg.norm(projected.reshape(-1, 2) - image_points, axis=1) <= threshold_px)
+        if len(close) == len(inliers) or len(close) < 4:
+            break
+        inliers = close
+    return rvec, tvec, close
+
+
+def _frame_pose(
+    rvec: np.ndarray,
+    tvec: np.ndarray,
+    object_points: np.ndarray,
+    image_points: np.ndarray,
+    seen: np.ndarray,
+    inliers: np.ndarray,
+    K: np.ndarray,
+    dist: np.ndarray,
+    tags: int,
+    options: PoseOptions,
+) -> FramePose:
+    """The frame's pose from a refined (rvec, tvec), if its inliers' RMS error and side of the
+    camera allow; `seen` are the image points as detected (before any undistortion)."""
+    import cv2
+
+    projected, _ = cv2.projectPoints(object_points[inliers], rvec, tvec, K, dist)
+    rms = float(np.sqrt(np.mean(np.sum((projected.reshape(-1, 2) - image_points[inliers]) ** 2, axis=1))))
     if rms > options.max_reprojection_error_px:
         raise PoseSkip(f"reprojection error {rms:.2f} px above {options.max_reprojection_error_px} px")
     camera_from_table = np.eye(4)
@@ -111,7 +162,7 @@ def estimate_camera_from_table(
         raise PoseSkip("the board would lie behind the camera")
     return FramePose(
         camera_from_table=camera_from_table,
-        tags=len(known),
+        tags=tags,
         inlier_corners=len(inliers),
         reprojection_error_px=rms,
         table_points=object_points[inliers],

@@ -114,7 +114,7 @@ def tracked_pose(
     whole = np.all(clear, axis=1)
     found = {int(codes.ids[t]): c for t, c in zip(tags[shown][whole], refined[whole])}
     try:
-        pose = estimate_camera_from_table(found, board, camera, options)
+        pose = estimate_camera_from_table(found, board, camera, options, near=predicted)
     except PoseSkip:
         return None
     return pose if pose.reprojection_error_px <= _TRACKED_RMS_PX else None
