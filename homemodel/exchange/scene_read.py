@@ -20,7 +20,7 @@ from articulation.scene import SceneObject, Wall
 from homemodel.core.errors import InputError, ModelError
 from homemodel.core.input_files import confined_path
 from homemodel.core.limits import URDF_JOINTS, URDF_LINKS
-from homemodel.exchange.urdf.read import _primitive_mesh as primitive_mesh
+from homemodel.exchange.urdf.read import primitive_mesh
 from homemodel.exchange.urdf.read import read_mesh_parts
 
 # `walls_from_outlines` names a wall `<room>__wall_<n>`.

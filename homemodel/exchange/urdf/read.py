@@ -217,7 +217,7 @@ def _geometry_meshes(ctx: _Context, parent: etree._Element):
     shape = geometry[0]
     primitive = _primitive(ctx, shape)
     if primitive is not None:
-        return [(None, _primitive_mesh(primitive), {})]
+        return [(None, primitive_mesh(primitive), {})]
     if shape.tag != "mesh":
         raise ctx.fail(shape, f"unknown geometry <{shape.tag}>")
     parts = _load_mesh_parts(ctx, shape)
@@ -236,7 +236,7 @@ def _primitive(ctx: _Context, shape: etree._Element) -> Box | Cylinder | Sphere 
     return None
 
 
-def _primitive_mesh(primitive: Box | Cylinder | Sphere) -> trimesh.Trimesh:
+def primitive_mesh(primitive: Box | Cylinder | Sphere) -> trimesh.Trimesh:
     if isinstance(primitive, Box):
         return trimesh.creation.box(primitive.size_m)
     if isinstance(primitive, Cylinder):
