@@ -8,6 +8,7 @@ import os
 import resource
 import subprocess
 import sys
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,6 +47,22 @@ def run_cli(*args: object, memory_bytes: int = MEMORY_LIMIT_BYTES, timeout_s: fl
         preexec_fn=limit_memory, env=child_env, cwd=cwd,
     )
     return Run(argv, done.returncode, done.stdout, done.stderr)
+
+
+def run_here(*args: object) -> Run:
+    """`homemodel ARGS` in this process (typer's CliRunner): the same command code and messages
+    without a child's 2-3 CPU-s of imports, for checks that need no process of their own. An
+    unexpected exception's traceback is put in stderr, as the command line would not print it."""
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    argv = [str(a) for a in args]
+    result = CliRunner().invoke(app, argv)
+    stderr = result.stderr
+    if result.exc_info is not None and not isinstance(result.exception, SystemExit):
+        stderr += "".join(traceback.format_exception(*result.exc_info))
+    return Run(argv, result.exit_code, result.stdout, stderr)
 
 
 def listing(folder: Path) -> set[str]:

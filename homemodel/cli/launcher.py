@@ -7,10 +7,10 @@ import sys
 
 
 def main() -> None:
-    from homemodel.core.interrupts import raise_if_interrupted, remember_interrupts
-
-    remember_interrupts()
     try:
+        from homemodel.core.interrupts import raise_if_interrupted, remember_interrupts
+
+        remember_interrupts()
         from homemodel.cli.commands import main as run_command_line
 
         raise_if_interrupted()
