@@ -18,9 +18,12 @@ def box_surface_distance(points: np.ndarray, half: np.ndarray) -> np.ndarray:
     return np.where(q.max(axis=1) > 0, outside, inside)
 
 
-def test_distances_to_a_box_are_exact_inside_outside_and_far_away() -> None:
+@pytest.mark.parametrize("subdivisions", [0, 4], ids=["few triangles: every pair bounded", "3072: a tree of sites"])
+def test_distances_to_a_box_are_exact_inside_outside_and_far_away(subdivisions: int) -> None:
     half = np.array([0.04, 0.025, 0.06])
-    box = trimesh.creation.box(extents=2 * half).subdivide().subdivide()  # many small triangles, and slivers none
+    box = trimesh.creation.box(extents=2 * half)
+    for _ in range(subdivisions):
+        box = box.subdivide()
     rng = np.random.default_rng(0)
     points = np.concatenate([rng.uniform(-0.08, 0.08, (3000, 3)), rng.normal(scale=2.0, size=(50, 3))])
     measured = SurfaceDistance(box.apply_translation((3.0, -2.0, 1.0))).distances(points + (3.0, -2.0, 1.0))
@@ -30,7 +33,7 @@ def test_distances_to_a_box_are_exact_inside_outside_and_far_away() -> None:
 def test_distances_agree_with_open3d_on_a_curved_mesh_and_a_sliver_is_its_segment() -> None:
     from homemodel.geometry.raycast import RayCaster
 
-    mesh = trimesh.creation.annulus(r_min=0.03, r_max=0.045, height=0.09, sections=48)
+    mesh = trimesh.creation.annulus(r_min=0.03, r_max=0.045, height=0.09, sections=48)  # long thin triangles
     points = np.random.default_rng(1).uniform(-0.06, 0.25, (4000, 3)) * [1, 0.4, 1]
     np.testing.assert_allclose(SurfaceDistance(mesh).distances(points), RayCaster(mesh).distances(points), atol=2e-7)
     # Three nearly collinear corners, whose plane is noise: the triangle is the segment from

@@ -14,8 +14,10 @@ import trimesh
 # distance bounds the point's from above, and only triangles with a site near enough to come
 # nearer are measured after.
 _FIRST_CANDIDATES = 8
-_SPLIT_PERCENTILE = 90  # triangles larger than this share of them are covered by several sites
 _MAX_SPLITS = 64  # a triangle's subdivision at most this fine (its sites then reach farther)
+_SITES_PER_TRIANGLE = 2  # on average, at most (and 1000 more)
+_DENSE_PAIRS = 3_000_000  # up to this many point-triangle pairs, bounds for every pair at once
+_TREE_REACH_DIVISOR = 20  # the tree of sites serves when they reach no farther than this share of the mesh
 _SLIVER_SINE2 = 1e-10
 
 
@@ -28,8 +30,11 @@ class SurfaceDistance:
         triangles = np.asarray(mesh.triangles, dtype=np.float64)
         if len(triangles) == 0:
             raise ValueError("the mesh has no triangles to measure distances to")
-        self._sites, self._owner, self._site_reach = _covering_sites(triangles)
+        self._centres = triangles.mean(axis=1)
+        self._radii = np.linalg.norm(triangles - self._centres[:, None], axis=2).max(axis=1)
+        self._sites, self._owner, self._site_reach = _covering_sites(triangles, self._centres, self._radii)
         self._reach = float(self._site_reach.max())
+        self._size = float(np.ptp(triangles.reshape(-1, 3), axis=0).max())
         self._tree = cKDTree(self._sites)
         # Per triangle: corner a, edges a->b, a->c, b->c, their squared lengths, the unit normal
         # and the barycentric system's terms (NaN for a sliver: never inside).
@@ -77,6 +82,11 @@ class SurfaceDistance:
             raise ValueError(f"{points.shape=} but expected (N, 3)")
         if len(points) == 0:
             return np.zeros(0)
+        if len(points) * len(self._centres) <= _DENSE_PAIRS or self._reach > self._size / _TREE_REACH_DIVISOR:
+            # Few pairs, or sites that reach across the mesh (long thin triangles): every pair
+            # bounded, a block of points at a time.
+            step = max(1, _DENSE_PAIRS // len(self._centres))
+            return np.concatenate([self._dense_distances(points[i : i + step]) for i in range(0, len(points), step)])
         k = min(_FIRST_CANDIDATES, len(self._sites))
         to_sites, nearest = self._tree.query(points, k=k)
         to_sites, nearest = to_sites.reshape(len(points), k), nearest.reshape(len(points), k)
@@ -93,18 +103,44 @@ class SurfaceDistance:
             sites = np.concatenate(found).astype(np.int64) if counts.sum() else np.zeros(0, dtype=np.int64)
             near = np.linalg.norm(points[rows] - self._sites[sites], axis=1) - self._site_reach[sites] < best[rows]
             rows, cols = rows[near], self._owner[sites[near]]  # a split triangle may come twice: harmless
+            # Nor can a triangle whose plane lies farther than `best` come nearer (a sliver's
+            # plane is noise: it stays).
+            plane = np.abs(np.einsum("ij,ij->i", points[rows] - self._a[cols], self._normals[cols]))
+            near = (plane < best[rows]) | np.isnan(self._inverse[cols])
+            rows, cols = rows[near], cols[near]
             np.minimum.at(best, rows, self._pairs(points, rows, cols))
         return best
 
 
-def _covering_sites(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _dense_distances(self, points: np.ndarray) -> np.ndarray:
+        """`distances` for a block of points: every pair's bounds at once (no tree),
+        measured where the sphere and the plane of a triangle both come nearer than the
+        nearest of the triangles with the nearest centres."""
+        from scipy.spatial.distance import cdist
+
+        to_centres = cdist(points, self._centres)
+        k = min(_FIRST_CANDIDATES, len(self._centres))
+        nearest = np.argpartition(to_centres, k - 1, axis=1)[:, :k]
+        best = self._pairs(points, np.repeat(np.arange(len(points)), k), nearest.ravel()).reshape(-1, k).min(axis=1)
+        to_planes = np.abs(points @ self._normals.T - np.einsum("ij,ij->i", self._normals, self._a))
+        to_planes[:, np.isnan(self._inverse)] = 0.0  # a sliver's plane is noise
+        rows, cols = np.nonzero(np.maximum(to_centres - self._radii, to_planes) < best[:, None])
+        np.minimum.at(best, rows, self._pairs(points, rows, cols))
+        return best
+
+
+def _covering_sites(
+    triangles: np.ndarray, centres: np.ndarray, radii: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points on the triangles such that every point of a triangle lies within its sites'
-    reach of one of them: a triangle's centre (reach: its farthest corner) when it is no larger
-    than `_SPLIT_PERCENTILE` of them, else the centres of an n x n subdivision of it (n^2
-    similar triangles of 1/n its size and reach). Returns (sites, owning triangle, reach) per site."""
-    centres = triangles.mean(axis=1)
-    radii = np.linalg.norm(triangles - centres[:, None], axis=2).max(axis=1)
-    limit = max(float(np.percentile(radii, _SPLIT_PERCENTILE)), 1e-12 * float(np.ptp(triangles.reshape(-1, 3), axis=0).max()))
+    reach of one of them: a triangle's centre (reach: its farthest corner) when it is within
+    the limit, else the centres of an n x n subdivision of it (n^2 similar triangles of 1/n its
+    size and reach). Returns (sites, owning triangle, reach) per site."""
+    # The smallest reach (from a 200th of the mesh's size up) whose sites stay within budget:
+    # a fine mesh keeps its centres, a coarse mesh of long triangles gets its triangles split.
+    limit = max(float(np.ptp(triangles.reshape(-1, 3), axis=0).max()) / 200, 1e-12)
+    while np.sum(np.minimum(np.ceil(radii / limit), _MAX_SPLITS) ** 2) > _SITES_PER_TRIANGLE * len(radii) + 1000:
+        limit *= 1.25
     splits = np.minimum(np.ceil(radii / limit), _MAX_SPLITS).astype(np.int64)
     whole = np.flatnonzero(splits <= 1)
     sites, owners, reaches = [centres[whole]], [whole], [radii[whole]]
