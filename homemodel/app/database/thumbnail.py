@@ -86,7 +86,9 @@ def nearest_triangles(vertices: np.ndarray, faces: np.ndarray, camera: Camera, c
     # Each triangle's pixel rows; on a row, where every weight a x + b y + c is >= 0.
     f = np.repeat(np.arange(len(faces)), rows)
     y = (low_y[f] + np.arange(len(f)) - np.repeat(np.cumsum(rows) - rows, rows)).astype(np.float64)
-    slope, rest = weights[f, :, 0], weights[f, :, 1] * y[:, None] + weights[f, :, 2]
+    # Gathered from contiguous (F, 3) arrays: fancy indexing into (F, 3, 3) took half the time.
+    a, b, c = (np.ascontiguousarray(weights[:, :, k]) for k in range(3))
+    slope, rest = a.take(f, axis=0), b.take(f, axis=0) * y[:, None] + c.take(f, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         bound = -rest / slope
     left = _max3(np.where(slope > 0, bound - 1e-9, -np.inf))
@@ -97,9 +99,10 @@ def nearest_triangles(vertices: np.ndarray, faces: np.ndarray, camera: Camera, c
     last = np.clip(np.floor(right), -1, camera.width - 1)
     widths = np.where(never, 0, np.maximum(last - first + 1, 0)).astype(np.int64)
     pixel_row = np.repeat(np.arange(len(f)), widths)
-    x = first[pixel_row] + np.arange(len(pixel_row)) - np.repeat(np.cumsum(widths) - widths, widths)
-    y, triangle = y[pixel_row], f[pixel_row]
-    inverse_depth = depth[triangle, 0] * x + depth[triangle, 1] * y + depth[triangle, 2]
+    x = first.take(pixel_row) + np.arange(len(pixel_row)) - np.repeat(np.cumsum(widths) - widths, widths)
+    y, triangle = y.take(pixel_row), f.take(pixel_row)
+    d0, d1, d2 = (np.ascontiguousarray(depth[:, k]).take(triangle) for k in range(3))
+    inverse_depth = d0 * x + d1 * y + d2
     pixel = (y * camera.width + x).astype(np.int64)
     z_buffer = np.full(camera.width * camera.height, -np.inf)
     np.maximum.at(z_buffer, pixel, inverse_depth)  # the largest 1/z: the nearest
@@ -137,7 +140,7 @@ def render_thumbnail(model: Model, size_px: int = THUMBNAIL_PX) -> np.ndarray:
     drawn = triangle[hit]
     # |normal . view| in the camera's frame (a rotation keeps it): two-sided, since scans and
     # imported assets come with either winding.
-    normals = _unit_normals(vertices, faces)[drawn] @ world_from_camera[:3, :3]
+    normals = (_unit_normals(vertices, faces) @ world_from_camera[:3, :3]).take(drawn, axis=0)
     shade = AMBIENT + (1 - AMBIENT) * np.abs(np.einsum("ij,ij->i", normals, rays[hit]))
     image[hit] = np.clip(255 * colours[drawn] * shade[:, None], 0, 255).astype(np.uint8)
     return image.reshape(size_px, size_px, 3)
