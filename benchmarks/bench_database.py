@@ -3,15 +3,17 @@ mixed manifest of every source.
 
 1. Throughput: N generated spec entries (a cup swept over heights and diameters; with
    `--spec cupboard`, the catalogue's kitchen base unit with 5 joints, over depths and masses) built by the
-   database with 2 processes building (`build_database`, as `homemodel db build --workers 2`
-   calls it: the command's own process from its start, and one Dask worker started beside
-   it), against the same entries built one after the other by a plain loop of
+   database with 2 processes building (`homemodel db build --workers 2`, the command itself,
+   run in the child process: the command's own process from its start, and one Dask worker
+   started beside it), against the same entries built one after the other by a plain loop of
    `modeller.build` (the swept spec written, then built: the pipeline, its export and the
    validation gate, the work each database entry does before its own), in the same run.
    Each side runs in a fresh `python` process and is timed from its start to its exit, so
    each pays its interpreter start and its imports (bpy, the modeller, the gate's clients: once
    in the loop, once in each building process, in parallel), and the database its cluster's
-   start. Start-up is the time from the process's start to its first entry's start.
+   start. Start-up is the time from the process's start (before the interpreter's) to its
+   first entry's start, the entry's imports done; its CPU seconds then are given too (on a
+   loaded machine they stand for an idle machine's wall time).
    What the database adds per entry ("overhead") is given three ways:
    - after start-up: a worker's time per entry (workers x the time from the first entry's
      start to the last one's end, / N) minus the loop's time per entry (its loop, / N).
@@ -54,8 +56,9 @@ Run: .venv/bin/python benchmarks/bench_database.py [--spec cup|cupboard] [--entr
 
 from __future__ import annotations
 
+# Only what both sides' child processes need is imported at the top: each child's start-up is
+# measured, and neither side may be charged the other's imports (rich, Dask).
 import argparse
-import importlib
 import json
 import os
 import resource
@@ -66,14 +69,12 @@ import tempfile
 import time
 from collections import defaultdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
-from rich.console import Console
-from rich.table import Table
 
-from homemodel.app.database import DatabaseBuildOptions, ModelIndex, build_database
-from homemodel.app.database.manifest import load_manifest
-from homemodel.app.database.worker_setup import SHARED_MODULES, WARM_MODULES
+if TYPE_CHECKING:
+    from rich.console import Console
 
 ROOT = Path(__file__).resolve().parent.parent
 CATALOGUE = ROOT / "examples" / "catalogue"
@@ -112,10 +113,11 @@ def serial_loop(manifest: Path, out: Path, t0: float, part: str = "0/1") -> dict
     """The same entries, one after the other, in this process: write the swept spec, build it
     (with `part` "i/n", only every n-th entry from the i-th). Returns when its imports were
     done and the time of the loop itself (seconds)."""
+    from homemodel.app.database.manifest import load_manifest
+    from homemodel.app.database.warm_up import warm_up
     from modeller import BuildOptions, build
 
-    for name in WARM_MODULES["spec"] + SHARED_MODULES:  # what a database worker imports first
-        importlib.import_module(name)
+    warm_up(("spec",))  # what the database's building processes import before their first entry
     ready_s, ready_cpu_s = _since(t0), _own_cpu_s()
     first, step = map(int, part.split("/"))
     jobs = load_manifest(manifest)[0][first::step]
@@ -129,11 +131,20 @@ def serial_loop(manifest: Path, out: Path, t0: float, part: str = "0/1") -> dict
 
 
 def database_build(manifest: Path, db: Path, t0: float) -> dict:
-    """`build_database` as `homemodel db build --workers 2` calls it (without its progress bar).
-    Returns when the first entry started and the time from then to the last entry's end."""
+    """`homemodel db build MANIFEST --db DB --workers 2`, the command itself, run in this
+    process. Returns when its first entry started (with this process's CPU seconds then) and
+    the time from then to the last entry's end."""
+    from homemodel.cli.launcher import main
+
     ends: list[tuple[float, str, float]] = []
-    here = _note_first_entry_here()
-    build_database(manifest, db, DatabaseBuildOptions(workers=WORKERS), on_entry=lambda row, _: ends.append((_since(t0), row.worker, row.build_s)))
+    here = _note_first_entry_here(t0)
+    _note_rows(ends, t0)
+    sys.argv = ["homemodel", "db", "build", str(manifest), "--db", str(db), "--workers", str(WORKERS)]
+    try:
+        main()
+    except SystemExit as done:
+        if done.code:
+            raise
     # The rows of one task (a batch of entries) arrive together: a task started at its end
     # less all of its entries' times.
     starts, group_end, group_worker, group_s = [], None, None, 0.0
@@ -154,23 +165,38 @@ def _own_cpu_s() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _note_first_entry_here() -> dict:
-    """Fills in, when the database's own process starts its first entry, its CPU seconds so far
-    (its imports, the plan, the cluster's start on its thread): its start-up on one core, which
-    a loaded machine stretches in wall time but barely in CPU. Empty for code without it."""
+def _note_first_entry_here(t0: float) -> dict:
+    """Fills in, when the command's own process starts its first entry (its imports done),
+    the seconds since `t0` and its CPU seconds so far: its start-up, which a loaded machine
+    stretches in wall time but barely in CPU. (The build imports this module before its first
+    entry anyway.) Empty for code whose own process builds nothing."""
     noted: dict = {}
     try:
         from homemodel.app.database.dispatch import Dispatch
-    except ImportError:  # the baseline's code: its own process builds nothing
+    except ImportError:  # a baseline's code: its own process builds nothing
         return noted
     build_here = Dispatch._build_here
 
     def first_noted(self, request):  # noqa: ANN001, ANN202
+        noted.setdefault("startup_s", _since(t0))
         noted.setdefault("startup_cpu_s", _own_cpu_s())
         return build_here(self, request)
 
     Dispatch._build_here = first_noted
     return noted
+
+
+def _note_rows(ends: list, t0: float) -> None:
+    """Appends (seconds since `t0`, worker, build seconds) to `ends` as each row is recorded."""
+    from homemodel.app.database import build
+
+    settle = build._settle
+
+    def noted(index, row, commit):  # noqa: ANN001, ANN202
+        ends.append((_since(t0), row.worker, row.build_s))
+        return settle(index, row, commit)
+
+    build._settle = noted
 
 
 def _children_cpu_s() -> float:
@@ -239,6 +265,8 @@ def _load() -> str:
 def _one_round(manifest: Path, small: Path, folder: Path, baseline: Path | None) -> dict:
     """The serial loop, the loops side by side and the database build, one after the other;
     then the loop and the database (and the baseline's) on the SMALL entries alone."""
+    from homemodel.app.database import ModelIndex
+
     serial_s, serial = _run_child("--serial-loop", manifest, folder / "serial")
     side_s, side_cpu_s, side_entries_s = _loops_side_by_side(manifest, folder / "side")
     db_s, built = _run_child("--db-build", manifest, folder / "db")
@@ -256,6 +284,8 @@ def _one_round(manifest: Path, small: Path, folder: Path, baseline: Path | None)
 
 
 def throughput(kind: str, entries: int, rounds: int, console: Console, baseline: Path | None = None) -> None:
+    from rich.table import Table
+
     with tempfile.TemporaryDirectory(prefix="bench-db-") as tmp:
         folder = Path(tmp)
         manifest, spec = _manifest(folder, kind, entries)
@@ -299,10 +329,10 @@ def throughput(kind: str, entries: int, rounds: int, console: Console, baseline:
     table.add_column(f"{WORKERS} loops side by side", justify="right")
     table.add_column("database", justify="right")
     table.add_row("wall time, fresh processes to exit", f"{serial_s:.1f} s", f"{side_s:.1f} s", f"{db_s:.1f} s")
-    table.add_row("  start-up: imports (and the cluster, its warm-up; aim < 3 s)", f"{median(lambda r: r['serial']['startup_s']):.1f} s", "", f"{median(lambda r: r['built']['startup_s']):.1f} s")
+    table.add_row("  [bold]start-up: process start to first entry started (wall; aim < 3 s)", f"{median(lambda r: r['serial']['startup_s']):.2f} s", "", f"[bold]{median(lambda r: r['built']['startup_s']):.2f} s")
     here_cpu = [r["built"]["startup_cpu_s"] for r in runs if "startup_cpu_s" in r["built"]]
-    table.add_row("  start-up CPU of the process building first, to its first entry (~ idle wall; aim < 3 s)",
-                  f"{median(lambda r: r['serial']['startup_cpu_s']):.1f} s", "", f"{statistics.median(here_cpu):.1f} s" if here_cpu else "-")  # fmt: skip
+    table.add_row("  start-up CPU of the process building first, to its first entry (~ idle wall)",
+                  f"{median(lambda r: r['serial']['startup_cpu_s']):.2f} s", "", f"{statistics.median(here_cpu):.2f} s" if here_cpu else "-")  # fmt: skip
     table.add_row("  the entries (first start to last end)", f"{serial_entries_s:.1f} s", f"{side_entries_s:.1f} s", f"{db_entries_s:.1f} s")
     table.add_row("time per entry (side by side, database: x processes)", f"{1000 * serial_entry_s:.0f} ms", f"{1000 * side_entry_s:.0f} ms", f"{1000 * db_entry_s:.0f} ms")
     table.add_row("CPU time, every process (user + system)", f"{serial_cpu_s:.1f} s", f"{side_cpu_s:.1f} s", f"{db_cpu_s:.1f} s")
@@ -336,6 +366,8 @@ def throughput(kind: str, entries: int, rounds: int, console: Console, baseline:
 
 
 def _baseline_table(runs: list[dict], entries: int, baseline: Path, console: Console) -> None:
+    from rich.table import Table
+
     """The database with this checkout's code against the baseline's, in the same rounds."""
     table = Table(title=f"the database, this checkout against {baseline} (same rounds, medians)")
     for header in ("figure", "baseline", "this checkout", "ratio"):
@@ -364,6 +396,10 @@ def _summary(said: str) -> str:
 
 
 def mixed(console: Console) -> None:
+    from rich.table import Table
+
+    from homemodel.app.database import DatabaseBuildOptions, build_database
+
     with tempfile.TemporaryDirectory(prefix="bench-db-mixed-") as tmp:
         result = build_database(MIXED, Path(tmp) / "db", DatabaseBuildOptions(workers=WORKERS))
     by_source: dict[str, list] = defaultdict(list)
@@ -398,6 +434,8 @@ def main() -> None:
         if given:
             print(json.dumps(child(Path(given[0]), Path(given[1]), float(given[2]), *given[3:])))
             return
+    from rich.console import Console
+
     console = Console(width=120)
     if not args.only_mixed:
         throughput(args.spec, args.entries, args.rounds, console, args.baseline_src)
