@@ -4,7 +4,7 @@ pose), the structured-light noise model sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m
 grazing angles, flying pixels at depth edges, dropped frames, jittered depth times (the
 table keeps turning: a late depth frame sees it turned further), motion blur on some frames.
 
-`record` renders the streams from a clean capture (its Cycles colour, warped through the
+`record` renders the streams from a clean capture (its colour, warped through the
 lens; depth ray-cast again from the depth camera); the `write_*` functions store them in each
 format the importer reads.
 """

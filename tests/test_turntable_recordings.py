@@ -35,16 +35,17 @@ from turntable.reconstruction import ReconstructOptions
 from turntable.simulate import SimulationOptions, render_depth, simulate_capture
 
 CAPTURE = dict(
-    frames=24, width_px=320, height_px=180, horizontal_fov_deg=69.0, samples=4,
+    frames=24, width_px=320, height_px=180, horizontal_fov_deg=69.0, renderer="raycast",
     camera_distance_m=0.3, camera_height_m=0.55, tag_size_m=0.04,
 )
 PERIOD_S = 1.5  # a turn in 36 s, as the README asks (20 ms of jitter: 0.2 degrees of turn)
 BROWN_CONRADY = dict(distortion=(0.04, -0.01, 0.001, -0.001, 0.0))
 KANNALA_BRANDT = dict(distortion=(0.05, -0.01, 0.002, 0.0), distortion_model="kannala_brandt")
 BLURRED = (4, 15)
-# The issue asks 1.5x the fault-free capture. Measured here, with the mesh snapped onto the
-# merged points: 1.04x (Open3D, registered), 1.13x (ROS 1, fisheye lens), 1.36-1.42x (RealSense,
-# TUM, ROS 2 with a Brown-Conrady lens; 1.46-1.51x before the snapping) against 0.205 mm.
+# The issue asks 1.5x the fault-free capture. Measured at 4b37193's pipeline, against the
+# baseline's 0.80 mm: 0.62x (ROS 1, fisheye lens), 0.64x (RealSense), 0.80x (ROS 2), 0.82x
+# (Open3D, registered), 1.02x (TUM); with the clean capture rendered by Cycles instead of ray
+# cast, 0.53-1.05x against 0.83 mm. (Earlier pipelines: 1.04-1.42x against 0.205 mm.)
 ACCURACY_RATIO = 1.5
 
 
@@ -96,7 +97,7 @@ RECORDING_CODE = ("turntable", "homemodel.geometry", "homemodel.core", "homemode
 
 @pytest.fixture(scope="module")
 def made() -> Path:
-    """The clean capture (a Cycles render), the baseline's capture folder and each format's
+    """The clean capture (ray cast colour), the baseline's capture folder and each format's
     recording, made once per content; tests only read them."""
 
     def make(root: Path) -> None:
@@ -120,7 +121,7 @@ def made() -> Path:
     key = content_key(
         inputs=[Path(__file__), Path(rsim.__file__)],
         packages=RECORDING_CODE,
-        distributions=["bpy", "pyrealsense2", "rosbags"],
+        distributions=["open3d", "pyrealsense2", "rosbags"],
         settings=repr(CAPTURE),
     )
     return cached_folder("turntable_recordings", key, make)
@@ -146,7 +147,6 @@ def recordings(made: Path, clean: Path) -> dict[str, tuple[Path, rsim.Rig]]:
     return out
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(FORMATS))
 def test_import_and_reconstruct_each_format(
@@ -189,7 +189,6 @@ def test_import_and_reconstruct_each_format(
     assert distance_mm <= ACCURACY_RATIO * baseline_mm, f"{name}: {distance_mm:.3f} mm against the baseline's {baseline_mm:.3f} mm"
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 def test_capture_by_playback_stops_after_one_turn(clean: Path, baseline_mm: float, recordings: dict, tmp_path: Path) -> None:
     path, _ = recordings["realsense-bag"]

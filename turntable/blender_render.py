@@ -22,10 +22,13 @@ from turntable.board import TAG_CELLS, Board, tag_bits
 from homemodel.geometry.camera import Camera
 
 _QUIET_CELLS = 1  # white cells around each tag's black square
-# Albedos of printed paper and toner. Lights are set so white stays well below 8-bit
-# saturation: clipped whites pull the tag edges' half-intensity crossing into the black.
-_PAPER_WHITE, _INK_BLACK = 0.8, 0.04
-_LIGHT_SIZE_M = 0.3
+# Albedos of printed paper and toner. Clipped whites pull the tag edges' half-intensity
+# crossing into the black, yet the studio key light clips paper white at 255 where it stands
+# close (measured: 75 % of the paper pixels of a 320x240 frame at the tests' 0.3 m camera);
+# detected corners stay within 0.1-0.2 px of the truth there (tests/test_turntable_accuracy.py).
+PAPER_WHITE, INK_BLACK = 0.8, 0.04
+TABLE_GREY, FLOOR_GREY = 0.75, 0.3
+LIGHT_SIZE_M = 0.3  # side of each square area light
 
 
 @dataclass(kw_only=True)
@@ -72,13 +75,13 @@ def render_colour_frames(scene: RenderScene, color_dir: Path, progress: Callable
             vertex_rgba=scene.object_rgba,
             smooth=True,
         )
-        for name, mesh, grey in (("table", scene.table_mesh, 0.75), ("floor", scene.floor_mesh, 0.3)):
+        for name, mesh, grey in (("table", scene.table_mesh, TABLE_GREY), ("floor", scene.floor_mesh, FLOOR_GREY)):
             material = cycles_scene.matte_material(name, (grey, grey, grey), shader="principled")
             cycles_scene.add_mesh(name, mesh.vertices, mesh.faces, material, smooth=True)
         _add_tags(scene.board)
         blender_camera = cycles_scene.add_camera(camera.matrix, camera.width, camera.height)
         lights = [
-            cycles_scene.add_area_light(f"light_{i}", power_w, _LIGHT_SIZE_M)
+            cycles_scene.add_area_light(f"light_{i}", power_w, LIGHT_SIZE_M)
             for i, power_w in enumerate(scene.light_power_w)
         ]
         for frame, table_from_camera in enumerate(scene.table_from_cameras):
@@ -89,19 +92,29 @@ def render_colour_frames(scene: RenderScene, color_dir: Path, progress: Callable
         cycles_scene.render_frames(paths, progress)
 
 
-def _add_tags(board: Board) -> None:
-    """All tags as quads at z = 0, textured from one atlas with nearest-texel lookup, so each
-    cell edge lies exactly where board.yaml puts it."""
+@dataclass(kw_only=True)
+class TagQuads:
+    """The board's tags as one quad each at z = 0 (table frame), textured from one atlas."""
+
+    vertices: np.ndarray  # (4T, 3)
+    faces: np.ndarray  # (T, 4) corners counter-clockwise seen from above
+    uvs: np.ndarray  # (4T, 2), v = 1 at the atlas's top row
+    atlas: np.ndarray  # (rows, columns) float32 albedo, row 0 at the top
+
+
+def tag_quads(board: Board) -> TagQuads:
+    """Each tag with its quiet zone as a quad whose atlas block puts every cell edge exactly
+    where board.yaml puts it (looked up nearest-texel)."""
     block = TAG_CELLS + 2 * _QUIET_CELLS
     columns = int(np.ceil(np.sqrt(len(board.tags))))
     rows = int(np.ceil(len(board.tags) / columns))
-    atlas = np.full((rows * block, columns * block), _PAPER_WHITE, dtype=np.float32)
+    atlas = np.full((rows * block, columns * block), PAPER_WHITE, dtype=np.float32)
     vertices, uvs = [], []
     half = board.tag_size_m / 2 * block / TAG_CELLS
     for index, tag in enumerate(board.tags):
         row, col = divmod(index, columns)
         r0, c0 = row * block + _QUIET_CELLS, col * block + _QUIET_CELLS
-        atlas[r0 : r0 + TAG_CELLS, c0 : c0 + TAG_CELLS] = np.where(tag_bits(tag.id), _PAPER_WHITE, _INK_BLACK)
+        atlas[r0 : r0 + TAG_CELLS, c0 : c0 + TAG_CELLS] = np.where(tag_bits(tag.id), PAPER_WHITE, INK_BLACK)
         cx, cy = tag.center_m
         vertices += [
             (cx - half, cy - half, 0.0),
@@ -115,6 +128,11 @@ def _add_tags(board: Board) -> None:
         v_bottom = 1.0 - (row + 1) * block / atlas.shape[0]
         uvs += [(u0, v_bottom), (u1, v_bottom), (u1, v_top), (u0, v_top)]
     faces = np.arange(len(vertices)).reshape(-1, 4)
-    image = cycles_scene.image_from_array("tag_atlas", atlas)
+    return TagQuads(vertices=np.array(vertices), faces=faces, uvs=np.array(uvs), atlas=atlas)
+
+
+def _add_tags(board: Board) -> None:
+    quads = tag_quads(board)
+    image = cycles_scene.image_from_array("tag_atlas", quads.atlas)
     material = cycles_scene.matte_material("tags", image, shader="principled", interpolation="Closest")
-    cycles_scene.add_mesh("tags", np.array(vertices), faces, material, uv=np.array(uvs))
+    cycles_scene.add_mesh("tags", quads.vertices, quads.faces, material, uv=quads.uvs)

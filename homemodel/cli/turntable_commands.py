@@ -103,6 +103,9 @@ def simulate(
         f"{SIMULATION}.board_path", "--board", help="use this board.yaml instead of a generated grid"
     ),
     lighting: str = field_option(f"{SIMULATION}.lighting", help="studio lights, or an even ambient light"),
+    renderer: str = field_option(
+        f"{SIMULATION}.renderer", help="colour by Blender's Cycles, or by ray casting (direct light, less CPU)"
+    ),
     samples: int = field_option(f"{SIMULATION}.samples", help="Cycles samples per pixel"),
     depth_format: str = field_option(f"{SIMULATION}.depth_format", help="16-bit PNG or float EXR depth"),
     depth_scale_m: float = field_option(f"{SIMULATION}.depth_scale_m", help="metres per unit of the depth PNGs"),
@@ -113,7 +116,7 @@ def simulate(
     seed: int = field_option(f"{SIMULATION}.random_state", "--seed", help="seed of the depth noise and the sampling"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
-    """Render a synthetic turntable capture of MESH with Blender (Cycles, CPU): colour, depth, poses."""
+    """Render a synthetic turntable capture of MESH (colour by Cycles or ray casting; depth, poses, truth)."""
     from turntable.simulate import SimulationOptions, simulate_capture
 
     options = SimulationOptions(
@@ -127,6 +130,7 @@ def simulate(
         tag_size_m=tag_size_m,
         board_path=board_yaml,
         lighting=lighting,
+        renderer=renderer,
         samples=samples,
         depth_format=depth_format,
         depth_scale_m=depth_scale_m,
@@ -143,7 +147,7 @@ def simulate(
             f"homemodel turntable simulate {mesh}",
             [
                 ("frames", str(result.frames)),
-                ("colour (Cycles)", f"{result.render_s:.1f} s ({result.render_s / result.frames:.2f} s/frame)"),
+                (f"colour ({renderer})", f"{result.render_s:.1f} s ({result.render_s / result.frames:.2f} s/frame)"),
                 ("depth (ray casting)", f"{result.depth_s:.1f} s"),
             ],
         )
