@@ -15,6 +15,9 @@ from homemodel.core.limits import YAML_DEPTH, YAML_NODES
 
 MAX_SPEC_BYTES = 4 * 1024 * 1024
 SpecT = TypeVar("SpecT", bound=pydantic.BaseModel)
+# libyaml's parser under PyYAML's safe constructor: the same data, 5-20 times less CPU than the
+# pure-Python parser (a home of 2,000 objects: 1.77 -> 0.20 CPU-s for the check and the load).
+FAST_SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 class FieldError(ValueError):
@@ -26,7 +29,7 @@ class FieldError(ValueError):
         self.loc = loc
 
 
-def check_yaml_size(path: Path, text: str) -> None:
+def check_yaml_size(path: Path, text: str, loader: type = yaml.SafeLoader) -> None:
     """Refuse YAML that nests deeper than YAML_DEPTH or holds more than YAML_NODES nodes once
     its aliases are expanded (a few KB of aliases can stand for millions of objects, which
     every later step would copy). One pass over the parser's events, no recursion: PyYAML's
@@ -35,7 +38,7 @@ def check_yaml_size(path: Path, text: str) -> None:
     open_anchors: list[str | None] = []
     anchored: dict[str, int] = {}
     depth_limit, node_limit = YAML_DEPTH.value, YAML_NODES.value
-    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+    for event in yaml.parse(text, Loader=loader):
         if isinstance(event, yaml.CollectionStartEvent):
             if len(open_anchors) + 1 > depth_limit:
                 YAML_DEPTH.check(path, len(open_anchors) + 1)
@@ -67,8 +70,7 @@ def read_yaml_mapping(path: Path) -> dict:
     except UnicodeDecodeError as exc:
         raise SpecError(f"{path}: not UTF-8 text: {exc.reason}") from None
     try:
-        check_yaml_size(path, text)
-        data = yaml.safe_load(text)
+        data = _safe_load(path, text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -77,6 +79,18 @@ def read_yaml_mapping(path: Path) -> dict:
     if not isinstance(data, dict):
         raise SpecError(f"{path}: expected a mapping of fields, got {type(data).__name__}")
     return data
+
+
+def _safe_load(path: Path, text: str) -> object:
+    """The bounded, safe load: by libyaml, or where it refuses the text by the pure-Python
+    parser, whose verdict and message stand (libyaml's scanner stops at its own 1000 levels of
+    nesting, looking ahead before the size check sees them)."""
+    try:
+        check_yaml_size(path, text, FAST_SAFE_LOADER)
+        return yaml.load(text, Loader=FAST_SAFE_LOADER)  # noqa: S506 (a safe loader)
+    except yaml.YAMLError:
+        check_yaml_size(path, text)
+        return yaml.safe_load(text)
 
 
 def validation_problems(error: pydantic.ValidationError) -> list[tuple[str, str]]:
