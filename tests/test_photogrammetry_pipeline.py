@@ -1,4 +1,4 @@
-"""photogrammetry end to end: real photos (Kermit), a Blender-rendered set with ground truth,
+"""photogrammetry end to end: real photos (Kermit), a rendered set with ground truth,
 and the refusals (unreadable photos, too few registered, unrelated scenes) through the CLI."""
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ def test_bad_options_are_refused_before_any_work(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def rendered_scene():
-    """36 views on three rings, their file names shuffled (tests/rendered_photo_set.py)."""
+    """36 views on three rings, their file names shuffled, ray-cast (tests/rendered_photo_set.py)."""
     from rendered_photo_set import rendered_photo_set
 
     return rendered_photo_set()
@@ -161,7 +161,6 @@ def rendered_model(rendered_run) -> Path:
     return rendered_run[0]
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 @pytest.mark.timeout(2400)  # the first to ask for the set: rendering 36 views, then the reconstruction
 def test_shuffled_three_ring_rendered_set_registers_whole(rendered_scene, rendered_model: Path) -> None:
@@ -176,7 +175,6 @@ def test_shuffled_three_ring_rendered_set_registers_whole(rendered_scene, render
     assert agreement.max_centre_error < 0.01 and agreement.max_rotation_error_deg < 0.5, agreement
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Path) -> None:
     """Scale error at most 1%: from the cameras (a similarity fit of the estimated to the true
@@ -195,7 +193,6 @@ def test_rendered_set_is_metric_and_levelled(rendered_scene, rendered_model: Pat
     assert summary["metric"] and abs(summary["extents_m"][2] / true_height - 1) < 0.01
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_set_mesh_matches_the_truth_without_the_table(rendered_scene, rendered_model: Path) -> None:
     from homemodel.evaluation import mean_surface_distance_m
@@ -215,7 +212,6 @@ def test_rendered_set_mesh_matches_the_truth_without_the_table(rendered_scene, r
     assert json.loads((rendered_model / "summary.json").read_text())["photogrammetry"]["watertight"]
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered_model: Path) -> None:
     """The baked texture, looked up at points of the reconstructed surface, correlates with the
@@ -246,7 +242,6 @@ def test_rendered_set_texture_shows_the_objects_pattern(rendered_scene, rendered
     assert correlation > 0.5
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
     from homemodel.exchange.map_xml import load_map
@@ -260,7 +255,6 @@ def test_rendered_model_is_registered_on_the_table(rendered_run) -> None:
     assert (map_path.parent / vase.model_ref).resolve() == (out / "model.urdf").resolve()
 
 
-@pytest.mark.bpy
 @pytest.mark.slow
 def test_rendered_model_passes_the_validation_gate(rendered_model: Path) -> None:
     from homemodel.model_folder.gate.validate import validate_path
