@@ -38,7 +38,7 @@ class JointFit:
     """A joint's estimate and what supports it."""
 
     position: float
-    visible_fraction: float  # of the moving part's pixels in the image, those observed and not covered
+    visible_fraction: float  # of the moving part's pixels (past the image's edges too), those nothing nearer covers
     residual_m: float  # RMS of the truncated residual over the part's observed pixels
     pixels: int  # the part's observed pixels (in the fine view)
     contrast: float  # how much worse (share of pixels) the best position far from this one scores; NaN for a refit
@@ -139,14 +139,16 @@ def _moving_depths(
     state: FitState, view: FitView, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray:
     """(len(values), H, W) depth of the moving part alone at each position; inf where it is not hit."""
-    base = state.map_from_parts()
-    poses = []
-    for value in values:
-        at_value = list(base)
-        for i, pose in zip(moving, state.part_poses_at(object_id, joint, value, moving)):
-            at_value[i] = pose
-        poses.append(at_value)
+    poses = [_map_from_parts_at(state, object_id, joint, moving, value) for value in values]
     return state.renderer.depth_stack(poses, view.camera, view.map_from_camera, moving)
+
+
+def _map_from_parts_at(state: FitState, object_id: str, joint: str, moving: list[int], value: float) -> list[np.ndarray]:
+    """Every part's pose with `joint` at `value` (its `moving` parts moved)."""
+    at_value = state.map_from_parts()
+    for i, pose in zip(moving, state.part_poses_at(object_id, joint, value, moving)):
+        at_value[i] = pose
+    return at_value
 
 
 def _costs(
@@ -172,16 +174,21 @@ def _support(
     state: FitState, view: FitView, static: np.ndarray, object_id: str, joint: str, moving: list[int], position: float
 ) -> dict:
     own = _moving_depths(state, view, object_id, joint, moving, np.array([position]))[0]
-    projected = np.isfinite(own)
+    # The part's whole image, past the view's edges too: a door the edge cuts in half is half seen.
+    whole = state.renderer.pixels_whole(_map_from_parts_at(state, object_id, joint, moving, position), view.camera,
+                                        view.map_from_camera, moving)
     front = own < static
     observed = view.depth_m
     tolerance = view.tolerance_m
     with np.errstate(invalid="ignore"):
-        seen = front & np.isfinite(observed) & (observed >= own - tolerance)
+        covered = np.isfinite(observed) & (observed < own - tolerance)
+        seen = front & np.isfinite(observed) & ~covered
         residual = np.where(seen, (observed - own) / tolerance, 0.0)
     truncated = np.minimum(residual[seen] ** 2, 1.0) * tolerance[seen] ** 2
     return {
-        "visible_fraction": float(seen.sum() / projected.sum()) if projected.any() else 0.0,
+        # Pixels with no reading count as visible: a door seen near edge-on gives none
+        # (grazing incidence), yet nothing hides it.
+        "visible_fraction": float((front & ~covered).sum() / whole) if whole else 0.0,
         "residual_m": float(np.sqrt(truncated.mean())) if seen.any() else float("nan"),
         "pixels": int(seen.sum()),
     }

@@ -64,7 +64,8 @@ def refine_pose(
             source, target, target_normals, gate_m=gate_m, kernel_m=max(kernel_m, gate_m / 2), planar=planar
         )
         if target_from_source is None:
-            break
+            # Wandered off: the next, narrower gate starts again from the same pose.
+            continue
         # The source is the object where it is, the target where the map has it.
         state.map_from_objects[object_id] = np.linalg.inv(target_from_source) @ state.map_from_objects[object_id]
         last = (source, target, target_normals, target_from_source)

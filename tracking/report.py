@@ -27,9 +27,10 @@ class JointReport:
 
     name: str
     type: str
-    status: Literal["fitted", "not seen", "ambiguous"]
+    status: Literal["fitted", "partly seen", "not seen", "ambiguous"]
     position: float  # the map's new position (the old one unless fitted), rad or m
     previous: float
+    estimate: float = float("nan")  # the fit's position, also when it did not go into the map
     visible_fraction: float = 0.0
     residual_m: float = float("nan")
     pixels: int = 0
@@ -40,6 +41,8 @@ class JointReport:
             out |= {"position": _number(self.position), "previous": _number(self.previous)}
         else:
             out |= {"position": None, "kept": _number(self.previous)}
+            if self.status == "partly seen":
+                out["estimate"] = _number(self.estimate)
         return out | {
             "visible_fraction": _number(self.visible_fraction, 3),
             "residual_m": _number(self.residual_m),

@@ -394,6 +394,16 @@ class Renderer:
             stack[cells] = np.minimum(stack[cells], np.concatenate([t for _, t in casts]))
         return stack.reshape(len(map_from_parts), camera.height, camera.width)
 
+    def pixels_whole(
+        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int]
+    ) -> int:
+        """How many pixels the parts `only` cover together with nothing else in the scene, on
+        an image grown past `camera`'s edges to hold all of them (`widened`)."""
+        camera_from_map = np.linalg.inv(as_transform(map_from_camera))
+        poses = [camera_from_map @ as_transform(map_from_parts[i]) for i in only]
+        corners = np.concatenate([self._corners[i] @ m[:3, :3].T + m[:3, 3] for i, m in zip(only, poses)])
+        return int(np.isfinite(self.depth(map_from_parts, widened(camera, corners), map_from_camera, only)).sum())
+
     # Pixels of part depths kept by `depth` (float64 and int64: 16 bytes each).
     DEPTH_CACHE_PIXELS = 2_000_000
 
@@ -424,9 +434,17 @@ class Renderer:
         t[t < NEAR_M] = np.inf
         return list(zip(pixel_sets, np.split(t, np.cumsum([len(p) for p in pixel_sets])[:-1])))
 
-    def pixels_alone(self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray) -> int:
-        """How many pixels part `index` at `map_from_part` covers with nothing else in the scene."""
+    def pixels_alone(
+        self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray, *, whole: bool = False
+    ) -> int:
+        """How many pixels part `index` at `map_from_part` covers with nothing else in the
+        scene; `whole`: counted on an image grown past `camera`'s edges to hold all of it (a
+        part the image's edge cuts is partly unseen, like one something covers)."""
         camera_from_part = np.linalg.inv(as_transform(map_from_camera)) @ as_transform(map_from_part)
+        if _pixels_in_view(camera, self.pixel_rays(camera), camera_from_part, self._corners[index]) is None:
+            return 0
+        if whole:
+            camera = widened(camera, self._corners[index] @ camera_from_part[:3, :3].T + camera_from_part[:3, 3])
         cast = self._cast(index, camera, camera_from_part)
         return 0 if cast is None else int((cast[1].hit & (cast[1].t >= NEAR_M)).sum())
 
@@ -449,6 +467,23 @@ def box_corners(vertices: np.ndarray) -> np.ndarray:
     """The 8 corners of the axis-aligned bounding box of (N, 3) points."""
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+
+
+def widened(camera: Camera, points_camera: np.ndarray) -> Camera:
+    """`camera` grown (same focal lengths, its image inside the new one) to hold the
+    projection of (N, 3) camera-frame points, at most by its own size on each side; the
+    camera itself when a point is behind the near plane or the lens is distorted."""
+    points = np.asarray(points_camera, dtype=np.float64)
+    if camera.has_distortion or (points[:, 2] < NEAR_M).any():
+        return camera
+    uv = camera.project(points)
+    left, top = (int(np.clip(np.ceil(-uv[:, k].min()), 0, size)) for k, size in ((0, camera.width), (1, camera.height)))
+    right = int(np.clip(np.ceil(uv[:, 0].max() - camera.width + 1), 0, camera.width))
+    bottom = int(np.clip(np.ceil(uv[:, 1].max() - camera.height + 1), 0, camera.height))
+    if not (left or top or right or bottom):
+        return camera
+    return Camera(**{**camera.model_dump(), "width": camera.width + left + right, "height": camera.height + top + bottom,
+                     "cx": camera.cx + left, "cy": camera.cy + top})
 
 
 def _pixels_in_view(

@@ -9,8 +9,8 @@ structured-light sensor's noise and the truth to score a fitter against.
 The truth (`truth.json`) holds every joint's true position, every object's true map pose
 (small objects with their parent and relation), and for each part in the camera's field of
 view how many pixels it covers and what fraction of it is visible: its pixels in the view
-over its pixels were nothing else in front of it.
-"""
+over its pixels were nothing else in front of it and the image as large as the part (a part
+the image's edge cuts is partly unseen)."""
 
 from __future__ import annotations
 
@@ -236,7 +236,7 @@ class ViewSimulator:
         for index, part in enumerate(self.scene.parts):
             if part.object_id is None:
                 continue
-            alone = self.renderer.pixels_alone(index, map_from_parts[index], camera, map_from_camera)
+            alone = self.renderer.pixels_alone(index, map_from_parts[index], camera, map_from_camera, whole=True)
             if alone == 0:
                 continue
             seen = int(counts[index])

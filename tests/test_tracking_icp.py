@@ -1,0 +1,72 @@
+"""The pose fit's ICP (`tracking.fit_pose.icp_correction`) on surfaces that leave motions
+free, and its determinism; the part visibility past the image's edges (`tracking.scene`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from homemodel.geometry.camera import Camera
+from tracking.fit_pose import icp_correction
+from tracking.observe import _open3d_single_threaded
+from tracking.scene import Part, Renderer
+
+
+def _front(rng: np.random.Generator, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points on a 0.6 x 1.6 m plane facing +x (a fridge's door seen from the front alone)."""
+    points = np.column_stack([np.zeros(count), rng.uniform(-0.3, 0.3, count), rng.uniform(0.1, 1.7, count)])
+    return points, np.tile([1.0, 0.0, 0.0], (count, 1))
+
+
+def test_a_front_alone_gives_its_shift_and_turn() -> None:
+    # The front leaves the slide, the height and the roll free: only the shift along its
+    # normal and the turn are pinned, and those must come out.
+    rng = np.random.default_rng(0)
+    target, normals = _front(rng, 3000)
+    yaw = np.radians(2.0)
+    true = np.eye(4)  # target_from_source: the observed front 20 mm behind and turned 2 degrees
+    true[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+    true[0, 3] = 0.02
+    source_points, _ = _front(rng, 1500)
+    exact = (source_points - true[:3, 3]) @ true[:3, :3]  # inverse of `true`
+    noisy = exact + np.column_stack([rng.normal(0, 0.002, len(exact)), np.zeros((len(exact), 2))])
+    with _open3d_single_threaded():
+        correction = icp_correction(noisy, target, normals, gate_m=0.05, kernel_m=0.01, planar=True)
+    assert correction is not None
+    moved = exact @ correction[:3, :3].T + correction[:3, 3]
+    # Along the normal (what the front pins) every point lands on the plane within 2 mm.
+    assert np.abs(moved[:, 0]).max() < 0.002
+    assert abs(np.degrees(np.arctan2(correction[1, 0], correction[0, 0])) - 2.0) < 0.3
+
+
+def test_the_same_points_give_the_same_correction() -> None:
+    rng = np.random.default_rng(1)
+    target = rng.normal(size=(3000, 3))
+    normals = rng.normal(size=(3000, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    source = target[:1500] + rng.normal(scale=0.01, size=(1500, 3)) + 0.02
+    with _open3d_single_threaded():
+        results = {icp_correction(source, target, normals, gate_m=0.1, kernel_m=0.02, planar=False).tobytes()
+                   for _ in range(20)}
+    # (With two threads Open3D gave 12 different transforms in 40 runs: its sums' order.)
+    assert len(results) == 1
+
+
+def test_a_part_the_image_edge_cuts_counts_its_pixels_outside() -> None:
+    box = trimesh.creation.box(extents=(0.02, 0.4, 0.4))
+    faces = np.asarray(box.faces, dtype=np.int64)
+    part = Part(object_id="a", link="door", joint=None, vertices_link=np.asarray(box.vertices, dtype=np.float64),
+                faces=faces, face_rgb=np.full((len(faces), 3), 0.5))
+    renderer = Renderer([part])
+    camera = Camera(width=160, height=120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
+    map_from_camera = np.eye(4)
+    map_from_camera[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # looking along +x
+    map_from_part = np.eye(4)
+    map_from_part[:3, 3] = (1.0, 0.0, 0.0)
+    whole = renderer.pixels_alone(0, map_from_part, camera, map_from_camera, whole=True)
+    assert abs(whole - 40 * 40) < 2 * 40  # 0.4 m at 1 m and 100 px/m: 40 x 40 pixels
+    map_from_part[1, 3] = 0.79  # the image's edge 0.795 m across: about half of it is inside
+    inside = renderer.pixels_alone(0, map_from_part, camera, map_from_camera)
+    cut = renderer.pixels_alone(0, map_from_part, camera, map_from_camera, whole=True)
+    assert abs(cut - whole) <= 2 * 40 and 0.4 < inside / cut < 0.6
+    assert renderer.pixels_whole([map_from_part], camera, map_from_camera, [0]) == cut
