@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from homemodel.core.srgb import srgb_encode
 from homemodel.core.yaml_specs import FieldError
 from modeller.blender_scene import LINK_PROPERTY, texture_material
 from modeller.photo_texture import (
@@ -181,8 +182,7 @@ def _material_name(photo: FacePhoto) -> str:
 def _bgr8(rgba_linear: tuple[float, ...]) -> tuple[int, int, int]:
     """A linear colour as the 8-bit sRGB BGR pixel an image holds."""
     linear = np.clip(np.asarray(rgba_linear[:3], dtype=np.float64), 0, 1)
-    srgb = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
-    r, g, b = (int(round(c * 255)) for c in srgb)
+    r, g, b = (int(round(c * 255)) for c in srgb_encode(linear))
     return b, g, r
 
 

@@ -23,6 +23,7 @@ from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.checks import require_between
 from homemodel.core.errors import InputError
+from homemodel.core.srgb import srgb_encode
 from homemodel.core.transforms import world_from_camera_looking_at
 from modeller.blender_textures import PhotoPlacement
 from modeller.photo_texture import read_photo
@@ -225,7 +226,7 @@ def _render(
 
 def _srgb(linear: tuple[float, ...]) -> tuple[float, float, float]:
     c = np.clip(np.asarray(linear, dtype=np.float64), 0, 1)
-    return tuple(np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055).tolist())
+    return tuple(srgb_encode(c).tolist())
 
 
 def comparison_picture(

@@ -12,6 +12,7 @@ from typing import Literal, get_args
 import numpy as np
 
 from homemodel.core.errors import InputError
+from homemodel.core.srgb import srgb_decode
 
 # The user-facing names of OpenCV's predefined dictionaries (`cv2.aruco.DICT_<NAME>`).
 MarkerDictionary = Literal["apriltag_36h11", "apriltag_25h9", "4x4_50", "4x4_250", "5x5_100", "5x5_250", "6x6_250"]
@@ -40,8 +41,7 @@ class MarkerSighting:
 def _linear_light_lut() -> np.ndarray:
     """sRGB-encoded 8-bit values to linear light (8-bit), the inverse of the sRGB curve."""
     x = np.arange(256) / 255.0
-    linear = np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-    return np.round(linear * 255).astype(np.uint8)
+    return np.round(srgb_decode(x) * 255).astype(np.uint8)
 
 
 def _detector(dictionary: str, refinement: int):

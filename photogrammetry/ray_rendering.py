@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from homemodel.core.srgb import srgb_decode, srgb_encode
 from homemodel.geometry.camera import Camera
 from homemodel.geometry.raycast import RayCaster
 
@@ -49,14 +50,13 @@ class Lighting:
 
 def srgb_to_linear(srgb: np.ndarray) -> np.ndarray:
     c = np.asarray(srgb, np.float32) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    return srgb_decode(c).astype(np.float32)
 
 
 def linear_to_srgb8(linear: np.ndarray) -> np.ndarray:
     """Blender's "Standard" view transform: the sRGB transfer function, rounded to 8 bits."""
     c = np.clip(linear, 0.0, 1.0)
-    srgb = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
-    return (srgb * 255 + 0.5).astype(np.uint8)
+    return (srgb_encode(c) * 255 + 0.5).astype(np.uint8)
 
 
 def _triangles(faces: np.ndarray) -> np.ndarray:

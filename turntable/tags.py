@@ -15,6 +15,7 @@ from typing import Literal
 import numpy as np
 
 from homemodel.core.checks import require_at_least, require_choice, require_positive
+from homemodel.core.srgb import srgb_decode
 
 TagDetector = Literal["apriltag", "opencv"]
 
@@ -158,7 +159,7 @@ _LEVELS = np.arange(256) / 255.0
 # Each 8-bit level's linear intensity: the sides are found on the linear image (see `refine_edges`).
 LINEAR_LEVELS = {
     "linear": _LEVELS,
-    "srgb": np.where(_LEVELS <= 0.04045, _LEVELS / 12.92, ((_LEVELS + 0.055) / 1.055) ** 2.4),
+    "srgb": srgb_decode(_LEVELS),
 }
 
 
