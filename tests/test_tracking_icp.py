@@ -8,7 +8,6 @@ import trimesh
 
 from homemodel.geometry.camera import Camera
 from tracking.fit_pose import icp_correction
-from tracking.observe import _open3d_single_threaded
 from tracking.scene import Part, Renderer
 
 
@@ -30,8 +29,7 @@ def test_a_front_alone_gives_its_shift_and_turn() -> None:
     source_points, _ = _front(rng, 1500)
     exact = (source_points - true[:3, 3]) @ true[:3, :3]  # inverse of `true`
     noisy = exact + np.column_stack([rng.normal(0, 0.002, len(exact)), np.zeros((len(exact), 2))])
-    with _open3d_single_threaded():
-        correction = icp_correction(noisy, target, normals, gate_m=0.05, kernel_m=0.01, planar=True)
+    correction = icp_correction(noisy, target, normals, gate_m=0.05, kernel_m=0.01, planar=True)
     assert correction is not None
     moved = exact @ correction[:3, :3].T + correction[:3, 3]
     # Along the normal (what the front pins) every point lands on the plane within 2 mm.
@@ -45,9 +43,8 @@ def test_the_same_points_give_the_same_correction() -> None:
     normals = rng.normal(size=(3000, 3))
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     source = target[:1500] + rng.normal(scale=0.01, size=(1500, 3)) + 0.02
-    with _open3d_single_threaded():
-        results = {icp_correction(source, target, normals, gate_m=0.1, kernel_m=0.02, planar=False).tobytes()
-                   for _ in range(20)}
+    results = {icp_correction(source, target, normals, gate_m=0.1, kernel_m=0.02, planar=False).tobytes()
+               for _ in range(20)}
     # (With two threads Open3D gave 12 different transforms in 40 runs: its sums' order.)
     assert len(results) == 1
 

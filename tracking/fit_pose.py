@@ -93,14 +93,22 @@ def icp_correction(
     source_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(source - centre))
     target_cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(target - centre))
     target_cloud.normals = o3d.utility.Vector3dVector(target_normals)
-    result = reg.registration_icp(
-        source_cloud,
-        target_cloud,
-        gate_m,
-        np.eye(4),
-        reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=kernel_m)),
-        reg.ICPConvergenceCriteria(max_iteration=20, relative_fitness=1e-6, relative_rmse=1e-6),
-    )
+    # Open3D's ICP sums its normal equations over threads in whatever order they finish: one
+    # thread gives the same correction for the same points (a few thousand points gain nothing
+    # from a second), while the ray casting around it keeps every core.
+    threads = o3d.utility.get_max_threads()
+    o3d.utility.set_max_threads(1)
+    try:
+        result = reg.registration_icp(
+            source_cloud,
+            target_cloud,
+            gate_m,
+            np.eye(4),
+            reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=kernel_m)),
+            reg.ICPConvergenceCriteria(max_iteration=20, relative_fitness=1e-6, relative_rmse=1e-6),
+        )
+    finally:
+        o3d.utility.set_max_threads(threads)
     if planar:
         local = _constrained(_planar(result.transformation), target - centre, target_normals)
     else:

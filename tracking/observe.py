@@ -14,8 +14,6 @@ keeps the old value in the object's history.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -144,23 +142,8 @@ def observe(
     options = options or ObserveOptions()
     options.check()
     # Thousands of 4x4 inversions: BLAS threads only cost wake-ups (2 ms each under load).
-    with threadpool_limits(1, user_api="blas"), _open3d_single_threaded():
+    with threadpool_limits(1, user_api="blas"):
         return _observe(map, observation, options, progress, at)
-
-
-@contextmanager
-def _open3d_single_threaded() -> Iterator[None]:
-    """Open3D's ICP sums its normal equations over threads in whatever order they finish:
-    one thread gives the same map for the same observation (and its ICPs, at most a few
-    thousand points, gain nothing from a second)."""
-    import open3d as o3d
-
-    before = o3d.utility.get_max_threads()
-    o3d.utility.set_max_threads(1)
-    try:
-        yield
-    finally:
-        o3d.utility.set_max_threads(before)
 
 
 def _observe(
