@@ -23,7 +23,7 @@ import trimesh
 
 from homemodel.core.srgb import srgb_decode, srgb_encode
 from homemodel.geometry.camera import Camera
-from homemodel.geometry.raycast import RayCaster
+from homemodel.geometry.raycast import RayCaster, changing_pixels, subpixel_offsets
 
 # Far enough along the normal that a shadow ray does not hit its own triangle in float32.
 _SHADOW_RAY_OFFSET_M = 1e-4
@@ -121,8 +121,7 @@ class RayRenderer:
         self._closest = [p.closest_texel for p in parts]
         self._lighting = lighting
         self._to_sun = np.asarray(lighting.to_sun, np.float32) / np.linalg.norm(lighting.to_sun)
-        grid = (np.arange(edge_samples) + 0.5) / edge_samples - 0.5
-        self._subpixel = np.stack(np.meshgrid(grid, grid), axis=-1).reshape(-1, 2)
+        self._subpixel = subpixel_offsets(edge_samples)
 
     def render(self, camera: Camera, camera_from_world: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
         """(height, width, 3) uint8 RGB photo from `camera` (no distortion) at `camera_from_world`;
@@ -132,12 +131,7 @@ class RayRenderer:
         origin = world_from_camera[:3, 3]
         linear, label = self._shade(origin, camera.pixel_rays() @ to_world)
         label = label.reshape(camera.height, camera.width)
-        again = np.isin(label // 2, np.flatnonzero(self._closest))
-        across, down = label[:, 1:] != label[:, :-1], label[1:] != label[:-1]
-        again[:, 1:] |= across
-        again[:, :-1] |= across
-        again[1:] |= down
-        again[:-1] |= down
+        again = np.isin(label // 2, np.flatnonzero(self._closest)) | changing_pixels(label)
         rows, cols = np.nonzero(again)
         pixels = (np.column_stack([cols, rows])[:, None, :] + self._subpixel[None]).reshape(-1, 2)
         finer, _ = self._shade(origin, camera.rays(pixels) @ to_world)

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from homemodel.geometry.raycast import Hits, RayCaster
+from homemodel.geometry.raycast import Hits, RayCaster, changing_pixels, subpixel_offsets
 from turntable.blender_render import FLOOR_GREY, INK_BLACK, PAPER_WHITE, TABLE_GREY, RenderScene, tag_quads
 
 SUPERSAMPLING = 3  # rays per pixel along each axis, where a pixel holds an edge
@@ -103,8 +103,7 @@ def render_colour_frames_raycast(
     surfaces = _Surfaces.of(scene)
     caster = RayCaster(surfaces.mesh)
     camera = scene.camera
-    sub = (np.arange(SUPERSAMPLING) + 0.5) / SUPERSAMPLING - 0.5
-    sub_x, sub_y = (grid.ravel() for grid in np.meshgrid(sub, sub))
+    sub_x, sub_y = subpixel_offsets(SUPERSAMPLING).T
     v, u = np.mgrid[0 : camera.height, 0 : camera.width]
     centres = camera.rays(np.column_stack([u.ravel(), v.ravel()]).astype(np.float64))
     for frame, table_from_camera in enumerate(scene.table_from_cameras):
@@ -114,7 +113,7 @@ def render_colour_frames_raycast(
         image = radiance.reshape(camera.height, camera.width, 3)
         # Only pixels whose neighbourhood changes surface, tag cell, shadow or depth need more rays.
         shape = (camera.height, camera.width)
-        edge = np.flatnonzero(_changes(key.reshape(shape), depth.reshape(shape)))
+        edge = np.flatnonzero(changing_pixels(key.reshape(shape), depth.reshape(shape)))
         for first in range(0, len(edge), _RAYS_PER_CHUNK // len(sub_x)):
             pixels = edge[first : first + _RAYS_PER_CHUNK // len(sub_x)]
             samples = np.stack([u.ravel()[pixels, None] + sub_x, v.ravel()[pixels, None] + sub_y], axis=-1)
@@ -124,23 +123,6 @@ def render_colour_frames_raycast(
         cv2.imwrite(str(Path(color_dir) / f"{frame:06d}.png"), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
         if progress is not None:
             progress(frame + 1)
-
-
-def _changes(key: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """(H, W) True where a 4-neighbour has another key or a depth more than 2 % away."""
-    changes = np.zeros(key.shape, dtype=bool)
-    for axis in (0, 1):
-        step = [slice(None), slice(None)]
-        step[axis] = slice(1, None)
-        back = [slice(None), slice(None)]
-        back[axis] = slice(None, -1)
-        near, far = depth[tuple(back)], depth[tuple(step)]
-        with np.errstate(invalid="ignore"):
-            jump = np.abs(far - near) > 0.02 * np.minimum(near, far)
-        differ = (key[tuple(back)] != key[tuple(step)]) | jump
-        changes[tuple(back)] |= differ
-        changes[tuple(step)] |= differ
-    return changes
 
 
 def _shade(

@@ -94,3 +94,30 @@ class RayCaster:
         """(N,) exact unsigned distance from each point to the nearest point of the triangles."""
         points = np.asarray(points, dtype=np.float32)
         return self._scene.compute_distance(self._o3d.core.Tensor(points)).numpy().astype(np.float64)
+
+
+def subpixel_offsets(per_side: int) -> np.ndarray:
+    """(per_side², 2) (x, y) offsets of a regular grid inside a pixel, symmetric about its
+    centre: a box filter that anti-aliases an edge without moving it."""
+    grid = (np.arange(per_side) + 0.5) / per_side - 0.5
+    return np.stack(np.meshgrid(grid, grid), axis=-1).reshape(-1, 2)
+
+
+def changing_pixels(key: np.ndarray, depth: np.ndarray | None = None, depth_jump: float = 0.02) -> np.ndarray:
+    """(H, W) True where a 4-neighbour sees another `key` (surface, texel, shadow...) or, given
+    `depth`, a depth more than `depth_jump` of the nearer one away: the pixels a renderer draws
+    again with more rays."""
+    changes = np.zeros(key.shape, dtype=bool)
+    for axis in (0, 1):
+        ahead = [slice(None), slice(None)]
+        ahead[axis] = slice(1, None)
+        behind = [slice(None), slice(None)]
+        behind[axis] = slice(None, -1)
+        differ = key[tuple(behind)] != key[tuple(ahead)]
+        if depth is not None:
+            near, far = depth[tuple(behind)], depth[tuple(ahead)]
+            with np.errstate(invalid="ignore"):
+                differ |= np.abs(far - near) > depth_jump * np.minimum(near, far)
+        changes[tuple(behind)] |= differ
+        changes[tuple(ahead)] |= differ
+    return changes
