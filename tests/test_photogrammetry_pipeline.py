@@ -99,9 +99,11 @@ def test_too_few_registered_photos_are_refused(tmp_path: Path) -> None:
 
 @pytest.mark.shared_data
 def test_unrelated_scenes_are_refused(tmp_path: Path) -> None:
+    """Five Kermit photos and five of an AprilTag board: two groups, each a model of its own
+    (three photos make one), that share no geometry (6 + 8 photos cost 20.5 CPU-s, these 13.8)."""
     photos = tmp_path / "mixed"
     photos.mkdir()
-    for path in sorted(KERMIT.glob("*.jpg"))[:6] + sorted(SWATBOTICS.glob("*.JPG"))[:8]:
+    for path in sorted(KERMIT.glob("*.jpg"))[:5] + sorted(SWATBOTICS.glob("*.JPG"))[:5]:
         shutil.copy(path, photos)
     result = _reconstruct(str(photos), "--out", str(tmp_path / "out"), "--max-features", "2048")
     assert result.exit_code == 2
