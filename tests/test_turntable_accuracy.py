@@ -88,7 +88,7 @@ def captures() -> dict[str, Path]:
             simulate_capture(mesh_path, root / name, SimulationOptions(**CAPTURE))
 
     key = content_key(
-        inputs=[Path(__file__)], packages=SIMULATOR_CODE, distributions=["open3d"], settings=repr(CAPTURE)
+        inputs=[Path(__file__)], packages=SIMULATOR_CODE, settings=repr(CAPTURE)
     )
     root = cached_folder("turntable_accuracy", key, simulate)
     return {name: root / name for name in OBJECTS}

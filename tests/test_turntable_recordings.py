@@ -121,7 +121,6 @@ def made() -> Path:
     key = content_key(
         inputs=[Path(__file__), Path(rsim.__file__)],
         packages=RECORDING_CODE,
-        distributions=["open3d", "pyrealsense2", "rosbags"],
         settings=repr(CAPTURE),
     )
     return cached_folder("turntable_recordings", key, make)

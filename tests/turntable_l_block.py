@@ -31,6 +31,6 @@ def l_block_capture() -> Path:
         simulate_capture(root / "l_block.ply", root / "capture", SimulationOptions(**L_BLOCK_CAPTURE))
 
     key = content_key(
-        inputs=[Path(__file__)], packages=("turntable",), distributions=["bpy"], settings=repr(L_BLOCK_CAPTURE)
+        inputs=[Path(__file__)], packages=("turntable",), settings=repr(L_BLOCK_CAPTURE)
     )
     return cached_folder("turntable_l_block", key, simulate) / "capture"
