@@ -92,13 +92,16 @@ def point_spacing(points: np.ndarray) -> float:
     return float(np.median(distances[:, 1]))
 
 
-def mesh_fit(mesh: trimesh.Trimesh, points: np.ndarray | None) -> dict[str, float | None]:
-    """`MeshFit`'s figures: the points' distance to the surface and the surface's to the points."""
+def mesh_fit(
+    mesh: trimesh.Trimesh, points: np.ndarray | None, *, to_mesh: SurfaceDistance | None = None
+) -> dict[str, float | None]:
+    """`MeshFit`'s figures: the points' distance to the surface and the surface's to the points
+    (`to_mesh`: the distance measure of `mesh`'s triangles, when built)."""
     from scipy.spatial import cKDTree
 
     if points is None or len(points) == 0:
         return {"points_to_surface_median": None, "points_to_surface_p95": None, "surface_to_points_median": None}
-    to_surface = SurfaceDistance(mesh).distances(_sample(points, _MEASURED_POINTS))
+    to_surface = (to_mesh or SurfaceDistance(mesh)).distances(_sample(points, _MEASURED_POINTS))
     on_surface, _ = trimesh.sample.sample_surface(mesh, _MEASURED_POINTS, seed=_SEED)
     to_points, _ = cKDTree(points).query(on_surface)
     return {
@@ -108,9 +111,10 @@ def mesh_fit(mesh: trimesh.Trimesh, points: np.ndarray | None) -> dict[str, floa
     }
 
 
-def _collision(solid: trimesh.Trimesh, tolerance: float, options: ScanMeshOptions, progress: Progress):
+def _collision(
+    solid: trimesh.Trimesh, to_solid: SurfaceDistance, tolerance: float, options: ScanMeshOptions, progress: Progress
+):
     """(shapes, decomposition or None, method, overshoot p95, overshoot max, gap p95, gap max)."""
-    to_solid = SurfaceDistance(solid)
     hull = solid.convex_hull
     fit = fidelity([hull], solid, to_real=to_solid)
     best = ([hull], None, "convex hull", fit.overshoot_all_m, fit.overshoot_max_m, fit.gap_m, fit.gap_max_m)
@@ -179,9 +183,12 @@ def scan_meshes(
         visual = decimate(visual, options.max_visual_faces)
     solid = _closed(mesh)
     tolerance = options.collision_tolerance_m if metric else options.unscaled_tolerance_fraction * float(solid.scale)
-    shapes, split, method, overshoot, overshoot_max, gap, gap_max = _collision(solid, tolerance, options, progress)
+    to_solid = SurfaceDistance(solid)
+    shapes, split, method, overshoot, overshoot_max, gap, gap_max = _collision(solid, to_solid, tolerance, options, progress)
     spacing = point_spacing(points) if points is not None and len(points) > 1 else None
-    visual_fit = mesh_fit(visual, points)
+    # The visual is often the mesh itself (untextured, under the cap): its triangles measured once.
+    same = len(visual.faces) == len(solid.faces) and np.array_equal(visual.triangles, solid.triangles)
+    visual_fit = mesh_fit(visual, points, to_mesh=to_solid if same else None)
     median = visual_fit["points_to_surface_median"]
     figures = ScanMeshFigures(
         points=0 if points is None else len(points),
