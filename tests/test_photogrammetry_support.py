@@ -100,11 +100,12 @@ def kermit_run() -> Path:
 def buddha_side(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
     """The 14 side photos' run (the one test_photogrammetry_registration checks), and the
     object's points of the same photos reconstructed without the cut, in the cut model's frame
-    (SfM repeats itself: the two runs share its frame). From one side, what lies behind the head
+    (the two runs share one SfM, and so its frame). From one side, what lies behind the head
     stays in every frame: the scene's fused points hold more than the object, so the object as
     the pipeline finds it without the cut is what the cut must keep."""
     scratch = tmp_path_factory.mktemp("buddha_side")
-    run, uncut = photo_runs.buddha_side_run(DATA, scratch), photo_runs.buddha_side_uncut(DATA, scratch)
+    run = photo_runs.buddha_side_runs(DATA, scratch)
+    uncut = run / "uncut"
     cut_from_uncut = np.load(run / "model_from_sfm.npy") @ np.linalg.inv(np.load(uncut / "model_from_sfm.npy"))
     points = np.load(uncut / "object_points.npy")
     return run, points @ cut_from_uncut[:3, :3].T + cut_from_uncut[:3, 3]
