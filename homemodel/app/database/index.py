@@ -17,7 +17,6 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from homemodel.core.errors import InputError
-from homemodel.core.model_summary import failed_check_lines
 
 INDEX_FILE = "index.sqlite"
 MODELS_DIR = "models"
@@ -79,6 +78,10 @@ class EntryRow:
 
     @property
     def failed_checks(self) -> list[str]:
+        # Imported here: its pydantic models (0.2 s of CPU) would delay a build's first step,
+        # starting its worker processes.
+        from homemodel.core.model_summary import failed_check_lines
+
         return failed_check_lines((c["name"], c["passed"], c["detail"]) for c in self.checks)
 
 

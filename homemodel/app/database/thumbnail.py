@@ -9,12 +9,9 @@ dash its visualisation module imports), which spec and import entries need for n
 from __future__ import annotations
 
 import functools
-from pathlib import Path
-
 import numpy as np
 
 from articulation.model import Model
-from homemodel.core.atomic import write_bytes_atomic
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
 
@@ -146,12 +143,12 @@ def render_thumbnail(model: Model, size_px: int = THUMBNAIL_PX) -> np.ndarray:
     return image.reshape(size_px, size_px, 3)
 
 
-def write_thumbnail(model: Model, path: Path) -> Path:
+def thumbnail_png(model: Model) -> bytes:
+    """The thumbnail as PNG bytes (the entry's build stores them with its other records)."""
     import cv2
 
     # The channels flipped by numpy: cv2.cvtColor wakes OpenCV's thread pool, 13 ms on a busy machine.
     ok, png = cv2.imencode(".png", np.ascontiguousarray(render_thumbnail(model)[:, :, ::-1]))
     if not ok:
         raise RuntimeError("cannot encode the thumbnail as PNG")
-    write_bytes_atomic(Path(path), png.tobytes())
-    return Path(path)
+    return png.tobytes()
