@@ -139,13 +139,18 @@ def _moving_depths(
     state: FitState, view: FitView, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray:
     """(len(values), H, W) depth of the moving part alone at each position; inf where it is not hit."""
-    poses = [_map_from_parts_at(state, object_id, joint, moving, value) for value in values]
+    current = state.map_from_parts()
+    poses = [_map_from_parts_at(state, object_id, joint, moving, value, current) for value in values]
     return state.renderer.depth_stack(poses, view.camera, view.map_from_camera, moving)
 
 
-def _map_from_parts_at(state: FitState, object_id: str, joint: str, moving: list[int], value: float) -> list[np.ndarray]:
-    """Every part's pose with `joint` at `value` (its `moving` parts moved)."""
-    at_value = state.map_from_parts()
+def _map_from_parts_at(
+    state: FitState, object_id: str, joint: str, moving: list[int], value: float,
+    current: list[np.ndarray] | None = None,
+) -> list[np.ndarray]:
+    """Every part's pose with `joint` at `value` (its `moving` parts moved), from `current`
+    (`state.map_from_parts()`, computed once for many values)."""
+    at_value = list(state.map_from_parts() if current is None else current)
     for i, pose in zip(moving, state.part_poses_at(object_id, joint, value, moving)):
         at_value[i] = pose
     return at_value
@@ -158,7 +163,7 @@ def _costs(
     stack = _moving_depths(state, view, object_id, joint, moving, values)
     in_front = stack < static  # the moving part is what the camera would see there
     considered = in_front.any(axis=0)
-    model = np.minimum(stack, static)[:, considered]
+    model = np.minimum(stack[:, considered], static[considered])
     observed = view.depth_m[considered]
     tolerance = view.tolerance_m[considered]
     nearest = model.min(axis=0)

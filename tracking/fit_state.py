@@ -56,9 +56,10 @@ class FitState:
     def map_from_parts(self) -> list[np.ndarray]:
         """`map_from_link` of every part at the current estimates."""
         identity = np.eye(4)
+        links = {object_id: self.object_from_links(object_id) for object_id in self.map_from_objects}
         return [
             identity if part.object_id is None
-            else self.map_from_objects[part.object_id] @ self.object_from_links(part.object_id)[part.link]
+            else self.map_from_objects[part.object_id] @ links[part.object_id][part.link]
             for part in self.scene.parts
         ]
 

@@ -420,19 +420,23 @@ class Renderer:
         """(flat pixel indices, float64 depth there, inf where missed or nearer than
         `NEAR_M`) of part `index` at each pose, all the poses' rays in one cast."""
         rays = self.pixel_rays(camera)
-        pixel_sets, origins, directions = [], [], []
-        for camera_from_part in camera_from_parts:
-            pixels = _pixels_in_view(camera, rays, camera_from_part, self._corners[index])
-            pixels = np.empty(0, dtype=np.int64) if pixels is None else pixels
-            part_from_camera = np.linalg.inv(camera_from_part)
-            pixel_sets.append(pixels)
-            directions.append(rays[pixels] @ part_from_camera[:3, :3].T)
-            origins.append(np.broadcast_to(part_from_camera[:3, 3], (len(pixels), 3)))
-        if not sum(len(p) for p in pixel_sets):
+        empty = np.empty(0, dtype=np.int64)
+        pixel_sets = [_pixels_in_view(camera, rays, m, self._corners[index]) for m in camera_from_parts]
+        pixel_sets = [empty if p is None else p for p in pixel_sets]
+        ends = np.cumsum([len(p) for p in pixel_sets])
+        if not ends[-1]:
             return [(p, np.empty(0)) for p in pixel_sets]
-        t = self._casters[index].hit_distances(np.concatenate(origins), np.concatenate(directions)).astype(np.float64)
+        # Every pose's rays in one float32 buffer, origins then directions, as the caster takes them.
+        origins = np.empty((ends[-1], 3))
+        directions = np.empty((ends[-1], 3))
+        for pixels, camera_from_part, end in zip(pixel_sets, camera_from_parts, ends):
+            if len(pixels):
+                part_from_camera = np.linalg.inv(camera_from_part)
+                origins[end - len(pixels):end] = part_from_camera[:3, 3]
+                np.matmul(rays[pixels], part_from_camera[:3, :3].T, out=directions[end - len(pixels):end])
+        t = self._casters[index].hit_distances(origins, directions).astype(np.float64)
         t[t < NEAR_M] = np.inf
-        return list(zip(pixel_sets, np.split(t, np.cumsum([len(p) for p in pixel_sets])[:-1])))
+        return list(zip(pixel_sets, np.split(t, ends[:-1])))
 
     def pixels_alone(
         self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray, *, whole: bool = False
@@ -496,12 +500,15 @@ def _pixels_in_view(
     z = corners[:, 2]
     if (z < NEAR_M).all():
         return None
-    # The box clipped at the near plane is the hull of its corners in front of the plane and
-    # of its edges' crossings of the plane.
-    a, b = corners[_BOX_EDGES[:, 0]], corners[_BOX_EDGES[:, 1]]
-    crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
-    s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
-    points = np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
+    if (z >= NEAR_M).all():
+        points = corners  # all in front (the fitters' usual case: called thousands of times)
+    else:
+        # The box clipped at the near plane is the hull of its corners in front of the plane
+        # and of its edges' crossings of the plane.
+        a, b = corners[_BOX_EDGES[:, 0]], corners[_BOX_EDGES[:, 1]]
+        crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
+        s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
+        points = np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
     if camera.has_distortion:
         # A lens bends the box's outline in the image, not on the plane z = 1 the rays cross.
         xy = points[:, :2] / points[:, 2:]
