@@ -25,21 +25,33 @@ APT_PACKAGES += chromium chromium-driver
 # Debian's Blender 3.4 under xvfb: the bpy module has no window (about 300 MB).
 APT_PACKAGES += blender xvfb
 
-.PHONY: demo test setup clean addon addon-screenshots
+.PHONY: demo test durations setup clean addon addon-screenshots
 
 demo: setup
 	$(VENV)/bin/homemodel build examples/kitchen --out build/kitchen --force
 
-# Tests run on every core (pytest-xdist), a test file per worker at a time, the longest files
-# first (tests/conftest.py): a file's module fixtures are made once, and the costly session
-# fixtures are shared through tests/fixture_cache.py.
+# Tests run on one worker more than cores (pytest-xdist `-n auto`, tests/conftest.py), a test
+# file per worker at a time, the longest files first by their measured wall time
+# (tests/durations.json): a file's module fixtures are made once, and the costly session
+# fixtures are shared through tests/fixture_cache.py (in the user's cache, across runs).
 # Bytecode caches are written (into .venv and the gitignored __pycache__ folders) even where
 # PYTHONDONTWRITEBYTECODE is set: uv installs no .pyc, and without them every worker and every
 # child process compiles numpy, scipy, trimesh, scikit-learn... from source again (collecting
 # the suite: 26 CPU-s against 8-12; five CLI-heavy test files: 113 CPU-s against 64).
+PYTEST := env -u PYTHONDONTWRITEBYTECODE $(PY) -m pytest -q -n auto --dist loadfile --no-loadscope-reorder
+
 test: setup
 	env -u PYTHONDONTWRITEBYTECODE $(VENV)/bin/lint-imports
-	env -u PYTHONDONTWRITEBYTECODE $(PY) -m pytest -q --durations=15 -n auto --dist loadfile --no-loadscope-reorder
+	$(PYTEST) --durations=15
+
+# Each test file's wall seconds, for the order above, measured by a whole suite run on an empty
+# fixture cache (the cold time a fresh machine sees) into tests/durations.json. Run it again when
+# test files come or their times change much; a file it does not list yet runs first.
+DURATIONS_RUN := build/durations
+durations: setup
+	rm -rf $(DURATIONS_RUN) && mkdir -p $(DURATIONS_RUN)
+	HOMEMODEL_TEST_CACHE=$(CURDIR)/$(DURATIONS_RUN)/cache HOMEMODEL_CPU_PROFILE=$(CURDIR)/$(DURATIONS_RUN)/profile.json $(PYTEST)
+	$(PY) tests/cpu_profile.py --durations tests/durations.json $(DURATIONS_RUN)/profile.json
 
 setup: $(APT_STAMP) $(STAMP) $(NODE_TOOLS)
 

@@ -4,6 +4,8 @@ through the validation gate."""
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import shutil
 from pathlib import Path
@@ -49,39 +51,30 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 
 
 # `make test` runs `-n auto --dist loadfile --no-loadscope-reorder`: xdist gives each worker a
-# whole test file at a time, in the order collected. The longest files (by their cold time, the
-# longest first) start first, so that no worker is left running a long one alone at the end
-# while the other idles; the rest follow in name order.
-LONGEST_FIRST = (
-    "test_photogrammetry_pipeline.py",  # renders the rendered set and reconstructs it; Kermit
-    "test_photogrammetry_registration.py",  # the Buddha sets
-    "test_photogrammetry_support.py",  # the Kermit and Buddha cuts
-    "test_turntable_accuracy.py",
-    "test_blender_addon.py",
-    "test_shape_completion.py",
-    "test_turntable_recordings.py",
-    "test_simulator_export.py",
-    "test_database_example.py",
-    "test_database.py",
-    # 15-50 CPU-s each (tests/cpu_profile.py, cold, s5), which in name order came near the end.
-    "test_outputs_whole.py",
-    "test_tracking_unseen_furniture.py",
-    "test_database_cluster.py",
-    "test_tracking_observe.py",
-    "test_modeller_unseen_sweep.py",
-    "test_input_bounds.py",
-    "test_modeller_unseen_furniture.py",
-    "test_evaluation.py",
-)
+# whole test file at a time, in the order collected. The files go longest first by the wall
+# seconds durations.json lists (`make durations` measures them, cold), a file not measured yet
+# first of all, so that the last files to start are short and the workers end together; the
+# rest keep their order. The cached fixtures two files share (tests/photo_runs.py) are made by
+# the longer file, long before the shorter one starts, so no worker waits on another's lock.
+DURATIONS = Path(__file__).with_name("durations.json")
 
 
-def longest_files_first(items: list[pytest.Item]) -> None:
-    """Order the tests by their file's place in LONGEST_FIRST, each file kept whole and in order."""
+def longest_files_first(items: list[pytest.Item], file_wall_s: dict[str, float] | None = None) -> None:
+    """Order the tests by their file's measured wall time, the longest first, each file kept
+    whole and in order; files not measured first."""
+    wall = file_wall_s if file_wall_s is not None else json.loads(DURATIONS.read_text())["file_wall_s"]
+    items.sort(key=lambda item: -wall.get(item.path.name, math.inf))  # stable
 
-    def place(item: pytest.Item) -> int:
-        return LONGEST_FIRST.index(item.path.name) if item.path.name in LONGEST_FIRST else len(LONGEST_FIRST)
 
-    items.sort(key=place)  # stable: the rest keep the order they were collected in
+@pytest.hookimpl(optionalhook=True)  # xdist may be off (-p no:xdist)
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
+    """`-n auto`: one worker more than the cores this process may use. A test waiting (on a
+    server, a window, a child process, a sleep) leaves its core to the spare worker: about 230
+    of the suite's 1,560 core-seconds were idle with one worker a core. PYTEST_XDIST_AUTO_NUM_WORKERS
+    still decides where it is set (xdist's own hook reads it)."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return None
+    return len(os.sched_getaffinity(0)) + 1
 
 
 class BuiltExample(NamedTuple):

@@ -6,10 +6,13 @@ subprocess), with its wall time beside; each process also reports what its start
 collection cost before the first test. Under pytest-xdist the workers send their records to
 the controller, which writes one file.
 
-`python tests/cpu_profile.py out.json [more.json ...]` prints the per-file table in Markdown."""
+`python tests/cpu_profile.py out.json [more.json ...]` prints the per-file table in Markdown;
+`python tests/cpu_profile.py --durations tests/durations.json out.json` writes each file's wall
+seconds, the order conftest.py runs the files in (`make durations` does both, cold)."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import resource
@@ -109,8 +112,29 @@ def markdown(tests: dict[str, dict[str, float]], top: int = 3, min_cpu_s: float 
     return "\n".join(lines)
 
 
+def file_wall_s(tests: dict[str, dict[str, float]]) -> dict[str, float]:
+    """Each test file's wall seconds (its tests' phases summed), by its name in tests/, the longest first."""
+    files: dict[str, float] = defaultdict(float)
+    for nodeid, record in tests.items():
+        files[Path(nodeid.partition("::")[0]).name] += sum(record.get(f"{phase}_wall_s", 0.0) for phase in PHASES)
+    return {name: round(wall, 1) for name, wall in sorted(files.items(), key=lambda item: (-item[1], item[0]))}
+
+
+def write_durations(out: Path, tests: dict[str, dict[str, float]]) -> None:
+    tmp = out.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"file_wall_s": file_wall_s(tests)}, indent=1) + "\n")
+    tmp.replace(out)
+
+
 if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description="The per-file table of CPU profiles, or the durations list.")
+    parser.add_argument("profiles", nargs="+", type=Path)
+    parser.add_argument("--durations", type=Path, help="write each file's wall seconds here instead")
+    args = parser.parse_args()
     merged: dict[str, dict[str, float]] = {}
-    for name in sys.argv[1:]:
-        merged.update(json.loads(Path(name).read_text())["tests"])
-    print(markdown(merged))
+    for profile in args.profiles:
+        merged.update(json.loads(profile.read_text())["tests"])
+    if args.durations:
+        write_durations(args.durations, merged)
+    else:
+        print(markdown(merged))

@@ -1,7 +1,9 @@
-"""The suite's order under pytest-xdist: the longest test files first, each kept whole (conftest)."""
+"""The suite's order under pytest-xdist: the longest test files first by their measured wall
+time (durations.json), each kept whole, unmeasured files first; one worker more than cores."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -9,30 +11,52 @@ import sys
 from pathlib import Path
 from types import SimpleNamespace
 
-from conftest import LONGEST_FIRST, longest_files_first
+import pytest
+from conftest import DURATIONS, longest_files_first, pytest_xdist_auto_num_workers
+from cpu_profile import file_wall_s
 
 TESTS = Path(__file__).resolve().parent
 
 
-def test_every_file_named_longest_first_is_a_test_file() -> None:
-    """A renamed or removed file would silently drop back to name order."""
-    missing = [name for name in LONGEST_FIRST if not (TESTS / name).is_file()]
-    assert not missing, missing
-    assert len(set(LONGEST_FIRST)) == len(LONGEST_FIRST)
+def test_the_durations_list_is_what_the_profiler_writes_and_names_test_files() -> None:
+    """`make durations` writes it (tests/cpu_profile.py --durations): each test file's wall seconds."""
+    wall = json.loads(DURATIONS.read_text())["file_wall_s"]
+    assert len(wall) > 50 and all(name.startswith("test_") and name.endswith(".py") for name in wall)
+    assert all(isinstance(s, float) and s >= 0 for s in wall.values())
+    measured = [name for name in wall if (TESTS / name).is_file()]
+    assert len(measured) >= 0.9 * len(wall), "most listed files are gone: run `make durations`"
 
 
-def test_the_longest_files_go_first_and_every_file_stays_whole_and_in_order() -> None:
-    names = ["test_a.py", "test_a.py", LONGEST_FIRST[1], LONGEST_FIRST[1], "test_b.py", LONGEST_FIRST[0]]
+def test_files_are_timed_by_summing_their_tests_phases() -> None:
+    profile = {
+        "tests/test_a.py::one": {"setup_wall_s": 5.0, "call_wall_s": 1.0, "setup_cpu_s": 9.0},
+        "tests/test_a.py::two[x]": {"call_wall_s": 2.0, "teardown_wall_s": 0.5},
+        "tests/test_b.py::three": {"call_wall_s": 30.0},
+    }
+    assert file_wall_s(profile) == {"test_b.py": 30.0, "test_a.py": 8.5}
+    assert list(file_wall_s(profile)) == ["test_b.py", "test_a.py"]
+
+
+def test_the_longest_files_go_first_unmeasured_ones_before_them_and_every_file_stays_whole() -> None:
+    wall = {"test_short.py": 1.0, "test_long.py": 90.0, "test_mid.py": 20.0}
+    names = ["test_mid.py", "test_long.py", "test_new.py", "test_short.py", "test_long.py", "test_mid.py"]
     items = [SimpleNamespace(path=TESTS / name, index=i) for i, name in enumerate(names)]
-    longest_files_first(items)
+    longest_files_first(items, wall)
     assert [(item.path.name, item.index) for item in items] == [
-        (LONGEST_FIRST[0], 5),
-        (LONGEST_FIRST[1], 2),
-        (LONGEST_FIRST[1], 3),
-        ("test_a.py", 0),
-        ("test_a.py", 1),
-        ("test_b.py", 4),
+        ("test_new.py", 2),
+        ("test_long.py", 1),
+        ("test_long.py", 4),
+        ("test_mid.py", 0),
+        ("test_mid.py", 5),
+        ("test_short.py", 3),
     ]
+
+
+def test_auto_gives_one_worker_more_than_cores_unless_told(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("PYTEST_XDIST_AUTO_NUM_WORKERS", raising=False)
+    assert pytest_xdist_auto_num_workers(None) == len(os.sched_getaffinity(0)) + 1
+    monkeypatch.setenv("PYTEST_XDIST_AUTO_NUM_WORKERS", "1")
+    assert pytest_xdist_auto_num_workers(None) is None  # xdist's own hook reads the variable
 
 
 def test_without_the_shared_data_its_tests_are_skipped_under_one_line(tmp_path: Path) -> None:
