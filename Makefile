@@ -70,11 +70,14 @@ $(APT_STAMP): Makefile
 	@touch $@
 
 # uv installs the same packages as pip from the same index, downloading and unpacking in
-# parallel: a fraction of pip's time for the 1.5 GB of wheels.
+# parallel: a fraction of pip's time for the 1.5 GB of wheels. The venv is made without pip
+# (ensurepip compiling pip cost 7 CPU-s); the system's pip puts uv into it (ensurepip where
+# there is none), and uv installs pip with the rest, for `.venv/bin/pip`.
 $(STAMP): setup.cfg pyproject.toml
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q 'uv>=0.9,<1'
-	$(VENV)/bin/uv pip install -q --python $(PY) -e '.[dev]'
+	test -x $(PY) || $(PYTHON) -m venv --without-pip $(VENV)
+	test -x $(VENV)/bin/uv || $(PYTHON) -m pip --python $(PY) install -q 'uv>=0.9,<1' \
+		|| { $(PY) -m ensurepip -q && $(PY) -m pip install -q 'uv>=0.9,<1'; }
+	$(VENV)/bin/uv pip install -q --python $(PY) -e '.[dev]' pip
 	@touch $@
 
 $(NODE_TOOLS) &: tools/package.json
