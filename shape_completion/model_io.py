@@ -160,7 +160,10 @@ def _completer(arrays: dict[str, np.ndarray], meta: dict, name: str) -> ShapeCom
     completer.view_shape_ = arrays["views.shape"]
     completer.view_poses_ = arrays["views.poses"]
     sizes = arrays["views.cloud_sizes"]
-    completer.view_clouds_ = np.split(arrays["views.clouds"], np.cumsum(sizes)[:-1])
+    ends = np.cumsum(sizes)
+    # Slices, not np.split: the same views of the array, without np.split's cost per piece
+    # (12,000 views: 0.05 CPU-s of a query's load).
+    completer.view_clouds_ = [arrays["views.clouds"][a:b] for a, b in zip(ends - sizes, ends, strict=True)]
     if np.any(completer.view_shape_ < 0) or np.any(completer.view_shape_ >= len(completer.shapes_)):
         raise ValueError("a view names a library shape the model does not have")
     if not (len(sizes) == len(completer.view_shape_) == len(completer.view_poses_)):

@@ -319,10 +319,10 @@ class _LeafTables:
             # Rows: r = how many of the sorted thresholds a value passes (x > threshold: right), then missing.
             order = np.argsort(nodes["num_threshold"][at], kind="stable")
             thresholds = nodes["num_threshold"][at][order]
+            # Row r + 1 = row r with the r-th split's tree masked: a running AND down the rows.
             table = np.full((len(at) + 2, n_trees), all_leaves)
-            for r, split in enumerate(order):
-                table[r + 1] = table[r]
-                table[r + 1, trees[split]] &= keeps[split]
+            table[np.arange(1, len(at) + 1), trees[order]] = keeps[order]
+            np.bitwise_and.accumulate(table[:-1], axis=0, out=table[:-1])
             np.bitwise_and.at(table[-1], trees[goes_right_if_missing], keeps[goes_right_if_missing])
             self.columns.append((int(column), thresholds, table))
 
