@@ -54,29 +54,40 @@ def gravity_load(model: Model, joint: Joint, position: float, gravity_model: np.
 
     `gravity_model` is gravity in the model's frame: upright unless the model is placed tilted.
     """
-    world_from_link = model.world_from_links({joint.name: position})
-    world_from_joint = world_from_link[joint.parent] @ joint.parent_from_joint
-    axis = world_from_joint[:3, :3] @ (joint.axis / np.linalg.norm(joint.axis))
-    weight = np.asarray(gravity_model, dtype=np.float64)
-    load = 0.0
-    for name in subtree_links(model, joint):
-        inertial = model.link(name).inertial
-        if inertial is None:
-            continue
-        force = inertial.mass_kg * weight
-        if joint.type == "prismatic":
-            load += float(axis @ force)
-        else:
-            com = world_from_link[name][:3, :3] @ inertial.com_m + world_from_link[name][:3, 3]
-            load += float(axis @ np.cross(com - world_from_joint[:3, 3], force))
-    return load
+    return float(_gravity_loads(model, joint, [position], gravity_model)[0])
 
 
 def worst_gravity_load(model: Model, joint: Joint, gravity_model: np.ndarray = UPRIGHT_GRAVITY_M_S2) -> float:
     """The largest |gravity load| over the joint's range (N·m or N); 0 for a fixed joint."""
     if not joint.is_movable:
         return 0.0
-    return max(abs(gravity_load(model, joint, float(q), gravity_model)) for q in _positions(joint))
+    return float(np.abs(_gravity_loads(model, joint, _positions(joint), gravity_model)).max())
+
+
+def _gravity_loads(model: Model, joint: Joint, positions, gravity_model: np.ndarray) -> np.ndarray:
+    """`gravity_load` at each of `positions`. With the other joints at rest the subtree moves
+    as one body, so its mass and mass-weighted centre are found once, in the child's frame,
+    not the whole model's poses once per position."""
+    world_from_rest = model.world_from_links()
+    world_from_joint = world_from_rest[joint.parent] @ joint.parent_from_joint
+    axis = world_from_joint[:3, :3] @ (joint.axis / np.linalg.norm(joint.axis))
+    weight = np.asarray(gravity_model, dtype=np.float64)
+    world_from_child_at_rest = world_from_rest[joint.child]
+    mass_kg, mass_moment_kgm = 0.0, np.zeros(3)  # the sum of mass x centre, in the child's frame
+    for name in subtree_links(model, joint):
+        inertial = model.link(name).inertial
+        if inertial is None:
+            continue
+        world_from_link = world_from_rest[name]
+        com_world = world_from_link[:3, :3] @ inertial.com_m + world_from_link[:3, 3]
+        mass_kg += inertial.mass_kg
+        com_child = world_from_child_at_rest[:3, :3].T @ (com_world - world_from_child_at_rest[:3, 3])  # rigid: R^T (x - t)
+        mass_moment_kgm += inertial.mass_kg * com_child
+    if joint.type == "prismatic":
+        return np.full(len(positions), float(axis @ (mass_kg * weight)))
+    world_from_child = world_from_joint @ np.stack([joint.joint_from_child(float(q)) for q in positions])
+    lever_kgm = world_from_child[:, :3, :3] @ mass_moment_kgm + mass_kg * (world_from_child[:, :3, 3] - world_from_joint[:3, 3])
+    return np.cross(lever_kgm, weight) @ axis
 
 
 def axis_inertia(model: Model, joint: Joint) -> float:
