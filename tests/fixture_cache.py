@@ -61,11 +61,15 @@ def _layers() -> tuple[tuple[str, ...], ...]:
     return tuple(tuple(name.strip() for name in line.split("|")) for line in lines if line.strip())
 
 
+def _within(module: str, package: str) -> bool:
+    return f"{module}.".startswith(f"{package}.")
+
+
 def code_of(package: str) -> list[str]:
     """`package` and every package the layers let it import (homemodel.cli: all of them), and
     the parents whose `__init__` runs on its import."""
     layers = _layers()
-    inside = [i for i, layer in enumerate(layers) for name in layer if f"{name}.".startswith(f"{package}.") or f"{package}.".startswith(f"{name}.")]
+    inside = [i for i, layer in enumerate(layers) for name in layer if _within(name, package) or _within(package, name)]
     if not inside:
         raise RuntimeError(f"package {package} is in no layer of setup.cfg's import-linter contract")
     names = [package, *(name for layer in layers[min(inside) + 1 :] for name in layer)]
@@ -87,7 +91,8 @@ def _module_files(name: str) -> dict[str, Path]:
 @functools.cache
 def environment() -> str:
     """The Python and every installed distribution's version but the project's own."""
-    versions = sorted({f"{d.metadata['Name']}=={d.version}" for d in importlib.metadata.distributions() if d.metadata["Name"] != PROJECT})
+    dists = importlib.metadata.distributions()
+    versions = sorted({f"{d.metadata['Name']}=={d.version}" for d in dists if d.metadata["Name"] != PROJECT})
     return "\n".join([sys.version, *versions])
 
 

@@ -20,7 +20,9 @@ from fixture_cache import cached_folder, code_of, content_key
 TESTS = Path(__file__).resolve().parent
 
 
-def test_the_key_follows_the_inputs_the_code_the_settings_and_the_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_key_follows_the_inputs_the_code_the_settings_and_the_environment(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     inputs = tmp_path / "inputs"
     (inputs / "sub").mkdir(parents=True)
     (inputs / "sub" / "spec.yaml").write_text("width_m: 0.6\n")
@@ -85,7 +87,9 @@ def test_two_checkouts_make_their_own_keys_at_once(tmp_path: Path) -> None:
     assert [(Path(f) / "result.txt").read_text() for f in folders] == ["k1", "k2"]
 
 
-def test_old_entries_go_when_many_or_long_unused_but_never_while_a_run_may_read_them(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_old_entries_go_when_many_or_long_unused_but_never_while_a_run_may_read_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(fixture_cache, "CACHE_ROOT", tmp_path)
     root = tmp_path / "shared"
 
@@ -108,7 +112,9 @@ def test_the_default_cache_is_the_user_s_and_the_variable_moves_it(tmp_path: Pat
     code = "import fixture_cache; print(fixture_cache.CACHE_ROOT)"
 
     def root(**extra: str) -> str:
-        return subprocess.run([sys.executable, "-c", code], env={**env, **extra}, cwd=TESTS, capture_output=True, text=True, check=True).stdout.strip()
+        run = subprocess.run([sys.executable, "-c", code], env={**env, **extra}, cwd=TESTS, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        return run.stdout.strip()
 
     assert root(XDG_CACHE_HOME=str(tmp_path / "xdg")) == str(tmp_path / "xdg" / "homemodel" / "test-fixtures")
     assert root(XDG_CACHE_HOME="", HOME=str(tmp_path)) == str(tmp_path / ".cache" / "homemodel" / "test-fixtures")

@@ -46,12 +46,13 @@ def invoke(*args: str):
 
 @pytest.fixture(scope="module")
 def trained() -> dict:
-    """The library (regenerated once per content of the generator, tests/fixture_cache.py) and
+    """The library (regenerated once per content of the generator, and of the `completion library`
+    command it runs with all it imports: tests/fixture_cache.py) and
     the model kept in the repository that was trained on it (tests/completion_model.py); tests
     only read them. Training itself is tested on a tiny library below."""
     settings = repr(completion_model.LIBRARY_OPTIONS)
-    root = cached_folder("completion_library", content_key(packages=("shape_completion",), settings=settings),
-                         lambda folder: completion_model.write_library(folder / "library"))  # fmt: skip
+    key = content_key(inputs=[Path(completion_model.__file__)], packages=("homemodel.cli",), settings=settings)
+    root = cached_folder("completion_library", key, lambda folder: completion_model.write_library(folder / "library"))
     library_fingerprint = fingerprint_files(library_files(root / "library"))
     meta = json.loads(read_npz(MODEL, MODEL_BYTES)["meta"].tobytes())
     assert meta["library_fingerprint"] == library_fingerprint, (
