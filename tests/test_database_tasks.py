@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from homemodel.app.database.build import largest_first
 from homemodel.app.database.manifest import Job
 from homemodel.app.database.build_request import BuildRequest
 from homemodel.app.database.dispatch import JOURNAL, Dispatch, crashed_here
@@ -58,6 +59,17 @@ def test_an_entry_that_crashed_the_build_process_goes_to_dask_only(tmp_path) -> 
     assert dispatch._next_here() is None and [r.job.id for t in _tasks(dispatch) for r in t] == ["s1"]
     # Without this process building, the journal changes nothing.
     assert [r.job.id for t in _tasks(Dispatch(None, specs, here=False, processes=2, db_dir=tmp_path, dask_only={"s1"})) for r in t] == ["s0", "s1", "s2"]
+
+
+def test_entries_go_longest_first_by_their_last_build_and_new_ones_before_them() -> None:
+    jobs = [Job(id=name, source="spec", inputs={"path": Path(f"/in/{name}.yaml")}) for name in ("cup", "new_a", "cupboard", "bowl", "new_b")]
+    last_build_s = {"cup": 0.12, "cupboard": 0.9, "bowl": 0.2, "gone": 5.0}
+    assert [job.id for job in largest_first(jobs, last_build_s)] == ["new_a", "new_b", "cupboard", "bowl", "cup"]
+    # Dispatch keeps that order: the build's own process and Dask take from the front.
+    requests = [BuildRequest(job=job, key="k", db_dir=Path("/db"), repair=None) for job in largest_first(jobs, last_build_s)]
+    dispatch = Dispatch(None, requests, here=True, processes=2, db_dir=Path("/db"))
+    assert [dispatch._next_here().job.id for _ in range(3)] == ["new_a", "new_b", "cupboard"]
+    assert [r.job.id for r in dispatch._next_task()] == ["bowl"]
 
 
 def test_a_task_key_changes_with_any_entry_key() -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import logging
+import math
 import os
 import shutil
 import time
@@ -134,6 +135,13 @@ def plan(jobs: list[Job], repairs: dict[str, RepairSpec | None], index: ModelInd
     return keys, todo, cached
 
 
+def largest_first(jobs: list[Job], last_build_s: dict[str, float]) -> list[Job]:
+    """`jobs` by their last build's time, longest first; those never built before them all (any
+    of them may be long), in the manifest's order. A build ends with its last entry while the
+    other processes idle: that entry had better be a short one."""
+    return sorted(jobs, key=lambda job: -last_build_s.get(job.id, math.inf))
+
+
 def build_database(
     manifest_path: Path,
     db_dir: Path,
@@ -166,6 +174,7 @@ def build_database(
             for job in cached:
                 on_entry(index.require(job.id), True)
         if todo:
+            todo = largest_first(todo, dict(index.columns(("id", "build_s"))))
             requests = [BuildRequest(job=job, key=keys[job.id], db_dir=db_dir.resolve(), repair=repairs[job.id]) for job in todo]
             _run(options, requests, index, result, on_entry, on_dashboard)
             _remove_leftovers(db_dir)  # of a worker killed during this build
