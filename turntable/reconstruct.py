@@ -259,24 +259,33 @@ def merge_frames(
             valid=int(np.count_nonzero(np.isfinite(depth))),
         )
 
+    def points_of(frame: FramePaths) -> tuple[FrameReading, tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+        reading = one(frame)
+        if reading.pixels is None:
+            return reading, None
+        table_from_camera = np.linalg.inv(camera_from_tables[frame.stem])
+        if rate is not None and frame.stem in timing:
+            angle = rate * float(timing[frame.stem]["depth_offset_s"])
+            table_from_camera = np.linalg.inv(turned_table(cylinder.axis_xy_m, angle)) @ table_from_camera
+        return reading, pixel_points(reading.pixels, frames.rays, table_from_camera, cylinder)
+
     flying_total = valid_total = merged_total = 0
     offsets = []
-    for done, (frame, reading) in enumerate(zip(merged, map(one, merged)), start=1):
-        if reading.pixels is None:
-            skipped[frame.stem] = str(reading.pose)
-            poses.pop(frame.stem, None)
-        else:
-            table_from_camera = np.linalg.inv(camera_from_tables[frame.stem])
-            if rate is not None and frame.stem in timing:
-                angle = rate * float(timing[frame.stem]["depth_offset_s"])
-                table_from_camera = np.linalg.inv(turned_table(cylinder.axis_xy_m, angle)) @ table_from_camera
-            accumulator.add(*pixel_points(reading.pixels, frames.rays, table_from_camera, cylinder))
-            flying_total += reading.flying
-            valid_total += reading.valid
-            merged_total += 1
-            if reading.offset_px is not None:
-                offsets.append(reading.offset_px)
-        report("merge", done, len(merged))
+    # The frames' points on the workers' threads (NumPy lets go of the GIL), summed in order here.
+    with _mapper(options.workers) as mapper:
+        done_frames = enumerate(zip(merged, mapper(points_of, merged)), start=1)
+        for done, (frame, (reading, points)) in done_frames:
+            if points is None:
+                skipped[frame.stem] = str(reading.pose)
+                poses.pop(frame.stem, None)
+            else:
+                accumulator.add(*points)
+                flying_total += reading.flying
+                valid_total += reading.valid
+                merged_total += 1
+                if reading.offset_px is not None:
+                    offsets.append(reading.offset_px)
+            report("merge", done, len(merged))
     offset_px = np.median(offsets, axis=0) if offsets else None
     figures.update(
         {
