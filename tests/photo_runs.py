@@ -132,8 +132,8 @@ def buddha_side_runs(data: Path, scratch: Path) -> Path:
     """The 14 side photos twice, made once: without the support cut in memory (`uncut/`:
     `object_points.npy` and `model_from_sfm.npy`, at the run's depth size, a 256 px texture),
     then through the command with the cut (the folder of `cli_run`), its SfM handed over
-    from the first (the same photos and the same default SfM options): 57-61 CPU-s for both,
-    85 as two runs each with its own SfM (measured side by side, load ~25). One SfM also gives
+    from the first (the same photos and the same default SfM options): 49-61 CPU-s for both,
+    85 as two runs each with its own SfM (cold, load 23-28). One SfM also gives
     both one frame, which two SfM runs give only when they repeat themselves to the bit."""
     from photogrammetry import pipeline
     from photogrammetry.cleaning import CleaningOptions
