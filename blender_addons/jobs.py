@@ -134,11 +134,13 @@ class HOMEMODEL_OT_run_job(bpy.types.Operator, ImportHelper):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         done = self.job.poll()
-        context.scene.homemodel_job_status = f"{JOB_BUTTONS[self.kind][0]}: {self.job.stage}"
-        context.scene.homemodel_job_progress = 100.0 * self.job.fraction
-        context.window_manager.progress_update(int(100 * self.job.fraction))
-        if context.area is not None:
-            context.area.tag_redraw()
+        shown = (f"{JOB_BUTTONS[self.kind][0]}: {self.job.stage}", round(100.0 * self.job.fraction, 1))
+        if shown != getattr(self, "shown", None):  # each change redraws the scene: without a GPU, in software
+            self.shown = shown
+            context.scene.homemodel_job_status, context.scene.homemodel_job_progress = shown
+            context.window_manager.progress_update(int(shown[1]))
+            if context.area is not None:
+                context.area.tag_redraw()
         if not done:
             return {"RUNNING_MODAL"}
         try:
