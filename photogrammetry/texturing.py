@@ -74,38 +74,53 @@ def bake_texture(
     normals = texels.interpolate(atlas.mesh.vertex_normals)
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
     caster = RayCaster(mesh)
+    # Every view tests every texel: in float32, about the texels' mean (no precision lost), with
+    # the texel-wide terms made once, so that a view costs three products with its pose and
+    # centre; only the texels that face it are then projected. Facing: n . (c - p) > min_cos
+    # |c - p|, where |c - p|^2 = |p|^2 - 2 p . c + |c|^2.
+    origin = points.mean(axis=0)
+    points32, normals32 = (points - origin).astype(np.float32), normals.astype(np.float32)
+    normal_dot_point = np.einsum("ij,ij->i", normals32, points32)
+    point_square = np.einsum("ij,ij->i", points32, points32)
 
-    def view_colours(view: View) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The texels `view` sees unoccluded, their colours in it and their weights."""
+    def view_colours(view: View) -> tuple[np.ndarray, np.ndarray]:
+        """The texels `view` sees unoccluded, and their weighted colours and weights (N, 4)."""
         depth, depth_camera = _depth_buffer(caster, view, options.depth_buffer_px)
-        camera_points = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
-        z = camera_points[:, 2]
-        to_camera = view.centre_world - points
-        to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
-        cos = np.sum(normals * to_camera, axis=1)
-        usable = (z > 0) & (cos > options.min_cos)
-        col, row = np.round(depth_camera.project(camera_points[usable])).astype(int).T
-        inside = (col >= 0) & (col < depth.shape[1]) & (row >= 0) & (row < depth.shape[0])
-        candidates = np.nonzero(usable)[0][inside]
-        buffer_depth = depth[row[inside], col[inside]]
+        rotation = view.camera_from_world[:3, :3].astype(np.float32)
+        translation = (view.camera_from_world[:3, :3] @ origin + view.camera_from_world[:3, 3]).astype(np.float32)
+        centre = (view.centre_world - origin).astype(np.float32)
+        z = points32 @ rotation[2] + translation[2]
+        facing = normals32 @ centre - normal_dot_point
+        distance = np.sqrt(np.maximum(point_square - 2 * (points32 @ centre) + centre @ centre, 1e-30))
+        usable = np.nonzero((z > 0) & (facing > options.min_cos * distance))[0]
+        camera_points = points32[usable] @ rotation.T + translation
+        # The views are pinhole (undistorted): a pixel is f x / z + c in any of their sizes.
+        x, y = camera_points[:, 0] / camera_points[:, 2], camera_points[:, 1] / camera_points[:, 2]
+        col = np.rint(depth_camera.fx * x + depth_camera.cx).astype(np.int32)
+        row = np.rint(depth_camera.fy * y + depth_camera.cy).astype(np.int32)
+        inside = np.nonzero((col >= 0) & (col < depth.shape[1]) & (row >= 0) & (row < depth.shape[0]))[0]
         # Visible: nothing in front of the texel along this pixel's ray (a tolerance for the
         # depth buffer's coarser sampling of the surface).
-        visible = candidates[z[candidates] <= buffer_depth * 1.01 + 1e-9]
+        seen = inside[camera_points[inside, 2] <= depth[row[inside], col[inside]] * 1.01 + 1e-9]
+        visible = usable[seen]
         if not len(visible):
-            return visible, np.zeros((0, 3)), np.zeros(0)
+            return visible, np.zeros((0, 4), np.float32)
         image = read_rgb(view.image_path, max_side_px=options.max_image_px)
-        image_camera = view.camera.scaled(image.shape[1] / view.camera.width)
-        return visible, _sample_bilinear(image, image_camera.project(camera_points[visible])), cos[visible] ** 4
+        camera = view.camera.scaled(image.shape[1] / view.camera.width)
+        xy = np.column_stack([camera.fx * x[seen] + camera.cx, camera.fy * y[seen] + camera.cy])
+        weighted = np.empty((len(visible), 4), np.float32)
+        weighted[:, 3] = (facing[visible] / distance[visible]) ** 4
+        weighted[:, :3] = _sample_bilinear(image, xy) * weighted[:, 3:]
+        return visible, weighted
 
-    colour_sum = np.zeros((len(points), 3))
-    weight_sum = np.zeros(len(points))
+    sums = np.zeros((len(points), 4), np.float32)  # weighted colour, weight
     # Views on every core (numpy, the ray caster and OpenCV release the GIL); sums in this thread.
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        for index, (visible, colours, weight) in enumerate(pool.map(view_colours, views)):
-            colour_sum[visible] += weight[:, None] * colours
-            weight_sum[visible] += weight
+        for index, (visible, weighted) in enumerate(pool.map(view_colours, views)):
+            sums[visible] += weighted
             if progress:
                 progress("texturing", index + 1, len(views))
+    colour_sum, weight_sum = sums[:, :3].astype(np.float64), sums[:, 3].astype(np.float64)
     seen = weight_sum > 0
     if not seen.any():
         raise ModelError("no view sees the mesh: cannot bake a texture")
@@ -126,4 +141,4 @@ def _sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
     padded[:count] = xy
     maps = padded.reshape(-1, width, 2)
     sampled = cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-    return sampled.reshape(-1, image.shape[2])[:count].astype(np.float64)
+    return sampled.reshape(-1, image.shape[2])[:count].astype(np.float32)
