@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from lxml import etree
 
-from articulation.scan_meshes import ScanMeshOptions, scan_meshes
+from articulation.scan_meshes import ScanMeshOptions, ScanMeshPair, scan_meshes
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError
 from homemodel.evaluation.surface import distances_to_surface
@@ -63,9 +63,15 @@ def test_the_visual_mesh_keeps_the_points_detail_and_a_low_cap_is_reported() -> 
     assert coarse.figures.visual.within_point_spacing is False
 
 
-def test_a_cups_convex_parts_keep_within_5_mm_of_its_surface_both_ways() -> None:
+@pytest.fixture(scope="module")
+def cup_scan() -> tuple[trimesh.Trimesh, ScanMeshPair]:
+    """The cup and its two meshes from 5,000 points: decomposed once, read by two tests."""
     cup = _cup()
-    pair = scan_meshes(cup, _points_on(cup, 5000, 0.0002, seed=2))
+    return cup, scan_meshes(cup, _points_on(cup, 5000, 0.0002, seed=2))
+
+
+def test_a_cups_convex_parts_keep_within_5_mm_of_its_surface_both_ways(cup_scan: tuple) -> None:
+    cup, pair = cup_scan
     assert pair.decomposition is not None and len(pair.collisions) > 1
     assert all(part.is_convex for part in pair.collisions)
     # Measured here apart from the module's own figures: exact distances (trimesh's closest point).
@@ -105,13 +111,11 @@ def test_a_box_collides_as_its_hull_and_bad_points_are_refused() -> None:
         scan_meshes(box, None, options=ScanMeshOptions(max_visual_faces=10))
 
 
-def test_the_model_folder_names_each_mesh_and_real_clients_load_it(tmp_path: Path) -> None:
+def test_the_model_folder_names_each_mesh_and_real_clients_load_it(cup_scan: tuple, tmp_path: Path) -> None:
     import pybullet
     import yourdfpy
 
-    cup = _cup()
-    points = _points_on(cup, 5000, 0.0002, seed=4)
-    pair = scan_meshes(cup, points)
+    cup, pair = cup_scan
     model = scan_model(cup, meshes=pair, name="cup_scan", density_kg_m3=1000.0)
     folder = write_model_folder(
         model, tmp_path / "cup", PipelineSummary(source="turntable", meshes=pair.figures)

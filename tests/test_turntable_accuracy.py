@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -22,6 +23,7 @@ import numpy as np
 import pytest
 import trimesh
 from fixture_cache import cached_folder, content_key
+from click.testing import Result
 from typer.testing import CliRunner
 
 from homemodel.core.images import read_image
@@ -100,15 +102,18 @@ def reconstructions(captures: dict[str, Path]) -> dict[str, Reconstruction]:
 
 
 @pytest.fixture(scope="module")
-def noisy_reconstructions(
-    captures: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
-) -> dict[str, Reconstruction]:
+def noisy_captures(captures: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Each capture with noisy depth (the noise model's own test reads the box's too)."""
     root = tmp_path_factory.mktemp("noisy")
-    result = {}
-    for name, folder in captures.items():
-        noisy = resimulate_depth(folder, root / name, depth_noise_m=NOISE_AT_0_7_M, random_state=1)
-        result[name] = reconstruct_capture(load_capture(noisy))
-    return result
+    return {
+        name: resimulate_depth(folder, root / name, depth_noise_m=NOISE_AT_0_7_M, random_state=1)
+        for name, folder in captures.items()
+    }
+
+
+@pytest.fixture(scope="module")
+def noisy_reconstructions(noisy_captures: dict[str, Path]) -> dict[str, Reconstruction]:
+    return {name: reconstruct_capture(load_capture(folder)) for name, folder in noisy_captures.items()}
 
 
 def pose_errors(result: Reconstruction, capture: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -146,11 +151,11 @@ def test_noisy_depth_mesh_matches_the_truth(name: str, captures: dict[str, Path]
     assert distance <= 0.003, f"mean surface distance {distance * 1000:.2f} mm"
 
 
-def test_noise_model_has_the_requested_spread(captures: dict[str, Path], tmp_path: Path) -> None:
+def test_noise_model_has_the_requested_spread(captures: dict[str, Path], noisy_captures: dict[str, Path]) -> None:
     """Depth differences between a noisy and the noise-free rendering: sigma (z / 0.7 m)^2."""
     from turntable.capture import read_depth
 
-    noisy = resimulate_depth(captures["box"], tmp_path / "noisy", depth_noise_m=NOISE_AT_0_7_M, random_state=3)
+    noisy = noisy_captures["box"]
     camera = load_capture(noisy).camera
     clean = read_depth(captures["box"] / "depth" / "000000.png", camera)
     noised = read_depth(noisy / "depth" / "000000.png", camera)
@@ -205,38 +210,40 @@ def test_ray_cast_tag_corners_are_as_exact_as_cycles(captures: dict[str, Path]) 
     assert np.percentile(ray_cast, 95) <= np.percentile(cycles, 95), f"p95 {np.percentile(ray_cast, 95):.3f} px"
 
 
-def test_bad_frames_are_skipped_and_counted(captures: dict[str, Path], tmp_path: Path) -> None:
-    capture = Path(shutil.copytree(captures["box"], tmp_path / "damaged"))
+BAD_FRAMES = ["000003", "000004", "000005", "000006"]
+
+
+@dataclass
+class CliRun:
+    out: Path
+    map_path: Path
+    args: list[str]
+    result: Result
+
+
+@pytest.fixture(scope="module")
+def cli_run(captures: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -> CliRun:
+    """One `turntable reconstruct` of the mug's capture with four bad frames, exported and
+    registered into a map: the CLI test reads the folder and the map, the bad-frames test its
+    skips and its mesh (one reconstruction for both)."""
+    from sample_house import build_house
+
+    from homemodel.cli import app
+    from homemodel.exchange.map_xml import save_map
+
+    root = tmp_path_factory.mktemp("cli")
+    capture = Path(shutil.copytree(captures["mug"], root / "damaged"))
     (capture / "color" / "000003.png").write_bytes(b"\x89PNG\r\n\x1a\n not really")
     (capture / "color" / "000004.png").write_bytes(b"")
     cv2.imwrite(str(capture / "depth" / "000005.png"), np.zeros((10, 10), np.uint16))
     cv2.imwrite(str(capture / "color" / "000006.png"), np.full((240, 320, 3), 128, np.uint8))  # no tag seen
-    result = reconstruct_capture(load_capture(capture))
-    assert sorted(result.skipped) == ["000003", "000004", "000005", "000006"]
-    assert "not a readable image" in result.skipped["000003"]
-    assert "10x10 pixels but camera.yaml says 320x240" in result.skipped["000005"]
-    assert "0 board tags seen" in result.skipped["000006"]
-    summary = result.figures()
-    assert (summary["frames_used"], summary["frames_skipped"]) == (16, 4)
-    assert summary["skip_reasons"] == {"image": 3, "pose": 1}
-    truth = trimesh.load(capture / "ground_truth.ply", force="mesh")
-    assert mean_surface_distance_m(result.mesh, truth) <= 0.0015
-
-
-def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_path: Path) -> None:
-    from sample_house import build_house
-
-    from homemodel.model_folder.gate.validate import validate_path
-    from homemodel.cli import app
-    from homemodel.exchange.map_xml import load_map, save_map
-
-    map_path = tmp_path / "map.xml"
+    map_path = root / "map.xml"
     save_map(build_house(), map_path)
-    out = tmp_path / "mug_model"
+    out = root / "mug_model"
     args = [
         "turntable",
         "reconstruct",
-        str(captures["mug"]),
+        str(capture),
         "--out",
         str(out),
         "--name",
@@ -253,7 +260,30 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
         "0.1",
         "0.75",
     ]
-    result = CliRunner().invoke(app, args, env={"COLUMNS": "200"})
+    return CliRun(out, map_path, args, CliRunner().invoke(app, args, env={"COLUMNS": "200"}))
+
+
+def test_bad_frames_are_skipped_and_counted(captures: dict[str, Path], cli_run: CliRun) -> None:
+    assert cli_run.result.exit_code == 0, cli_run.result.output
+    skipped = read_cameras(cli_run.out / "cameras.json").skipped
+    assert sorted(skipped) == BAD_FRAMES
+    assert "not a readable image" in skipped["000003"]
+    assert "10x10 pixels but camera.yaml says 320x240" in skipped["000005"]
+    assert "0 board tags seen" in skipped["000006"]
+    figures = json.loads((cli_run.out / "summary.json").read_text())["turntable"]
+    assert (figures["frames_used"], figures["frames_skipped"]) == (16, 4)
+    assert figures["skip_reasons"] == {"image": 3, "pose": 1}
+    mesh = trimesh.load(cli_run.out / "mesh.ply", force="mesh")  # the table frame, as the truth
+    truth = trimesh.load(captures["mug"] / "ground_truth.ply", force="mesh")
+    assert mean_surface_distance_m(mesh, truth) <= 0.0015
+
+
+def test_cli_reconstructs_exports_and_registers(cli_run: CliRun) -> None:
+    from homemodel.model_folder.gate.validate import validate_path
+    from homemodel.cli import app
+    from homemodel.exchange.map_xml import load_map
+
+    out, result = cli_run.out, cli_run.result
     assert result.exit_code == 0, result.output
     assert "frames used" in result.stdout and "added scanned_mug" in result.stdout
     for name in ("model.urdf", "model.glb", "mesh.ply", "cameras.json", "summary.json", "picture.png"):
@@ -261,19 +291,20 @@ def test_cli_reconstructs_exports_and_registers(captures: dict[str, Path], tmp_p
     report = validate_path(out)
     assert report.ok, report.format()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["turntable"]["frames_used"] == CAPTURE["frames"] and summary["triangles"] > 1000
+    used = CAPTURE["frames"] - len(BAD_FRAMES)
+    assert summary["turntable"]["frames_used"] == used and summary["triangles"] > 1000
     assert set(summary["times_s"]) == {"poses", "axis", "merge", "mesh", "texture", "export", "validate"}
     assert summary["gate"]["valid"] and summary["mass_kg"] > 0 and summary["inputs"][0]["role"] == "capture"
     poses = read_cameras(out / "cameras.json").poses
-    assert len(poses) == CAPTURE["frames"]
+    assert len(poses) == used
     textures = list((out / "meshes").glob("*.png"))
     assert len(textures) == 1
     ply = trimesh.load(out / "mesh.ply", force="mesh")
     assert ply.visual.vertex_colors[:, :3].std() > 5  # coloured, not one flat grey
-    smap = load_map(map_path)
+    smap = load_map(cli_run.map_path)
     assert smap.path_to("scanned_mug")[-2:] == ["table", "scanned_mug"]
     # Refuses to overwrite without --force, with one line on stderr.
-    again = CliRunner().invoke(app, args[:5])
+    again = CliRunner().invoke(app, cli_run.args[:5])
     assert again.exit_code == 2 and again.stderr.startswith("error: ") and len(again.stderr.splitlines()) == 1
 
 
