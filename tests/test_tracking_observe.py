@@ -5,6 +5,7 @@ view, an all-zero depth image and bad input."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -25,6 +26,9 @@ from tracking.sensor_noise import SensorNoise
 from tracking.simulate_view import SmallObjectMove, ViewOptions, ViewSimulator, write_view
 
 CAMERA = Camera(width=320, height=240, fx=262.5, fy=262.5, cx=159.5, cy=119.5)
+# With models 3-5 mm off the furniture (measured: door 1.8 deg, drawer 10 mm, the body's
+# sideways slide, which only the open door pins, left about as far off as the prior).
+LIMIT_MISMATCH_DEG, LIMIT_MISMATCH_MM = 2.0, 12.0
 PRIOR_OFF = transform_from_xyz_rpy((0.014, -0.014, 0.0), (0.0, 0.0, np.radians(2.0)))  # 2 cm, 2 deg
 
 
@@ -84,6 +88,42 @@ def test_joints_within_two_degrees_and_five_millimetres(
     for name, value in joints.items():
         assert node.joint(name).position == pytest.approx(value, abs=0.035 if "hinge" in name else 0.005)
         assert any(getattr(record, "joint", None) == name for record in node.history)
+
+
+def _installer_measured(scene: HomeScene, rng: np.random.Generator) -> HomeScene:
+    """The scene with every object's link 3-5 mm larger or smaller along each of its axes
+    (about the link's centre): the models an installer measured, not the real furniture."""
+    parts = []
+    for part in scene.parts:
+        if part.object_id is not None:
+            low, high = part.vertices_link.min(axis=0), part.vertices_link.max(axis=0)
+            size = np.maximum(high - low, 1e-6)
+            delta = rng.uniform(0.003, 0.005, 3) * rng.choice([-1.0, 1.0], 3)
+            scale = np.maximum(size + delta, size / 2) / size
+            centre = (low + high) / 2
+            part = dataclasses.replace(part, vertices_link=(part.vertices_link - centre) * scale + centre)
+        parts.append(part)
+    scene.parts = parts
+    return scene
+
+
+def test_models_a_few_millimetres_off_the_furniture_still_give_the_joints_and_no_worse_pose(
+    simulator: ViewSimulator, prior_map: Path, tmp_path: Path
+) -> None:
+    # Rendered from the true models, fitted with models whose every size is 3-5 mm off.
+    joints = {"door_0_hinge": 0.6, "drawer_0_slide": 0.15}
+    options = ViewOptions(joint_positions={"cupboard_1": joints}, noise=SensorNoise(seed=3))
+    obs = _view(simulator, tmp_path / "obs", _in_front(simulator, "cupboard_1", 1.6), options)
+    result = observe(_installer_measured(HomeScene.load(prior_map), np.random.default_rng(7)), obs)
+    truth = json.loads((obs / "truth.json").read_text())
+    errors = _joint_errors(result.report, truth, "cupboard_1")
+    for name in joints:
+        status, error = errors[name]
+        assert status == "fitted" and abs(error) <= (LIMIT_MISMATCH_MM if "slide" in name else LIMIT_MISMATCH_DEG), (name, error)
+    for obj in result.report.objects:
+        true_xy = np.array(truth["objects"][obj.id]["map_from_object"])[:2, 3]
+        before, after = (np.linalg.norm(p[:2, 3] - true_xy) for p in (obj.previous_map_from_object, obj.map_from_object))
+        assert after <= before + 0.002, (obj.id, obj.pose_note, before, after)
 
 
 def test_a_box_covering_thirty_percent_leaves_the_visible_door_within_two_degrees(
