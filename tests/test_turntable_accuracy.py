@@ -32,7 +32,7 @@ from turntable.board import load_board
 from turntable.capture import load_capture
 from homemodel.exchange.cameras import read_cameras
 from turntable.reconstruct import reconstruct_capture
-from turntable.reconstruction import Reconstruction
+from turntable.reconstruction import Reconstruction, ReconstructOptions
 from turntable.simulate import SimulationOptions, resimulate_depth, simulate_capture
 
 pytestmark = [pytest.mark.slow]
@@ -96,9 +96,14 @@ def captures() -> dict[str, Path]:
     return {name: root / name for name in OBJECTS}
 
 
+# The in-process tests read poses, meshes and vertex colours; the texture (the same mesh
+# without it, 0.3-0.5 CPU-s a capture) is the CLI test's.
+NO_TEXTURE = ReconstructOptions(texture_size_px=0)
+
+
 @pytest.fixture(scope="module")
 def reconstructions(captures: dict[str, Path]) -> dict[str, Reconstruction]:
-    return {name: reconstruct_capture(load_capture(folder)) for name, folder in captures.items()}
+    return {name: reconstruct_capture(load_capture(folder), NO_TEXTURE) for name, folder in captures.items()}
 
 
 @pytest.fixture(scope="module")
@@ -113,7 +118,7 @@ def noisy_captures(captures: dict[str, Path], tmp_path_factory: pytest.TempPathF
 
 @pytest.fixture(scope="module")
 def noisy_reconstructions(noisy_captures: dict[str, Path]) -> dict[str, Reconstruction]:
-    return {name: reconstruct_capture(load_capture(folder)) for name, folder in noisy_captures.items()}
+    return {name: reconstruct_capture(load_capture(folder), NO_TEXTURE) for name, folder in noisy_captures.items()}
 
 
 def pose_errors(result: Reconstruction, capture: Path) -> tuple[np.ndarray, np.ndarray]:
