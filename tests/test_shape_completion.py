@@ -25,7 +25,7 @@ from homemodel.core.errors import InputError
 from homemodel.core.limits import MODEL_BYTES
 from homemodel.core.safe_npz import read_npz, write_npz
 from homemodel.core.transforms import world_from_camera_looking_at
-from homemodel.evaluation import rock_voxel_iou
+from homemodel.evaluation import voxel_iou
 from homemodel.geometry.mesh_io import load_mesh
 from homemodel.evaluation.surface import distances_to_surface
 from shape_completion.library import fingerprint_files, library_files
@@ -37,6 +37,10 @@ from homemodel.geometry.raycast import RayCaster
 from homemodel.geometry.depth_io import write_depth
 
 runner = CliRunner()
+# The run tests check that the written mesh overlaps the truth (a wrong frame scores about 0) on
+# 2 mm voxels: on this bottle and cup 0.834 and 0.544-0.548 IoU, against 0.830 and 0.461-0.464 on
+# Rock et al.'s 200^3 grid over the pair, at 0.13 CPU-s a test instead of 0.6-2.0.
+OVERLAP_VOXEL_M = 0.002
 
 
 def invoke(*args: str):
@@ -125,7 +129,7 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     # wrong frame scores about 0; one query of a 6-mesh class scores 0.4-0.8 as instances vary).
     seen = FILLER_CAMERA.depth_to_points(RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object))
     assert np.median(distances_to_surface(seen, completed)) < 0.003
-    assert rock_voxel_iou(completed, truth) > 0.3
+    assert voxel_iou(completed, truth, voxel_size_m=OVERLAP_VOXEL_M) > 0.3
 
 
 @pytest.mark.slow
@@ -154,7 +158,7 @@ def test_run_writes_the_cup_upright_on_its_table(trained, tmp_path, posed: bool)
     assert abs(truth.bounds[0, 2]) < 0.002 and abs(truth.extents[2] - cup.extents[2]) < 0.001
     assert abs(completed.bounds[0, 2]) < 0.005
     assert abs(completed.extents[2] / cup.extents[2] - 1) < 0.2
-    assert rock_voxel_iou(completed, truth) > 0.3
+    assert voxel_iou(completed, truth, voxel_size_m=OVERLAP_VOXEL_M) > 0.3
     if posed:  # the map's axes, so the model drops into the map by a translation
         np.testing.assert_allclose(np.array(summary["map_from_object"])[:3, :3], np.eye(3), atol=1e-6)
 
