@@ -78,6 +78,11 @@ def reconstruct(
     sfm_image_px: int = field_option(
         f"{OPTIONS}.sfm.max_image_size_px", "--sfm-image-px", help="longer side photos are shrunk to for SfM"
     ),
+    first_octave: int | None = field_option(
+        f"{OPTIONS}.sfm.first_octave", "--first-octave",
+        help="SIFT's first octave: -1 doubles the photos first (finds small features at 4x the cost), 0 takes "
+        "them as they are (default: -1 on photos under 1200 px)",
+    ),
     depth_image_px: int | None = field_option(
         f"{OPTIONS}.dense.max_image_size_px", "--depth-image-px",
         help="longer side of the depth maps (default: from the photos' focal length, size and count)",
@@ -108,7 +113,7 @@ def reconstruct(
         map_entry = map_entry_from_flags(map_path, parent, object_id or name, xyz)
         options = ReconstructOptions(
             sfm=SfmOptions(max_image_size_px=sfm_image_px, max_num_features=max_features, matching=matching,
-                          verbose=verbose),  # fmt: skip
+                          first_octave=first_octave, verbose=verbose),  # fmt: skip
             dense=DenseOptions(max_image_size_px=depth_image_px),
             texture=TextureBakingOptions(size_px=texture_size_px),
             marker_size_m=marker_size_m,
