@@ -8,6 +8,7 @@ voxel is closed by the surface voxels themselves, and an open cup stays hollow.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,8 +63,10 @@ class VoxelGrid:
         return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
 
 
-def dense_surface_points(mesh: trimesh.Trimesh, spacing_m: float) -> np.ndarray:
-    """Points on the surface such that every surface point lies within `spacing_m` of one.
+def dense_surface_points(mesh: trimesh.Trimesh, spacing_m: float, block_points: int = 1 << 18) -> Iterator[np.ndarray]:
+    """Points on the surface such that every surface point lies within `spacing_m` of one, in
+    blocks of about `block_points` (a fine grid asks for tens of millions: made whole, they and
+    their voxel indices spill out of the caches; in blocks, solid_occupancy takes 2/3 the CPU).
 
     Each triangle gets a regular barycentric lattice of n steps along its longest edge
     (n = ceil(longest / spacing)): its sub-triangles have edges of at most `spacing_m`, so
@@ -73,13 +76,14 @@ def dense_surface_points(mesh: trimesh.Trimesh, spacing_m: float) -> np.ndarray:
     triangles = np.asarray(mesh.triangles, dtype=np.float64)
     edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2)
     steps = np.maximum(np.ceil(edges.max(axis=1) / spacing_m), 1).astype(np.int64)
-    chunks = []
     for n in np.unique(steps):
         i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
         keep = (i + j) <= n
         weights = np.stack([i[keep], j[keep], n - i[keep] - j[keep]], axis=1) / n
-        chunks.append((weights @ triangles[steps == n]).reshape(-1, 3))  # (P, 3) @ (T, 3, 3): 10x einsum's speed
-    return np.concatenate(chunks)
+        those = triangles[steps == n]
+        per_block = max(1, block_points // len(weights))
+        for start in range(0, len(those), per_block):
+            yield (weights @ those[start : start + per_block]).reshape(-1, 3)  # (P, 3) @ (T, 3, 3): 10x einsum's speed
 
 
 def solid_occupancy(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
@@ -107,11 +111,11 @@ def solid_occupancy(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
 
 def _solid_occupancy_covering(mesh: trimesh.Trimesh, grid: VoxelGrid) -> np.ndarray:
     """`solid_occupancy` on a grid that holds the whole mesh."""
-    points = dense_surface_points(mesh, 0.5 * grid.voxel_size_m)
-    index = np.clip(grid.index_of(points), 0, np.asarray(grid.shape) - 1)  # a point on the far border face
     # One free voxel of padding on every side so that "outside" is a single component.
     shell = np.zeros(tuple(n + 2 for n in grid.shape), dtype=bool)
-    shell[index[:, 0] + 1, index[:, 1] + 1, index[:, 2] + 1] = True
+    for points in dense_surface_points(mesh, 0.5 * grid.voxel_size_m):
+        index = np.clip(grid.index_of(points), 0, np.asarray(grid.shape) - 1)  # a point on the far border face
+        shell[index[:, 0] + 1, index[:, 1] + 1, index[:, 2] + 1] = True
     labels, _ = ndimage.label(~shell)  # default structure: face adjacency
     outside = labels == labels[0, 0, 0]
     return ~outside[1:-1, 1:-1, 1:-1]
