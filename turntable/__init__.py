@@ -14,9 +14,42 @@ writes the model folder (and registers it into a map when the options name one).
 No module here imports bpy: `blender_render` builds its Cycles scene with
 `homemodel.geometry.cycles_scene` (called by `simulate_capture`); reconstruction runs without Blender.
 See docs/turntable.md.
+
+The three names below are imported when first asked for, so a command that needs only the
+board (`homemodel turntable board`) does not pay for the pipeline's trimesh and scipy.
+The entry function shares its name with its module `turntable.reconstruct`; Python sets a
+package's attribute to a submodule whenever that submodule is first imported, so the package's
+class keeps `turntable.reconstruct` the function, as it was when this file imported it eagerly.
+Code in the project imports `from turntable.reconstruct import reconstruct`, which is the same
+function either way.
 """
 
-from turntable.reconstruct import reconstruct
-from turntable.reconstruction import Reconstruction, ReconstructOptions
+from __future__ import annotations
+
+import sys
+import types
+from typing import Any
 
 __all__ = ["Reconstruction", "ReconstructOptions", "reconstruct"]
+
+_FROM = {"reconstruct": "turntable.reconstruct", "Reconstruction": "turntable.reconstruction",
+         "ReconstructOptions": "turntable.reconstruction"}  # fmt: skip
+
+
+class _Package(types.ModuleType):
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "reconstruct" and isinstance(value, types.ModuleType):
+            return  # the import system binding the submodule: the entry function keeps the name
+        super().__setattr__(name, value)
+
+    def __getattr__(self, name: str) -> Any:
+        if name not in _FROM:
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        import importlib
+
+        value = getattr(importlib.import_module(_FROM[name]), name)
+        super().__setattr__(name, value)
+        return value
+
+
+sys.modules[__name__].__class__ = _Package

@@ -180,8 +180,8 @@ def reconstruct(
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Reconstruct a metric, coloured mesh from a turntable capture and export it as a model."""
-    from turntable import ReconstructOptions
-    from turntable import reconstruct as run
+    from turntable.reconstruct import reconstruct as run
+    from turntable.reconstruction import ReconstructOptions
     from turntable.pose import PoseOptions
     from turntable.tags import DetectionOptions
 
