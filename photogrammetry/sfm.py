@@ -22,7 +22,7 @@ from homemodel.core.checks import require_at_least, require_between, require_cho
 from homemodel.core.errors import ModelError
 from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
-from photogrammetry import pairing
+from photogrammetry import merge_check, pairing
 from photogrammetry.image_numbering import number_images_by_name
 from photogrammetry.photo_cameras import (
     PhotoCamera,
@@ -244,7 +244,9 @@ def _groups(names: list[str], reconstructions: dict) -> list[list[str]]:
 def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], work_dir: Path, options: SfmOptions):
     """The largest model the photos make, after a second pass when some were left out:
     pairs across the groups are matched, and mapping continues from the largest model with
-    relaxed thresholds. Raises RegistrationError only when the photos really do not connect."""
+    relaxed thresholds, then the global mapper solves them all at once. A joined model is kept
+    only when it registers more photos and keeps each first-pass group's geometry
+    (`merge_check`). Raises RegistrationError only when the photos really do not connect."""
     import pycolmap
 
     first = work_dir / "sparse_first"
@@ -255,10 +257,12 @@ def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], wo
     groups = _groups(names, reconstructions)
     note = ""
     if reconstructions and len(groups) > 1:
+        parts = list(reconstructions.values())
         bridged = pairing.bridge_groups(
             database, groups, work_dir, num_threads=options.num_threads, seed=options.random_state
         )
-        largest = max(reconstructions.values(), key=lambda r: r.num_reg_images())
+        note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them"
+        largest = max(parts, key=lambda r: r.num_reg_images())
         seed_dir = work_dir / "sparse_seed"
         seed_dir.mkdir(exist_ok=True)
         largest.write(seed_dir)
@@ -267,13 +271,12 @@ def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], wo
         continued = pycolmap.incremental_mapping(
             database, image_dir, second, options=_mapping_options(options, relaxed=True), input_path=seed_dir
         )
-        if continued and max(r.num_reg_images() for r in continued.values()) > largest.num_reg_images():
-            reconstructions = continued
-        note = f"; {len(groups)} groups after the first pass, {bridged} pairs matched across them, mapped again"
+        reconstructions, refusal = _joined_if_sound(reconstructions, continued, parts)
+        note += ", mapped again" + refusal
         if _most_registered(reconstructions) < len(names):
             # Still photos left out: COLMAP's global mapper (GLOMAP) solves all rotations and
             # positions at once and registered 29 of 30 sparse Buddha photos where the
-            # incremental one stopped at 24; the model with more photos is kept.
+            # incremental one stopped at 24.
             shutil.copyfile(database, work_dir / "global.db")
             glob_dir = work_dir / "sparse_global"
             glob_dir.mkdir(exist_ok=True)
@@ -282,11 +285,22 @@ def _map(database: Path, image_dir: Path, photos_dir: Path, names: list[str], wo
             )
             mapping.random_seed = options.random_state
             solved = pycolmap.global_mapping(work_dir / "global.db", image_dir, glob_dir, options=mapping)
-            if _most_registered(solved) > _most_registered(reconstructions):
-                reconstructions = solved
-                note += ", then the global mapper"
+            reconstructions, refusal = _joined_if_sound(reconstructions, solved, parts)
+            note += ", then the global mapper" + refusal
         log.info("SfM%s", note)
     return _check_registration(database, photos_dir, names, reconstructions), note
+
+
+def _joined_if_sound(current: dict, joined: dict, parts: list) -> tuple[dict, str]:
+    """`joined` when its largest model registers more photos than `current`'s and keeps every
+    first-pass model's geometry, else `current`; with a note of a refusal."""
+    if _most_registered(joined) <= _most_registered(current):
+        return current, ""
+    refused = merge_check.refusal(max(joined.values(), key=lambda r: r.num_reg_images()), parts)
+    if refused is None:
+        return joined, ""
+    log.warning("SfM: a model of %d photos refused: %s", _most_registered(joined), refused)
+    return current, f" (its {_most_registered(joined)}-photo model refused: {refused})"
 
 
 def _check_registration(database: Path, photos_dir: Path, names: list[str], reconstructions: dict):
