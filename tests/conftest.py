@@ -23,6 +23,9 @@ from semantic_map import SemanticMap
 
 # CPU seconds per test phase into a JSON file, when HOMEMODEL_CPU_PROFILE names one.
 pytest_plugins = ("cpu_profile",)
+# Hypothesis, when first imported, loads every installed "hypothesis" entry point; the only one is
+# trio's (0.3 CPU-s in each worker, for strategies no test uses).
+os.environ.setdefault("HYPOTHESIS_NO_PLUGINS", "1")
 
 REPO = Path(__file__).resolve().parents[1]
 # ../shared/data beside the checkout; HOMEMODEL_SHARED_DATA moves it (a test shows the skips without it).

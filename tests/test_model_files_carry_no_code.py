@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_promise import REPO, assert_refused, run_cli
-from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestRegressor
 
 from homemodel.core.errors import InputError
 from homemodel.core.limits import MODEL_BYTES
@@ -113,6 +112,7 @@ def test_reading_under_a_4_gib_limit_does_not_allocate_the_bound(tmp_path: Path)
 @pytest.fixture(scope="module")
 def fitted():
     """A small booster with a categorical column (as the filler's), a forest, and queries."""
+    from sklearn.ensemble import HistGradientBoostingClassifier, RandomForestRegressor  # 1-2 CPU-s: not at collection
     from threadpoolctl import threadpool_limits
 
     rng = np.random.default_rng(0)
@@ -148,6 +148,7 @@ def test_tree_arrays_predict_exactly_as_scikit_learn(fitted) -> None:
 
 def test_trees_of_more_than_32_leaves_predict_exactly_as_scikit_learn(fitted) -> None:
     """Their leaves do not fit the 32-bit masks of the filler's 31-leaf trees: 64-bit ones are used."""
+    from sklearn.ensemble import HistGradientBoostingClassifier
     from threadpoolctl import threadpool_limits
 
     _, _, queries = fitted
