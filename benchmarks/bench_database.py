@@ -35,7 +35,9 @@ mixed manifest of every source.
      what it adds per entry. CPU(SMALL) less SMALL such entries is the start-up's CPU;
    - in CPU time, in one process: the loop's entry and the database's (`build_entry`: the
      pipeline, thumbnail, record, atomic store) built alternately in one warm process, the
-     median difference: the steadiest figure (no imports, no Dask, no second process).
+     median difference: the steadiest figure (no imports, no Dask, no second process). Both
+     with one thread per numeric library, as the database's processes build; the loop's entry
+     with OpenBLAS's default (a thread per core, as a plain process has) is given too.
    The three (serial loop, loops side by side, database) run in interleaved rounds (every
    other round the database before the loops side by side), and the table gives each
    figure's median and each round's speed-up: the machine is a shared host whose speed drifts
@@ -65,6 +67,7 @@ from __future__ import annotations
 # Only what both sides' child processes need is imported at the top: each child's start-up is
 # measured, and neither side may be charged the other's imports (rich, Dask).
 import argparse
+import functools
 import json
 import os
 import resource
@@ -183,24 +186,35 @@ def per_entry(manifest: Path, out: Path, t0: float, pairs: str = str(PER_ENTRY_P
     loop_dir, db = out / "loop", (out / "db").resolve()
     loop_dir.mkdir(parents=True, exist_ok=True)
 
-    def loop_entry(job) -> None:  # noqa: ANN001 (a manifest Job)
-        spec = loop_dir / f"{job.id}.yaml"
+    def loop_entry(job, folder: Path = loop_dir) -> None:  # noqa: ANN001 (a manifest Job)
+        folder.mkdir(exist_ok=True)
+        spec = folder / f"{job.id}.yaml"
         spec.write_text(yaml.safe_dump({**base, **job.overrides}))
-        build(spec, loop_dir / job.id, BuildOptions(name=job.id))
+        build(spec, folder / job.id, BuildOptions(name=job.id))
 
     def db_entry(job) -> None:  # noqa: ANN001
         row = build_entry(BuildRequest(job=job, key="bench", db_dir=db, repair=None), c_output_fds=(2,))
         if row.status != "valid":
             raise RuntimeError(f"{job.id}: {row.status}: {row.error}")
 
-    cpu: dict[str, list[float]] = {"loop": [], "db": []}
+    from threadpoolctl import threadpool_limits
+
+    # Both sides with one thread per numeric library, as the database's building processes
+    # have; the loop also as a plain process has it (OpenBLAS's thread per core), for the
+    # difference that makes.
+    default_threads = functools.partial(loop_entry, folder=out / "loop_default_threads")
+    sides = {"loop": (loop_entry, 1), "db": (db_entry, 1), "loop_default_threads": (default_threads, None)}
+    cpu: dict[str, list[float]] = {side: [] for side in sides}
     for i, job in enumerate(jobs[: int(pairs) + 1]):
-        # Each pair in turn starts with the other side: neither always runs on a warmer cache.
-        for side, run in ((("loop", loop_entry), ("db", db_entry)) if i % 2 else (("db", db_entry), ("loop", loop_entry))):
-            start = time.process_time()
-            run(job)
+        # Each pair in turn starts with another side: none always runs on a warmer cache.
+        for side in list(sides)[i % 3 :] + list(sides)[: i % 3]:
+            run, threads = sides[side]
+            with threadpool_limits(limits=threads):
+                start = time.process_time()
+                run(job)
+                spent = time.process_time() - start
             if i:  # the first pair warms up (the thumbnail's camera, cv2's first encode)
-                cpu[side].append(time.process_time() - start)
+                cpu[side].append(spent)
     return {side: statistics.median(times) for side, times in cpu.items()} | {"pairs": int(pairs)}
 
 
@@ -412,6 +426,8 @@ def throughput(kind: str, entries: int, rounds: int, console: Console, baseline:
     table.add_row("[bold]overhead per entry after start-up, CPU (database - loop; aim < 30 ms)", "", "", f"[bold]{1000 * (db_per_s - serial_per_s):.0f} ms")
     table.add_row(f"[bold]overhead per entry after start-up, CPU, in one process (database's entry - loop's, median of {one_process['pairs']} alternating; aim < 30 ms)",
                   f"{1000 * one_process['loop']:.0f} ms", "", f"[bold]{1000 * (one_process['db'] - one_process['loop']):.0f} ms[/] ({1000 * one_process['db']:.0f} ms an entry)")  # fmt: skip
+    table.add_row("  the loop's entry with OpenBLAS's default threads (a plain process's; the database's use one)",
+                  f"{1000 * one_process['loop_default_threads']:.0f} ms", "", "")  # fmt: skip
     table.add_row(f"start-up CPU: CPU({SMALL}) - {SMALL} x CPU per further entry", f"{median(lambda r: r['serial_small_cpu']) - SMALL * serial_per_s:.1f} s", "",
                   f"{median(lambda r: r['db_small_cpu']) - SMALL * db_per_s:.1f} s")  # fmt: skip
     table.add_row("rebuild, nothing changed (homemodel db build)", "", "", f"{nothing_s:.2f} s  ({_summary(nothing)})")
