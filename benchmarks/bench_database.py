@@ -38,6 +38,9 @@ mixed manifest of every source.
      median difference: the steadiest figure (no imports, no Dask, no second process). Both
      with one thread per numeric library, as the database's processes build; the loop's entry
      with OpenBLAS's default (a thread per core, as a plain process has) is given too.
+   Each round also runs the database with one process building (`--workers 1`: one Dask
+   worker, the command only records): the second process's speed-up is its time over the
+   two-process database's, beside two plain loops' over the serial loop.
    The three (serial loop, loops side by side, database) run in interleaved rounds (every
    other round the database before the loops side by side), and the table gives each
    figure's median and each round's speed-up: the machine is a shared host whose speed drifts
@@ -140,8 +143,8 @@ def serial_loop(manifest: Path, out: Path, t0: float, part: str = "0/1") -> dict
     return {"startup_s": ready_s, "startup_cpu_s": ready_cpu_s, "entries_s": _since(t0) - ready_s}
 
 
-def database_build(manifest: Path, db: Path, t0: float) -> dict:
-    """`homemodel db build MANIFEST --db DB --workers 2`, the command itself, run in this
+def database_build(manifest: Path, db: Path, t0: float, workers: str = str(WORKERS)) -> dict:
+    """`homemodel db build MANIFEST --db DB --workers 2` (or `workers`), the command itself, run in this
     process. Returns when its first entry started (with this process's CPU seconds then) and
     the time from then to the last entry's end."""
     from homemodel.cli.launcher import main
@@ -149,7 +152,7 @@ def database_build(manifest: Path, db: Path, t0: float) -> dict:
     ends: list[tuple[float, str, float]] = []
     here = _note_first_entry_here(t0)
     _note_rows(ends, t0)
-    sys.argv = ["homemodel", "db", "build", str(manifest), "--db", str(db), "--workers", str(WORKERS)]
+    sys.argv = ["homemodel", "db", "build", str(manifest), "--db", str(db), "--workers", workers]
     try:
         main()
     except SystemExit as done:
@@ -283,12 +286,12 @@ def _reported(said: str) -> dict:
     return json.loads(next(line for line in reversed(said.splitlines()) if line.startswith("{")))
 
 
-def _run_child(mode: str, manifest: Path, out: Path, source: Path = ROOT) -> tuple[float, dict]:
+def _run_child(mode: str, manifest: Path, out: Path, source: Path = ROOT, *more: str) -> tuple[float, dict]:
     """Wall seconds of this script's `mode` in a fresh process (of the code in `source`), and
     the timings it reports, with the CPU seconds of the process and all of its own (Dask's
     workers, the gate's tools)."""
     cpu_before = _children_cpu_s()
-    seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}", source=source)
+    seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}", *more, source=source)
     return seconds, {**_reported(said), "cpu_s": _children_cpu_s() - cpu_before}
 
 
@@ -334,10 +337,13 @@ def _one_round(manifest: Path, small: Path, folder: Path, baseline: Path | None,
     side_s, side_cpu_s, side_entries_s = _loops_side_by_side(manifest, folder / "side")
     if not flip:
         db_s, built = _run_child("--db-build", manifest, folder / "db")
+    # The database with one process building (`--workers 1`: one Dask worker, the command records).
+    one_s = _run_child("--db-build", manifest, folder / "db_one", ROOT, "1")[0]
     with ModelIndex(folder / "db") as index:
         rows = index.rows()
     run = {"serial_s": serial_s, "serial": serial, "serial_cpu": serial["cpu_s"], "side_s": side_s, "side_cpu_s": side_cpu_s,
-           "side_entries_s": side_entries_s, "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows}  # fmt: skip
+           "side_entries_s": side_entries_s, "db_s": db_s, "built": built, "db_cpu": built["cpu_s"], "rows": rows,
+           "one_s": one_s}  # fmt: skip
     run["serial_small_cpu"] = _run_child("--serial-loop", small, folder / "serial_small")[1]["cpu_s"]
     run["db_small_cpu"] = _run_child("--db-build", small, folder / "db_small")[1]["cpu_s"]
     if baseline is not None:
@@ -406,6 +412,9 @@ def throughput(kind: str, entries: int, rounds: int, console: Console, baseline:
     side_ratios = "  ".join(f"{r['serial_s'] / r['side_s']:.2f}x" for r in runs)
     table.add_row("speed-up, wall time, each round (serial / this)", "", side_ratios, ratios)
     table.add_row("[bold]speed-up, wall time (medians)", "", f"{serial_s / side_s:.2f}x", f"[bold]{serial_s / db_s:.2f}x")
+    table.add_row("database with 1 process building (--workers 1), wall, each round", "", "", "  ".join(f"{r['one_s']:.1f} s" for r in runs))
+    table.add_row("[bold]the second process's speed-up (database --workers 1 / --workers 2), each round", "",
+                  "  ".join(f"{r['serial_s'] / r['side_s']:.2f}x" for r in runs), "[bold]" + "  ".join(f"{r['one_s'] / r['db_s']:.2f}x" for r in runs))  # fmt: skip
     # The aim: the database within 10 % of what two plain processes get on this machine. Each
     # round's two runs are minutes apart at most: their ratio drifts less than either.
     paired = [r["side_s"] / r["db_s"] for r in runs]
@@ -502,7 +511,7 @@ def main() -> None:
     parser.add_argument("--only-mixed", action="store_true", help="only the mixed manifest")
     # The two sides of the throughput figure, each run by throughput() in a fresh process.
     parser.add_argument("--serial-loop", nargs="+", metavar="MANIFEST OUT T0 [PART]", help=argparse.SUPPRESS)
-    parser.add_argument("--db-build", nargs=3, metavar=("MANIFEST", "DB", "T0"), help=argparse.SUPPRESS)
+    parser.add_argument("--db-build", nargs="+", metavar="MANIFEST DB T0 [WORKERS]", help=argparse.SUPPRESS)
     parser.add_argument("--per-entry", nargs="+", metavar="MANIFEST OUT T0 [PAIRS]", help=argparse.SUPPRESS)
     args = parser.parse_args()
     for child, given in ((serial_loop, args.serial_loop), (database_build, args.db_build), (per_entry, args.per_entry)):
