@@ -32,9 +32,6 @@ from typing import Any
 
 __all__ = ["Reconstruction", "ReconstructOptions", "reconstruct"]
 
-_FROM = {"reconstruct": "turntable.reconstruct", "Reconstruction": "turntable.reconstruction",
-         "ReconstructOptions": "turntable.reconstruction"}  # fmt: skip
-
 
 class _Package(types.ModuleType):
     def __setattr__(self, name: str, value: Any) -> None:
@@ -43,11 +40,14 @@ class _Package(types.ModuleType):
         super().__setattr__(name, value)
 
     def __getattr__(self, name: str) -> Any:
-        if name not in _FROM:
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-        import importlib
+        if name == "reconstruct":
+            from turntable.reconstruct import reconstruct as value
+        elif name in ("Reconstruction", "ReconstructOptions"):
+            from turntable import reconstruction
 
-        value = getattr(importlib.import_module(_FROM[name]), name)
+            value = getattr(reconstruction, name)
+        else:
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
         super().__setattr__(name, value)
         return value
 
