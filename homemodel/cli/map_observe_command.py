@@ -9,7 +9,6 @@ import typer
 
 from homemodel.cli.errors import exit_on_error
 from homemodel.cli.map_commands import MAP_ARGUMENT, map_app
-from homemodel.cli.progress import Column, fitted_table, make_console, stage_bars
 
 
 @map_app.command("observe")
@@ -20,6 +19,7 @@ def observe_command(
     report: Path | None = typer.Option(None, "--report", help="write what was seen, per object in view, as JSON here"),
 ) -> None:
     """Fit the map's models to one depth image; write the map with the joints and small objects it saw."""
+    from homemodel.cli.progress import Column, fitted_table, make_console, stage_bars  # rich: not for `map find`
     from tracking import observe, write_observed
 
     console = make_console()
