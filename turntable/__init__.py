@@ -20,8 +20,8 @@ board (`homemodel turntable board`) does not pay for the pipeline's trimesh and 
 The entry function shares its name with its module `turntable.reconstruct`; Python sets a
 package's attribute to a submodule whenever that submodule is first imported, so the package's
 class keeps `turntable.reconstruct` the function, as it was when this file imported it eagerly.
-Code in the project imports `from turntable.reconstruct import reconstruct`, which is the same
-function either way.
+The command line and the database import `from turntable.reconstruct import reconstruct`, the
+same function either way.
 """
 
 from __future__ import annotations
