@@ -62,18 +62,18 @@ def judge_pose(
         return PoseVerdict(accepted=False, note=f"only {inlier_fraction:.0%} of its points fit")
     refined = state.map_from_objects[object_id]
     state.map_from_objects[object_id] = map_from_object_before
-    before = _object_depth(state, view, object_id)
+    before = object_depth(state, view, object_id)
     state.map_from_objects[object_id] = refined
-    after = _object_depth(state, view, object_id)
-    cut = _cut((after < background_m) | (before < background_m), gate.edge_margin_px)
+    after = object_depth(state, view, object_id)
+    cut = cut_by_edge((after < background_m) | (before < background_m), gate.edge_margin_px)
     if cut:
         # Its slide across the image is not pinned: only the turn and the shift along the
         # view are kept, and judged like any refined pose.
         state.map_from_objects[object_id] = _along_view(refined, map_from_object_before, view.map_from_camera)
-        after = _object_depth(state, view, object_id)
+        after = object_depth(state, view, object_id)
     considered = (after < background_m) | (before < background_m)
     scene_depths = [np.minimum(d, background_m) for d in (before, after)]
-    cost_before, cost_after = _costs(view, scene_depths, considered)
+    cost_before, cost_after = depth_costs(view, scene_depths, considered)
     verdict = PoseVerdict(accepted=False, note="", cost_before=cost_before, cost_after=cost_after)
     costs = f"depth cost {cost_before:.3f} -> {cost_after:.3f}"
     if cut:
@@ -95,16 +95,18 @@ def _along_view(map_from_refined: np.ndarray, map_from_before: np.ndarray, map_f
     return out
 
 
-def _object_depth(state: FitState, view: FitView, object_id: str) -> np.ndarray:
+def object_depth(state: FitState, view: FitView, object_id: str) -> np.ndarray:
+    """Depth of the object's parts alone at the current estimates (inf where none is hit)."""
     return state.renderer.depth(state.map_from_parts(), view.camera, view.map_from_camera, state.object_parts(object_id))
 
 
-def _cut(silhouette: np.ndarray, margin_px: int) -> bool:
+def cut_by_edge(silhouette: np.ndarray, margin_px: int) -> bool:
+    """Whether the silhouette comes within `margin_px` of the image's left or right edge."""
     edge = max(margin_px, 1)
     return bool(silhouette[:, :edge].any() or silhouette[:, -edge:].any())
 
 
-def _costs(view: FitView, depths: list[np.ndarray], considered: np.ndarray) -> tuple[float, ...]:
+def depth_costs(view: FitView, depths: list[np.ndarray], considered: np.ndarray) -> tuple[float, ...]:
     """The mean truncated squared residual of each rendered depth over `considered`'s
     observed pixels, leaving out those where the observation is in front of both renderings
     (an occluder the map does not hold)."""

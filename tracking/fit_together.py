@@ -1,0 +1,264 @@
+"""An object's pose and its joints refined together: Gauss-Newton on [pose, joint positions]
+over the point-to-plane residuals between the observed depth and the object's own rendered
+surface, the object re-rendered at every step.
+
+Fitting the pose and each joint by turns does not settle where they trade against each
+other: a drawer's front and the body's front are parallel, so the body's shift along the
+slide and the drawer's slide are told apart only when both are fitted at once. Motions the
+seen surfaces do not pin down (a slide across a cupboard seen only from the front) are left
+out, not guessed (degeneracy-aware, as `fit_pose` does for the pose alone).
+
+Occlusion: a pixel counts only where the object is the first surface of the rendered scene
+and the observation lies within the gate of the rendered depth (a box in front, or the
+room seen through an opening, lies outside it); a Tukey kernel discounts what is left.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracking.fit_pose import LEVER_M, MIN_CONSTRAINT
+from tracking.fit_joints import joint_range
+from tracking.fit_state import FitState
+from tracking.fit_view import FitView
+from tracking.pose_gate import cut_by_edge, depth_costs, object_depth
+
+# A step smaller than these (m, and rad at LEVER_M) ends a gate's iterations.
+STEP_DONE_M = 0.0002
+
+
+@dataclass(kw_only=True)
+class TogetherFit:
+    """What the refinement did: the object's rendered depth cost (`depth_costs`) before and
+    after (the same when the result was not kept), and the steps taken."""
+
+    cost_before: float
+    cost_after: float
+    steps: int
+
+
+@dataclass(frozen=True)
+class _PoseMotion:
+    """The directions (unit vectors, map frame) the pose may shift and turn along: any, or for
+    an object standing on a surface (`planar`) a shift in the floor's plane and a yaw."""
+
+    shifts: np.ndarray  # (k, 3)
+    turns: np.ndarray  # (m, 3)
+
+    @classmethod
+    def of(cls, planar: bool) -> _PoseMotion:
+        if not planar:
+            return cls(shifts=np.eye(3), turns=np.eye(3))
+        return cls(shifts=np.eye(3)[:2], turns=np.eye(3)[2:])
+
+
+def refine_pose_and_joints(
+    state: FitState,
+    view: FitView,
+    object_id: str,
+    joints: list[str],
+    background_m: np.ndarray,
+    *,
+    gates_m: tuple[float, ...],
+    kernel_m: float,
+    planar: bool,
+    min_points: int,
+    edge_margin_px: int = 1,
+    search_view: tuple[FitView, np.ndarray] | None = None,
+    iterations: int = 4,
+) -> TogetherFit | None:
+    """Refine `state`'s pose of `object_id` and the positions of `joints` (its movable joints
+    to fit; the others stay) from the observed points in front of `background_m`. The state
+    changes only when the result explains the object's observed depth better; None, unchanged,
+    when too few points are seen or the image's left or right edge cuts the object (within
+    `edge_margin_px`). `search_view` (a coarser view and its background) is where a compass
+    search on the rendered depth starts the fit, for an object standing on a surface."""
+    start = (state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id]))
+    depth_before = object_depth(state, view, object_id)
+    if cut_by_edge(depth_before < background_m, edge_margin_px):
+        # Nothing pins its slide across the image (`judge_pose` keeps only the shift along
+        # the view): the search would slide it there.
+        return None
+    motion = _PoseMotion.of(planar)
+    first = _residuals(state, view, object_id, joints, background_m, min(gates_m), motion)
+    if first is None or len(first[0]) < min_points:
+        return None
+    if planar and search_view is not None:
+        _search(state, *search_view, object_id, joints, motion)
+    steps = 0
+    for gate_m in gates_m:
+        for _ in range(iterations):
+            system = _residuals(state, view, object_id, joints, background_m, gate_m, motion)
+            if system is None or len(system[0]) < min_points:
+                break
+            residual, jacobian, centre = system
+            step = _step(residual, jacobian, max(kernel_m, gate_m / 2))
+            _apply(state, object_id, joints, step, centre, motion)
+            steps += 1
+            if np.abs(step).max() < STEP_DONE_M:
+                break
+    # Judged like a refined pose (`judge_pose`): by the rendered depth, silhouettes included,
+    # which the point-to-plane residuals of the object's own pixels do not see.
+    depth_after = object_depth(state, view, object_id)
+    considered = (depth_before < background_m) | (depth_after < background_m)
+    cost_before, cost_after = depth_costs(
+        view, [np.minimum(d, background_m) for d in (depth_before, depth_after)], considered
+    )
+    if not cost_after < cost_before:
+        state.map_from_objects[object_id], state.joint_positions[object_id] = start
+        cost_after = cost_before
+    return TogetherFit(cost_before=cost_before, cost_after=cost_after, steps=steps)
+
+
+# The compass search's first steps (halved down to an eighth): shifts, turns (the pose's yaw
+# and revolute joints) and slides.
+SEARCH_SHIFT_M = 0.008
+SEARCH_TURN_RAD = np.radians(1.0)
+SEARCH_SLIDE_M = 0.008
+SEARCH_ROUNDS = 24
+
+
+def _search(
+    state: FitState, view: FitView, background_m: np.ndarray, object_id: str, joints: list[str], motion: _PoseMotion
+) -> None:
+    """A compass search of the object's planar pose (its shifts, yaw about its origin) and `joints`
+    on the rendered depth cost (`depth_costs`): it sees the silhouettes, which the
+    point-to-plane steps do not, and so finds a slide across the view those leave free.
+    Each round scores every parameter one step either way, all in one batched cast."""
+    parts = state.object_parts(object_id)
+    model = state.scene.object(object_id).model
+    steps = np.array([SEARCH_SHIFT_M] * len(motion.shifts) + [SEARCH_TURN_RAD]
+                     + [SEARCH_SLIDE_M if model.joint(j).type == "prismatic" else SEARCH_TURN_RAD for j in joints])
+    smallest = steps / 8
+    for _ in range(SEARCH_ROUNDS):
+        moves = [np.zeros(len(steps))]
+        for k in range(len(steps)):
+            for sign in (1.0, -1.0):
+                moves.append(np.zeros(len(steps)))
+                moves[-1][k] = sign * steps[k]
+        base = state.map_from_parts()
+        poses = []
+        for move in moves:
+            map_from_object, positions = _moved(state, object_id, joints, move, motion)
+            links = state.object_from_links(object_id, positions)
+            posed = list(base)
+            for i in parts:
+                posed[i] = map_from_object @ links[state.scene.parts[i].link]
+            poses.append(posed)
+        stack = state.renderer.depth_stack(poses, view.camera, view.map_from_camera, parts)
+        considered = (stack < background_m).any(axis=0)
+        costs = depth_costs(view, list(np.minimum(stack, background_m)), considered)
+        best = int(np.argmin(costs))
+        if costs[best] < costs[0]:
+            state.map_from_objects[object_id], state.joint_positions[object_id] = _moved(state, object_id, joints, moves[best], motion)
+        elif (steps <= smallest + 1e-12).all():
+            break
+        else:
+            steps = np.maximum(steps / 2, smallest)
+
+
+def _moved(
+    state: FitState, object_id: str, joints: list[str], move: np.ndarray, motion: _PoseMotion
+) -> tuple[np.ndarray, dict[str, float]]:
+    """The object's planar pose shifted along `motion`'s shifts by the first of `move`, turned
+    by the next about its origin, and its `joints` moved by the rest within their limits."""
+    count = len(motion.shifts)
+    c, s = np.cos(move[count]), np.sin(move[count])
+    map_from_object = state.map_from_objects[object_id].copy()
+    map_from_object[:2, :] = np.array([[c, -s], [s, c]]) @ map_from_object[:2, :]
+    map_from_object[:3, 3] = state.map_from_objects[object_id][:3, 3] + move[:count] @ motion.shifts
+    positions = dict(state.joint_positions[object_id])
+    for joint, change in zip(joints, move[count + 1:]):
+        low, high = joint_range(state, object_id, joint)
+        positions[joint] = float(np.clip(positions[joint] + change, low, high))
+    return map_from_object, positions
+
+
+def _residuals(
+    state: FitState, view: FitView, object_id: str, joints: list[str], background_m: np.ndarray, gate_m: float,
+    motion: _PoseMotion,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(N,) point-to-plane residuals (observed minus model, along the model's normal), the
+    (N, P) rates at which the parameters' motions move the model along its normals (`_apply`'s
+    order: the pose's, then each joint's; turns at a lever of LEVER_M) and the centre the
+    pose turns about (the points' centroid)."""
+    parts = state.object_parts(object_id)
+    rendering = state.renderer.render(state.map_from_parts(), view.camera, view.map_from_camera, only=parts)
+    # The parts of joints not refined here (not seen, or in doubt) say nothing reliable.
+    trusted = [i for i in parts if state.scene.parts[i].joint is None
+               or any(i in state.moving_parts(object_id, joint) for joint in joints)]
+    with np.errstate(invalid="ignore"):
+        mask = (np.isin(rendering.part_index, trusted) & (rendering.depth_m < background_m) & view.valid
+                & (np.abs(view.depth_m - rendering.depth_m) < gate_m))
+    if not mask.any():
+        return None
+    rotation = view.map_from_camera[:3, :3]
+    normals = rendering.normals_camera[mask] @ rotation.T
+    model = view.points_map(rendering.depth_m, mask)
+    observed = view.points_map(view.depth_m, mask)
+    residual = np.einsum("ij,ij->i", observed - model, normals)
+    centre = model.mean(axis=0)
+    columns = [normals @ axis for axis in motion.shifts]
+    for axis in motion.turns:
+        columns.append(np.einsum("ij,ij->i", np.cross(axis, model - centre), normals) / LEVER_M)
+    part_index = rendering.part_index[mask]
+    for joint in joints:
+        axis, origin, kind = joint_axis_map(state, object_id, joint)
+        carried = np.isin(part_index, state.moving_parts(object_id, joint))
+        if kind == "prismatic":
+            motion = np.broadcast_to(axis, model.shape)
+        else:
+            motion = np.cross(axis, model - origin) / LEVER_M
+        columns.append(np.where(carried, np.einsum("ij,ij->i", motion, normals), 0.0))
+    return residual, np.column_stack(columns), centre
+
+
+def _step(residual: np.ndarray, jacobian: np.ndarray, kernel_m: float) -> np.ndarray:
+    """The Gauss-Newton step (Tukey-weighted) that best explains `residual`, without its part
+    along the motions the points constrain less than MIN_CONSTRAINT."""
+    weights = np.where(np.abs(residual) < kernel_m, (1 - (residual / kernel_m) ** 2) ** 2, 0.0)
+    total = weights.sum()
+    if total <= 0:
+        return np.zeros(jacobian.shape[1])
+    information = (jacobian * weights[:, None]).T @ jacobian / total
+    gradient = (jacobian * weights[:, None]).T @ residual / total
+    values, vectors = np.linalg.eigh(information)
+    kept = values >= MIN_CONSTRAINT
+    return vectors[:, kept] @ ((vectors[:, kept].T @ gradient) / values[kept])
+
+
+def _apply(
+    state: FitState, object_id: str, joints: list[str], step: np.ndarray, centre: np.ndarray, motion: _PoseMotion
+) -> None:
+    """Move the object by the pose's share of `step` (`motion`'s shifts, then its turns about
+    `centre`, in the map frame) and its joints by theirs, within their limits."""
+    shifts, turns = len(motion.shifts), len(motion.turns)
+    rotation = _rotation(step[shifts:shifts + turns] @ motion.turns / LEVER_M)
+    moved = np.eye(4)
+    moved[:3, :3] = rotation
+    moved[:3, 3] = centre + step[:shifts] @ motion.shifts - rotation @ centre
+    state.map_from_objects[object_id] = moved @ state.map_from_objects[object_id]
+    for joint, change in zip(joints, step[shifts + turns:]):
+        low, high = joint_range(state, object_id, joint)
+        kind = state.scene.object(object_id).model.joint(joint).type
+        scale = 1.0 if kind == "prismatic" else 1.0 / LEVER_M
+        position = state.joint_positions[object_id][joint] + change * scale
+        state.joint_positions[object_id][joint] = float(np.clip(position, low, high))
+
+
+def _rotation(rotation_vector: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(rotation_vector).as_matrix()
+
+
+def joint_axis_map(state: FitState, object_id: str, joint: str) -> tuple[np.ndarray, np.ndarray, str]:
+    """(unit axis, a point on it, type) of `joint` in the map frame at the current estimates."""
+    model = state.scene.object(object_id).model
+    model_joint = model.joint(joint)
+    map_from_joint = (state.map_from_objects[object_id] @ state.object_from_links(object_id)[model_joint.parent]
+                      @ model_joint.parent_from_joint)
+    axis = map_from_joint[:3, :3] @ (model_joint.axis / np.linalg.norm(model_joint.axis))
+    return axis, map_from_joint[:3, 3], model_joint.type
