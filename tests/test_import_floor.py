@@ -34,6 +34,19 @@ def test_printing_a_turntable_board_imports_no_mesh_library(tmp_path: Path) -> N
     assert (tmp_path / "board" / "board.yaml").is_file() and (tmp_path / "board" / "board.pdf").is_file()
 
 
+def test_describing_a_blender_glb_imports_no_mesh_library(tmp_path: Path) -> None:
+    """The extension's glb import: the strict GLB reader gives the arrays, trimesh is not needed."""
+    from homemodel.exchange import blender_document as keys
+    from homemodel.exchange.glb import pack_glb
+
+    model = json.dumps({"name": "cup", "category": "cup", "affordances": [], "properties": {}})
+    glb = tmp_path / "scene.glb"
+    glb.write_bytes(pack_glb({"asset": {"version": "2.0"}, "nodes": [{"extras": {keys.MODEL: model, keys.LINK: "base"}}]}))
+    assert _imported_by_command("addon", "describe", glb, "--out", tmp_path / "doc.json") == []
+    doc = json.loads((tmp_path / "doc.json").read_text())
+    assert doc["format"] == keys.MODEL_FORMAT and [link["name"] for link in doc["links"]] == ["base"]
+
+
 def test_turntable_reconstruct_stays_the_entry_function_whichever_is_imported_first() -> None:
     """The package imports its pipeline lazily; the submodule of the same name, once imported,
     must not take the entry function's place (`turntable.reconstruct(...)`, README)."""

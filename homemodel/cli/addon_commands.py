@@ -70,15 +70,17 @@ def describe(
 ) -> None:
     """Write the model document of a URDF model, or of a glb Blender's exporter wrote from a
     scene laid out with the extension (custom properties included)."""
-    from homemodel.exchange.urdf.read import find_urdf, load_urdf
-    from homemodel.app.blender.model_document import model_document, spec_of_model_folder
-    from homemodel.exchange.blender_glb import model_document_from_glb
     from homemodel.core.atomic import write_json
 
     with exit_on_error():
-        if model.suffix.lower() == ".glb":
+        if model.suffix.lower() == ".glb":  # the strict GLB reader alone: no trimesh in this child
+            from homemodel.exchange.blender_glb import model_document_from_glb
+
             write_json(out, model_document_from_glb(model))
         else:
+            from homemodel.exchange.urdf.read import find_urdf, load_urdf
+            from homemodel.app.blender.model_document import model_document, spec_of_model_folder
+
             urdf = find_urdf(model)
             write_json(out, model_document(load_urdf(urdf), spec=spec_of_model_folder(urdf.parent)))
 
