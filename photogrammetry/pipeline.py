@@ -96,14 +96,15 @@ class Reconstruction(ModelResult):
         return self.textured.mesh
 
 
-def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOptions, clock: StageClock, side_px: int):
+def _dense_points(sparse: SparseModel, undistorted: Path, options: ReconstructOptions, clock: StageClock, side_px: int,
+                  roi: tuple[np.ndarray, float]):  # fmt: skip
     from photogrammetry.patch_match import cuda_available, patch_match_points
 
     if options.use_cuda and cuda_available():
         # COLMAP's fusion checks visibility itself: no depth maps are handed on.
         return (*patch_match_points(undistorted, side_px), [], "patch-match (CUDA)")
     maps = compute_depth_maps(sparse, options.dense, progress=clock.progress, side_px=side_px,
-                              workers=options.sfm.threads)  # fmt: skip
+                              workers=options.sfm.threads, roi=roi)  # fmt: skip
     points, colours, to_camera = depth_maps_to_points(sparse, maps, options.dense.point_step_px)
     return points, colours, to_camera, maps, "semi-global matching (CPU)"
 
@@ -139,8 +140,9 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     scene_scale = float(np.median(np.linalg.norm(centres - focus, axis=1)))
     voxel = options.cleaning.voxel_fraction * scene_scale
     dense_side_px = depth_image_side_px(sparse, options.dense, focus=focus, voxel=voxel)
+    # Only what lies near the focus is kept after the fusion: only that is matched.
     points, colours, to_camera, depth_maps, dense_method = _dense_points(
-        sparse, work_dir / "undistorted", options, clock, dense_side_px
+        sparse, work_dir / "undistorted", options, clock, dense_side_px, (focus, options.cleaning.roi_fraction * scene_scale)
     )
     if len(points) < 1000:
         raise ModelError(f"{photos_dir}: dense matching found only {len(points)} points: too little texture or overlap")
