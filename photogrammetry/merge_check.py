@@ -1,11 +1,11 @@
 """Whether a model that joined groups of photos kept each group's geometry and its aim.
 
 When the first mapping pass leaves the photos in groups, the fallbacks (a second, relaxed pass
-and COLMAP's global mapper) join them through the few pairs that link the groups. One wrong
-link (a repeated motif matched across the object, 116 degrees of azimuth apart on 26 Buddha
-photos) gives a model in which every photo "registers" at a low reprojection error, yet the
-cameras are wrong (median centre 0.33 of the cameras' spread, 22 degrees of rotation, against
-the reference cameras). Each first-pass group was built photo by photo, every one checked by
+and COLMAP's global mapper) join them through the few pairs that link the groups. On 26
+Buddha photos all round, six lower photos in front link to the rest through one pair (90
+inliers), and the global mapper set them in the wrong place: every photo "registers" at a low
+reprojection error (0.53 px), yet the cameras are wrong (median centre 0.33 of the cameras'
+spread, 22 degrees of rotation, against the reference cameras). Each first-pass group was built photo by photo, every one checked by
 its reprojection errors, so a joined model must hold each group's cameras where the group put
 them, up to a similarity, as a loop of relative poses must close. That alone does not see the
 wrong join above: both groups keep their shape (to 0.012 of their spread) but one sits in the
@@ -26,6 +26,9 @@ from photogrammetry.support_plane import focus_point
 # all-round Buddha photos they agree to 0.008 of the spread and 0.32 degrees at most.
 MAX_CENTRE_ERROR = 0.05  # share of the group's camera spread
 MAX_ROTATION_ERROR_DEG = 3.0
+# A group "looked at one point" when at least this share of its photos had its focus in frame;
+# the joined model loses it when under half as many see the joined focus (wrong joins: 0 % and
+# 6 % of groups that had 100 %; right joins: 100 %).
 MIN_FOCUS_SHARE = 0.5
 
 
