@@ -14,6 +14,7 @@ import trimesh
 from homemodel.core.checks import require_at_least, require_between, require_positive
 from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import decimate_closed, largest_piece, point_cloud, poisson_surface, repair_surface
+from homemodel.geometry.open3d_loader import load_open3d
 from turntable.fusion import Cylinder, MergedCloud
 
 # Poisson's cube around the points, relative to their extent: room for the surface to close
@@ -92,7 +93,7 @@ def object_mesh(
     cloud: MergedCloud, cylinder: Cylinder, voxel_size_m: float, options: MeshingOptions
 ) -> tuple[trimesh.Trimesh, np.ndarray, MeshingFigures]:
     """A watertight-as-possible mesh in the table frame and its vertex colours (V, 3) in [0, 1]."""
-    import open3d as o3d
+    o3d = load_open3d()
 
     points_in = len(cloud.points)
     if points_in < options.min_points:

@@ -27,13 +27,14 @@ import numpy as np
 import trimesh
 
 from homemodel.core.errors import ModelError
+from homemodel.geometry.open3d_loader import load_open3d
 
 MERGE_FRACTION = 1e-4  # of the mesh's diagonal: vertices nearer than this are one (20 um on a 0.2 m vase)
 MAX_HOLE_EDGES = 100  # holes bounded by more edges than this are openings, not defects
 
 
 def to_open3d(mesh: trimesh.Trimesh):  # noqa: ANN201 (open3d is imported lazily)
-    import open3d as o3d
+    o3d = load_open3d()
 
     # int32: Open3D copies int64 faces element by element (5.7 s against 0.03 s for 330k faces).
     faces = np.ascontiguousarray(mesh.faces, dtype=np.int32)
@@ -46,7 +47,7 @@ def from_open3d(o3d_mesh) -> trimesh.Trimesh:  # noqa: ANN001
 
 
 def point_cloud(points: np.ndarray, *, normals: np.ndarray | None = None):  # noqa: ANN201
-    import open3d as o3d
+    o3d = load_open3d()
 
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
     if normals is not None:
@@ -60,7 +61,7 @@ def poisson_surface(
     """Screened Poisson surface (Open3D) of oriented points, as Open3D returns it (vertices not
     merged), and each vertex's density: how many points support it. The octree is `depth` levels
     deep, or (depth 0) has finest cells `width_m` wide; its cube is `scale` times the points' extent."""
-    import open3d as o3d
+    o3d = load_open3d()
 
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
         # One thread: Open3D's multi-threaded Poisson segfaults now and then on a busy

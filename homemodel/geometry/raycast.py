@@ -15,6 +15,7 @@ import numpy as np
 import trimesh
 
 from homemodel.geometry.camera import Camera
+from homemodel.geometry.open3d_loader import load_open3d
 
 
 @dataclass(kw_only=True)
@@ -35,7 +36,7 @@ class RayCaster:
     """One mesh, ready for many rays (the acceleration structure is built once)."""
 
     def __init__(self, mesh: trimesh.Trimesh) -> None:
-        import open3d as o3d  # heavy: imported only when rays are cast
+        o3d = load_open3d()  # heavy: imported only when rays are cast
 
         self._o3d = o3d
         self._scene = o3d.t.geometry.RaycastingScene()
