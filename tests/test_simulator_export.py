@@ -328,16 +328,14 @@ def _export_model(model_dir: Path, out: Path, fmt: str, *extra: str) -> Path:
 SCENE_FILES = {"mjcf": "scene.xml", "sdf": "scene.sdf", "usd": "scene.usda"}
 
 
-def _scene_files(model_dir: Path, out: Path, *, by_command: bool) -> dict[str, Path]:
+def _scene_files(model_dir: Path, model, out: Path, *, by_command: bool) -> dict[str, Path]:
     """The model's MJCF, SDF and USD scene files, written by `homemodel export` (`by_command`)
-    or by the same writer on one reading of the folder: the same files without the command's
-    parsing and two more readings (33 catalogue models: 14 -> 7 CPU-s)."""
+    or by the same writer on `model`, the folder's one reading: the same files without the
+    command's parsing and three more readings (33 catalogue models: 14 -> 7 CPU-s)."""
     if by_command:
         return {fmt: _export_model(model_dir, out / fmt, fmt) / file for fmt, file in SCENE_FILES.items()}
     from homemodel.exchange.simulator import export_model_for
-    from homemodel.exchange.urdf.read import find_urdf, load_urdf
 
-    model = load_urdf(find_urdf(model_dir))
     return {fmt: export_model_for(model, out / fmt, fmt).out_dir / file for fmt, file in SCENE_FILES.items()}
 
 
@@ -348,8 +346,9 @@ def _check_model_everywhere(model_dir: Path, out: Path, *, check_sdf: bool = Tru
     from homemodel.exchange.simulator_read import read_scene
     from homemodel.exchange.urdf.read import find_urdf, load_urdf
 
-    files = _scene_files(model_dir, out, by_command=by_command)
-    original = single_model_scene(load_urdf(find_urdf(model_dir))).objects[0]
+    model = load_urdf(find_urdf(model_dir))
+    files = _scene_files(model_dir, model, out, by_command=by_command)
+    original = single_model_scene(model).objects[0]
     for fmt, file in files.items():
         assert_same_model(original, read_scene(file).objects[0], fmt, TOLERANCE[fmt])
     assert_mujoco_stable(mujoco_figures(files["mjcf"]))
@@ -360,15 +359,16 @@ def _check_model_everywhere(model_dir: Path, out: Path, *, check_sdf: bool = Tru
     return files["sdf"]
 
 
-def _catalogue_model_dir(catalogue, name: str, tmp_path: Path) -> Path:
-    from homemodel.exchange.model_files import export_model
-
-    return export_model(catalogue[name].model, tmp_path / "model")
+def _catalogue_model_dir(catalogue, name: str) -> Path:
+    """The model's folder as the catalogue fixture exported it (only read here: the exports go
+    to the test's own folder)."""
+    catalogue[name]  # builds and exports it
+    return catalogue._out_dir / name
 
 
 @pytest.mark.parametrize("name", CATALOGUE_SAMPLE)
 def test_catalogue_sample_in_every_simulator(catalogue, tmp_path: Path, name: str) -> None:
-    _check_model_everywhere(_catalogue_model_dir(catalogue, name, tmp_path), tmp_path)
+    _check_model_everywhere(_catalogue_model_dir(catalogue, name), tmp_path)
 
 
 @pytest.mark.slow
@@ -379,7 +379,7 @@ def test_every_catalogue_model_in_every_simulator(catalogue, tmp_path: Path) -> 
     failures, sdfs = {}, []
     for name in sorted(set(CATALOGUE) - set(CATALOGUE_SAMPLE)):
         try:
-            model_dir = _catalogue_model_dir(catalogue, name, tmp_path / name)
+            model_dir = _catalogue_model_dir(catalogue, name)
             sdfs.append(_check_model_everywhere(model_dir, tmp_path / name, check_sdf=False, by_command=False))
         except AssertionError as exc:
             failures[name] = str(exc).splitlines()[0]
