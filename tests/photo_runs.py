@@ -15,74 +15,98 @@ Treat it as read-only: `model_copy` gives a test its own copy.
 from __future__ import annotations
 
 import copy
+import dataclasses
+import inspect
 import json
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
 from fixture_cache import cached_folder, content_key
 
-if TYPE_CHECKING:
-    from photogrammetry.sfm import SfmOptions, SparseModel
+# What `homemodel photogrammetry reconstruct` runs, and no more: the photogrammetry package and
+# the layers below it (fixture_cache.code_of), and the command line's own files (as a package,
+# homemodel.cli would bring in every layer: the other pipelines and the app, which the command
+# does not run). A change to any of it reconstructs again.
+PIPELINE_CODE = ("photogrammetry",)
+CLI_CODE = Path(__file__).resolve().parents[1] / "homemodel" / "cli"
 
-# What `photogrammetry reconstruct` runs: a change to any of it reconstructs again.
-PIPELINE_CODE = ("photogrammetry", "homemodel", "articulation")
 
+class Kept:
+    """One call of a pipeline stage kept in memory, handed to a later run of the same photos
+    that calls the stage with equal arguments (all but the work folder, the progress callback
+    and the thread count) instead of computing it again: SfM and the depth maps are the same
+    for the runs with and without the support cut, and with one SfM both share one frame
+    (two SfM runs repeat themselves only to the bit: test_structure_from_motion_repeats_itself).
+    A call with other arguments is refused."""
 
-class KeptSfm:
-    """One SfM run kept in memory (its undistorted photos in a work folder that outlives it),
-    handed to a later run of the same photos with the same SfM options instead of running SfM
-    again: that run's own SfM would find the same cameras (test_structure_from_motion_repeats_itself),
-    and with one SfM both runs share one frame. Any other photos or options are refused."""
+    IGNORED = ("work_dir", "progress", "workers")
 
-    def __init__(self) -> None:
-        self.run: tuple[list[Path], SfmOptions | None, SparseModel] | None = None
+    def __init__(self, stage: Callable) -> None:
+        self.stage = stage
+        self.call: tuple[dict, object] | None = None
         self.handed = 0
 
-    def keeping(self, run_sfm: Callable[..., SparseModel]) -> Callable[..., SparseModel]:
-        def run(photos: list[Path], work_dir: Path, options: SfmOptions | None = None, progress=None) -> SparseModel:
-            model = run_sfm(photos, work_dir, options, progress=progress)
-            self.run = (list(photos), options, copy.deepcopy(model))
-            return model
+    def _arguments(self, args: tuple, kwargs: dict) -> dict:
+        bound = inspect.signature(self.stage).bind(*args, **kwargs)
+        return {name: value for name, value in bound.arguments.items() if name not in self.IGNORED}
 
-        return run
+    def keeping(self, *args, **kwargs):  # noqa: ANN202 (the stage's own result)
+        result = self.stage(*args, **kwargs)
+        self.call = (copy.deepcopy(self._arguments(args, kwargs)), copy.deepcopy(result))
+        return result
 
-    def again(self, photos: list[Path], work_dir: Path, options: SfmOptions | None = None,
-              progress=None) -> SparseModel:  # fmt: skip
-        kept_photos, kept_options, model = self.run
-        assert list(photos) == kept_photos and options == kept_options, "not the kept SfM's photos and options"
+    def again(self, *args, **kwargs):  # noqa: ANN202
+        kept_arguments, result = self.call
+        arguments = self._arguments(args, kwargs)
+        assert _same(arguments, kept_arguments), f"{self.stage.__name__}: not the kept call's arguments"
         self.handed += 1
-        return copy.deepcopy(model)
+        return copy.deepcopy(result)
 
 
-def _command(folder: Path, photos: Path, args: list[str], sfm: KeptSfm | None = None) -> None:
+def _same(a: object, b: object) -> bool:
+    """Equal, looking into arrays, containers and dataclasses (a SparseModel, its Views)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and np.array_equal(a, b)
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if dataclasses.is_dataclass(a):
+        return _same(vars(a), vars(b))
+    return a == b
+
+
+def _command(folder: Path, photos: Path, args: list[str], kept: dict[str, Kept] | None = None) -> None:
     """`homemodel photogrammetry reconstruct PHOTOS --out folder/model ARGS` through the CLI, with
-    what the pipeline held in memory on the way saved beside the model folder; `sfm`: the SfM of
-    the same photos and options, handed to the command's pipeline."""
+    what the pipeline held in memory on the way saved beside the model folder; `kept`: stages
+    (by their name in photogrammetry.pipeline) of a run of the same photos, handed to the
+    command's pipeline."""
     from typer.testing import CliRunner
 
     from homemodel.cli import app
     from photogrammetry import pipeline
 
-    kept = []
+    results = []
     run = pipeline.reconstruct_photos
 
     def keeping(*a, **kw):  # the CLI's own run, its in-memory result kept on the way
-        kept.append(run(*a, **kw))
-        return kept[-1]
+        results.append(run(*a, **kw))
+        return results[-1]
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(pipeline, "reconstruct_photos", keeping)
-        if sfm is not None:
-            patch.setattr(pipeline, "run_sfm", sfm.again)
+        for name, stage in (kept or {}).items():
+            patch.setattr(pipeline, name, stage.again)
         command = ["photogrammetry", "reconstruct", str(photos), "--out", str(folder / "model"), *args]
         result = CliRunner().invoke(app, command, catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    assert sfm is None or sfm.handed == 1, "the command ran its own SfM"
-    (result_in_memory,) = kept
+    assert all(stage.handed == 1 for stage in (kept or {}).values()), "the command ran a kept stage itself"
+    (result_in_memory,) = results
     result_in_memory.mesh.export(folder / "mesh.ply")
     np.save(folder / "scene_points.npy", result_in_memory.scene_points)
     np.save(folder / "model_from_sfm.npy", result_in_memory.frame.model_from_sfm)
@@ -91,7 +115,8 @@ def _command(folder: Path, photos: Path, args: list[str], sfm: KeptSfm | None = 
 
 def cli_run(name: str, photos: Path, args: list[str]) -> Path:
     """The folder of `homemodel photogrammetry reconstruct PHOTOS --out model ARGS`, made once."""
-    key = content_key(inputs=[photos, Path(__file__)], packages=PIPELINE_CODE, settings=json.dumps([name, args]))
+    key = content_key(inputs=[photos, Path(__file__), CLI_CODE], packages=PIPELINE_CODE,
+                      settings=json.dumps([name, args]))
     return cached_folder(f"photo_run_{name}", key, lambda folder: _command(folder, photos, args))
 
 
@@ -131,10 +156,12 @@ def _buddha_side_photos(data: Path, scratch: Path) -> Path:
 def buddha_side_runs(data: Path, scratch: Path) -> Path:
     """The 14 side photos twice, made once: without the support cut in memory (`uncut/`:
     `object_points.npy` and `model_from_sfm.npy`, at the run's depth size, a 256 px texture),
-    then through the command with the cut (the folder of `cli_run`), its SfM handed over
-    from the first (the same photos and the same default SfM options): 49-61 CPU-s for both,
-    85 as two runs each with its own SfM (cold, load 23-28). One SfM also gives
-    both one frame, which two SfM runs give only when they repeat themselves to the bit."""
+    then through the command with the cut (the folder of `cli_run`), its SfM and depth maps
+    handed over from the first (the same photos, the same default SfM options, the same depth
+    options and size): one dense stage instead of two, the same files to the bit. Cold, one
+    after the other at a load of 12-23: 33.7 -> 25.7 CPU-s (dense 10.4 -> 5.1); 85 as two runs
+    each with its own SfM (load 23-28). One SfM also gives both one frame, which two SfM runs
+    give only when they repeat themselves to the bit."""
     from photogrammetry import pipeline
     from photogrammetry.cleaning import CleaningOptions
     from photogrammetry.stereo import DenseOptions
@@ -147,15 +174,17 @@ def buddha_side_runs(data: Path, scratch: Path) -> Path:
             cleaning=CleaningOptions(remove_support=False), texture=TextureBakingOptions(size_px=256),
             dense=DenseOptions(max_image_size_px=BUDDHA_SIDE_DEPTH_PX),
         )
-        sfm = KeptSfm()
-        with pipeline.temporary_work_dir() as work:
+        kept = {name: Kept(getattr(pipeline, name)) for name in ("run_sfm", "compute_depth_maps")}
+        with pipeline.temporary_work_dir() as work:  # the kept views' undistorted photos
             with pytest.MonkeyPatch.context() as patch:
-                patch.setattr(pipeline, "run_sfm", sfm.keeping(pipeline.run_sfm))
+                for name, stage in kept.items():
+                    patch.setattr(pipeline, name, stage.keeping)
                 uncut = pipeline.reconstruct_photos(photos, options, work_dir=Path(work))
             (folder / "uncut").mkdir()
             np.save(folder / "uncut" / "object_points.npy", uncut.object_points)
             np.save(folder / "uncut" / "model_from_sfm.npy", uncut.frame.model_from_sfm)
-            _command(folder, photos, BUDDHA_SIDE_ARGS, sfm)
+            _command(folder, photos, BUDDHA_SIDE_ARGS, kept)
 
-    key = content_key(inputs=[photos, Path(__file__)], packages=PIPELINE_CODE, settings=json.dumps(BUDDHA_SIDE_ARGS))
+    key = content_key(inputs=[photos, Path(__file__), CLI_CODE], packages=PIPELINE_CODE,
+                      settings=json.dumps(BUDDHA_SIDE_ARGS))
     return cached_folder("photo_run_buddha_side", key, make)
