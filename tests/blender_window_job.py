@@ -19,20 +19,49 @@ import bpy
 REPO, CAPTURE, OUT = (Path(a) for a in sys.argv[sys.argv.index("--") + 1 :][:3])
 sys.path.insert(0, str(REPO))
 import blender_addons  # noqa: E402
-from blender_addons import rig  # noqa: E402
+from blender_addons import jobs, rig  # noqa: E402
 
 SEEN: dict = {"statuses": [], "modal_results": []}
 TIMEOUT_S = 300
 STARTED = time.monotonic()
 LOOP_S = 0.05
+NAP_S = 2.0
+LABEL = jobs.JOB_BUTTONS["turntable"][0] + ": "
+JOBS: list[jobs.Job] = []  # the jobs the operator started, in order, for the waits below
+_start_job = jobs.Job.start
 
 
-def _after(wait_s: float) -> float:
-    """The timer interval that calls again after `wait_s`, most of it spent asleep in this
-    callback: idle, Blender's event loop wakes every 5 ms (0.25 CPU-s a second here) while the
-    toolkit's child does the work. The loop still runs LOOP_S between naps, so the job's own
-    timer, Esc and the panel's status are handled as without them."""
-    time.sleep(max(wait_s - LOOP_S, 0.0))
+def _recorded_start(job: jobs.Job) -> None:
+    JOBS.append(job)
+    _start_job(job)
+
+
+jobs.Job.start = _recorded_start
+
+
+def _reported(job: jobs.Job) -> str:
+    """What the toolkit has reported that the panel can show: its last stage, or "ended"."""
+    if job.process is None or job.process.poll() is not None:
+        return "ended"
+    try:
+        lines = job.progress_file.read_text(encoding="utf-8").splitlines()
+        return json.loads(lines[-1])["stage"] if lines else "starting"
+    except FileNotFoundError:
+        return "starting"
+    except ValueError:  # a line half-written: news on its way
+        return "news"
+
+
+def _until_news(job: jobs.Job, shown: str) -> float:
+    """The timer interval after a wait on the job's state: idle, Blender's event loop wakes every
+    5 ms (0.25 CPU-s a second here) while the toolkit's child does the work, so while the panel
+    already shows the child's last stage this callback sleeps (up to NAP_S) until the child
+    reports another or ends. Then the loop runs (LOOP_S between calls) until the job's own
+    timer has polled it and the panel shows the news; Esc and the status are handled as
+    without the naps."""
+    deadline = time.monotonic() + NAP_S
+    while _reported(job) == shown and time.monotonic() < deadline:
+        time.sleep(LOOP_S)
     return LOOP_S
 
 
@@ -68,9 +97,9 @@ def _watch_first() -> float | None:
             SEEN["landed"] = [{"name": json.loads(r[rig.MODEL])["name"], "location": list(r.location),
                                "meshes": sum(1 for o in rig.owned(r) if o.type == "MESH")} for r in roots]
             SEEN["cursor"] = list(bpy.context.scene.cursor.location)
-            bpy.app.timers.register(_start_second, first_interval=0.5)
+            bpy.app.timers.register(_start_second, first_interval=LOOP_S)
             return None
-        return None if _timed_out() else _after(0.25)
+        return None if _timed_out() else _until_news(JOBS[0], status.removeprefix(LABEL))
     except Exception:
         _finish(traceback.format_exc())
         return None
@@ -80,17 +109,20 @@ def _start_second() -> float | None:
     try:
         SEEN["first_statuses"], SEEN["statuses"] = SEEN["statuses"], []
         _start("turntable")
-        bpy.app.timers.register(_press_escape, first_interval=2.0)
+        bpy.app.timers.register(_press_escape, first_interval=LOOP_S)
     except Exception:
         _finish(traceback.format_exc())
     return None
 
 
 def _press_escape() -> float | None:
+    """Esc once the job's timer has polled the second job (the panel shows it, no longer the
+    first one's "done") while its child runs."""
     try:
-        _record()
+        if _record().endswith("done") or JOBS[-1].process.poll() is not None:
+            return None if _timed_out() else LOOP_S
         bpy.context.window_manager.windows[0].event_simulate(type="ESC", value="PRESS")
-        bpy.app.timers.register(_watch_second, first_interval=0.5)
+        bpy.app.timers.register(_watch_second, first_interval=LOOP_S)
     except Exception:
         _finish(traceback.format_exc())
     return None
@@ -101,7 +133,7 @@ def _watch_second() -> float | None:
     if status.endswith("cancelled") or _timed_out():
         _finish(None if status.endswith("cancelled") else "Esc did not cancel the job")
         return None
-    return _after(0.25)
+    return LOOP_S
 
 
 def _timed_out() -> bool:

@@ -2,7 +2,10 @@
 real inputs, checked against the model type, the validation gate and the map tools.
 
 The extension calls the toolkit as a child process; HOMEMODEL_COMMAND points it at this
-checkout's `python -m homemodel`.
+checkout's toolkit. Most tests start it through tests/toolkit_forkserver.py (a child process
+running the same command line, forked from one that has imported it: 1.5-2 CPU-s less a
+child); the tests asking for `real_toolkit`, the packaging test and the real-window tests start
+`python -m homemodel` itself, so every command the extension calls runs as its own process too.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import subprocess
 import sys
 import tempfile
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -49,12 +53,24 @@ def cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(list(args), result.exit_code, result.stdout, result.stderr)
 
 
+REAL_TOOLKIT = f"{sys.executable} -m homemodel"
+
+
 @pytest.fixture(scope="module")
-def addon():
+def forked_toolkit(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """The HOMEMODEL_COMMAND of tests/toolkit_forkserver.py's server, for this module."""
+    from toolkit_forkserver import started
+
+    with started(tmp_path_factory.mktemp("toolkit") / "socket") as command:
+        yield command
+
+
+@pytest.fixture(scope="module")
+def addon(forked_toolkit: str):
     """The extension registered in this process's bpy, the toolkit found through HOMEMODEL_COMMAND."""
 
     saved = {key: os.environ.get(key) for key in ("HOMEMODEL_COMMAND", "PYTHONPATH")}
-    os.environ["HOMEMODEL_COMMAND"] = f"{sys.executable} -m homemodel"
+    os.environ["HOMEMODEL_COMMAND"] = forked_toolkit
     os.environ["PYTHONPATH"] = ENV["PYTHONPATH"]
     import blender_addons
 
@@ -66,6 +82,12 @@ def addon():
             os.environ.pop(key, None)
         else:
             os.environ[key] = value
+
+
+@pytest.fixture
+def real_toolkit(addon, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The extension's toolkit children are `python -m homemodel` itself in this test."""
+    monkeypatch.setenv("HOMEMODEL_COMMAND", REAL_TOOLKIT)
 
 
 @pytest.fixture
@@ -202,7 +224,7 @@ def test_list_fields_get_add_and_remove(scene) -> None:
     assert [row.path for row in doors] == ["doors.0.hinge"] and doors[0].choice == "right"
 
 
-def test_an_impossible_measurement_is_shown_at_its_field_and_adds_nothing(scene) -> None:
+def test_an_impossible_measurement_is_shown_at_its_field_and_adds_nothing(real_toolkit, scene) -> None:
     import bpy
 
     form = scene.homemodel_form
@@ -341,7 +363,7 @@ def test_named_states_set_a_knob(oven_dir: Path, scene) -> None:
 
 
 @pytest.mark.slow
-def test_import_then_export_with_no_edits_gives_the_same_model(imported_cupboard: Path, cupboard_dir: Path, tmp_path: Path) -> None:
+def test_import_then_export_with_no_edits_gives_the_same_model(real_toolkit, imported_cupboard: Path, cupboard_dir: Path, tmp_path: Path) -> None:
     import bpy
 
     from blender_addons import rig
@@ -586,7 +608,7 @@ def test_the_scheme_survives_save_reopen_and_the_gltf_exporter(imported_cupboard
 
 
 @pytest.mark.slow
-def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(scene, kitchen: Path, tmp_path: Path) -> None:
+def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(real_toolkit, scene, kitchen: Path, tmp_path: Path) -> None:
     import bpy
 
     from blender_addons import home, rig
@@ -737,7 +759,7 @@ def _in_a_blender_window(empty: Path, script: Path, *args: str, screen: str) -> 
     in software (llvmpipe), at a cost that grows with the screen (start and quit 5.9 CPU-s at
     1600x1000, 3.8 at 800x600), and its idle event loop wakes every 5 ms (0.25 CPU-s a second),
     which the scripts sleep through while they wait."""
-    env = {**ENV, "HOMEMODEL_COMMAND": f"{sys.executable} -m homemodel"}
+    env = {**ENV, "HOMEMODEL_COMMAND": REAL_TOOLKIT}
     return subprocess.run(
         ["xvfb-run", "-a", "-s", f"-screen 0 {screen}x24", "blender", "--factory-startup", "--enable-event-simulate",
          str(empty), "--python", str(script), "--", str(REPO), *args],

@@ -29,7 +29,7 @@ import blender_addons  # noqa: E402
 from blender_addons import home, panels, rig  # noqa: E402
 
 DRAWN: set[str] = set()
-TAB_STEP_PX = 12
+TAB_STEP_PX = 24  # a tab's label is 40-80 px long
 LOOP_S = 0.05
 
 
@@ -113,19 +113,17 @@ def look(at, distance_m: float, tilt_deg: float, heading_deg: float) -> None:
 def click_tabs():
     """Click down the sidebar's tab strip until the homemodel panels draw; None when done."""
     window, area, region = _view3d()
-    state = click_tabs.__dict__.setdefault("state", {"y": region.y + region.height - 20, "pressed": False})
+    state = click_tabs.__dict__.setdefault("state", {"y": region.y + region.height - 20})
     if "HOMEMODEL_PT_build" in DRAWN:
         return None
     if state["y"] < region.y + 20:
         raise RuntimeError("no sidebar tab drew the homemodel panels")
     x = region.x + region.width - 8
-    if not state["pressed"]:
-        window.event_simulate(type="LEFTMOUSE", value="PRESS", x=x, y=state["y"])
-    else:
-        window.event_simulate(type="LEFTMOUSE", value="RELEASE", x=x, y=state["y"])
-        window.event_simulate(type="MOUSEMOVE", value="NOTHING", x=region.x - 300, y=region.y + 300)
-        state["y"] -= TAB_STEP_PX
-    state["pressed"] = not state["pressed"]
+    # One click per call (the loop handles the queued events in order): each call redraws.
+    window.event_simulate(type="LEFTMOUSE", value="PRESS", x=x, y=state["y"])
+    window.event_simulate(type="LEFTMOUSE", value="RELEASE", x=x, y=state["y"])
+    window.event_simulate(type="MOUSEMOVE", value="NOTHING", x=region.x - 300, y=region.y + 300)
+    state["y"] -= TAB_STEP_PX
     DRAWN.clear()
     region.tag_redraw()
     return after(0.3)
