@@ -112,11 +112,12 @@ def refine_pose_and_joints(
     return TogetherFit(cost_before=cost_before, cost_after=cost_after, steps=steps)
 
 
-# The compass search's first steps (halved down to an eighth): shifts, turns (the pose's yaw
-# and revolute joints) and slides.
+# The compass search's first steps: shifts, turns (the pose's yaw and revolute joints) and
+# slides, halved SEARCH_HALVINGS times at most (Gauss-Newton takes it from there).
 SEARCH_SHIFT_M = 0.008
 SEARCH_TURN_RAD = np.radians(1.0)
 SEARCH_SLIDE_M = 0.008
+SEARCH_HALVINGS = 3
 SEARCH_ROUNDS = 24
 
 
@@ -131,7 +132,7 @@ def _search(
     model = state.scene.object(object_id).model
     steps = np.array([SEARCH_SHIFT_M] * len(motion.shifts) + [SEARCH_TURN_RAD]
                      + [SEARCH_SLIDE_M if model.joint(j).type == "prismatic" else SEARCH_TURN_RAD for j in joints])
-    smallest = steps / 8
+    smallest = steps / 2**SEARCH_HALVINGS
     for _ in range(SEARCH_ROUNDS):
         moves = [np.zeros(len(steps))]
         for k in range(len(steps)):
