@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import atexit
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Literal
 
@@ -62,19 +64,28 @@ class PixelWindow:
         )
 
 
-_per_thread = threading.local()
+_idle_detectors: list = []  # detectors no thread is using: one is not safe to share between threads
+_idle_lock = threading.Lock()
 
 
-def _apriltag_detector(decimate: float):  # noqa: ANN202 (pupil_apriltags type)
-    """One detector per thread and setting: a detector is not safe to share between threads."""
+@contextmanager
+def _apriltag_detector(decimate: float) -> Iterator:
+    """A detector for this thread's use, set to `decimate`: an idle one if any, else a new one
+    (building one, its tag family's decoding table, costs 35 ms of CPU; a capture's frames are
+    searched at two decimations on several threads but need only as many detectors as run at once)."""
     from pupil_apriltags import Detector
 
-    detectors = _per_thread.__dict__.setdefault("detectors", {})
-    if decimate not in detectors:
+    with _idle_lock:
+        detector = _idle_detectors.pop() if _idle_detectors else None
+    if detector is None:
         detector = Detector(families="tag36h11", nthreads=1, quad_decimate=decimate, quad_sigma=0.0, refine_edges=1)
         atexit.register(_release, detector)
-        detectors[decimate] = detector
-    return detectors[decimate]
+    detector.tag_detector_ptr.contents.quad_decimate = float(decimate)
+    try:
+        yield detector
+    finally:
+        with _idle_lock:
+            _idle_detectors.append(detector)
 
 
 def _release(detector) -> None:  # noqa: ANN001
@@ -95,7 +106,9 @@ def _release(detector) -> None:  # noqa: ANN001
 
 def _detect_apriltag(gray: np.ndarray, options: DetectionOptions) -> dict[int, np.ndarray]:
     found: dict[int, np.ndarray] = {}
-    for detection in _apriltag_detector(options.decimate or 1.0).detect(np.ascontiguousarray(gray)):
+    with _apriltag_detector(options.decimate or 1.0) as detector:
+        detections = detector.detect(np.ascontiguousarray(gray))
+    for detection in detections:
         if detection.hamming > options.max_hamming:
             continue
         # The library starts at the tag image's top-right and runs counter-clockwise in the
