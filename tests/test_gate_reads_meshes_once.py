@@ -14,18 +14,19 @@ from homemodel.core.errors import InputError
 from homemodel.exchange.model_files import write_model_files
 from homemodel.geometry import mesh_io
 from homemodel.geometry.mesh_io import load_mesh, meshes_read_once
+from homemodel.model_folder.gate import mesh_files
 from homemodel.model_folder.gate.validate import validate_path
 
 
-def _counting_reads(monkeypatch: pytest.MonkeyPatch) -> dict[Path, int]:
+def _counting_reads(monkeypatch: pytest.MonkeyPatch, module=mesh_io, name: str = "read_mesh_file") -> dict[Path, int]:
     reads: dict[Path, int] = {}
-    real = mesh_io._read_mesh
+    real = getattr(module, name)
 
     def counted(path: Path) -> trimesh.Trimesh:
         reads[Path(path)] = reads.get(Path(path), 0) + 1
         return real(path)
 
-    monkeypatch.setattr(mesh_io, "_read_mesh", counted)
+    monkeypatch.setattr(module, name, counted)
     return reads
 
 
@@ -34,7 +35,7 @@ def test_a_scanned_boxs_meshes_are_each_parsed_once_by_the_gate(tmp_path: Path, 
     write_model_files(scan_model(trimesh.creation.box((0.1, 0.06, 0.04)), name="box_scan", density_kg_m3=500.0), folder)
     objs = sorted((folder / "meshes").glob("*.obj"))
     assert len(objs) == 2  # the visual and its hull, each read by three of the gate's checks
-    reads = _counting_reads(monkeypatch)
+    reads = _counting_reads(monkeypatch, mesh_files, "read_gate_mesh")
     report = validate_path(folder)
     assert report.ok, report.format()
     assert set(reads) == set(objs) and set(reads.values()) == {1}, reads

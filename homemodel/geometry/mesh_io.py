@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import io
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
@@ -51,26 +51,30 @@ def declared_faces(data: bytes, suffix: str) -> int:
     return 0
 
 
-def load_mesh(path: Path, *, require_finite: bool = True) -> trimesh.Trimesh:
+def load_mesh(
+    path: Path, *, require_finite: bool = True, read: Callable[[Path], trimesh.Trimesh] | None = None
+) -> trimesh.Trimesh:
     """All the triangles of a mesh file, or of `model.glb` when `path` is a model folder,
     in the file's frame (scene nodes' transforms applied); a model folder's in the model's z-up
-    frame. `require_finite=False` leaves NaN and infinite vertices for the caller to report."""
+    frame. `require_finite=False` leaves NaN and infinite vertices for the caller to report.
+    `read` replaces `read_mesh_file` with a reader giving the same triangles (the gate's cheaper
+    OBJ reading, which this layer cannot import)."""
     path = Path(path)
-    read = _READ.get()
-    stat = path.stat() if read is not None and path.is_file() else None
+    cache = _READ.get()
+    stat = path.stat() if cache is not None and path.is_file() else None
     key = None if stat is None else (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
-    if key is not None and key in read:
-        mesh = read[key].copy()
+    if key is not None and key in cache:
+        mesh = cache[key].copy()
     else:
-        mesh = _read_mesh(path)
+        mesh = (read or read_mesh_file)(path)
         if key is not None:
-            read[key] = mesh.copy()
+            cache[key] = mesh.copy()
     if require_finite and not np.all(np.isfinite(mesh.vertices)):
         raise InputError(f"{path}: the mesh has non-finite (NaN or infinite) vertex coordinates")
     return mesh
 
 
-def _read_mesh(path: Path) -> trimesh.Trimesh:
+def read_mesh_file(path: Path) -> trimesh.Trimesh:
     """`load_mesh` of a file without the finite check."""
     model_folder = path.is_dir()
     if model_folder:

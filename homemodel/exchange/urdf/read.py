@@ -38,6 +38,7 @@ from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.exchange import urdf as urdf_doc
+from homemodel.exchange.obj import read_obj
 from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 from homemodel.geometry.collada import collada_unit_m
 from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
@@ -96,11 +97,13 @@ def read_mesh_parts(path: Path) -> list[tuple[str, trimesh.Trimesh]]:
             unit_m = collada_unit_m(data, path)  # parsed safely first: pycollada would resolve entities
         except InputError as exc:
             raise InputError(f"{path}: {str(exc).removeprefix(f'{path}: ')}") from None
-    try:
-        loaded = trimesh.load(path, process=False, maintain_order=True)
-    except Exception as exc:  # trimesh raises many types for corrupt files
-        raise InputError(f"{path}: cannot be read: {type(exc).__name__}: {exc}") from None
-    parts = [(name, mesh) for name, mesh in scene_parts(loaded, path.stem) if len(mesh.faces) > 0]
+    parts = _plain_obj_parts(data, path)
+    if parts is None:
+        try:
+            loaded = trimesh.load(path, process=False, maintain_order=True)
+        except Exception as exc:  # trimesh raises many types for corrupt files
+            raise InputError(f"{path}: cannot be read: {type(exc).__name__}: {exc}") from None
+        parts = [(name, mesh) for name, mesh in scene_parts(loaded, path.stem) if len(mesh.faces) > 0]
     if not parts:
         raise InputError(f"{path}: has no triangles")
     MESH_TRIANGLES.check(path, sum(len(mesh.faces) for _, mesh in parts))
@@ -110,6 +113,15 @@ def read_mesh_parts(path: Path) -> list[tuple[str, trimesh.Trimesh]]:
         for _, mesh in parts:
             mesh.apply_scale(unit_m)
     return parts
+
+
+def _plain_obj_parts(data: bytes, path: Path) -> list[tuple[str, trimesh.Trimesh]] | None:
+    """A plain OBJ with no materials (a collision hull) read by the strict OBJ reader, which gives
+    what trimesh's parser does several times faster; None for any other file."""
+    if path.suffix.lower() != ".obj" or b"/" in data or b"mtllib" in data:
+        return None
+    obj = read_obj(data, path)
+    return [(path.stem, obj.trimesh(keep_unreferenced=True))] if obj.is_plain() else None
 
 
 def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, trimesh.Trimesh]]:

@@ -18,7 +18,7 @@ from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.exchange import urdf as urdf_doc
 from homemodel.exchange.urdf import Element
 from homemodel.exchange.urdf.mesh_paths import resolve_mesh
-from homemodel.geometry.mesh_io import load_mesh
+from homemodel.model_folder.gate.mesh_files import load_gate_mesh
 from homemodel.geometry.mesh_ops import zero_area_faces
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
 
@@ -69,7 +69,7 @@ def mesh_geometry_check(robot: Element, urdf_dir: Path, package_paths: Sequence[
         key = (path, role == "collision")
         if key not in checked:
             try:
-                mesh = load_mesh(path, require_finite=False)
+                mesh = load_gate_mesh(path, require_finite=False)
             except InputError:
                 continue  # unreadable, or over the bounds: the meshes check reports it
             checked[key] = _geometry_problems(mesh, solid=key[1])

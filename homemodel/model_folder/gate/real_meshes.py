@@ -21,7 +21,7 @@ from trimesh.collision import CollisionManager
 from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.exchange import urdf as urdf_doc
 from homemodel.exchange.urdf.mesh_paths import resolve_mesh
-from homemodel.geometry.mesh_io import load_mesh
+from homemodel.model_folder.gate.mesh_files import load_gate_mesh
 
 # Tessellation of primitives for FCL; boxes are exact.
 _SPHERE_SUBDIVISIONS = 2
@@ -45,7 +45,7 @@ def _shape(geometry: Any, urdf_dir: Path, package_paths: Sequence[Path]) -> trim
     if sphere is not None:
         return trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=float(sphere.get("radius", 0)))
     if mesh is not None and mesh.get("filename"):
-        loaded = load_mesh(resolve_mesh(mesh.get("filename"), urdf_dir, package_paths))
+        loaded = load_gate_mesh(resolve_mesh(mesh.get("filename"), urdf_dir, package_paths))
         loaded.apply_scale(_floats(mesh.get("scale"), (1.0, 1.0, 1.0)))
         return loaded
     return None

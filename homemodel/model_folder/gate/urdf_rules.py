@@ -19,7 +19,7 @@ from homemodel.core.errors import InputError
 from homemodel.exchange import urdf as urdf_doc
 from homemodel.exchange.urdf import Element
 from homemodel.exchange.urdf.mesh_paths import resolve_mesh
-from homemodel.geometry.mesh_io import load_mesh
+from homemodel.model_folder.gate.mesh_files import load_gate_mesh
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
 
 AXIS_UNIT_TOLERANCE = 1e-6
@@ -192,7 +192,7 @@ def _mesh_problem(path: Path) -> str | None:
     """Why `path` cannot be read as a mesh (bounded in bytes and triangles), or None; what it
     holds is the mesh geometry check's."""
     try:
-        load_mesh(path, require_finite=False)
+        load_gate_mesh(path, require_finite=False)
     except InputError as exc:
         return str(exc).removeprefix(f"{path}: ")
     return None
@@ -220,7 +220,7 @@ def meshes_check(robot: Element, urdf_dir: Path, package_paths: Sequence[Path] =
                 read[path] = _mesh_problem(path)
             if read[path] is not None:
                 problems.append(f"{where}: {read[path]}")
-    detail = f"{count(len(read), 'mesh file')} inside the model folder read with trimesh" if read else "no mesh files"
+    detail = f"{count(len(read), 'mesh file')} inside the model folder read" if read else "no mesh files"
     return check_from_problems("meshes", problems, detail)
 
 
