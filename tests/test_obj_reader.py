@@ -140,7 +140,7 @@ def test_a_file_without_faces_or_text_is_refused(tmp_path: Path) -> None:
     empty, binary = tmp_path / "points.obj", tmp_path / "binary.obj"
     empty.write_text("v 0 0 0\nv 1 0 0\n")
     binary.write_bytes(b"v 0 0 0\n\xff\xfe\x00f 1 1 1\n")
-    with pytest.raises(InputError, match=f"^{re.escape(str(empty))}: has no faces"):
+    with pytest.raises(InputError, match=f"^{re.escape(str(empty))}: the file holds no triangles"):
         read_obj(empty.read_bytes(), empty)
     with pytest.raises(InputError, match=f"^{re.escape(str(binary))}: not UTF-8"):
         read_gate_mesh(binary)

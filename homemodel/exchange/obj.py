@@ -214,7 +214,7 @@ def _read_lines(lines: list[str], path: Path) -> ObjMesh:
             raise InputError(f"{where}: unknown OBJ statement {kind!r}")
     triangles = [(face[0], face[k], face[k + 1]) for face in corners for k in range(1, len(face) - 1)]
     if not triangles:
-        raise InputError(f"{path}: has no faces")
+        raise InputError(f"{path}: the file holds no triangles")
     table = np.array([[c if c is not None else -1 for corner in tri for c in corner] for tri in triangles]).reshape(-1, 3, 3)
     face_tex = table[:, :, 1] if (table[:, :, 1] >= 0).all() else None
     face_norm = table[:, :, 2] if (table[:, :, 2] >= 0).all() else None

@@ -67,8 +67,8 @@ def load_mesh(
         mesh = cache[key].copy()
     else:
         mesh = (read or read_mesh_file)(path)
-        if key is not None:
-            cache[key] = mesh.copy()
+        if key is not None:  # the cache keeps the parsed mesh; every reader gets a copy
+            cache[key], mesh = mesh, mesh.copy()
     if require_finite and not np.all(np.isfinite(mesh.vertices)):
         raise InputError(f"{path}: the mesh has non-finite (NaN or infinite) vertex coordinates")
     return mesh
