@@ -120,6 +120,32 @@ def cli_run(name: str, photos: Path, args: list[str]) -> Path:
     return cached_folder(f"photo_run_{name}", key, lambda folder: _command(folder, photos, args))
 
 
+def rendered_run(scene) -> Path:  # noqa: ANN001 (photogrammetry.synthetic_scene.SyntheticScene)
+    """The rendered set (tests/rendered_photo_set.py) through the command with its markers,
+    registered on the table of a map made beside it (`map.xml`; the model folder `model/`),
+    made once per content of the photos, the truth, the settings and the code."""
+    args = ["--marker-size-m", str(scene.marker_size_m), "--dictionary", scene.dictionary, *RENDERED_ARGS]
+
+    def make(folder: Path) -> None:
+        from sample_house import build_house
+
+        from homemodel.exchange.map_xml import save_map
+
+        save_map(build_house(), folder / "map.xml")
+        _command(folder, scene.folder / "images", [*args, "--map", str(folder / "map.xml")])
+
+    key = content_key(inputs=[scene.folder, Path(__file__), CLI_CODE, Path(__file__).parent / "sample_house.py"],
+                      packages=PIPELINE_CODE, settings=json.dumps(args))  # fmt: skip
+    return cached_folder("photo_run_rendered", key, make)
+
+
+def rendered_copy(run: Path, into: Path) -> tuple[Path, Path]:
+    """The rendered run's model folder and map copied under `into` (the map's reference to the
+    model is relative, so it holds in the copy): (model folder, map)."""
+    shutil.copy(run / "map.xml", into / "map.xml")
+    return model_copy(run, into), into / "map.xml"
+
+
 def model_copy(run: Path, into: Path) -> Path:
     """The run's model folder copied under `into` (a test's tmp folder: the summary-schema check
     of conftest.py reads model folders made there)."""
@@ -128,6 +154,11 @@ def model_copy(run: Path, into: Path) -> Path:
 
 # The default command on Kermit's 11 photos (640 x 480), with a smaller texture and the cameras' picture.
 KERMIT_ARGS = ["--texture-size-px", "1024", "--picture"]
+# The rendered set (test_photogrammetry_pipeline's figures are from these): 1024 features
+# a photo, SIFT on the 640 px photos as they are, depth maps at 480 px, a 1024 px texture, the
+# model registered on the map's table.
+RENDERED_ARGS = ["--max-features", "1024", "--first-octave", "0", "--depth-image-px", "480", "--texture-size-px", "1024",
+                 "--name", "vase", "--parent", "table", "--xyz", "0.2", "0.1", "0.75"]  # fmt: skip
 # 14 neighbouring photos of the Buddha set (the 13 nearest to 00040.jpg by the reference
 # camera centres: about a quarter of the way round, at several heights), in no order.
 BUDDHA_SIDE = ["00008.jpg", "00010.jpg", "00012.jpg", "00016.jpg", "00017.jpg", "00018.jpg", "00024.jpg",

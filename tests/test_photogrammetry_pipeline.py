@@ -135,7 +135,8 @@ def rendered_scene():
 
 @pytest.fixture(scope="module")
 def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
-    """The rendered set reconstructed with its markers and registered into a map, on the table.
+    """The rendered set reconstructed with its markers and registered into a map, on the table
+    (tests/photo_runs.py: made once, kept in the fixture cache), copied here: (model, map).
     One run shows both the registration of the shuffled rings and the metric model (it was run
     twice). 1024 features per photo: with the default 4096 the camera centres in the marker frame
     came out about 1 % short of the truth, up to 6.2 mm off, over the 4 mm asserted below. Depth
@@ -145,27 +146,7 @@ def rendered_run(rendered_scene, tmp_path_factory) -> tuple[Path, Path]:
     SIFT on the 640 px photos as they are (`--first-octave 0`), not doubled as the default does
     under 1200 px: the command 86 -> 61 CPU-s, cameras 2.83 mm off at most (2.82), scale 0.006 %
     (0.029), height +0.79 % (+0.85), surface 0.244 % (0.243); Kermit keeps the default."""
-    from sample_house import build_house
-
-    from homemodel.exchange.map_xml import save_map
-
-    folder = tmp_path_factory.mktemp("rendered")
-    map_path = folder / "map.xml"
-    save_map(build_house(), map_path)
-    out = folder / "vase"
-    args = [
-        str(rendered_scene.folder / "images"),
-        "--out",
-        str(out),
-        "--marker-size-m",
-        str(rendered_scene.marker_size_m),
-    ]
-    args += ["--dictionary", rendered_scene.dictionary, "--max-features", "1024", "--depth-image-px", "480"]
-    args += ["--first-octave", "0"]
-    args += ["--texture-size-px", "1024", "--name", "vase", "--map", str(map_path), "--parent", "table"]
-    result = _reconstruct(*args, "--xyz", "0.2", "0.1", "0.75")
-    assert result.exit_code == 0, result.output
-    return out, map_path
+    return photo_runs.rendered_copy(photo_runs.rendered_run(rendered_scene), tmp_path_factory.mktemp("rendered"))
 
 
 @pytest.fixture(scope="module")
