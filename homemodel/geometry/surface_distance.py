@@ -1,14 +1,17 @@
-"""Exact distances from points to a triangle mesh's surface with numpy and scipy alone.
+"""Exact distances from points to a triangle mesh's surface.
 
-`raycast.RayCaster.distances` answers the same question through Open3D, whose import costs
-about a second of CPU: a command that only measures a mesh (a completion's two meshes, their
-convex parts) measures here instead. Float64 throughout, so far-away frames keep their digits.
+`raycast.RayCaster.distances` answers the question through Open3D's tree of boxes, whose import
+costs about half a CPU-second: a small mesh (a completion, its convex parts) is measured here
+with numpy and scipy alone, float64 throughout. A large one (a scan's 100k triangles: 8x faster
+there) goes to Open3D, about the mesh's centre so that float32 keeps far-away frames' digits.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import trimesh
+
+from homemodel.geometry.raycast import RayCaster
 
 # Triangles measured first per point, by nearest site (`_covering_sites`): their nearest
 # distance bounds the point's from above, and only triangles with a site near enough to come
@@ -19,6 +22,7 @@ _SITES_PER_TRIANGLE = 2  # on average, at most (and 1000 more)
 _DENSE_PAIRS = 3_000_000  # up to this many point-triangle pairs, bounds for every pair at once
 _TREE_REACH_DIVISOR = 20  # the tree of sites serves when they reach no farther than this share of the mesh
 _SLIVER_SINE2 = 1e-10
+_OPEN3D_FROM_TRIANGLES = 20_000  # from here Open3D's measure repays its import (0.8 against 0.6 CPU-s at 20k)
 
 
 class SurfaceDistance:
@@ -27,6 +31,11 @@ class SurfaceDistance:
     def __init__(self, mesh: trimesh.Trimesh) -> None:
         from scipy.spatial import cKDTree
 
+        self._caster: RayCaster | None = None
+        if len(mesh.faces) >= _OPEN3D_FROM_TRIANGLES:
+            self._centre = mesh.bounds.mean(axis=0)
+            self._caster = RayCaster(trimesh.Trimesh(mesh.vertices - self._centre, mesh.faces, process=False))
+            return
         triangles = np.asarray(mesh.triangles, dtype=np.float64)
         if len(triangles) == 0:
             raise ValueError("the mesh has no triangles to measure distances to")
@@ -82,6 +91,8 @@ class SurfaceDistance:
             raise ValueError(f"{points.shape=} but expected (N, 3)")
         if len(points) == 0:
             return np.zeros(0)
+        if self._caster is not None:
+            return self._caster.distances(points - self._centre)
         if len(points) * len(self._centres) <= _DENSE_PAIRS or self._reach > self._size / _TREE_REACH_DIVISOR:
             # Few pairs, or sites that reach across the mesh (long thin triangles): every pair
             # bounded, a block of points at a time.
