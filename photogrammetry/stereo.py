@@ -245,7 +245,9 @@ def _pair_depth(
     # The matched columns (after the mirroring): a source pixel lies d columns left of its match.
     a0, a1 = max(0, a0 - max(0, d_min + num)), min(along, a1 + 1 + max(0, -d_min))
     c0, c1 = max(0, lo[1 - axis]), min(across, hi[1 - axis] + 1)
-    if a1 - a0 <= d_min + num + block or c1 - c0 <= block:
+    # SGBM matches the columns from max(d_max, 0) to width + min(d_min, 0) (OpenCV's width1): a
+    # window no wider than the disparities reach has nothing to match (and SGBM fails on it).
+    if a1 - a0 + min(d_min, 0) - max(d_min + num, 0) <= block or c1 - c0 <= block:
         return np.zeros((h, w), np.float32)
     window = (a0, a1) if not mirrored else (along - a1, along - a0)  # along the canvas's own axis
     # The canvas window as (x, y) ranges; the rectifying maps are made for it alone.
