@@ -16,6 +16,7 @@ import trimesh
 from homemodel.core.checks import require_between, require_positive
 from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import largest_piece, point_cloud, poisson_surface
+from homemodel.geometry.open3d_loader import load_open3d
 from homemodel.geometry.voxel_cells import cell_keys, group_sums
 
 
@@ -115,7 +116,7 @@ def segment_object(
     `plane_noise`: the support plane's own height spread where it was found (its inliers);
     None: judged from the points near z = 0, which on a cluttered scene (Kermit's legs and
     books standing on his seat) hold the object's lowest parts too."""
-    import open3d as o3d
+    o3d = load_open3d()
 
     minimum = options.plane_clearance_fraction * scene_scale
     if plane_noise is None:

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from homemodel.geometry.open3d_loader import load_open3d
+
 
 def cuda_available() -> bool:
     import pycolmap
@@ -20,7 +22,7 @@ def cuda_available() -> bool:
 def patch_match_points(undistorted: Path, max_image_size_px: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fused points, colours (0..1) and unit normals from PatchMatch on an undistorted workspace
     (what `pycolmap.undistort_images` wrote)."""
-    import open3d as o3d
+    o3d = load_open3d()
     import pycolmap
 
     options = pycolmap.PatchMatchOptions()

@@ -262,3 +262,9 @@ def test_a_format_library_opened_inside_a_function_or_for_type_checking_is_found
         "p/plain.py": "import json\nfrom . import model\n",  # json and a relative import: not formats
     })  # fmt: skip
     assert format_importers(tmp_path, ["p"], {"lxml", "xml", "pygltflib"}) == {"p.model": {"lxml"}, "p.nodes": {"xml"}}
+
+
+def test_open3d_is_imported_only_through_its_loader() -> None:
+    """`load_open3d` leaves Open3D's dash/plotly viewer out; a plain `import open3d` would bring it back."""
+    layering = read_layering(REPO / "setup.cfg")
+    assert set(format_importers(REPO, layering.roots, {"open3d"})) == {"homemodel.geometry.open3d_loader"}

@@ -19,6 +19,7 @@ import numpy as np
 import trimesh
 
 from homemodel.core.checks import require_between, require_positive
+from homemodel.geometry.open3d_loader import load_open3d
 from semantic_map.nodes import SmallObject
 from tracking.fit_pose import fit_quality, icp_correction
 from tracking.fit_state import FitState
@@ -184,7 +185,7 @@ def _clusters(
     """Clusters of unexplained points standing on an upward surface (`surfaces`: the
     triangles and top height of each object in view). The scene is rendered only over the
     image box of the points that stand on a surface: what the rest shows is no small object."""
-    import open3d as o3d
+    o3d = load_open3d()
 
     if not surfaces:
         return []

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from homemodel.geometry.open3d_loader import load_open3d
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
 
@@ -81,7 +82,7 @@ def icp_correction(
 
     It runs about the target's centroid: about the map's origin, metres away, a turn the
     points leave free (a cylinder about its axis) would come out as a shift."""
-    import open3d as o3d
+    o3d = load_open3d()
 
     reg = o3d.pipelines.registration
     centre = target.mean(axis=0)
