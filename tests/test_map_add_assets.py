@@ -87,7 +87,7 @@ def test_an_obj_in_millimetres_needs_its_units_and_takes_a_stated_density(mug, h
     [
         ("truncated.glb", None, "cannot be read"),
         ("nan.obj", b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "non-finite"),
-        ("indices.obj", b"v 0 0 0\nf 1 2 9\n", "cannot be read"),
+        ("indices.obj", b"v 0 0 0\nf 1 2 9\n", "line 2: face corner '2' names v 2, but 1 are defined"),
         ("noise.obj", bytes(range(256)) * 16, "no triangles"),
     ],
 )

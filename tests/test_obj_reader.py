@@ -133,7 +133,7 @@ def test_a_malformed_obj_is_refused_naming_the_file_and_line(tmp_path: Path, tex
     for read in readers:
         with pytest.raises(InputError) as error:
             read(path)
-        assert str(error.value).startswith(f"{path}:{line}: ") and problem in str(error.value), str(error.value)
+        assert str(error.value).startswith(f"{path}: line {line}: ") and problem in str(error.value), str(error.value)
 
 
 def test_a_file_without_faces_or_text_is_refused(tmp_path: Path) -> None:

@@ -186,7 +186,7 @@ BROKEN = {
     "absolute mesh path": ({"mesh": _absolute_obj}, "meshes", "absolute paths are not allowed"),
     "file URI": ({"mesh": "file:///etc/hostname.obj"}, "meshes", "URIs are not allowed"),
     "unresolvable package URI": ({"mesh": "package://elsewhere/knob.obj"}, "meshes", "cannot be resolved"),
-    "corrupt OBJ": ({"mesh": _corrupt_obj}, "meshes", "corrupt.obj:3: face corner '9' names v 9"),
+    "corrupt OBJ": ({"mesh": _corrupt_obj}, "meshes", "corrupt.obj': line 3: face corner '9' names v 9"),
     "mesh is a FIFO": ({"mesh": _fifo}, "meshes", "not a regular file"),
 }
 

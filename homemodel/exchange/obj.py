@@ -117,7 +117,7 @@ _OTHER_STATEMENTS = set(
 def read_obj(data: bytes, path: Path) -> ObjMesh:
     """The OBJ in `data` (the file at `path`), strictly: a malformed number, a face of fewer than
     three corners, an index of 0 or outside the elements read so far, or an unknown statement
-    raises InputError "PATH:LINE: problem". Negative indices count back from the last element
+    raises InputError "PATH: line N: problem". Negative indices count back from the last element
     read before the face, as the format says."""
     try:
         text = data.decode("utf-8")
@@ -192,7 +192,7 @@ def _read_lines(lines: list[str], path: Path) -> ObjMesh:
         if not words:
             continue
         kind = words[0]
-        where = f"{path}:{number}"
+        where = f"{path}: line {number}"
         if kind in elements:
             width = {"v": (3, 4, 6, 7), "vt": (1, 2, 3), "vn": (3,)}[kind]
             if len(words) - 1 not in width:
