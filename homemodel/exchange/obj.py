@@ -127,6 +127,15 @@ def read_obj(data: bytes, path: Path) -> ObjMesh:
     return fast if fast is not None else _read_lines(text.splitlines(), path)
 
 
+def read_plain_obj(data: bytes, path: Path) -> ObjMesh | None:
+    """The OBJ at `path` read strictly when it is plain (`ObjMesh.is_plain`, and no corner names a
+    uv or normal); None for any other file, which trimesh reads (it splits such corners)."""
+    if path.suffix.lower() != ".obj" or b"/" in data:
+        return None
+    obj = read_obj(data, path)
+    return obj if obj.is_plain() else None
+
+
 _UNIFORM_OTHERS = {"", "o", "g", "s", "mtllib", "usemtl", "vt", "vn"}  # uv and normals no corner uses
 
 

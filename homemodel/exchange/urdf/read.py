@@ -38,7 +38,7 @@ from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import MESH_TRIANGLES
 from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.exchange import urdf as urdf_doc
-from homemodel.exchange.obj import read_obj
+from homemodel.exchange.obj import read_plain_obj
 from homemodel.exchange.urdf.mesh_paths import resolve_mesh
 from homemodel.geometry.collada import collada_unit_m
 from homemodel.geometry.mesh_io import MAX_MESH_BYTES, declared_faces
@@ -118,10 +118,8 @@ def read_mesh_parts(path: Path) -> list[tuple[str, trimesh.Trimesh]]:
 def _plain_obj_parts(data: bytes, path: Path) -> list[tuple[str, trimesh.Trimesh]] | None:
     """A plain OBJ with no materials (a collision hull) read by the strict OBJ reader, which gives
     what trimesh's parser does several times faster; None for any other file."""
-    if path.suffix.lower() != ".obj" or b"/" in data or b"mtllib" in data:
-        return None
-    obj = read_obj(data, path)
-    return [(path.stem, obj.trimesh(keep_unreferenced=True))] if obj.is_plain() else None
+    obj = None if b"mtllib" in data else read_plain_obj(data, path)
+    return None if obj is None else [(path.stem, obj.trimesh(keep_unreferenced=True))]
 
 
 def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, trimesh.Trimesh]]:

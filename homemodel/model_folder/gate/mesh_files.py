@@ -10,7 +10,7 @@ import trimesh
 
 from homemodel.core.input_files import read_bounded
 from homemodel.core.limits import MESH_TRIANGLES
-from homemodel.exchange.obj import read_obj
+from homemodel.exchange.obj import read_plain_obj
 from homemodel.geometry import mesh_io
 
 
@@ -20,11 +20,9 @@ def read_gate_mesh(path: Path) -> trimesh.Trimesh:
     if path.suffix.lower() != ".obj" or not path.is_file():
         return mesh_io.read_mesh_file(path)
     data = read_bounded(path, mesh_io.MAX_MESH_BYTES)
-    if b"/" in data:  # corners with uv or normals, which trimesh splits: its reading
-        return mesh_io.read_mesh_file(path)
     MESH_TRIANGLES.check(path, mesh_io.declared_faces(data, ".obj"))
-    obj = read_obj(data, path)
-    if not obj.is_plain():
+    obj = read_plain_obj(data, path)
+    if obj is None:
         return mesh_io.read_mesh_file(path)
     MESH_TRIANGLES.check(path, len(obj.faces))
     return obj.trimesh(keep_unreferenced=False)
