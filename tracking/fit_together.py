@@ -209,10 +209,10 @@ def _residuals(
         axis, origin, kind = joint_axis_map(state, object_id, joint)
         carried = np.isin(part_index, state.moving_parts(object_id, joint))
         if kind == "prismatic":
-            motion = np.broadcast_to(axis, model.shape)
+            velocity = np.broadcast_to(axis, model.shape)
         else:
-            motion = np.cross(axis, model - origin) / LEVER_M
-        columns.append(np.where(carried, np.einsum("ij,ij->i", motion, normals), 0.0))
+            velocity = np.cross(axis, model - origin) / LEVER_M
+        columns.append(np.where(carried, np.einsum("ij,ij->i", velocity, normals), 0.0))
     return residual, np.column_stack(columns), centre
 
 
