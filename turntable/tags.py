@@ -64,28 +64,28 @@ class PixelWindow:
         )
 
 
-_idle_detectors: list = []  # detectors no thread is using: one is not safe to share between threads
+_idle_detectors: dict[float, list] = {}  # by decimation, the detectors no thread is using
 _idle_lock = threading.Lock()
 
 
 @contextmanager
 def _apriltag_detector(decimate: float) -> Iterator:
-    """A detector for this thread's use, set to `decimate`: an idle one if any, else a new one
-    (building one, its tag family's decoding table, costs 35 ms of CPU; a capture's frames are
-    searched at two decimations on several threads but need only as many detectors as run at once)."""
+    """A detector set to `decimate` for this thread's use (one is not safe to share between
+    threads): an idle one if any, else a new one. Building one, its tag family's decoding
+    table, costs 35 ms of CPU; a capture needs only as many as its threads search at once."""
     from pupil_apriltags import Detector
 
     with _idle_lock:
-        detector = _idle_detectors.pop() if _idle_detectors else None
+        idle = _idle_detectors.setdefault(decimate, [])
+        detector = idle.pop() if idle else None
     if detector is None:
         detector = Detector(families="tag36h11", nthreads=1, quad_decimate=decimate, quad_sigma=0.0, refine_edges=1)
         atexit.register(_release, detector)
-    detector.tag_detector_ptr.contents.quad_decimate = float(decimate)
     try:
         yield detector
     finally:
         with _idle_lock:
-            _idle_detectors.append(detector)
+            _idle_detectors[decimate].append(detector)
 
 
 def _release(detector) -> None:  # noqa: ANN001
