@@ -29,13 +29,13 @@ class SurfaceDistance:
     """One mesh's triangles, ready for many distance queries (the tree of their sites is built once)."""
 
     def __init__(self, mesh: trimesh.Trimesh) -> None:
-        from scipy.spatial import cKDTree
-
         self._caster: RayCaster | None = None
         if len(mesh.faces) >= _OPEN3D_FROM_TRIANGLES:
             self._centre = mesh.bounds.mean(axis=0)
             self._caster = RayCaster(trimesh.Trimesh(mesh.vertices - self._centre, mesh.faces, process=False))
             return
+        from scipy.spatial import cKDTree
+
         triangles = np.asarray(mesh.triangles, dtype=np.float64)
         if len(triangles) == 0:
             raise ValueError("the mesh has no triangles to measure distances to")
