@@ -189,7 +189,7 @@ def build_entry(request: BuildRequest, c_output_fds: tuple[int, ...] = (1, 2)) -
     new folder is whole) and return its index row; never raises for a bad entry. What C code
     prints to `c_output_fds` meanwhile is logged at debug level, not shown."""
     from homemodel.exchange.urdf.read import load_urdf
-    from homemodel.app.database.warm_up import note_blender_thread
+    from homemodel.app.database.blender_exit import note_blender_thread
 
     job = request.job
     start = time.perf_counter()

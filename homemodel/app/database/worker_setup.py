@@ -1,6 +1,6 @@
 """What each Dask worker of a build on an existing cluster (`--scheduler`) does once: import the
 heavy libraries of the build's sources before its first entry (`warm_up`), and end its process
-cleanly when it closes if bpy ran there (see `warm_up`'s note). The local build's workers do
+cleanly when it closes if bpy ran there (see `blender_exit`). The local build's workers do
 the same in `worker_process`, without a plugin.
 """
 
@@ -12,7 +12,8 @@ import logging
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from homemodel.app.database.warm_up import bpy_ran_off_main_thread, end_without_teardown, warm_up
+from homemodel.app.database.blender_exit import bpy_ran_off_main_thread, end_without_teardown
+from homemodel.app.database.warm_up import warm_up
 
 log = logging.getLogger(__name__)
 
