@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 import pytest
 from fixture_cache import cached_folder, content_key
-from model_summaries import model_summary_files, schema_problems
+from model_summaries import unchecked_summary_problems
 from sample_house import build_house
 
 from articulation.model import Model
@@ -90,12 +90,10 @@ class BuiltExample(NamedTuple):
 
 @pytest.fixture(scope="module", autouse=True)
 def model_summaries_follow_the_schema(tmp_path_factory: pytest.TempPathFactory):
-    """Each module's new model folders (its tests' and the fixtures it made) hold a
-    summary.json that the published JSON Schema accepts."""
-    base = tmp_path_factory.getbasetemp()
-    before = set(base.iterdir())
+    """Each module's new model folders (its tests' and the fixtures it made, session ones
+    included) hold a summary.json that the published JSON Schema accepts."""
     yield
-    problems = [p for f in model_summary_files(set(base.iterdir()) - before) for p in schema_problems(f)]
+    problems = unchecked_summary_problems(tmp_path_factory.getbasetemp())
     assert not problems, "summary.json breaks homemodel/schemas/model_summary.schema.json:\n" + "\n".join(problems[:10])
 
 

@@ -30,6 +30,19 @@ def model_summary_files(roots: Iterable[Path]) -> list[Path]:
     return found
 
 
+_looked_at: set[Path] = set()  # pytest's basetemp's folders already checked in this process
+
+
+def unchecked_summary_problems(base: Path) -> list[str]:
+    """Schema problems of the model summaries under the folders of `base` (pytest's basetemp)
+    not checked before in this process: a module's own folders, and those a session fixture
+    made before the module's first test (the built kitchen: a difference taken around the
+    module never sees them, since pytest sets session fixtures up before module ones)."""
+    folders = {path for path in base.iterdir() if not path.is_symlink()} - _looked_at  # not pytest's `...current` links
+    _looked_at.update(folders)
+    return [problem for path in model_summary_files(sorted(folders)) for problem in schema_problems(path)]
+
+
 def schema_problems(path: Path) -> list[str]:
     """`path: field: message` of every way the file breaks the schema."""
     try:

@@ -6,11 +6,12 @@ from __future__ import annotations
 import hashlib
 import json
 import runpy
+import tempfile
 from pathlib import Path
 
 import pytest
 import trimesh
-from model_summaries import schema_problems, validator
+from model_summaries import schema_problems, unchecked_summary_problems, validator
 
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError, OutputExistsError
@@ -106,3 +107,17 @@ def test_both_the_json_schema_and_the_model_refuse_drifted_summaries(tmp_path: P
     path.write_text(json.dumps(bad))
     with pytest.raises(InputError, match=r"summary\.json: "):
         read_summary(tmp_path)
+
+
+def test_the_suite_s_net_checks_each_folder_once_session_fixtures_included():
+    """conftest's module fixture checks every new basetemp folder, also one a session fixture made
+    before the module's first test (a difference taken around the module missed those)."""
+    with tempfile.TemporaryDirectory() as base:  # not under basetemp: the net would see the broken file
+        made_by_a_session_fixture = Path(base) / "kitchen0" / "models" / "cup"
+        write_model_folder(_box_model("cup"), made_by_a_session_fixture, PipelineSummary(source="modeller"))
+        summary = made_by_a_session_fixture / "summary.json"
+        summary.write_text(summary.read_text().replace('"source": "modeller"', '"source": "modeler"'))
+        (Path(base) / "kitchencurrent").symlink_to(Path(base) / "kitchen0")  # pytest's link to the newest
+        assert [p.split(": ", 2)[1] for p in unchecked_summary_problems(Path(base))] == ["source"]
+        (Path(base) / "test_x0").mkdir()
+        assert unchecked_summary_problems(Path(base)) == []  # the kitchen is not reported again
