@@ -86,13 +86,13 @@ class HOMEMODEL_OT_edit_joint(bpy.types.Operator):
         if Vector(self.axis).length < 1e-9:
             self.report({"ERROR"}, "the axis must not be zero")
             return {"CANCELLED"}
-        if self.joint_type in ("revolute", "prismatic") and self.lower > self.upper:
+        if self.joint_type in rig.LIMITED_JOINT_TYPES and self.lower > self.upper:
             self.report({"ERROR"}, f"lower limit {self.lower:g} is above upper limit {self.upper:g}")
             return {"CANCELLED"}
         joint = context.active_object
         joint[rig.JOINT_TYPE] = self.joint_type
         joint[rig.AXIS] = list(Vector(self.axis).normalized())
-        if self.joint_type in ("revolute", "prismatic"):
+        if self.joint_type in rig.LIMITED_JOINT_TYPES:
             joint[rig.LOWER], joint[rig.UPPER] = self.lower, self.upper
         rig.rig_joint(joint)
         context.view_layer.update()
@@ -143,7 +143,7 @@ class HOMEMODEL_OT_add_joint(bpy.types.Operator):
 
     def execute(self, context):
         meshes = [o for o in context.selected_objects if o.type == "MESH" and rig.model_root(o) is not None]
-        if Vector(self.axis).length < 1e-9 or (self.joint_type in ("revolute", "prismatic") and self.lower > self.upper):
+        if Vector(self.axis).length < 1e-9 or (self.joint_type in rig.LIMITED_JOINT_TYPES and self.lower > self.upper):
             self.report({"ERROR"}, "the axis must not be zero and the lower limit not above the upper")
             return {"CANCELLED"}
         link = rig.add_joint(meshes, self.name, self.joint_type, Vector(self.axis), (self.lower, self.upper), context.scene.cursor.location)

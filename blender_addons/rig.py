@@ -49,7 +49,10 @@ POSITION = "hm_q"
 GRASP = "hm_grasp"
 GRASP_KIND = "hm_grasp_kind"
 FROM_MESHES = "from_meshes"
-JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")  # articulation.joint_types (a test checks)
+# As articulation.joint_types names them (the add-on may not import it; a test checks).
+JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
+LIMITED_JOINT_TYPES = ("revolute", "prismatic")  # with a <limit lower upper>
+ROTATING_JOINT_TYPES = ("revolute", "continuous")
 # A continuous joint's slider still needs an end: one turn either way.
 CONTINUOUS_RANGE_RAD = 2 * math.pi
 
@@ -166,7 +169,7 @@ def rig_joint(obj: bpy.types.Object) -> None:
         subtype="DISTANCE" if kind == "prismatic" else "ANGLE",
         description=f"{obj[JOINT]}: {kind} joint position",
     )
-    if kind in ("revolute", "continuous"):
+    if kind in ROTATING_JOINT_TYPES:
         _add_driver(obj, "rotation_axis_angle", 0, "q", {"q": f'["{POSITION}"]'})
         for i in range(3):
             _add_driver(obj, "rotation_axis_angle", i + 1, "a", {"a": f'["{AXIS}"][{i}]'})
@@ -354,7 +357,7 @@ def joint_motion(obj: bpy.types.Object) -> Matrix:
     """How the joint on `obj` at its position moves the child, in the joint frame."""
     axis = Vector(obj[AXIS]).normalized() if Vector(obj[AXIS]).length > 0 else Vector((0.0, 0.0, 1.0))
     q = float(obj.get(POSITION, 0.0))
-    if obj[JOINT_TYPE] in ("revolute", "continuous"):
+    if obj[JOINT_TYPE] in ROTATING_JOINT_TYPES:
         return Matrix.Rotation(q, 4, axis)
     if obj[JOINT_TYPE] == "prismatic":
         return Matrix.Translation(axis * q)
