@@ -91,9 +91,9 @@ def file_imports(path: Path, package: str) -> Imports:
             statements.append((base, tuple(alias.name for alias in node.names)))
         elif isinstance(node, ast.Call) and _is_import_call(node):
             argument = node.args[0]
-            if isinstance(argument, ast.Constant) and isinstance(argument.value, str):
+            if isinstance(argument, ast.Constant) and isinstance(argument.value, str) and not argument.value.startswith("."):
                 called.append(argument.value)
-            else:
+            else:  # a relative name depends on its package argument: listed as computed, to be looked at
                 computed = True
         elif isinstance(node, ast.Constant) and isinstance(node.value, str) and _MODULE_NAME.fullmatch(node.value):
             in_strings.append(node.value.partition(":")[0])
@@ -371,6 +371,7 @@ def test_imports_by_name_relative_ones_and_tables_of_names_are_found(tmp_path: P
         "low/deep/leaf.py": "from .. import base\nfrom ..base import f\nKIND, CODE = 'mid', 'top.table'\n",  # data
         "low/base.py": "def f():\n    return __import__('mid.parts')\n",
         "low/computed.py": "import importlib\ndef load(name):\n    return importlib.import_module(name)\n",
+        "low/relative.py": "import importlib\nimportlib.import_module('.base', 'low')\n",
     })  # fmt: skip
     layering = read_layering(tmp_path / "setup.cfg")
     graph = import_graph(tmp_path, layering.roots)
@@ -381,7 +382,7 @@ def test_imports_by_name_relative_ones_and_tables_of_names_are_found(tmp_path: P
         "packages in a cycle: mid <-> top",
     ]
     assert module_cycles(graph) == ["mid.parts <-> top.table"]
-    assert computed_importers(tmp_path, layering.roots) == {"top.table", "low.computed"}
+    assert computed_importers(tmp_path, layering.roots) == {"top.table", "low.computed", "low.relative"}
 
 
 def computed_importers(repo: Path, roots: list[str]) -> set[str]:
