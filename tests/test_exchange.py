@@ -10,7 +10,7 @@ import struct
 from pathlib import Path
 
 import pytest
-from sample_house import cupboard_model
+from sample_house import build_house, cupboard_model
 from typer.testing import CliRunner
 
 from articulation import joint_types
@@ -87,12 +87,26 @@ def _one_line_error(result, capfd, fragment: str) -> None:
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], lines
 
 
+def _house_map(folder: Path) -> Path:
+    from homemodel.exchange.map_xml import save_map
+
+    save_map(build_house(), folder / "map.xml")
+    return folder / "map.xml"
+
+
 COMMANDS = {
     "addon describe": lambda glb, folder, out: ["addon", "describe", str(glb), "--out", str(out / "doc.json")],
     "eval surface-distance": lambda glb, folder, out: ["eval", "surface-distance", str(glb), str(folder)],
     "eval voxel-iou": lambda glb, folder, out: ["eval", "voxel-iou", str(folder), str(glb)],
     "turntable simulate": lambda glb, folder, out: ["turntable", "simulate", str(glb), "--out", str(out / "capture")],
+    "map add": lambda glb, folder, out: ["map", "add", str(_house_map(out)), str(glb), "--id", "cup", "--parent", "table"],
+    "completion train": lambda glb, folder, out: ["completion", "train", str(glb.parents[1]), "--out", str(out / "model.npz")],
 }
+GLB_AT = {"completion train": "library/cup/corrupt.glb"}  # a library's mesh, in its class folder
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
 @pytest.mark.parametrize("corruption", ["truncated", "version 1", "JSON chunk past the end", "BIN chunk past the end"])
@@ -102,12 +116,15 @@ def test_a_corrupt_glb_is_one_line_of_error_to_every_command_that_reads_one(
 ) -> None:
     from homemodel.cli import app
 
-    glb = tmp_path / "corrupt.glb"
+    glb = tmp_path / GLB_AT.get(command, "corrupt.glb")
+    glb.parent.mkdir(parents=True, exist_ok=True)
     glb.write_bytes(CORRUPTIONS[corruption][0]((model_folder / "model.glb").read_bytes()))
+    args = COMMANDS[command](glb, model_folder, tmp_path)
+    before = _files(tmp_path)
     capfd.readouterr()
-    result = CliRunner().invoke(app, COMMANDS[command](glb, model_folder, tmp_path))
+    result = CliRunner().invoke(app, args)
     _one_line_error(result, capfd, str(glb))
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["corrupt.glb"]  # nothing half-written
+    assert _files(tmp_path) == before  # nothing half-written, the map as it was
 
 
 def test_validate_fails_a_corrupt_glb_with_the_reason_in_its_report(model_folder: Path, tmp_path: Path) -> None:
