@@ -23,6 +23,7 @@ from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested, require_positive
 from homemodel.core.progress import Progress, StageClock
+from homemodel.model_folder.gate.gltf import start_khronos_validator
 from homemodel.model_folder.map_entry import MapEntry
 from shape_completion.pipeline import Completion, ShapeCompleter
 from shape_completion.support import SupportPlane
@@ -110,6 +111,7 @@ def complete(
     prepare_out_dir(Path(out_dir), force=force, inputs=inputs)  # before loading a large model
     if options.map_entry is not None:
         options.map_entry.check()  # an unknown parent or a taken id fails now, not after the work
+    start_khronos_validator()  # node loads the gate's glTF validator while the completion runs
     clock = StageClock(progress)
     clock.start("load")
     if model_path is not None:

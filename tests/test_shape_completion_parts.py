@@ -282,3 +282,18 @@ def test_bad_queries_are_refused():
         check_query(good * 1000, FILLER_CAMERA, None)  # a depth scale a thousand times off
     with pytest.raises(InputError, match="only 4 valid pixels"):
         check_query(np.where(np.arange(good.size).reshape(good.shape) < 4, 0.5, np.nan), FILLER_CAMERA, None)
+
+
+def test_the_glTF_validator_started_ahead_is_the_one_the_gate_asks(tmp_path):
+    """`complete()` starts the gate's node validator before the completion's work, so its
+    start overlaps the work: the check that follows must use that process, not start another."""
+    from homemodel.model_folder.gate import gltf, resident_validator
+
+    resident_validator._stop_resident()
+    gltf.start_khronos_validator()
+    started = resident_validator._resident.proc
+    gltf.start_khronos_validator()  # a second start keeps the running one
+    glb = tmp_path / "box.glb"
+    glb.write_bytes(trimesh.Scene(trimesh.creation.box(extents=(0.1, 0.2, 0.3))).export(file_type="glb"))
+    assert gltf.khronos_check(glb).passed
+    assert resident_validator._resident.proc is started and started.poll() is None

@@ -125,6 +125,17 @@ def validate_resident(
             raise
 
 
+def start_resident(node: str, script: Path, *, node_path: Path | None = None) -> None:
+    """Start the validator process now, unless one already serves: node loads the validator
+    while this process goes on working, and the next `validate_resident` call finds it ready."""
+    global _resident
+    with _lock:
+        if _resident is not None and not _resident.serves(node, script, node_path):
+            _stop_resident()
+        if _resident is None:
+            _resident = _Resident(node, script, node_path)
+
+
 def _stop_resident(kill: bool = False) -> None:
     global _resident
     if _resident is not None:
