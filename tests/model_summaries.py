@@ -43,11 +43,16 @@ def unchecked_summary_problems(base: Path) -> list[str]:
     return [problem for path in model_summary_files(sorted(folders)) for problem in schema_problems(path)]
 
 
+def _not_json(constant: str) -> None:
+    """Python's json writes NaN and Infinity, which JSON (RFC 8259) and its other clients refuse."""
+    raise ValueError(f"{constant} is not JSON (a figure that is not a number should be null)")
+
+
 def schema_problems(path: Path) -> list[str]:
     """`path: field: message` of every way the file breaks the schema."""
     try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
+        data = json.loads(path.read_text(), parse_constant=_not_json)
+    except (OSError, ValueError) as exc:  # JSONDecodeError is a ValueError
         return [f"{path}: {exc}"]
     return [
         f"{path}: {'.'.join(str(p) for p in error.absolute_path) or 'summary'}: {error.message}"

@@ -109,6 +109,13 @@ def test_both_the_json_schema_and_the_model_refuse_drifted_summaries(tmp_path: P
         read_summary(tmp_path)
 
 
+def test_a_figure_written_as_nan_is_not_json(tmp_path: Path):
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps({**_good(), "completion": {"class": "mug", "fit_distance_m": float("nan")}}))
+    (problem,) = schema_problems(path)
+    assert "NaN is not JSON" in problem and list(validator().iter_errors(json.loads(path.read_text()))) == []  # the schema alone passes it
+
+
 def test_the_suite_s_net_checks_each_folder_once_session_fixtures_included():
     """conftest's module fixture checks every new basetemp folder, also one a session fixture made
     before the module's first test (a difference taken around the module missed those)."""
