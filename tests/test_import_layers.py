@@ -3,12 +3,12 @@ every module's imports are read with `ast`, those inside functions and under TYP
 included, with `importlib.import_module("...")` and `__import__("...")` of a literal name, and,
 in a file that imports a name it computes, every project module its strings name (`"pkg.module"`,
 `"pkg.module:attribute"`: the tables the command line and the database import from by name);
-relative imports are resolved. No module
-may import a layer above its own or a sibling package of its layer (so no pipeline imports
-another); the packages then have no cycle, no two modules import each other even through others
-(an import for type checking or inside a function is a loop too), the package root imports
-nothing of the project, and the Blender add-on imports none of it. setup.cfg's layers are
-checked against DESIGN.md's order, so the contract itself cannot drift from the design."""
+relative imports are resolved. No module may import a layer above its own or a sibling package
+of its layer (so no pipeline imports another); the packages then have no cycle, no two modules
+import each other even through others (an import for type checking or inside a function is a
+loop too), the package root imports nothing of the project, and the Blender add-on imports none
+of it. setup.cfg's layers are checked against DESIGN.md's order, so the contract itself cannot
+drift from the design."""
 
 from __future__ import annotations
 
