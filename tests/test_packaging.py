@@ -1,7 +1,7 @@
 """The packages stand alone: what setuptools ships (the packages and their package data,
 built by its own build_py into a folder outside the checkout) runs with the checkout out of
-reach, finds its catalogue and validator script, and names how to install the npm package
-it cannot find."""
+reach, finds its catalogue, validator script and summary schema, and names how to install the
+npm package it cannot find."""
 
 from __future__ import annotations
 
@@ -23,10 +23,12 @@ import json, sys
 from pathlib import Path
 import homemodel.model_folder.gate.gltf as gltf
 import homemodel, homemodel.app.blender.spec_forms as forms
+from homemodel.core.model_summary import schema_path, summary_schema
 kinds = forms.spec_kinds()
 check = gltf.khronos_check(Path(sys.argv[1]))
 print(json.dumps({
-    "files": [homemodel.__file__, forms.__file__, str(gltf.VALIDATOR_SCRIPT)],
+    "files": [homemodel.__file__, forms.__file__, str(gltf.VALIDATOR_SCRIPT), str(schema_path())],
+    "schema_as_generated": json.loads(schema_path().read_text()) == summary_schema(),
     "kinds": len(kinds),
     "with_examples": sorted(k for k, v in kinds.items() if set(v["example"]) - {"kind"}),
     "check": [check.passed, check.detail],
@@ -66,6 +68,7 @@ def test_the_shipped_packages_run_without_the_checkout(shipped: Path, tmp_path: 
 
     alone = _probe(shipped, glb)
     assert all(Path(f).is_relative_to(shipped) for f in alone["files"]), alone["files"]
+    assert alone["schema_as_generated"]  # summary.json's JSON Schema ships, as its model generates it
     assert alone["kinds"] == len(SPEC_TYPES) and alone["with_examples"] == in_catalogue and len(in_catalogue) >= 20
     if not any((folder / "gltf-validator").is_dir() for folder in node_modules_folders()[2:]):  # none installed -g
         assert alone["check"][0] is False and "npm install -g gltf-validator@" in alone["check"][1]
