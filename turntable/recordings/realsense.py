@@ -4,6 +4,8 @@ sensor's units; the colour intrinsics and distortion come from the stream."""
 
 from __future__ import annotations
 
+import queue
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -11,10 +13,12 @@ import numpy as np
 
 from homemodel.core.errors import InputError
 from homemodel.geometry.camera import Camera
-from turntable.recordings.associate import MAX_TOLERANCE_S
+from turntable.recordings.associate import MAX_TOLERANCE_S, StreamAssociation
 from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
 
-_WAIT_MS = 5000  # a frameset later than this: the recording has ended (or the camera stalled)
+_WAIT_S = 5.0  # a live camera without a frame this long has stalled
+_PLAYBACK_STALL_S = 60.0  # a playback ends by its status; this long without a frame, it hung
+_QUEUE_FRAMES = 8  # frames waiting for the reader (each held outside the SDK's pool)
 
 
 def fit_brown_conrady(undistorted: np.ndarray, distorted: np.ndarray) -> tuple[np.ndarray, float]:
@@ -94,7 +98,13 @@ def _rgb(frame: object) -> np.ndarray:
 
 class RealSenseSource(FrameSource):
     """`bag`: play a recording (no camera needed); else the connected camera `serial` (or the
-    only one), streaming colour at `color_size` and depth at `depth_size`, 30 frames a second."""
+    only one), streaming colour at `color_size` and depth at `depth_size`, 30 frames a second.
+
+    Each sensor's frames come through its own callback, and we pair colour with depth by time
+    (`StreamAssociation`, the TUM and ROS readers' one-to-one pairing): the SDK's syncer behind
+    `rs.pipeline` keeps one frameset and drops the rest while the reader is busy, which lost 1-4
+    of 24 pairs on a loaded machine. A bag plays back not in real time, and the playback waits
+    while our bounded queue is full: no frame of the file is lost."""
 
     def __init__(
         self,
@@ -111,69 +121,146 @@ class RealSenseSource(FrameSource):
         self.every = every
         self.tolerance_s = tolerance_s
         self.color_size, self.depth_size = color_size, depth_size
-        self._pipeline = None
+        self._sensors: list = []
+        self._playback = None
+        self._frames: queue.Queue = queue.Queue(maxsize=_QUEUE_FRAMES)
+        self._ended = threading.Event()  # the playback reached the end of the file
+        self._closing = False
+        self._composing: tuple = ()  # the colour and depth frames the composer makes a frameset of
         self.where = str(self.bag) if self.bag else f"RealSense {serial or '(first connected)'}"
+
+    def _device(self) -> object:
+        import pyrealsense2 as rs
+
+        context = rs.context()
+        if self.bag is not None:
+            try:
+                device = context.load_device(str(self.bag))
+            except RuntimeError as exc:
+                raise InputError(f"{self.where}: cannot be played back: {exc}") from None
+            self._playback = device.as_playback()  # kept: its status callback lives with it
+            self._playback.set_real_time(False)  # every frame, waiting for our callbacks
+            self._playback.set_status_changed_callback(self._on_status)
+            return device
+        devices = {d.get_info(rs.camera_info.serial_number): d for d in context.query_devices()}
+        if not devices:
+            raise InputError("no RealSense camera is connected (pyrealsense2 finds none)")
+        if self.serial is not None and self.serial not in devices:
+            raise InputError(f"no RealSense camera with serial {self.serial} (connected: {', '.join(devices)})")
+        return devices[self.serial] if self.serial is not None else next(iter(devices.values()))
+
+    def _on_status(self, status: object) -> None:
+        import pyrealsense2 as rs
+
+        if status == rs.playback_status.stopped:
+            self._ended.set()
+
+    def _profiles(self, device: object) -> dict[object, tuple[object, object]]:
+        """stream -> (its sensor, its profile): a recording's own, or the sizes asked of a camera."""
+        import pyrealsense2 as rs
+
+        wanted = {rs.stream.color: (rs.format.rgb8, self.color_size), rs.stream.depth: (rs.format.z16, self.depth_size)}
+        chosen = {}
+        for sensor in device.query_sensors():
+            for profile in sensor.get_stream_profiles():
+                stream = profile.stream_type()
+                if stream not in wanted or stream in chosen or not profile.is_video_stream_profile():
+                    continue
+                video = profile.as_video_stream_profile()
+                form, size = wanted[stream]
+                if self.bag is None and (profile.format(), (video.width(), video.height()), profile.fps()) != (form, size, 30):
+                    continue
+                chosen[stream] = (sensor, video)
+        for stream, name, size in ((rs.stream.depth, "depth", self.depth_size), (rs.stream.color, "colour", self.color_size)):
+            if stream not in chosen:
+                asked = "" if self.bag else f" at {size[0]}x{size[1]}, 30 frames a second"
+                raise InputError(f"{self.where}: no {name} stream{asked}")
+        return chosen
 
     def open(self) -> StreamSetup:
         import pyrealsense2 as rs
 
-        config = rs.config()
-        if self.bag is not None:
-            config.enable_device_from_file(str(self.bag), repeat_playback=False)
-        else:
-            serials = [d.get_info(rs.camera_info.serial_number) for d in rs.context().query_devices()]
-            if not serials:
-                raise InputError("no RealSense camera is connected (pyrealsense2 finds none)")
-            if self.serial is not None and self.serial not in serials:
-                raise InputError(f"no RealSense camera with serial {self.serial} (connected: {', '.join(serials)})")
-            if self.serial is not None:
-                config.enable_device(self.serial)
-            config.enable_stream(rs.stream.color, *self.color_size, rs.format.rgb8, 30)
-            config.enable_stream(rs.stream.depth, *self.depth_size, rs.format.z16, 30)
-        self._pipeline = rs.pipeline()
-        try:
-            profile = self._pipeline.start(config)
-        except RuntimeError as exc:
-            self._pipeline = None
-            raise InputError(f"{self.where}: cannot start the streams: {exc}") from None
-        device = profile.get_device()
-        if self.bag is not None:
-            device.as_playback().set_real_time(False)  # every frame, as fast as it decodes
-        streams = {s.stream_type(): s for s in profile.get_streams()}
-        if rs.stream.depth not in streams:
-            raise InputError(f"{self.where}: no depth stream")
-        if rs.stream.color not in streams:
-            raise InputError(f"{self.where}: no colour stream")
+        device = self._device()
+        profiles = self._profiles(device)
+        (depth_sensor, depth_profile), (color_sensor, color_profile) = profiles[rs.stream.depth], profiles[rs.stream.color]
         depth_scale = device.first_depth_sensor().get_depth_scale()
-        intrinsics = streams[rs.stream.color].as_video_stream_profile().get_intrinsics()
+        intrinsics = color_profile.get_intrinsics()
         if intrinsics.fx <= 0 or intrinsics.fy <= 0:
             raise InputError(f"{self.where}: the colour stream has no intrinsics")
         camera, notes = camera_from_intrinsics(intrinsics, depth_scale)
         self._align = rs.align(rs.stream.color)
+        # The SDK aligns a frameset: ours are made of the two frames we paired.
+        self._framesets = rs.frame_queue(1)
+        self._composer = rs.processing_block(
+            lambda frame, source: source.frame_ready(source.allocate_composite_frame(list(self._composing)))
+        )
+        self._composer.start(self._framesets)
         setup = StreamSetup(format="realsense-bag" if self.bag else "realsense-live", color_camera=camera, notes=notes)
+        extrinsics = depth_profile.get_extrinsics_to(color_profile)
+        rotation = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
+        translation = np.asarray(extrinsics.translation, dtype=np.float64)
         if intrinsics.model in (rs.distortion.brown_conrady, rs.distortion.kannala_brandt4) and any(intrinsics.coeffs):
             # The SDK's align lands depth up to mm off the truth under a forward-distorting colour
             # lens here (measured against ray-cast depth); D400 colour uses inverse Brown-Conrady.
-            depth_intrinsics = streams[rs.stream.depth].as_video_stream_profile().get_intrinsics()
-            setup.depth_camera, depth_notes = camera_from_intrinsics(depth_intrinsics, depth_scale)
-            extrinsics = streams[rs.stream.depth].get_extrinsics_to(streams[rs.stream.color])
+            setup.depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
             setup.color_from_depth = np.eye(4)
-            setup.color_from_depth[:3, :3] = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T
-            setup.color_from_depth[:3, 3] = extrinsics.translation
+            setup.color_from_depth[:3, :3], setup.color_from_depth[:3, 3] = rotation, translation
             setup.notes += depth_notes + ["a distorting colour lens: depth reprojected here, not by the SDK's align"]
             self._align = None
         # The SDK's align keeps each depth pixel's own z (the depth camera's), not the z in
         # colour's frame: off by the cameras' relative tilt (mm at a metre for half a degree).
         # The point lies on its colour pixel's ray r at z_c: z_d = z_c (R^T r)_z - (R^T t)_z.
-        extrinsics = streams[rs.stream.depth].get_extrinsics_to(streams[rs.stream.color])
-        rotation = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
-        translation = np.asarray(extrinsics.translation, dtype=np.float64)
         depth_from_color_rays = camera.pixel_rays() @ rotation  # rows: (R^T r)^T
         self._z_gain = (1.0 / depth_from_color_rays[:, 2]).reshape(camera.height, camera.width).astype(np.float32)
         self._z_offset_m = float((rotation.T @ translation)[2])
         if self.tolerance_s is None:  # half a frame interval
-            self.tolerance_s = min(0.5 / max(streams[rs.stream.color].fps(), 1), MAX_TOLERANCE_S)
+            self.tolerance_s = min(0.5 / max(color_profile.fps(), 1), MAX_TOLERANCE_S)
+        self._start(profiles)
         return setup
+
+    def _start(self, profiles: dict[object, tuple[object, object]]) -> None:
+        """Open the sensors and start their callbacks; a playback paused until both run (else
+        the first started can take frames the other misses)."""
+        by_sensor: dict[int, tuple[object, list]] = {}
+        for sensor, profile in profiles.values():
+            by_sensor.setdefault(id(sensor), (sensor, []))[1].append(profile)
+        if self._playback is not None:
+            self._playback.pause()
+        try:
+            for sensor, sensor_profiles in by_sensor.values():
+                sensor.open(sensor_profiles)
+                self._sensors.append(sensor)
+                sensor.start(self._deliver)
+        except RuntimeError as exc:
+            self.close()
+            raise InputError(f"{self.where}: cannot start the streams: {exc}") from None
+        if self._playback is not None:
+            self._playback.resume()
+
+    def _deliver(self, frame: object) -> None:
+        """A sensor's callback (the SDK's thread): queue the frame, waiting while the queue is
+        full (a playback then waits too; a live camera drops frames, counted by their numbers)."""
+        frame.keep()  # held beyond the callback, outside the sensor's pool of 16
+        while not self._closing:
+            try:
+                self._frames.put(frame, timeout=0.1)
+                return
+            except queue.Full:
+                continue
+
+    def _next_frame(self) -> object | None:
+        """The next frame of either stream; None at the end of a recording."""
+        waited_s = 0.0
+        while True:
+            try:
+                return self._frames.get(timeout=0.1)
+            except queue.Empty:
+                if self._ended.is_set() and self._frames.empty():
+                    return None
+                waited_s += 0.1
+                limit_s = _WAIT_S if self.bag is None else _PLAYBACK_STALL_S
+                if waited_s > limit_s:
+                    raise InputError(f"{self.where}: no frames for {limit_s:.0f} s") from None
 
     def _colour_z(self, units: np.ndarray) -> np.ndarray:
         """Aligned depth units to float32 metres along colour's axis (NaN: none)."""
@@ -181,38 +268,46 @@ class RealSenseSource(FrameSource):
         z_depth[units == 0] = np.nan
         return (z_depth + np.float32(self._z_offset_m)) * self._z_gain
 
+    def _images(self, color: object, depth: object) -> tuple[np.ndarray, np.ndarray]:
+        if self._align is None:  # registered by the reader of the pairs (setup.depth_camera)
+            return _rgb(color), np.asanyarray(depth.get_data()).copy()
+        self._composing = (color, depth)
+        self._composer.invoke(color)
+        aligned = self._align.process(self._framesets.wait_for_frame().as_frameset())
+        return _rgb(aligned.get_color_frame()), self._colour_z(np.asanyarray(aligned.get_depth_frame().get_data()))
+
     def close(self) -> None:
-        if self._pipeline is not None:
-            self._pipeline.stop()
-            self._pipeline = None
+        self._closing = True
+        for sensor in self._sensors:
+            try:
+                sensor.stop()
+            except RuntimeError:  # opened, never started
+                pass
+            sensor.close()
+        self._sensors = []
+        while not self._frames.empty():
+            self._frames.get_nowait()
+
+    def _associated(self, seen: dict[str, set[int]]) -> Iterator[tuple[object, object, float]]:
+        """(colour frame, depth frame, depth minus colour seconds) in time order, each frame once."""
+        import pyrealsense2 as rs
+
+        association = StreamAssociation(self.tolerance_s)
+        while (frame := self._next_frame()) is not None:
+            kind = "color" if frame.get_profile().stream_type() == rs.stream.color else "depth"
+            if frame.get_frame_number() in seen[kind]:  # delivered twice
+                continue
+            seen[kind].add(frame.get_frame_number())
+            yield from association.add(kind, frame.get_timestamp() / 1000, frame)
+        yield from association.finish()
 
     def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
-        """The SDK's framesets, each colour and depth frame used once, in pairs at most
-        `tolerance_s` apart (the syncer repeats a stream's last frame beside the other's new one)."""
         counts = self.counts
         origin = None
         seen: dict[str, set[int]] = {"color": set(), "depth": set()}
-        used: dict[str, set[int]] = {"color": set(), "depth": set()}
         kept = 0
         try:
-            while True:
-                ok, frames = self._pipeline.try_wait_for_frames(_WAIT_MS)
-                if not ok:
-                    if self.bag is None:
-                        raise InputError(f"{self.where}: no frames for {_WAIT_MS / 1000:.0f} s")
-                    return
-                color, depth = frames.get_color_frame(), frames.get_depth_frame()
-                for kind, frame in (("color", color), ("depth", depth)):
-                    if frame:
-                        seen[kind].add(frame.get_frame_number())
-                if not color or not depth:
-                    continue
-                numbers = color.get_frame_number(), depth.get_frame_number()
-                offset_s = (depth.get_timestamp() - color.get_timestamp()) / 1000
-                if numbers[0] in used["color"] or numbers[1] in used["depth"] or abs(offset_s) > self.tolerance_s:
-                    continue
-                used["color"].add(numbers[0])
-                used["depth"].add(numbers[1])
+            for color, depth, offset_s in self._associated(seen):
                 counts.pairs += 1
                 counts.max_offset_s = max(counts.max_offset_s, abs(offset_s))
                 origin = color.get_timestamp() if origin is None else origin
@@ -222,12 +317,7 @@ class RealSenseSource(FrameSource):
                 kept += 1
                 if (kept - 1) % self.every:
                     continue
-                if self._align is None:  # registered by the reader of the pairs (setup.depth_camera)
-                    color_image, depth_image = _rgb(color), np.asanyarray(depth.get_data()).copy()
-                else:
-                    aligned = self._align.process(frames)
-                    color_image = _rgb(aligned.get_color_frame())
-                    depth_image = self._colour_z(np.asanyarray(aligned.get_depth_frame().get_data()))
+                color_image, depth_image = self._images(color, depth)
                 yield RgbdPair(time_s=time_s, color=color_image, depth=depth_image, depth_offset_s=offset_s)
         finally:
             for kind in ("color", "depth"):
