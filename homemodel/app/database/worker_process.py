@@ -62,7 +62,8 @@ def main(sources: list[str]) -> None:
     # The modules a task's arguments unpickle into, imported here on the main thread before
     # the executor's thread imports the pipelines: no module is imported by two threads at once.
     import homemodel.app.database.tasks  # noqa: F401
-    from homemodel.app.database.warm_up import bpy_ran_off_main_thread, end_without_teardown, warm_up
+    from homemodel.app.database.blender_exit import bpy_ran_off_main_thread, end_without_teardown
+    from homemodel.app.database.warm_up import warm_up
 
     dask.config.set(QUIET_CONFIG)
     logging.getLogger("distributed").setLevel(logging.ERROR)  # Dask's INFO lines would bury the build's
