@@ -1,10 +1,10 @@
-"""Benchmark: `homemodel db build` on Dask against a plain serial loop, cached rebuilds, and a
-mixed manifest of every source.
+"""Benchmark: `homemodel db build` (a local build: its own process and worker processes, no
+Dask) against a plain serial loop, cached rebuilds, and a mixed manifest of every source.
 
 1. Throughput: N generated spec entries (a cup swept over heights and diameters; with
    `--spec cupboard`, the catalogue's kitchen base unit with 5 joints, over depths and masses) built by the
    database with 2 processes building (`homemodel db build --workers 2`, the command itself,
-   run in the child process: the command's own process from its start, and one Dask worker
+   run in the child process: the command's own process from its start, and one worker process
    started beside it), against the same entries built one after the other by a plain loop of
    `modeller.build` (the swept spec written, then built: the pipeline, its export and the
    validation gate, the work each database entry does before its own), in the same run.
@@ -17,7 +17,7 @@ mixed manifest of every source.
    What the database adds per entry ("overhead") is given three ways:
    - after start-up: a worker's time per entry (workers x the time from the first entry's
      start to the last one's end, / N) minus the loop's time per entry (its loop, / N).
-     This is the thumbnail, the entry record, the atomic store, Dask's dispatch, the index
+     This is the thumbnail, the entry record, the atomic store, the dispatch to the worker, the index
      row and the two workers' contention for the machine; the thumbnail's share and the
      entries' time outside their stages' clocks are listed too (from the index's times).
      The same figure for the loops side by side is the machine's share (two processes slow
@@ -26,7 +26,7 @@ mixed manifest of every source.
      database's start-up (the client's imports, the cluster, the workers' imports in
      parallel) over the N entries;
    - in CPU time, all in: (the database's CPU seconds - the loop's) / N, every process
-     counted (the client, Dask's workers, the gate's tools). Unlike the wall-time figures it
+     counted (the command, its worker, the gate's tools). Unlike the wall-time figures it
      barely moves when other jobs share the machine: it is what the database costs, not
      what it was given;
    - in CPU time, after start-up: each side also builds the first SMALL entries alone, and
@@ -38,7 +38,7 @@ mixed manifest of every source.
      median difference: the steadiest figure (no imports, no Dask, no second process). Both
      with one thread per numeric library, as the database's processes build; the loop's entry
      with OpenBLAS's default (a thread per core, as a plain process has) is given too.
-   Each round also runs the database with one process building (`--workers 1`: one Dask
+   Each round also runs the database with one process building (`--workers 1`: one
    worker, the command only records): the second process's speed-up is its time over the
    two-process database's, beside two plain loops' over the serial loop.
    The three (serial loop, loops side by side, database) run in interleaved rounds (every
@@ -68,7 +68,7 @@ Run: .venv/bin/python benchmarks/bench_database.py [--spec cup|cupboard] [--entr
 from __future__ import annotations
 
 # Only what both sides' child processes need is imported at the top: each child's start-up is
-# measured, and neither side may be charged the other's imports (rich, Dask).
+# measured, and neither side may be charged the other's imports (rich; Dask in a baseline's code).
 import argparse
 import functools
 import json
@@ -288,7 +288,7 @@ def _reported(said: str) -> dict:
 
 def _run_child(mode: str, manifest: Path, out: Path, source: Path = ROOT, *more: str) -> tuple[float, dict]:
     """Wall seconds of this script's `mode` in a fresh process (of the code in `source`), and
-    the timings it reports, with the CPU seconds of the process and all of its own (Dask's
+    the timings it reports, with the CPU seconds of the process and all of its own (its
     workers, the gate's tools)."""
     cpu_before = _children_cpu_s()
     seconds, said = _run_timed(__file__, mode, manifest, out, f"{time.time():.6f}", *more, source=source)
@@ -337,7 +337,7 @@ def _one_round(manifest: Path, small: Path, folder: Path, baseline: Path | None,
     side_s, side_cpu_s, side_entries_s = _loops_side_by_side(manifest, folder / "side")
     if not flip:
         db_s, built = _run_child("--db-build", manifest, folder / "db")
-    # The database with one process building (`--workers 1`: one Dask worker, the command records).
+    # The database with one process building (`--workers 1`: one worker, the command records).
     one_s = _run_child("--db-build", manifest, folder / "db_one", ROOT, "1")[0]
     with ModelIndex(folder / "db") as index:
         rows = index.rows()
@@ -393,7 +393,7 @@ def throughput(kind: str, entries: int, rounds: int, console: Console, baseline:
     side_entries_s = median(lambda r: r["side_entries_s"])
     serial_entry_s = serial_entries_s / entries
     side_entry_s, db_entry_s = (WORKERS * span / entries for span in (side_entries_s, db_entries_s))  # a process's time per entry
-    title = f"{entries} {kind} entries: the database ({WORKERS} processes: its own and Dask workers) vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
+    title = f"{entries} {kind} entries: the database ({WORKERS} processes: its own and worker processes) vs plain loops, median of {rounds} rounds (load {load_before} -> {load_after})"
     table = Table(title=title)
     table.add_column("figure")
     table.add_column("serial loop", justify="right")

@@ -84,9 +84,10 @@ def test_the_example_builds_with_the_readme_command(tmp_path) -> None:
 @pytest.mark.bpy
 @pytest.mark.slow
 def test_workers_that_ran_blender_end_without_a_crash(tmp_path) -> None:
-    """bpy runs on a Dask executor thread, and its module teardown crashed the worker when the
-    cluster closed; pycolmap's glog (imported for a photo entry) printed the crash. With one
-    worker, it builds every entry (the command's process builds none)."""
+    """bpy ran on a Dask executor thread, and its module teardown crashed the worker when the
+    cluster closed; pycolmap's glog (imported for a photo entry) printed the crash. A local
+    worker runs its entries on its main thread: it must end as cleanly. With one worker, it
+    builds every entry (the command's process builds none)."""
     folder = tmp_path / "inputs"
     (folder / "photos").mkdir(parents=True)
     for i in range(3):

@@ -1,6 +1,7 @@
-"""How `db build` hands its entries out: small entries a few to a Dask task when there are many
-and to the build's own process, long ones alone, first and to Dask only, an entry that crashed
-the build's process to Dask only; and the build process free of the pipelines' imports."""
+"""How `db build` hands its entries out: small entries a few to a worker's task when there are
+many and to the build's own process, long ones alone, first and to the workers only, an entry
+that crashed the build's process to the workers only; and the build process free of the
+pipelines' imports, and of Dask's on a local build."""
 
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ def _requests(source: str, count: int, prefix: str) -> list[BuildRequest]:
 
 
 def _tasks(dispatch: Dispatch) -> list[list[BuildRequest]]:
-    """What Dask would get, task by task, if it took everything."""
+    """What the workers would get, task by task, if they took everything."""
     tasks = []
     while batch := dispatch._next_task():
         tasks.append(batch)
@@ -48,24 +49,24 @@ def test_small_entries_are_batched_only_when_there_are_enough_to_share() -> None
     assert len(_tasks(Dispatch(None, few, here=False, processes=1, db_dir=Path("/db")))[0]) == 3  # 31 // 8
 
 
-def test_an_entry_that_crashed_the_build_process_goes_to_dask_only(tmp_path) -> None:
+def test_an_entry_that_crashed_the_build_process_goes_to_workers_only(tmp_path) -> None:
     specs = _requests("spec", 3, "s")
     assert crashed_here(tmp_path) == set()
     (tmp_path / JOURNAL).write_text("s1")  # what a build killed while building s1 leaves
-    dask_only = crashed_here(tmp_path)
-    assert dask_only == {"s1"} and not (tmp_path / JOURNAL).exists()
-    dispatch = Dispatch(None, specs, here=True, processes=2, db_dir=tmp_path, dask_only=dask_only)
+    workers_only = crashed_here(tmp_path)
+    assert workers_only == {"s1"} and not (tmp_path / JOURNAL).exists()
+    dispatch = Dispatch(None, specs, here=True, processes=2, db_dir=tmp_path, workers_only=workers_only)
     assert [r.job.id for r in (dispatch._next_here(), dispatch._next_here())] == ["s0", "s2"]
     assert dispatch._next_here() is None and [r.job.id for t in _tasks(dispatch) for r in t] == ["s1"]
     # Without this process building, the journal changes nothing.
-    assert [r.job.id for t in _tasks(Dispatch(None, specs, here=False, processes=2, db_dir=tmp_path, dask_only={"s1"})) for r in t] == ["s0", "s1", "s2"]
+    assert [r.job.id for t in _tasks(Dispatch(None, specs, here=False, processes=2, db_dir=tmp_path, workers_only={"s1"})) for r in t] == ["s0", "s1", "s2"]
 
 
 def test_entries_go_longest_first_by_their_last_build_and_new_ones_before_them() -> None:
     jobs = [Job(id=name, source="spec", inputs={"path": Path(f"/in/{name}.yaml")}) for name in ("cup", "new_a", "cupboard", "bowl", "new_b")]
     last_build_s = {"cup": 0.12, "cupboard": 0.9, "bowl": 0.2, "gone": 5.0}
     assert [job.id for job in largest_first(jobs, last_build_s)] == ["new_a", "new_b", "cupboard", "bowl", "cup"]
-    # Dispatch keeps that order: the build's own process and Dask take from the front.
+    # Dispatch keeps that order: the build's own process and the workers take from the front.
     requests = [BuildRequest(job=job, key="k", db_dir=Path("/db"), repair=None) for job in largest_first(jobs, last_build_s)]
     dispatch = Dispatch(None, requests, here=True, processes=2, db_dir=Path("/db"))
     assert [dispatch._next_here().job.id for _ in range(3)] == ["new_a", "new_b", "cupboard"]
@@ -82,14 +83,15 @@ def test_a_task_key_changes_with_any_entry_key() -> None:
 
 def test_the_build_process_does_not_import_the_pipelines_or_dask() -> None:
     """The process that submits the tasks imports the entry build (trimesh, the gate, bpy) only
-    when it builds entries itself (a local cluster): never for a remote one. Nor does it import
-    Dask before it starts the scheduler, not even to start a local cluster's workers: that
-    half second of CPU would come before its first entry."""
+    when it builds entries itself (a local build): never for a remote one. A local build never
+    imports Dask: half a second of CPU, and its scheduler a second more, that two plain
+    processes do not spend. Nor does a remote build before it connects (`ClusterStart.start`)."""
     code = (
         "import sys; import homemodel.app.database.build, homemodel.app.database.tasks, homemodel.app.database.dispatch; "
-        "from homemodel.app.database.cluster import ClusterStart; cluster = ClusterStart(None, 1, ()); "
-        "print(sorted(m for m in ('trimesh', 'bpy', 'open3d', 'distributed', 'homemodel.app.database.entry_build') if m in sys.modules)); "
-        "cluster.close()"
+        "from homemodel.app.database.cluster import ClusterStart; from homemodel.app.database.local_workers import LocalWorkers; "
+        "workers = LocalWorkers(1, ()); assert workers.submit(sum, [1, 2], key='t').result(timeout=60) == 3; workers.close(); "
+        "ClusterStart('tcp://127.0.0.1:1', ('spec',)).close(); "
+        "print(sorted(m for m in ('trimesh', 'bpy', 'open3d', 'distributed', 'homemodel.app.database.entry_build') if m in sys.modules))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT, timeout=120)
     assert done.stdout.strip() == "[]"

@@ -59,9 +59,9 @@ def build(
     manifest: Path = typer.Argument(..., help="the manifest: entries, their sources, options, categories"),
     db: Path = DB_OPTION,
     workers: int | None = field_option(
-        f"{BUILD}.workers", help="local processes that build: this one and N - 1 Dask workers (default: one per core)"
+        f"{BUILD}.workers", help="local processes that build: this one and N - 1 worker processes, no Dask (default: one per core)"
     ),
-    scheduler: str | None = field_option(f"{BUILD}.scheduler", help="an existing Dask scheduler, e.g. tcp://host:8786"),
+    scheduler: str | None = field_option(f"{BUILD}.scheduler", help="an existing Dask scheduler, e.g. tcp://host:8786: the build runs on its cluster"),
     repair: bool = field_option(f"{BUILD}.repair", help="repair imported assets that lack only inertials or limit effort/velocity"),
     retry_failed: bool = field_option(f"{BUILD}.retry_failed", help="build failed entries again even if unchanged"),
     strict: bool = typer.Option(False, "--strict", help="exit 1 when an entry failed or is invalid"),

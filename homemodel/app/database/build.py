@@ -1,15 +1,16 @@
-"""`homemodel db build`: every entry of a manifest through its pipeline, on Dask.
+"""`homemodel db build`: every entry of a manifest through its pipeline, on local worker
+processes or on Dask.
 
-The build runs on Dask's `distributed` scheduler: by default a local one with single-threaded
-worker processes (bpy is not thread-safe), one per core but one, with this process building
-small entries too from the start, while the cluster starts (see `cluster`, `dispatch`); given a
-scheduler address, on an existing cluster whose workers see the database folder (a shared
-file system) and run the same homemodel. Workers build and store model folders; this process
-alone writes the index, one committed row per finished entry.
+By default the build runs on this machine: single-threaded worker processes (bpy is not
+thread-safe), one per core but one, fed through pipes without Dask (`local_workers`), with
+this process building small entries too from the start, while the workers start (`dispatch`).
+Given a scheduler address it runs on that Dask cluster (`cluster`), whose workers see the
+database folder (a shared file system) and run the same homemodel. Workers build and store
+model folders; this process alone writes the index, one committed row per finished entry.
 
-Only entries whose content key changed are built. A killed worker's entries are rebuilt by
-Dask elsewhere; an interrupted build leaves whole folders and whole rows, and the next build
-picks up what is missing.
+Only entries whose content key changed are built. A killed worker's entries are rebuilt
+elsewhere; an interrupted build leaves whole folders and whole rows, and the next build picks
+up what is missing.
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ from homemodel.app.database.index import MODELS_DIR, EntryRow, ModelIndex
 from homemodel.app.database.manifest import Job, RepairSpec, load_manifest
 from homemodel.app.database.build_request import BuildRequest
 from homemodel.app.database.cluster import ClusterStart
-from homemodel.app.database.dispatch import Dispatch, crashed_here
+from homemodel.app.database.dispatch import Dispatch, Workers, crashed_here
+from homemodel.app.database.local_workers import LocalWorkers
 from homemodel.app.database.tasks import SMALL_SOURCES
 from homemodel.core.checks import require_at_least
 from homemodel.core.errors import InputError
@@ -40,14 +42,14 @@ log = logging.getLogger(__name__)
 LOCK_FILE = ".build.lock"
 COMMIT_EVERY_S = 0.5  # the index's rows are committed at most this often during a build
 # A build of no more small entries than this (and nothing else) runs in this process alone:
-# a Dask worker's start (4 s of CPU, about 5 s on an idle 2-core machine) would take longer
-# than they do (a cup 0.15 s, a cabinet 0.5 s).
+# a worker's start (its imports: about 2 s of CPU for specs) would take longer than they do
+# (a cup 0.15 s, a cabinet 0.5 s).
 HERE_ALONE_ENTRIES = 16
 
 
 @dataclass(kw_only=True)
 class DatabaseBuildOptions:
-    workers: int | None = None  # local processes that build (this one and N - 1 Dask workers); None: one per core
+    workers: int | None = None  # local processes that build (this one and N - 1 worker processes); None: one per core
     scheduler: str | None = None  # an existing Dask scheduler, e.g. tcp://host:8786
     repair: bool = False  # repair every imported asset that lacks only what the gate needs (else: entries with `repair: true`)
     retry_failed: bool = False  # build failed entries again even when their key is unchanged
@@ -184,11 +186,11 @@ def build_database(
 
 def _run(options: DatabaseBuildOptions, requests: list[BuildRequest], index: ModelIndex, result: DatabaseBuild,
          on_entry: EntryDone | None, on_dashboard: Callable[[str], None] | None) -> None:  # fmt: skip
-    """Build `requests` on the cluster (and here, on a local one), recording each row as it lands."""
+    """Build `requests` on the workers (and here, on a local build), recording each row as it lands."""
     processes = options.workers or os.cpu_count() or 1
-    dask_only = crashed_here(index.db_dir)
-    # This process builds small entries too on a local cluster of 2 or more cores, and alone a few of them.
-    small = {r.job.id for r in requests if r.job.source in SMALL_SOURCES and r.job.id not in dask_only}
+    workers_only = crashed_here(index.db_dir)
+    # This process builds small entries too on a local build of 2 or more processes, and alone a few of them.
+    small = {r.job.id for r in requests if r.job.source in SMALL_SOURCES and r.job.id not in workers_only}
     here = options.scheduler is None and processes > 1 and bool(small)
     alone = here and len(small) == len(requests) <= HERE_ALONE_ENTRIES
     # What the workers import as they start: with this process building the small entries, what
@@ -196,7 +198,11 @@ def _run(options: DatabaseBuildOptions, requests: list[BuildRequest], index: Mod
     # then); else everything.
     theirs = {r.job.source for r in requests if not (here and r.job.id in small)}
     sources = tuple(sorted(theirs or {r.job.source for r in requests}))
-    cluster = None if alone else ClusterStart(options.scheduler, processes - 1 if here else processes, sources)
+    cluster: Workers | None = None
+    if options.scheduler is not None:
+        cluster = ClusterStart(options.scheduler, sources)
+    elif not alone:
+        cluster = LocalWorkers(processes - 1 if here else processes, sources)
     last_commit = time.monotonic()
 
     def settle(rows: list[EntryRow]) -> None:
@@ -216,7 +222,7 @@ def _run(options: DatabaseBuildOptions, requests: list[BuildRequest], index: Mod
                 on_entry(row, False)
 
     try:
-        Dispatch(cluster, requests, here=here, processes=processes, db_dir=index.db_dir, dask_only=dask_only).run(settle)
+        Dispatch(cluster, requests, here=here, processes=processes, db_dir=index.db_dir, workers_only=workers_only).run(settle)
     finally:
         # On Ctrl-C: nothing more is started; finished entries are committed.
         index.commit()

@@ -1,18 +1,20 @@
-"""A build's entries shared between Dask's workers and, on a local cluster, this process.
+"""A build's entries shared between its workers (a Dask cluster's, or a local build's worker
+processes) and, on a local build, this process.
 
-This process builds small entries (specs, imports) itself from the first moment, while the
-local cluster's workers start (`cluster.ClusterStart`; its scheduler once this process's first
-entry begins): its own imports and first entries overlap the workers' start-up, and with N
-cores the cluster has N - 1 workers, so N processes build, no more. Dask gets its tasks a few at a time (TASKS_IN_FLIGHT per worker: one running,
-one waiting, so a worker never idles for a round trip), topped up from Dask's callback thread
-as each task ends; this process takes single entries from the same queue between collecting
-what Dask returned, and records every row (the index is this thread's alone).
+On a local build this process builds small entries (specs, imports) itself from the first
+moment, while the worker processes start (`local_workers`): its own imports and first entries
+overlap the workers' start-up, and with N cores there are N - 1 workers, so N processes build,
+no more. The workers get their tasks a few at a time (`tasks_in_flight` per worker: on Dask one
+running and one waiting, so a worker never idles for a round trip; a local worker is handed its
+next task as its last result is read), topped up from the thread that learns a task ended;
+this process takes single entries from the same queue between collecting what the workers
+returned, and records every row (the index is this thread's alone).
 
 Long entries (the reconstructions) and entries that crashed this process before are built by
-Dask's workers only: a crash in C there costs the build that worker, recorded as a failed
-entry, not the build. Before this process builds an entry it writes the entry's id to
-JOURNAL, and removes it when done; a build that finds the file at its start knows that entry
-killed the process that built it, and gives it to the workers.
+the workers only: a crash in C there costs the build that worker, recorded as a failed entry,
+not the build. Before this process builds an entry it writes the entry's id to JOURNAL, and
+removes it when done; a build that finds the file at its start knows that entry killed the
+process that built it, and gives it to the workers.
 """
 
 from __future__ import annotations
@@ -24,19 +26,31 @@ import threading
 from collections import deque
 from collections.abc import Callable, Collection
 from pathlib import Path
+from typing import Any, Protocol
 
 from homemodel.app.database.build_request import BuildRequest
-from homemodel.app.database.cluster import ClusterStart
 from homemodel.app.database.index import EntryRow
 from homemodel.app.database.tasks import SMALL_SOURCES, batch_size, build_batch, task_key
 
 log = logging.getLogger(__name__)
 
 JOURNAL = ".building-here"
-TASKS_IN_FLIGHT = 2  # per Dask worker
-WAIT_S = 0.2  # how long the build waits for Dask's results before looking again
+WAIT_S = 0.2  # how long the build waits for the workers' results before looking again
 
 Settle = Callable[[list[EntryRow]], None]
+
+
+class Workers(Protocol):
+    """What the build asks of its workers: a Dask cluster (`cluster.ClusterStart`) or a local
+    build's processes (`local_workers.LocalWorkers`). `client()` submits tasks, as Dask's
+    client does (`submit(function, *args, key=...)`, `cancel(futures)`), None until it can."""
+
+    dashboard: str | None
+    tasks_in_flight: int  # per worker
+
+    def start(self) -> None: ...
+    def client(self, wait_s: float = 0.0) -> Any: ...
+    def workers(self, client: Any) -> int: ...
 
 
 def crashed_here(db_dir: Path) -> set[str]:
@@ -73,35 +87,36 @@ def _one_numeric_thread() -> contextlib.AbstractContextManager:
 
 
 class Dispatch:
-    """Runs `requests` on the cluster and, with `here`, in this process; see the module's note."""
+    """Runs `requests` on the workers and, with `here`, in this process; see the module's note."""
 
-    def __init__(self, cluster: ClusterStart | None, requests: list[BuildRequest], *, here: bool, processes: int,
-                 db_dir: Path, dask_only: Collection[str] = ()) -> None:  # fmt: skip
+    def __init__(self, cluster: Workers | None, requests: list[BuildRequest], *, here: bool, processes: int,
+                 db_dir: Path, workers_only: Collection[str] = ()) -> None:  # fmt: skip
         self._cluster = cluster
         self._here = here
         self._processes = max(processes, 1)  # the processes that build: the cluster's, and this one
         self._journal = db_dir / JOURNAL
-        shared = [r.job.source in SMALL_SOURCES and not (here and r.job.id in dask_only) for r in requests]
+        shared = [r.job.source in SMALL_SOURCES and not (here and r.job.id in workers_only) for r in requests]
         # The long ones first: they decide when the build ends.
         self._alone = deque([r] for r, s in zip(requests, shared) if not s)
         self._shared = deque(r for r, s in zip(requests, shared) if s)
         self._lock = threading.Lock()
-        self._futures: dict[str, tuple[object, list[BuildRequest]]] = {}  # key: (distributed.Future, batch)
-        self._finished: queue.Queue[str] = queue.Queue()  # keys of ended tasks, from Dask's callback thread
-        self._in_flight = 0  # the tasks Dask may hold at once, once its client is up
+        self._futures: dict[str, tuple[Any, list[BuildRequest]]] = {}  # key: (the task's future, batch)
+        self._finished: queue.Queue[str] = queue.Queue()  # keys of ended tasks, from the thread that learnt it
+        self._in_flight = 0  # the tasks the workers may hold at once, once the client is up
+        self._running = 0  # tasks given to the workers and not ended (ended ones may wait to be collected)
         self._closing = False
 
     def run(self, settle: Settle) -> None:
         """Every request built and settled (or recorded as failed); on an exception or Ctrl-C
-        nothing more is started and Dask's tasks are cancelled."""
+        nothing more is started and the workers' tasks are cancelled."""
         numeric_threads = contextlib.ExitStack()
         try:
             if self._here and self._shared:
                 self._warm_up()
                 numeric_threads.enter_context(_one_numeric_thread())
             if self._cluster is not None:
-                # Only now: Dask's import and the scheduler's start (a second of CPU) would
-                # otherwise come before this process's first entry.
+                # Only now: Dask's import and its client's start would otherwise come before
+                # this process's first entry.
                 self._cluster.start()
             while True:
                 self._top_up()
@@ -152,39 +167,49 @@ class Dispatch:
             return not (self._alone or self._shared or self._futures) and self._finished.empty()
 
     def _next_task(self) -> list[BuildRequest]:
-        """The next task for Dask (under the lock): a long entry, else a few small ones."""
+        """The next task for the workers (under the lock): a long entry, else a few small ones."""
         if self._alone:
             return self._alone.popleft()
         size = batch_size(len(self._shared), self._processes)
         return [self._shared.popleft() for _ in range(min(size, len(self._shared)))]
 
-    def _client(self, wait_s: float = 0.0):  # noqa: ANN202 (distributed.Client or None)
-        """Dask's client once the cluster is up (None before, and without a cluster)."""
+    def _client(self, wait_s: float = 0.0) -> Any:
+        """The workers' client once it is up (None before, and without workers)."""
         return self._cluster.client(wait_s) if self._cluster is not None else None
 
     def _top_up(self) -> None:
-        """Give Dask tasks up to TASKS_IN_FLIGHT per worker (a no-op until its client is up)."""
+        """Give the workers tasks up to `tasks_in_flight` each (a no-op until the client is up).
+        Counted by the tasks not yet ended, not those not yet collected: a worker whose task
+        ended gets the next at once, from the thread that learnt it, not once this process
+        has finished its own entry."""
         client = self._client()
         if client is None:
             return
+        submitted = []
         with self._lock:
             if not self._in_flight:
-                self._in_flight = TASKS_IN_FLIGHT * max(self._cluster.workers(client), 1)
-            while not self._closing and len(self._futures) < self._in_flight:
+                self._in_flight = self._cluster.tasks_in_flight * max(self._cluster.workers(client), 1)
+            while not self._closing and self._running < self._in_flight:
                 batch = self._next_task()
                 if not batch:
                     break
                 future = client.submit(build_batch, batch, key=task_key(batch))
                 self._futures[future.key] = (future, batch)
-                future.add_done_callback(self._ended)
+                self._running += 1
+                submitted.append(future)
+        # Outside the lock: a task ended already has its callback called here, which takes it.
+        for future in submitted:
+            future.add_done_callback(self._ended)
 
-    def _ended(self, future) -> None:  # noqa: ANN001 (distributed.Future; on Dask's callback thread)
+    def _ended(self, future: Any) -> None:  # on the thread that learnt the task ended
+        with self._lock:
+            self._running -= 1
         self._finished.put(future.key)
         with contextlib.suppress(Exception):  # a client closing: the build's thread finds out
             self._top_up()
 
     def _collect(self, settle: Settle, wait_s: float) -> None:
-        """Settle the rows of every task Dask has ended (waiting up to `wait_s` for one)."""
+        """Settle the rows of every task the workers have ended (waiting up to `wait_s` for one)."""
         try:
             key = self._finished.get(timeout=wait_s) if wait_s else self._finished.get_nowait()
         except queue.Empty:
@@ -196,7 +221,7 @@ class Dispatch:
                 future, batch = self._futures.pop(key)
             try:
                 rows = future.result()
-            except Exception as exc:  # noqa: BLE001 (KilledWorker and the like: recorded, the build goes on)
+            except Exception as exc:  # noqa: BLE001 (KilledWorker, WorkerLost and the like: recorded, the build goes on)
                 if len(batch) > 1:  # which of them killed the worker is unknown: each on its own
                     with self._lock:
                         self._alone.extendleft([r] for r in reversed(batch))

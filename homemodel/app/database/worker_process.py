@@ -1,78 +1,52 @@
-"""One Dask worker process of a local `db build`, started by `local_workers.LocalWorkers` the
-moment the build knows its entries, before the build's own process has imported Dask or
-started the scheduler.
+"""One worker process of a local `db build`, started by `local_workers.LocalWorkers` the moment
+the build knows its entries.
 
-It imports Dask, then the build's pipelines on the thread that will run its entries (its
-executor's one thread), while it waits for the scheduler's address on stdin; it joins the
-scheduler with that thread still warming up (the entries Dask gives it wait behind the
-imports). End of stdin (the build closing it, or the build's process gone) closes the worker
-and ends the process. Ctrl-C is the build's to handle: this process ignores SIGINT.
+It imports the build's pipelines (on its main thread, where bpy is at home and ends cleanly),
+says it is ready, then runs the tasks it reads from stdin one at a time, each a pickled
+(function, arguments), and writes each outcome, ("ok", result) or ("error", exception),
+pickled, to the pipe whose descriptor it was given. End of stdin (the build closing it, or the
+build's process gone) ends the process. Ctrl-C is the build's to handle: this process ignores
+SIGINT.
 
-Run as `python -c BOOT SYS_PATH_JSON SOURCE...` (see `local_workers`).
+Run as `python -c BOOT SYS_PATH_JSON RESULTS_FD SOURCE...` (see `local_workers`).
 """
 
 from __future__ import annotations
 
-import asyncio
-import concurrent.futures
 import logging
-import contextlib
+import os
+import pickle
 import signal
 import sys
-import threading
 
-from homemodel.app.database.local_workers import READY
+from homemodel.app.database.local_workers import READY, read_message, write_message
 
 log = logging.getLogger(__name__)
 
 
-def _warmed(future: concurrent.futures.Future) -> None:
-    if future.exception() is not None:  # the entries then fail with their own error
-        log.warning("warming up failed: %s", future.exception())
+def _outcome(message: bytes) -> bytes:
+    """The pickled outcome of the pickled task `message`."""
+    try:
+        function, args = pickle.loads(message)
+        outcome = ("ok", function(*args))
+    except Exception as exc:  # noqa: BLE001 (the task's failure is the build's to record)
+        outcome = ("error", exc)
+    try:
+        return pickle.dumps(outcome, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception as exc:  # noqa: BLE001 (an exception or result that cannot be pickled)
+        return pickle.dumps(("error", RuntimeError(f"the task's outcome cannot be pickled: {type(exc).__name__}: {exc}")))
 
 
-async def _serve(address: str, executor: concurrent.futures.Executor) -> None:
-    from distributed import Worker
-
-    loop = asyncio.get_running_loop()
-    # memory_limit=0: no memory monitor (this worker has no nanny to restart it; the build's
-    # LocalWorkers does that when the process dies).
-    async with Worker(address, nthreads=1, executor=executor, memory_limit=0, dashboard=False) as worker:
-        print(READY, flush=True)
-        stdin_closed = loop.create_future()
-
-        def wait_for_end_of_stdin() -> None:
-            sys.stdin.read()
-            with contextlib.suppress(RuntimeError):  # the loop has ended already
-                loop.call_soon_threadsafe(stdin_closed.set_result, None)
-
-        # A daemon thread: a worker ended by its scheduler must not wait for it.
-        threading.Thread(target=wait_for_end_of_stdin, daemon=True).start()
-        await asyncio.wait([stdin_closed, asyncio.ensure_future(worker.finished())], return_when=asyncio.FIRST_COMPLETED)
-        await worker.close(reason="the build closed its workers")
-
-
-def main(sources: list[str]) -> None:
+def main(results_fd: int, sources: list[str]) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import dask
-    import distributed  # noqa: F401
-
-    from homemodel.app.database.cluster import QUIET_CONFIG
-
-    # The modules a task's arguments unpickle into, imported here on the main thread before
-    # the executor's thread imports the pipelines: no module is imported by two threads at once.
-    import homemodel.app.database.tasks  # noqa: F401
-    from homemodel.app.database.blender_exit import bpy_ran_off_main_thread, end_without_teardown
     from homemodel.app.database.warm_up import warm_up
 
-    dask.config.set(QUIET_CONFIG)
-    logging.getLogger("distributed").setLevel(logging.ERROR)  # Dask's INFO lines would bury the build's
-    executor = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="homemodel-db-entries")
-    warming = executor.submit(warm_up, tuple(sources))
-    warming.add_done_callback(_warmed)
-    address = sys.stdin.readline().strip()  # "": the build ended before its scheduler started
-    if address:
-        asyncio.run(_serve(address, executor))
-    concurrent.futures.wait([warming])  # bpy half imported would not end cleanly either
-    if bpy_ran_off_main_thread():
-        end_without_teardown()
+    results = os.fdopen(results_fd, "wb")
+    try:
+        if sources:  # (a pool given none builds no entries)
+            warm_up(tuple(sources))
+    except Exception as exc:  # noqa: BLE001 (the entries then fail with their own error)
+        log.warning("warming up failed: %s", exc)
+    write_message(results, READY)
+    while (message := read_message(sys.stdin.buffer)) is not None:
+        write_message(results, _outcome(message))
