@@ -1,7 +1,8 @@
 """What each Dask worker of a build on an existing cluster (`--scheduler`) does once: import the
 heavy libraries of the build's sources before its first entry (`warm_up`), and end its process
-cleanly when it closes if bpy ran there (see `blender_exit`). The local build's workers do
-the same in `worker_process`, without a plugin.
+cleanly when it closes if bpy ran there (see `blender_exit`). A local build's workers are no
+Dask workers: they warm up in `worker_process`, and run bpy on their main thread, where its
+exit is clean.
 """
 
 from __future__ import annotations
