@@ -90,11 +90,12 @@ class BuiltExample(NamedTuple):
 
 @pytest.fixture(scope="module", autouse=True)
 def model_summaries_follow_the_schema(tmp_path_factory: pytest.TempPathFactory):
-    """Each module's new model folders (its tests' and the fixtures it made, session ones
-    included) hold a summary.json that the published JSON Schema accepts."""
+    """Each module's new summary files (its tests' and the fixtures it made, session ones
+    included) are accepted by the published JSON Schema of their name: any summary.json is a
+    model folder's."""
     yield
     problems = unchecked_summary_problems(tmp_path_factory.getbasetemp())
-    assert not problems, "summary.json breaks homemodel/schemas/model_summary.schema.json:\n" + "\n".join(problems[:10])
+    assert not problems, "a summary file breaks its schema in homemodel/schemas/:\n" + "\n".join(problems[:10])
 
 
 @pytest.fixture(scope="session")

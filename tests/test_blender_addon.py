@@ -646,6 +646,8 @@ def test_import_a_map_export_the_home_and_walk_to_the_blue_cup(real_toolkit, sce
     assert {o.id: o.properties for o in exported.objects()} == {o.id: o.properties for o in original.objects()}
     assert exported.node("fridge_1").joint(fridge_door[rig.JOINT]).position == pytest.approx(0.4)
     assert all(json.loads((tmp_path / "home" / "models" / o.id / "summary.json").read_text())["gate"]["valid"] for o in original.objects())
+    rows = json.loads((tmp_path / "home" / "home_summary.json").read_text())["objects"]  # as `homemodel build` writes it
+    assert sorted(r["id"] for r in rows) == sorted(o.id for o in original.objects()) and all(r["valid"] and r["links"] >= 1 for r in rows)
 
 
 @pytest.mark.slow

@@ -24,7 +24,8 @@ def built(built_kitchen: Path) -> Path:
 def test_build_writes_every_model_and_the_map(built: Path) -> None:
     import json
 
-    rows = json.loads((built / "summary.json").read_text())
+    rows = json.loads((built / "home_summary.json").read_text())["objects"]
+    assert not (built / "summary.json").exists()  # summary.json is a model folder's, under models/<id>/
     assert {r["id"] for r in rows} == {
         "table_1",
         "cupboard_1",

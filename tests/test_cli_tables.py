@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from rich.console import Console
 
-from homemodel.app.home.build import ObjectRow
+from homemodel.core.home_summary import ObjectRow
 from homemodel.cli.build_command import build_table
 from homemodel.cli.render_command import pictures_table
 from modeller.comparison_picture import PictureRow

@@ -52,7 +52,7 @@ def test_a_forced_rebuild_reuses_what_did_not_change(tmp_path: Path) -> None:
     cup.write_text(cup.read_text().replace("height_m: 0.095", "height_m: 0.1"))
     changed = runner.invoke(app, ["build", str(example), "--out", str(out), "--force"])
     assert changed.exit_code == 0, changed.output
-    rows = {r["id"]: r for r in json.loads((out / "summary.json").read_text())}
+    rows = {r["id"]: r for r in json.loads((out / "home_summary.json").read_text())["objects"]}
     assert rows["table_1"]["cached"] and not rows["red_cup"]["cached"]
     for name in ("model.urdf", "model.glb", "model.blend", "content_key.txt"):
         assert (out / "models/red_cup" / name).is_file()

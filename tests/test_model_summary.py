@@ -1,5 +1,6 @@
 """The model contract: one summary schema (published as JSON Schema, kept in step with the
-pydantic model) and one model-folder writer (export, gate, summary.json, atomically)."""
+pydantic model) and one model-folder writer (export, gate, summary.json, atomically); the other
+summary files (a home's, a simulator export's) have names and published schemas of their own."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import hashlib
 import json
 import runpy
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -15,7 +17,9 @@ from model_summaries import schema_problems, unchecked_summary_problems, validat
 
 from articulation.scan_model import scan_model
 from homemodel.core.errors import InputError, OutputExistsError
-from homemodel.core.model_summary import ModelSummary, read_summary, schema_path
+from homemodel.core.home_summary import object_row, write_home_summary
+from homemodel.core.model_summary import ModelSummary, read_summary
+from homemodel.core.summary_files import SUMMARY_SCHEMAS
 from homemodel.model_folder.write import PipelineSummary, report_from_summary, write_model_folder
 
 REPO = Path(__file__).resolve().parents[1]
@@ -25,9 +29,19 @@ def _box_model(name: str = "box"):
     return scan_model(trimesh.creation.box(extents=(0.2, 0.1, 0.3)), name=name, density_kg_m3=500.0, category="box")
 
 
-def test_the_published_schema_is_the_one_the_model_generates():
-    expected = runpy.run_path(str(REPO / "tools" / "write_summary_schema.py"))["schema_text"]()
-    assert schema_path().read_text() == expected, "stale: run .venv/bin/python tools/write_summary_schema.py"
+@pytest.fixture
+def outside_basetemp() -> Iterator[Path]:
+    """A folder the suite's net (conftest) does not look in, for a summary broken on purpose."""
+    with tempfile.TemporaryDirectory() as folder:
+        yield Path(folder)
+
+
+def test_the_published_schemas_are_the_ones_the_models_generate():
+    schema_text = runpy.run_path(str(REPO / "tools" / "write_summary_schema.py"))["schema_text"]
+    assert [p.file_name for p in SUMMARY_SCHEMAS] == ["summary.json", "home_summary.json", "export_summary.json"]
+    assert len({p.path() for p in SUMMARY_SCHEMAS}) == len({p.schema()["$id"] for p in SUMMARY_SCHEMAS}) == 3
+    for published in SUMMARY_SCHEMAS:
+        assert published.path().read_text() == schema_text(published), "stale: run .venv/bin/python tools/write_summary_schema.py"
 
 
 def test_a_written_folder_holds_the_model_its_gate_result_and_figures_from_ground_truth(tmp_path: Path):
@@ -99,18 +113,18 @@ def _good() -> dict:
         {"links": 0},
     ],
 )
-def test_both_the_json_schema_and_the_model_refuse_drifted_summaries(tmp_path: Path, change: dict):
+def test_both_the_json_schema_and_the_model_refuse_drifted_summaries(outside_basetemp: Path, change: dict):
     assert list(validator().iter_errors(_good())) == [] and ModelSummary.model_validate(_good())
     bad = {**_good(), **change}
     assert list(validator().iter_errors(bad)), f"the JSON Schema accepts {change}"
-    path = tmp_path / "summary.json"
+    path = outside_basetemp / "summary.json"
     path.write_text(json.dumps(bad))
     with pytest.raises(InputError, match=r"summary\.json: "):
-        read_summary(tmp_path)
+        read_summary(outside_basetemp)
 
 
-def test_a_figure_written_as_nan_is_not_json(tmp_path: Path):
-    path = tmp_path / "summary.json"
+def test_a_figure_written_as_nan_is_not_json(outside_basetemp: Path):
+    path = outside_basetemp / "summary.json"
     path.write_text(json.dumps({**_good(), "completion": {"class": "mug", "fit_distance_m": float("nan")}}))
     (problem,) = schema_problems(path)
     assert "NaN is not JSON" in problem and list(validator().iter_errors(json.loads(path.read_text()))) == []  # the schema alone passes it
@@ -128,3 +142,22 @@ def test_the_suite_s_net_checks_each_folder_once_session_fixtures_included():
         assert [p.split(": ", 2)[1] for p in unchecked_summary_problems(Path(base))] == ["source"]
         (Path(base) / "test_x0").mkdir()
         assert unchecked_summary_problems(Path(base)) == []  # the kitchen is not reported again
+
+
+def test_the_suite_s_net_checks_each_summary_file_against_the_schema_of_its_name(outside_basetemp: Path):
+    """summary.json is a model folder's wherever it is: a home's table of objects under that name
+    (what `homemodel build` wrote before home_summary.json) is refused; home_summary.json and
+    export_summary.json are checked against their own schemas."""
+    box = write_model_folder(_box_model("cup"), outside_basetemp / "models" / "cup", PipelineSummary(source="modeller"))
+    home = outside_basetemp / "home0"
+    write_home_summary(home, [object_row(box.summary, id="cup", spec="cup.yaml", parent="kitchen", grasp_points=2)])
+    rows = json.loads((home / "home_summary.json").read_text())
+    assert rows["objects"][0]["triangles"] == 12 and rows["objects"][0]["category"] == "box"
+    (home / "summary.json").write_text(json.dumps(rows["objects"]))
+    (home / "export_summary.json").write_text(json.dumps({**rows, "format": "glb"}))
+    problems = unchecked_summary_problems(outside_basetemp)
+    assert {p.split(": ", 1)[0] for p in problems} == {str(home / "summary.json"), str(home / "export_summary.json")}
+    (not_a_model,) = [p for p in problems if p.startswith(f"{home / 'summary.json'}: ")]
+    assert not_a_model.startswith(f"{home / 'summary.json'}: summary: [{{'id': 'cup'") and not_a_model.endswith("is not of type 'object'")
+    assert f"{home / 'export_summary.json'}: summary: 'file' is a required property" in problems
+    assert schema_problems(home / "home_summary.json") == []

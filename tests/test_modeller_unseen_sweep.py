@@ -123,7 +123,7 @@ def test_the_examples_build_fronts_over_the_overhang_a_low_second_board_and_a_sh
 @pytest.mark.bpy
 def test_a_home_build_shows_each_models_warnings(tmp_path: Path) -> None:
     """`homemodel build` prints a model's warnings (here a door's readings against its
-    thickness, and the gate's rub at its hinge line) under its table, and its summary.json
+    thickness, and the gate's rub at its hinge line) under its table, and its home_summary.json
     row keeps them."""
     import json
 
@@ -146,5 +146,5 @@ def test_a_home_build_shows_each_models_warnings(tmp_path: Path) -> None:
     assert "microwave_1: warning: doors.0.hinge_measured: open_at_90 puts the hinge line" in said
     # The door given too thin, all in front, rubs its frame near the hinge line: the gate's warning too.
     assert "microwave_1: warning: collisions: rubs within 3 mm at a hinge line" in said
-    (row,) = json.loads((tmp_path / "out" / "summary.json").read_text())
+    (row,) = json.loads((tmp_path / "out" / "home_summary.json").read_text())["objects"]
     assert len(row["warnings"]) == 2 and "free_corner's line is used" in row["warnings"][0]

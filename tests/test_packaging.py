@@ -23,12 +23,12 @@ import json, sys
 from pathlib import Path
 import homemodel.model_folder.gate.gltf as gltf
 import homemodel, homemodel.app.blender.spec_forms as forms
-from homemodel.core.model_summary import schema_path, summary_schema
+from homemodel.core.summary_files import SUMMARY_SCHEMAS
 kinds = forms.spec_kinds()
 check = gltf.khronos_check(Path(sys.argv[1]))
 print(json.dumps({
-    "files": [homemodel.__file__, forms.__file__, str(gltf.VALIDATOR_SCRIPT), str(schema_path())],
-    "schema_as_generated": json.loads(schema_path().read_text()) == summary_schema(),
+    "files": [homemodel.__file__, forms.__file__, str(gltf.VALIDATOR_SCRIPT), *(str(s.path()) for s in SUMMARY_SCHEMAS)],
+    "schemas_as_generated": [s.file_name for s in SUMMARY_SCHEMAS if json.loads(s.path().read_text()) == s.schema()],
     "kinds": len(kinds),
     "with_examples": sorted(k for k, v in kinds.items() if set(v["example"]) - {"kind"}),
     "check": [check.passed, check.detail],
@@ -68,7 +68,8 @@ def test_the_shipped_packages_run_without_the_checkout(shipped: Path, tmp_path: 
 
     alone = _probe(shipped, glb)
     assert all(Path(f).is_relative_to(shipped) for f in alone["files"]), alone["files"]
-    assert alone["schema_as_generated"]  # summary.json's JSON Schema ships, as its model generates it
+    # each summary file's JSON Schema ships, as its model generates it
+    assert alone["schemas_as_generated"] == ["summary.json", "home_summary.json", "export_summary.json"]
     assert alone["kinds"] == len(SPEC_TYPES) and alone["with_examples"] == in_catalogue and len(in_catalogue) >= 20
     if not any((folder / "gltf-validator").is_dir() for folder in node_modules_folders()[2:]):  # none installed -g
         assert alone["check"][0] is False and "npm install -g gltf-validator@" in alone["check"][1]

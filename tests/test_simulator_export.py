@@ -312,7 +312,7 @@ def test_kitchen_scene_glb_passes_the_khronos_validator(kitchen_exports: dict[st
 
     checks = gltf_checks(kitchen_exports["glb"] / "scene.glb")
     assert all(c.passed for c in checks), [c for c in checks if not c.passed]
-    doc = json.loads((kitchen_exports["glb"] / "summary.json").read_text())
+    doc = json.loads((kitchen_exports["glb"] / "export_summary.json").read_text())
     assert doc["format"] == "glb" and len(doc["objects"]) == 9
 
 

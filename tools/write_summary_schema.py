@@ -1,5 +1,6 @@
-"""Write homemodel/schemas/model_summary.schema.json from the summary's pydantic model
-(`homemodel.core.model_summary`); tests/test_model_summary.py fails while it is stale.
+"""Write the summaries' JSON Schemas (homemodel/schemas/model_summary.schema.json,
+home_summary.schema.json, simulator_export.schema.json) from their pydantic models
+(`homemodel.core.summary_files`); tests/test_model_summary.py fails while one is stale.
 
     .venv/bin/python tools/write_summary_schema.py
 """
@@ -7,13 +8,15 @@
 import json
 
 from homemodel.core.atomic import write_text_atomic
-from homemodel.core.model_summary import schema_path, summary_schema
+from homemodel.core.published_schema import PublishedSchema
+from homemodel.core.summary_files import SUMMARY_SCHEMAS
 
 
-def schema_text() -> str:
-    return json.dumps(summary_schema(), indent=2, sort_keys=True) + "\n"
+def schema_text(published: PublishedSchema) -> str:
+    return json.dumps(published.schema(), indent=2, sort_keys=True) + "\n"
 
 
 if __name__ == "__main__":
-    write_text_atomic(schema_path(), schema_text())
-    print(f"wrote {schema_path()}")
+    for published in SUMMARY_SCHEMAS:
+        write_text_atomic(published.path(), schema_text(published))
+        print(f"wrote {published.path()}")

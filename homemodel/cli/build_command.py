@@ -14,7 +14,7 @@ from homemodel.cli.errors import exit_on_error
 from homemodel.cli.progress import Column, fitted_table, make_console, progress_bar
 
 if TYPE_CHECKING:
-    from homemodel.app.home.build import ObjectRow
+    from homemodel.core.home_summary import ObjectRow
 
 COLUMNS = [Column("object", keep=True), Column("kind", keep=True), Column("parent", keep=True)] + [
     Column(header, justify="right") for header in ("links", "joints", "grasps", "triangles", "build s", "check s")
@@ -46,7 +46,7 @@ def build_table(console: Console, title: str, rows: list[ObjectRow]) -> Table:
 
 def build(
     example_dir: Path = typer.Argument(..., help="folder with home.yaml and the measurement specs"),
-    out: Path = typer.Option(..., "--out", help="output folder (models/, map.xml, summary.json)"),
+    out: Path = typer.Option(..., "--out", help="output folder (models/, map.xml, home_summary.json)"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Build every object of a home from its measurements, validate each model, write the map."""

@@ -34,5 +34,5 @@ def export(
             model, source = load_urdf(urdf), urdf.parent
         result = export_model_for(model, out, fmt, package=package, free=free, force=force, inputs=[source])
     summary = result.summary
-    joints = sum(len(o["joints"]) for o in summary["objects"])
-    typer.echo(f"{result.file}: {summary['objects'][0]['links']} links, {joints} joints, {summary['mesh_files']} mesh files")
+    joints = sum(len(o.joints) for o in summary.objects)
+    typer.echo(f"{result.file}: {summary.objects[0].links} links, {joints} joints, {summary.mesh_files} mesh files")

@@ -276,9 +276,9 @@ def export_(
     with exit_on_error():
         result = export_home(map_path, out, fmt, room_id=room, force=force)
     summary = result.summary
-    free = sum(1 for o in summary["objects"] if o["free"])
-    joints = sum(len(o["joints"]) for o in summary["objects"])
+    free = sum(1 for o in summary.objects if o.free)
+    joints = sum(len(o.joints) for o in summary.objects)
     typer.echo(
-        f"{result.file}: {len(summary['objects'])} objects ({free} free), {joints} joints, "
-        f"{summary['walls']} walls, {summary['mesh_files']} mesh files, {summary['times_s']['export']:.2f} s"
+        f"{result.file}: {len(summary.objects)} objects ({free} free), {joints} joints, "
+        f"{summary.walls} walls, {summary.mesh_files} mesh files, {summary.times_s['export']:.2f} s"
     )

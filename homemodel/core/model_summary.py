@@ -18,6 +18,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from homemodel.core.errors import InputError
+from homemodel.core.published_schema import PublishedSchema
 
 SCHEMA_VERSION = 1
 SUMMARY_FILE = "summary.json"
@@ -307,17 +308,17 @@ def failed_check_lines(checks: Iterable[tuple[str, bool, str]]) -> list[str]:
     return [f"{name}: {detail}" for name, passed, detail in checks if not passed]
 
 
+MODEL_SUMMARY = PublishedSchema(SUMMARY_FILE, ModelSummary, "model_summary", SCHEMA_VERSION)
+
+
 def summary_schema() -> dict[str, Any]:
     """The JSON Schema published as homemodel/schemas/model_summary.schema.json."""
-    schema = ModelSummary.model_json_schema()
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-    schema["$id"] = f"urn:homemodel:model-summary:{SCHEMA_VERSION}"
-    return schema
+    return MODEL_SUMMARY.schema()
 
 
 def schema_path() -> Path:
     """Where the package holds the published schema (package data)."""
-    return Path(__file__).resolve().parent.parent / "schemas" / "model_summary.schema.json"
+    return MODEL_SUMMARY.path()
 
 
 def parse_summary(data: Mapping[str, Any], where: str | Path) -> ModelSummary:

@@ -9,8 +9,9 @@ from pathlib import Path
 
 from articulation.scene import Scene, SceneObject, walls_from_outlines
 from homemodel.core.errors import InputError, MapError, ModelError
+from homemodel.core.export_summary import SceneFormat
 from homemodel.exchange.map_xml import load_map
-from homemodel.exchange.simulator import SceneFormat, SimulatorExport, export_scene
+from homemodel.exchange.simulator import SimulatorExport, export_scene
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, MapObject, Room
 

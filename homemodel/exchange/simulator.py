@@ -1,7 +1,8 @@
 """Export a scene, or one model, for a simulator: the one entry the commands call.
 
 Every export is a folder written atomically (whole or not at all) with the scene file,
-its `meshes/`, and `summary.json` (format, file, objects, joints, meshes, seconds).
+its `meshes/`, and `export_summary.json` (`homemodel.core.export_summary`: format, file,
+objects, joints, meshes, seconds).
 """
 
 from __future__ import annotations
@@ -10,17 +11,19 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, get_args
 
 from articulation.model import Model
 from articulation.scene import Scene, single_model_scene
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError
-
-SceneFormat = Literal["urdf", "mjcf", "sdf", "usd", "glb"]
-ModelFormat = Literal["mjcf", "sdf", "usd", "urdf-ros"]
-SCENE_FORMATS: tuple[str, ...] = get_args(SceneFormat)
-MODEL_FORMATS: tuple[str, ...] = get_args(ModelFormat)
+from homemodel.core.export_summary import (
+    EXPORT_SUMMARY_FILE,
+    MODEL_FORMATS,
+    SCENE_FORMATS,
+    ExportedObject,
+    ExportSummary,
+    ModelFormat,
+)
 # URDF has one root: its scene fixes the small objects where the map puts them (glTF has no physics).
 FIXED_ONLY_FORMATS: tuple[str, ...] = ("urdf", "glb", "urdf-ros")
 
@@ -53,29 +56,35 @@ def _writer(fmt: str) -> Callable[[Scene, Path], Path]:
 class SimulatorExport:
     out_dir: Path
     file: Path  # the scene file (or the ROS package's URDF)
-    summary: dict
+    summary: ExportSummary
 
 
-def _summary(scene: Scene, fmt: str, file: Path, out_dir: Path, seconds: float) -> dict:
+def _write_summary(
+    scene: Scene, fmt: str, file: Path, out_dir: Path, seconds: float, package: str | None = None
+) -> ExportSummary:
+    """`out_dir/export_summary.json` of the export just written there."""
     meshes = out_dir / "meshes"
-    return {
-        "format": fmt,
-        "file": file.relative_to(out_dir).as_posix(),
-        "objects": [
-            {
-                "id": o.id,
-                "model": o.model.name,
-                "free": o.free and fmt not in FIXED_ONLY_FORMATS,
-                "links": len(o.model.links),
-                "joints": {o.name(j.name): o.position(j.name) for j in o.model.movable_joints},
-            }
+    summary = ExportSummary(
+        format=fmt,
+        file=file.relative_to(out_dir).as_posix(),
+        package=package,
+        objects=[
+            ExportedObject(
+                id=o.id,
+                model=o.model.name,
+                free=o.free and fmt not in FIXED_ONLY_FORMATS,
+                links=len(o.model.links),
+                joints={o.name(j.name): o.position(j.name) for j in o.model.movable_joints},
+            )
             for o in scene.objects
         ],
-        "walls": len(scene.walls),
-        "floor": scene.floor,
-        "mesh_files": sum(1 for p in meshes.rglob("*.obj")) if meshes.is_dir() else 0,
-        "times_s": {"export": round(seconds, 3)},
-    }
+        walls=len(scene.walls),
+        floor=scene.floor,
+        mesh_files=sum(1 for p in meshes.rglob("*.obj")) if meshes.is_dir() else 0,
+        times_s={"export": round(seconds, 3)},
+    )
+    write_json(out_dir / EXPORT_SUMMARY_FILE, summary.model_dump(mode="json"))
+    return summary
 
 
 def export_scene(
@@ -88,8 +97,7 @@ def export_scene(
     start = time.perf_counter()
     with atomic_dir(out_dir, force=force, inputs=inputs) as tmp:
         file = write(scene, tmp)
-        summary = _summary(scene, fmt, file, tmp, time.perf_counter() - start)
-        write_json(tmp / "summary.json", summary)
+        summary = _write_summary(scene, fmt, file, tmp, time.perf_counter() - start)
     return SimulatorExport(out_dir=out_dir, file=out_dir / file.relative_to(tmp), summary=summary)
 
 
@@ -121,7 +129,5 @@ def export_model_for(
     start = time.perf_counter()
     with atomic_dir(out_dir, force=force, inputs=inputs) as tmp:
         urdf = write_ros_package(model, tmp, name)
-        summary = _summary(single_model_scene(model), fmt, urdf, tmp, time.perf_counter() - start)
-        summary["package"] = name
-        write_json(tmp / "summary.json", summary)
+        summary = _write_summary(single_model_scene(model), fmt, urdf, tmp, time.perf_counter() - start, package=name)
     return SimulatorExport(out_dir=out_dir, file=out_dir / urdf.relative_to(tmp), summary=summary)

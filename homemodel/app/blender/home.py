@@ -23,6 +23,7 @@ import numpy as np
 from homemodel.app.blender.model_document import model_document, model_from_document, spec_of_model_folder
 from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.errors import InputError
+from homemodel.core.home_summary import object_row, write_home_summary
 from homemodel.exchange.blender_document import matrix_list, read_document
 
 HOME_FORMAT = "homemodel.blender-home/1"
@@ -100,7 +101,8 @@ def _field(doc: dict, key: str, where: str, source: Path) -> Any:
 def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeExport:
     """Write `out_dir/map.xml` (checked against the XSD on save), `out_dir/models/<id>/`
     (URDF, glb, meshes, summary.json with the gate's report) for every object of the home
-    document, and `out_dir/summary.json`. Atomic: on any error `out_dir` is left as it was."""
+    document, and `out_dir/home_summary.json` (as `homemodel build` writes it). Atomic: on any
+    error `out_dir` is left as it was."""
     from homemodel.exchange.map_xml import save_map
     from homemodel.model_folder.write import PipelineSummary, write_model_folder
     from semantic_map import ParkingPosition, SemanticMap
@@ -126,7 +128,9 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
         for i, obj in enumerate(_field(home, "objects", "home", home_path)):
             where = f"objects.{i}"
             object_id = _field(obj, "id", where, home_path)
-            model_file = home_path.parent / _field(obj, "model", where, home_path)
+            document = _field(obj, "model", where, home_path)
+            parent = _field(obj, "parent", where, home_path)
+            model_file = home_path.parent / document
             model = model_from_document(read_document(model_file), str(model_file))
             model.name = object_id
             written = write_model_folder(
@@ -144,7 +148,7 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
             smap.register_model(
                 model,
                 object_id=object_id,
-                parent_id=_field(obj, "parent", where, home_path),
+                parent_id=parent,
                 relation=obj.get("relation"),
                 parent_from_object=np.asarray(obj.get("parent_from_object", np.eye(4)), dtype=float),
                 model_ref=f"models/{object_id}/model.urdf",
@@ -152,7 +156,7 @@ def export_home(home_path: Path, out_dir: Path, *, force: bool = False) -> HomeE
                 properties=obj.get("properties") or None,
                 joint_positions=obj.get("joint_positions") or None,
             )
-            rows.append({"id": object_id, "valid": written.valid, "failed_checks": bad})
+            rows.append(object_row(written.summary, id=object_id, spec=document, parent=parent, grasp_points=len(model.grasp_points)))
         save_map(smap, tmp / "map.xml")
-        write_json(tmp / "summary.json", rows)
+        write_home_summary(tmp, rows)
     return HomeExport(map_path=Path(out_dir) / "map.xml", failed=failed)

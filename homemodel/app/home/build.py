@@ -3,7 +3,7 @@ folder, and all of them are registered into one semantic map.
 
 Output layout (all written atomically: the folder appears whole or not at all):
     OUT/map.xml                       the hierarchical semantic map
-    OUT/summary.json                  one row per object, the figures the CLI prints
+    OUT/home_summary.json             one row per object, the figures the CLI prints
     OUT/models/<id>/model.urdf|.glb   the exports, meshes/ beside them
     OUT/models/<id>/model.blend       the Blender scene, for an installer to refine
     OUT/models/<id>/summary.json      that object's figures and validation report
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import logging
 import shutil
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,12 +30,13 @@ from homemodel.app.home.spec import (
     RunSpec,
     SmallObjectSpec,
 )
-from homemodel.core.atomic import atomic_dir, write_json, write_text_atomic
+from homemodel.core.atomic import atomic_dir, write_text_atomic
 from homemodel.core.errors import InputError, SpecError
+from homemodel.core.home_summary import ObjectRow, object_row, write_home_summary
 from homemodel.core.input_files import confined_path
 from homemodel.core.interrupts import raise_if_interrupted
 from homemodel.core.limits import HOME_OBJECTS
-from homemodel.core.model_summary import ModelSummary, read_summary
+from homemodel.core.model_summary import read_summary
 from homemodel.core.progress import Progress
 from homemodel.core.yaml_specs import load_yaml_spec
 
@@ -45,23 +46,6 @@ HOME_FILE = "home.yaml"
 # A small object "on" a surface must stand on it: its base within this of the parent's top.
 ON_SURFACE_TOLERANCE_M = 0.005
 KEY_FILE = "content_key.txt"
-
-
-@dataclass(kw_only=True)
-class ObjectRow:
-    id: str
-    category: str
-    spec: str
-    parent: str
-    links: int
-    joints: int
-    grasp_points: int
-    triangles: int
-    valid: bool
-    times_s: dict[str, float]  # build, export, validate
-    failed_checks: list[str] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)  # what its build and its gate doubt without failing
-    cached: bool = False  # reused from the earlier output: its spec and the code are unchanged
 
 
 @dataclass(kw_only=True)
@@ -174,15 +158,6 @@ def _cached_object(previous: Path, key: str, folder: Path):  # noqa: ANN202 (a M
     return load_urdf(folder / "model.urdf"), summary
 
 
-def _warnings(summary: ModelSummary) -> list[str]:
-    """The build's warnings (a door's readings against its thickness) and each gate check's
-    (a hinge line rubbing within its tolerance), which a check appends as "; WARNING ..."."""
-    said = list(summary.gate.warnings)
-    for check in summary.gate.checks:
-        said += [f"{check.name}: {part}" for part in check.detail.split("; WARNING ")[1:]]
-    return said
-
-
 def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progress: Progress | None = None) -> BuildResult:
     """Build, export, validate and register every object of `example_dir/home.yaml`."""
     from homemodel.exchange.map_xml import save_map
@@ -250,25 +225,18 @@ def build_home(example_dir: Path, out_dir: Path, *, force: bool = False, progres
                     model_ref=f"models/{small.id}/model.urdf",
                     properties=small.properties or None,
                 )
-            row = ObjectRow(
+            row = object_row(
+                summary,
                 id=obj.id,
-                category=model.category,
                 spec=str(spec_paths[obj.id].relative_to(example_dir.resolve())),
                 parent=large.id if small else room.id,
-                links=len(model.links),
-                joints=len(model.movable_joints),
                 grasp_points=len(model.grasp_points),
-                triangles=summary.triangles,
-                valid=summary.gate.valid,
-                times_s={stage: round(seconds, 3) for stage, seconds in summary.times_s.items()},
-                failed_checks=summary.gate.failed_checks,
-                warnings=_warnings(summary),
                 cached=cached is not None,
             )
             rows.append(row)
             log.info("built %s in %.2f s, valid=%s", obj.id, sum(row.times_s.values()), row.valid)
         save_map(smap, tmp / "map.xml")
-        write_json(tmp / "summary.json", [asdict(r) for r in rows])
+        write_home_summary(tmp, rows)
         if progress:
             progress("done", len(placements), len(placements))
     out_dir = Path(out_dir)
