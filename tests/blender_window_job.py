@@ -4,6 +4,9 @@ polled by its timer to the end; then a second one cancelled with Esc. Writes wha
 OUT.json: the statuses the panel showed, the model that landed, the operator's results.
 
     blender --factory-startup --enable-event-simulate EMPTY.blend --python tests/blender_window_job.py -- REPO CAPTURE OUT.json
+
+or after tools/addon_screenshots.py in its window (its SCRIPT ARGS: this script, CAPTURE, OUT.json),
+on the scene emptied of the screenshots' kitchen.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from blender_addons import jobs, rig  # noqa: E402
 
 SEEN: dict = {"statuses": [], "modal_results": []}
 TIMEOUT_S = 300
-STARTED = time.monotonic()
+STARTED = [time.monotonic()]  # reset when the job starts: the screenshots may come first
 LOOP_S = 0.05
 NAP_S = 2.0
 LABEL = jobs.JOB_BUTTONS["turntable"][0] + ": "
@@ -137,7 +140,7 @@ def _watch_second() -> float | None:
 
 
 def _timed_out() -> bool:
-    if time.monotonic() - STARTED > TIMEOUT_S:
+    if time.monotonic() - STARTED[0] > TIMEOUT_S:
         _finish(f"no end after {TIMEOUT_S} s")
         return True
     return False
@@ -148,7 +151,11 @@ def main() -> float | None:
         # Blender's default 8-sample anti-aliasing draws the viewport 8 times after each change,
         # here in software (llvmpipe); FXAA is one pass.
         bpy.context.preferences.system.viewport_aa = "FXAA"
-        blender_addons.register()
+        if not getattr(jobs.CLASSES[0], "is_registered", False):  # the screenshots registered it
+            blender_addons.register()
+        for obj in list(bpy.data.objects):  # the screenshots' kitchen: the job lands alone
+            bpy.data.objects.remove(obj)
+        STARTED[0] = time.monotonic()
         bpy.context.scene.cursor.location = (1.0, 2.0, 0.0)
         _start("turntable")
         bpy.app.timers.register(_watch_first, first_interval=0.25)

@@ -20,6 +20,7 @@ import tempfile
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -769,24 +770,55 @@ def _in_a_blender_window(empty: Path, script: Path, *args: str, screen: str) -> 
     )
 
 
+class WindowSession(NamedTuple):
+    """What one Blender window showed: the panels' screenshots, then the background jobs."""
+
+    output: str  # Blender's stdout and stderr
+    shots: Path  # the screenshots and screenshots.json
+    seen: dict  # what tests/blender_window_job.py saw
+    kept: list[Path]  # the turntable work folders left behind (the landed job's)
+    left: str  # pgrep of the cancelled job's toolkit command after Blender quit
+
+
+@pytest.fixture(scope="module")
+def window_session(kitchen: Path, empty_blend: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[WindowSession]:
+    """One Blender start for both window tests (2.9-3.4 CPU-s and 20-30 s of a loaded machine
+    each): tools/addon_screenshots.py shoots the panels with the kitchen loaded, then runs
+    tests/blender_window_job.py in the same window. The docs' screenshots are 1600x1000; the
+    smallest usual screen shows the same panels, and every redraw of the job's is cheaper
+    (the two tests 28.6 -> 22.7 CPU-s against two windows at 1024x640 and 800x600)."""
+    from turntable_l_block import l_block_capture
+
+    root = tmp_path_factory.mktemp("window_session")
+    capture = root / "capture"  # a path of this session's own, for pgrep below
+    shutil.copytree(l_block_capture(), capture)
+    work_folders = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*"))
+    run = _in_a_blender_window(empty_blend, REPO / "tools" / "addon_screenshots.py", str(kitchen / "map.xml"), str(root / "shots"),
+                               str(REPO / "tests" / "blender_window_job.py"), str(capture), str(root / "seen.json"), screen="800x600")
+    kept = sorted(set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*")) - work_folders)
+    left = subprocess.run(["pgrep", "-f", f"turntable reconstruct {capture}"], capture_output=True, text=True).stdout
+    seen_file = root / "seen.json"
+    seen = json.loads(seen_file.read_text()) if seen_file.is_file() else {"error": "the job script wrote nothing"}
+    yield WindowSession(run.stdout + run.stderr, root / "shots", seen, kept, left)
+    for folder in kept:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 @pytest.mark.slow
 @needs_a_window
-def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, empty_blend: Path, tmp_path: Path) -> None:
+def test_the_panels_draw_in_a_real_blender_window(window_session: WindowSession) -> None:
     from homemodel.core.images import read_image
 
-    # The docs' screenshots are 1600x1000; a smaller screen shows the same panels for 0.7 of the CPU.
-    run = _in_a_blender_window(empty_blend, REPO / "tools" / "addon_screenshots.py", str(kitchen / "map.xml"), str(tmp_path / "shots"),
-                               screen="1024x640")
-    output = run.stdout + run.stderr
+    output = window_session.output
     assert "Traceback" not in output and "Error" not in output and "FAILED" not in output, output
-    drew = json.loads((tmp_path / "shots" / "screenshots.json").read_text())
+    drew = json.loads((window_session.shots / "screenshots.json").read_text())
     assert drew == {
         "addon_build.png": ["HOMEMODEL_PT_build"],
         "addon_joints.png": ["HOMEMODEL_PT_model"],
         "addon_home.png": ["HOMEMODEL_PT_home", "HOMEMODEL_PT_jobs"],
     }
     for name in drew:
-        image = read_image(tmp_path / "shots" / name)
+        image = read_image(window_session.shots / name)
         sidebar = image[:, -260:-40].astype(float)
         viewport = image[:, : image.shape[1] // 2].astype(float)
         # The sidebar holds text and widgets (many tones), the viewport the kitchen.
@@ -796,21 +828,13 @@ def test_the_panels_draw_in_a_real_blender_window(kitchen: Path, empty_blend: Pa
 
 @pytest.mark.slow
 @needs_a_window
-def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_next(empty_blend: Path, tmp_path: Path) -> None:
+def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_next(window_session: WindowSession) -> None:
     """The modal path an installer uses: the job's timer polls the child, the panel's status and
     progress move, the model lands at the 3D cursor; Esc stops a second job and its child."""
-    from turntable_l_block import l_block_capture
-
-    capture = tmp_path / "capture"  # a path of this test's own, for pgrep below
-    shutil.copytree(l_block_capture(), capture)
-    work_folders = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*"))
-    # No picture is taken: the smallest usual screen will do.
-    run = _in_a_blender_window(empty_blend, REPO / "tests" / "blender_window_job.py", str(capture), str(tmp_path / "seen.json"), screen="800x600")
-    [kept] = set(Path(tempfile.gettempdir()).glob("homemodel-turntable-*")) - work_folders  # the cancelled one is gone
+    [kept] = window_session.kept  # the cancelled one is gone
     assert (kept / "model" / "model.urdf").exists()  # the landed model's, whose textures Blender reads
-    shutil.rmtree(kept)
-    seen = json.loads((tmp_path / "seen.json").read_text())
-    assert seen["error"] is None, seen["error"] + run.stderr[-2000:]
+    seen = window_session.seen
+    assert seen["error"] is None, seen["error"] + window_session.output[-2000:]
     assert seen["modal_results"] == [["RUNNING_MODAL"], ["RUNNING_MODAL"]]
     first = [status.removeprefix("Reconstruct turntable capture: ") for status in seen["first_statuses"]]
     assert first[0] == "starting" and first[-1] == "done", first
@@ -823,8 +847,7 @@ def test_a_background_job_in_a_real_window_lands_its_model_and_esc_cancels_the_n
     assert landed["name"] == "turntable_object" and landed["meshes"] >= 1
     assert landed["location"] == pytest.approx(seen["cursor"])
     assert seen["statuses"][-1] == "Reconstruct turntable capture: cancelled"
-    left = subprocess.run(["pgrep", "-f", f"turntable reconstruct {capture}"], capture_output=True, text=True)
-    assert left.stdout == "", "the cancelled job's toolkit process is still running"
+    assert window_session.left == "", "the cancelled job's toolkit process is still running"
 
 
 def test_a_bad_model_document_is_one_line_naming_the_field_and_nothing_is_written(tmp_path: Path) -> None:

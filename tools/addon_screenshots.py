@@ -9,13 +9,16 @@ Blender 3.4 under xvfb (the panels' drawing code keeps to API 3.4 and 5.0 share)
 It registers the extension from REPO/blender_addons, clicks the sidebar's "homemodel" tab
 (3.4 has no API to choose a tab), imports the kitchen map, opens a cupboard door half way and
 saves one screenshot per panel into OUT_DIR, with OUT_DIR/screenshots.json naming
-the panels that drew (a panel's draw runs only when it is on screen).
+the panels that drew (a panel's draw runs only when it is on screen). Given a SCRIPT [ARGS...]
+after OUT_DIR, Blender runs it next in the same window (as `--python SCRIPT -- REPO ARGS...`)
+instead of quitting: the extension's window tests start Blender once for both of theirs.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import runpy
 import sys
 import time
 import traceback
@@ -24,6 +27,7 @@ from pathlib import Path
 import bpy
 
 REPO, MAP_PATH, OUT_DIR = (Path(a) for a in sys.argv[sys.argv.index("--") + 1 :][:3])
+THEN = sys.argv[sys.argv.index("--") + 4 :]  # SCRIPT ARGS...: run next instead of quitting
 sys.path.insert(0, str(REPO))
 import blender_addons  # noqa: E402
 from blender_addons import home, panels, rig  # noqa: E402
@@ -148,7 +152,7 @@ def shoot():
             bpy.ops.screen.screenshot_area(filepath=str(OUT_DIR / name))
     if index == len(SHOTS):
         (OUT_DIR / "screenshots.json").write_text(json.dumps(report, indent=1))
-        bpy.ops.wm.quit_blender()
+        finish()
         return None
     name, wanted = SHOTS[index]
     roots = {home.object_id(r): r for r in home.model_roots(bpy.context.scene)}
@@ -167,6 +171,16 @@ def shoot():
 
 
 report: dict[str, list[str]] = {}
+
+
+def finish() -> None:
+    """Quit, or run THEN's script in this window on its own arguments."""
+    if not THEN:
+        bpy.ops.wm.quit_blender()
+        return
+    script, *args = THEN
+    sys.argv = [*sys.argv[: sys.argv.index("--")], "--", str(REPO), *args]
+    runpy.run_path(script, run_name="__main__")
 
 
 def guarded(step):
