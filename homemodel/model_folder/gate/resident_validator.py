@@ -112,14 +112,10 @@ def validate_resident(
     Raises TimeoutError (the process is killed) or ValidatorFailed (it is dropped); either
     way the next call starts a new process.
     """
-    global _resident
     with _lock:
-        if _resident is not None and not _resident.serves(node, script, node_path):
-            _stop_resident()
-        if _resident is None:
-            _resident = _Resident(node, script, node_path)
+        resident = _serving(node, script, node_path)
         try:
-            return _resident.ask(glb, timeout_s)
+            return resident.ask(glb, timeout_s)
         except (TimeoutError, ValidatorFailed):
             _stop_resident(kill=True)
             raise
@@ -128,12 +124,18 @@ def validate_resident(
 def start_resident(node: str, script: Path, *, node_path: Path | None = None) -> None:
     """Start the validator process now, unless one already serves: node loads the validator
     while this process goes on working, and the next `validate_resident` call finds it ready."""
-    global _resident
     with _lock:
-        if _resident is not None and not _resident.serves(node, script, node_path):
-            _stop_resident()
-        if _resident is None:
-            _resident = _Resident(node, script, node_path)
+        _serving(node, script, node_path)
+
+
+def _serving(node: str, script: Path, node_path: Path | None) -> _Resident:
+    """The process that serves `node script` here, started if there is none (hold `_lock`)."""
+    global _resident
+    if _resident is not None and not _resident.serves(node, script, node_path):
+        _stop_resident()
+    if _resident is None:
+        _resident = _Resident(node, script, node_path)
+    return _resident
 
 
 def _stop_resident(kill: bool = False) -> None:
