@@ -8,6 +8,8 @@ import json
 import math
 import os
 import shutil
+import sys
+import time
 from pathlib import Path
 from typing import NamedTuple
 
@@ -67,6 +69,52 @@ def longest_files_first(items: list[pytest.Item], file_wall_s: dict[str, float] 
     whole and in order; files not measured first."""
     wall = file_wall_s if file_wall_s is not None else json.loads(DURATIONS.read_text())["file_wall_s"]
     items.sort(key=lambda item: -wall.get(item.path.name, math.inf))  # stable
+
+
+# A fresh clone's .venv holds no bytecode (uv writes none): the first collection compiles numpy,
+# trimesh, typer, hypothesis... (7-8 CPU-s), and workers collecting side by side each compile
+# the same modules. Then the other workers wait for the first one's collection and read its
+# bytecode. A module that test files import but conftest does not (the controller has imported
+# conftest's) tells a cold cache; a warm one (a rerun) starts every worker at once.
+COLD_SIGN = "typer.testing"
+COLLECTED = "collected-by-gw0"  # in the run's basetemp, beside the workers' own
+COLLECTION_WAIT_S = 300
+
+
+def bytecode_is_cold(module: str = COLD_SIGN) -> bool:
+    """Whether `module`'s source has no bytecode cached for this Python yet (where any is written)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec(module)
+    if sys.dont_write_bytecode or spec is None or not spec.origin or not spec.origin.endswith(".py"):
+        return False
+    return not Path(importlib.util.cache_from_source(spec.origin)).exists()
+
+
+def _collected_flag(config: pytest.Config) -> Path | None:
+    """The file the first worker writes once it has collected; None outside xdist's workers."""
+    workerinput = getattr(config, "workerinput", None)
+    if workerinput is None or not config.option.basetemp:
+        return None
+    return Path(config.option.basetemp).parent / f"{COLLECTED}-{workerinput['testrunuid']}"
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection(session: pytest.Session) -> None:
+    """Workers after the first wait for its collection while the bytecode cache is cold."""
+    flag = _collected_flag(session.config)
+    if flag is None or session.config.workerinput["workerid"] == "gw0" or not bytecode_is_cold():
+        return
+    deadline = time.monotonic() + COLLECTION_WAIT_S
+    while not flag.exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_finish(session: pytest.Session) -> None:
+    flag = _collected_flag(session.config)
+    if flag is not None and session.config.workerinput["workerid"] == "gw0":
+        flag.touch()
 
 
 @pytest.hookimpl(optionalhook=True)  # xdist may be off (-p no:xdist)

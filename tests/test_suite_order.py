@@ -12,7 +12,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from conftest import DURATIONS, longest_files_first, pytest_xdist_auto_num_workers
+from conftest import DURATIONS, bytecode_is_cold, longest_files_first, pytest_xdist_auto_num_workers
 from cpu_profile import file_wall_s
 
 TESTS = Path(__file__).resolve().parent
@@ -57,6 +57,23 @@ def test_auto_gives_one_worker_more_than_cores_unless_told(monkeypatch: pytest.M
     assert pytest_xdist_auto_num_workers(None) == len(os.sched_getaffinity(0)) + 1
     monkeypatch.setenv("PYTEST_XDIST_AUTO_NUM_WORKERS", "1")
     assert pytest_xdist_auto_num_workers(None) is None  # xdist's own hook reads the variable
+
+
+def test_a_module_is_cold_until_its_bytecode_is_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sign the workers wait on: a source without bytecode; never where none is written."""
+    import importlib
+
+    (tmp_path / "suite_order_fresh_module.py").write_text("VALUE = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(sys, "dont_write_bytecode", False)
+    assert bytecode_is_cold("suite_order_fresh_module")
+    importlib.import_module("suite_order_fresh_module")
+    monkeypatch.delitem(sys.modules, "suite_order_fresh_module")
+    assert not bytecode_is_cold("suite_order_fresh_module")
+    (tmp_path / "suite_order_other_module.py").write_text("VALUE = 2\n")
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    assert not bytecode_is_cold("suite_order_other_module")  # no worker would ever find its bytecode
+    assert not bytecode_is_cold("math")  # built in: nothing to compile
 
 
 def test_without_the_shared_data_its_tests_are_skipped_under_one_line(tmp_path: Path) -> None:
