@@ -41,7 +41,7 @@ def _texture_at(mesh: trimesh.Trimesh, uv: np.ndarray, image: np.ndarray, points
 
 def test_baked_texture_of_the_true_mesh_shows_the_true_pattern(scene) -> None:
     """The true vase (subdivided to 30,720 faces, so the atlas holds many charts) baked from the
-    36 photos at their true cameras: 80 % or more of the atlas seen, and the baked grey levels
+    30 photos at their true cameras: 80 % or more of the atlas seen, and the baked grey levels
     on the side wall correlate with the true texture at r > 0.7 (0.75 measured: the photos'
     sun, shadows and blur differ from the flat albedo; the reconstructed model's test asks 0.5)."""
     truth, truth_uv = truth_object_mesh()
