@@ -33,17 +33,24 @@ def number_images_by_name(database: Path) -> None:
             clear()
         for new_id, image in enumerate(images, start=1):
             old_id = image.image_id
-            image.image_id = image.frame_id = new_id
-            frame = pycolmap.Frame()
-            frame.frame_id, frame.rig_id = new_id, rig_of[old_id]
-            frame.add_data_id(image.data_id)
-            db.write_frame(frame, use_frame_id=True)  # before the image, which must find its frame
-            db.write_image(image, use_image_id=True)
-            if old_id in priors:
-                priors[old_id].corr_data_id = image.data_id
-                db.write_pose_prior(priors[old_id])
-            keypoints, descriptors = features[old_id]
-            db.write_keypoints(new_id, keypoints)
-            db.write_descriptors(new_id, descriptors)
+            write_numbered(db, image, new_id, rig_of[old_id], priors.get(old_id), *features[old_id])
     finally:
         db.close()
+
+
+def write_numbered(db, image, number: int, rig_id: int, prior, keypoints, descriptors) -> None:  # noqa: ANN001 (pycolmap's)
+    """Write `image` into the open database `db` as image `number`, in a frame of its own (the
+    same number) on rig `rig_id`, with its pose prior (or None) and its features."""
+    import pycolmap
+
+    image.image_id = image.frame_id = number
+    frame = pycolmap.Frame()
+    frame.frame_id, frame.rig_id = number, rig_id
+    frame.add_data_id(image.data_id)
+    db.write_frame(frame, use_frame_id=True)  # before the image, which must find its frame
+    db.write_image(image, use_image_id=True)
+    if prior is not None:
+        prior.corr_data_id = image.data_id
+        db.write_pose_prior(prior)
+    db.write_keypoints(number, keypoints)
+    db.write_descriptors(number, descriptors)
