@@ -263,11 +263,12 @@ def _plane_distances(
         values += np.sum(normal * here, axis=1)[:, None]
         inside = squared <= reach_squared
         inside &= squared - values * values <= lateral_squared
-        point, step = np.nonzero(inside)
-        weights = np.exp(-squared[point, step])
-        nodes = point_nodes[start + point] + step_nodes[step]
+        # One boolean mask for all three (not nonzero's pairs gathering each): the same entries,
+        # in the same order.
+        weights = np.exp(-squared[inside])
+        nodes = (point_nodes[chunk, None] + step_nodes)[inside]
         weight_sums += np.bincount(nodes, weights, minlength=size)
-        value_sums += np.bincount(nodes, weights * values[point, step], minlength=size)
+        value_sums += np.bincount(nodes, weights * values[inside], minlength=size)
     known = weight_sums > 0
     field = np.zeros(size)
     field[known] = value_sums[known] / weight_sums[known] * voxel_size_m
