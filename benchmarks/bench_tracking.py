@@ -40,6 +40,7 @@ from rich.table import Table
 ROOT = Path(__file__).resolve().parents[1]
 ARTICULATED = ("cupboard_1", "fridge_1", "oven_1")
 CAMERA = dict(width=640, height=480, fx=525.0, fy=525.0, cx=319.5, cy=239.5)
+ISSUE_RANGE_M = (1.2, 2.5)  # the distances the issue's accuracy targets hold at
 
 
 def kitchen() -> Path:
@@ -151,7 +152,7 @@ def main() -> None:
         simulator = ViewSimulator(unlike_their_models(simulator.scene, off_m=args.unlike_mm / 1000, seed=args.seed))
     camera = Camera(**CAMERA)
     options = ObserveOptions()
-    rows = {k: {"fit": [], "base": []} for k in ("door", "drawer", "pose_m", "pose_deg", "small")}
+    rows = {k: {"fit": [], "base": []} for k in ("door", "drawer", "pose_m", "pose_deg", "small", "small_in_range")}
     worse_poses, wrong_partly = [0, 0], [0, 0]  # (count, of how many): poses written worse than the map's; joints under half visible
     outcomes = {"occluded": {"door": [], "drawer": []}}
     seen = {"door": 0, "drawer": 0, "small": 0}
@@ -222,6 +223,14 @@ def main() -> None:
                     error = np.linalg.norm(small.map_from_object[:3, 3] - true_xyz) * 1000 if found else float("inf")
                     rows["small"]["fit"].append(float(error))
                     seen["small"] += 1
+                    # The issue's targets hold 1.2-2.5 m from the camera; the cupboard's views at
+                    # 2.5 m see its pill box 2.74 m away.
+                    away = float(np.linalg.norm(true_xyz - map_from_camera[:3, 3]))
+                    if ISSUE_RANGE_M[0] <= away <= ISSUE_RANGE_M[1]:
+                        rows["small_in_range"]["fit"].append(float(error))
+                    if error > 10.0:
+                        print(f"  small miss: {small.id} {small.status} {error:.1f} mm, {away:.2f} m from the camera, "
+                              f"visible {body[0]:.2f}")
             print(f"{name:<28} {times[-1]:5.2f} s  {len(result.report.objects)} objects in view", flush=True)
     title = f"views rendered from furniture {args.unlike_mm:g} mm off the models, " if args.unlike_mm else ""
     _print(rows, outcomes, seen, times, cpu_times, per_object, per_object_cpu, baseline_cpu, worse_poses, wrong_partly, title)
@@ -256,7 +265,9 @@ def _print(rows, outcomes, seen, times, cpu_times, per_object, per_object_cpu, b
                   _within(rows["drawer"]["base"], 5.0), "all")
     table.add_row("  with a box over 30 %: doors within 2 deg", _within(outcomes["occluded"]["door"], 2.0), "", "all")
     table.add_row("  with a box over 30 %: drawers within 5 mm", _within(outcomes["occluded"]["drawer"], 5.0), "", "all")
-    table.add_row(f"small objects within 1 cm ({seen['small']} seen)", _within(rows["small"]["fit"], 10.0), "not tracked", "all")
+    table.add_row(f"small objects within 1 cm ({seen['small']} seen)", _within(rows["small"]["fit"], 10.0), "not tracked", "")
+    table.add_row(f"  of them {ISSUE_RANGE_M[0]:g}-{ISSUE_RANGE_M[1]:g} m from the camera ({len(rows['small_in_range']['fit'])})",
+                  _within(rows["small_in_range"]["fit"], 10.0), "not tracked", "all")
     table.add_row("large objects' pose within 1 cm (x, y)", _within([v * 1000 for v in rows["pose_m"]["fit"]], 10.0),
                   _within([v * 1000 for v in rows["pose_m"]["base"]], 10.0), "")
     table.add_row("large objects' yaw within 0.5 deg", _within(rows["pose_deg"]["fit"], 0.5), _within(rows["pose_deg"]["base"], 0.5), "")
