@@ -247,17 +247,14 @@ def test_image_ids_follow_the_names_whatever_order_the_features_were_found_in(tm
 def test_structure_from_motion_repeats_itself(tmp_path: Path) -> None:
     """Two runs on the same photos give the very same cameras and points (run to run, the
     extraction threads numbered the photos differently, the matching threads drew RANSAC
-    samples from their own generators and the mapping threads added up in another order).
-    SIFT on the 640 px photos as they are (octave 0), not upsampled: what repeats or not is
-    the threads' order, whatever the features' number."""
+    samples from their own generators and the mapping threads added up in another order)."""
     from photogrammetry.photos import list_photos
 
     photos = tmp_path / "photos"
     photos.mkdir()
     for path in sorted(KERMIT.glob("*.jpg"))[:7]:
         shutil.copy(path, photos)
-    options = SfmOptions(first_octave=0)
-    first, second = (run_sfm(list_photos(photos), tmp_path / f"work{i}", options) for i in range(2))
+    first, second = (run_sfm(list_photos(photos), tmp_path / f"work{i}") for i in range(2))
     assert [v.name for v in first.views] == [v.name for v in second.views] and len(first.views) == 7
     assert all(np.array_equal(a.camera_from_world, b.camera_from_world) for a, b in zip(first.views, second.views))
     assert np.array_equal(first.points_world, second.points_world)
