@@ -134,13 +134,7 @@ class HOMEMODEL_OT_run_job(bpy.types.Operator, ImportHelper):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         done = self.job.poll()
-        shown = (f"{JOB_BUTTONS[self.kind][0]}: {self.job.stage}", round(100.0 * self.job.fraction, 1))
-        if shown != getattr(self, "shown", None):  # each change redraws the scene: without a GPU, in software
-            self.shown = shown
-            context.scene.homemodel_job_status, context.scene.homemodel_job_progress = shown
-            context.window_manager.progress_update(int(shown[1]))
-            if context.area is not None:
-                context.area.tag_redraw()
+        self._show(context)
         if not done:
             return {"RUNNING_MODAL"}
         try:
@@ -149,6 +143,17 @@ class HOMEMODEL_OT_run_job(bpy.types.Operator, ImportHelper):
             self.report({"ERROR"}, str(exc))
             return self._finish(context, "failed", cancelled=True)
         return self._finish(context, "done")
+
+    def _show(self, context) -> None:
+        """The job's stage and progress in the panel, redrawn only when they change (each redraw
+        draws the scene: without a GPU, in software)."""
+        shown = (f"{JOB_BUTTONS[self.kind][0]}: {self.job.stage}", round(100.0 * self.job.fraction, 1))
+        if shown != getattr(self, "shown", None):
+            self.shown = shown
+            context.scene.homemodel_job_status, context.scene.homemodel_job_progress = shown
+            context.window_manager.progress_update(int(shown[1]))
+            if context.area is not None:
+                context.area.tag_redraw()
 
     def _finish(self, context, status: str, *, cancelled: bool = False):
         context.window_manager.event_timer_remove(self.timer)
@@ -166,6 +171,7 @@ class HOMEMODEL_OT_run_job(bpy.types.Operator, ImportHelper):
         self.timer = context.window_manager.event_timer_add(POLL_S, window=context.window)
         context.window_manager.progress_begin(0, 100)
         context.window_manager.modal_handler_add(self)
+        self._show(context)  # "starting" at once, not the last job's status until the first poll
         return {"RUNNING_MODAL"}
 
 
