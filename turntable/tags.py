@@ -208,30 +208,26 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     steps = int(np.clip(np.ceil(4 * half_width.max()) + 1, 17, 161))
     across = np.linspace(-1.0, 1.0, steps)
     offsets = half_width[..., None] * across  # (T, 4, M)
-    samples = (
-        start[:, :, None, None, :]
-        + _ALONG[None, None, :, None, None] * side[:, :, None, None, :]
-        + offsets[:, :, None, :, None] * outward[:, :, None, None, :]
-    )  # (T, 4, N, M, 2) as x, y
-    profiles = bilinear_levels(gray, linear, samples[..., 0], samples[..., 1])
+    # x and y apart, each (T, 4, N, M): one (T, 4, N, M, 2) array's strided halves cost a fifth more.
+    base = start[:, :, None, :] + _ALONG[None, None, :, None] * side[:, :, None, :]  # (T, 4, N, 2)
+    x = base[..., 0, None] + (offsets * outward[..., 0, None])[:, :, None, :]
+    y = base[..., 1, None] + (offsets * outward[..., 1, None])[:, :, None, :]
+    profiles = bilinear_levels(gray, linear, x, y)
     k = max(2, steps // 5)
     dark = profiles[..., :k].mean(axis=-1)
     bright = profiles[..., -k:].mean(axis=-1)
     contrast = bright - dark
-    level = (profiles - dark[..., None]) / np.where(contrast > 1e-6, contrast, 1.0)[..., None] - 0.5
-    rising = (level[..., :-1] < 0) & (level[..., 1:] >= 0)
-    usable = (rising.sum(axis=-1) == 1) & (contrast >= 0.05)  # (T, 4, N)
+    level = profiles - ((dark + bright) / 2)[..., None]  # the crossing and its fraction need no scaling
+    above = level >= 0
+    rising = ~above[..., :-1] & above[..., 1:]
+    usable = (np.count_nonzero(rising, axis=-1) == 1) & (contrast >= 0.05)  # (T, 4, N)
     i = np.argmax(rising, axis=-1)
     before = np.take_along_axis(level, i[..., None], axis=-1)[..., 0]
     after = np.take_along_axis(level, i[..., None] + 1, axis=-1)[..., 0]
     fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
     step = offsets[..., 1] - offsets[..., 0]
     crossing = offsets[..., :1] + (i + fraction) * step[..., None]  # (T, 4, N)
-    points = (
-        start[:, :, None, :]
-        + _ALONG[None, None, :, None] * side[:, :, None, :]
-        + crossing[..., None] * outward[:, :, None, :]
-    )
+    points = base + crossing[..., None] * outward[:, :, None, :]
     # Each side's line through its usable crossing points (total least squares).
     weight = usable.astype(np.float64)
     count = weight.sum(axis=-1)
