@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from homemodel.core.errors import ModelError
-from homemodel.geometry.voxel_cells import group_sums
 
 
 @dataclass(kw_only=True)
@@ -31,25 +30,36 @@ class MergedCloud:
 
 
 _FLUSH_POINTS = 2_000_000
+_KEY_BITS = 21  # per axis of a voxel's key: +-1.5 km at 1.5 mm
+_KEY_OFFSET = 1 << (_KEY_BITS - 1)
+_KEY_MASK = (1 << _KEY_BITS) - 1
+# Sums per voxel, one row each: the coordinates, the colour, the viewing direction, the count.
+_POINT_ROWS, _COLOR_ROWS, _VIEW_ROWS, _COUNT_ROW = slice(0, 3), slice(3, 6), slice(6, 9), 9
+# Voxels are grouped through a dense grid over the keys' box while it holds at most this many
+# cells a point (the object's box does); beyond it (stray points far apart) by sorting.
+_DENSE_CELLS_PER_POINT = 8
 
 
 @dataclass(kw_only=True)
 class VoxelAccumulator:
     """Running sums per voxel. Frames are buffered and folded into the sums a few million
-    points at a time, so memory stays bounded and the grouping sort runs rarely."""
+    points at a time, so memory stays bounded and the grouping runs rarely."""
 
     voxel_size_m: float
     _keys: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    _sums: np.ndarray = field(default_factory=lambda: np.zeros((0, 10)))
-    _pending: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    _sums: np.ndarray = field(default_factory=lambda: np.zeros((10, 0)))  # rows as _POINT_ROWS ...
+    _pending: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
     _pending_points: int = 0
 
     def add(self, points: np.ndarray, colors: np.ndarray, view_dirs: np.ndarray) -> None:
         if len(points) == 0:
             return
-        index = np.floor(points / self.voxel_size_m).astype(np.int64) + (1 << 20)
-        keys = (index[:, 0] << 42) | (index[:, 1] << 21) | index[:, 2]
-        self._pending.append((keys, np.column_stack([points, colors, view_dirs, np.ones(len(points))])))
+        index = np.floor(points / self.voxel_size_m).astype(np.int64)
+        index += _KEY_OFFSET
+        keys = index[:, 0] << 2 * _KEY_BITS
+        keys |= index[:, 1] << _KEY_BITS
+        keys |= index[:, 2]
+        self._pending.append((keys, points, colors, view_dirs))
         self._pending_points += len(points)
         if self._pending_points > _FLUSH_POINTS:
             self._flush()
@@ -57,24 +67,56 @@ class VoxelAccumulator:
     def _flush(self) -> None:
         if not self._pending:
             return
-        keys = np.concatenate([self._keys, *(k for k, _ in self._pending)])
-        values = np.concatenate([self._sums, *(v for _, v in self._pending)])
-        unique, inverse = np.unique(keys, return_inverse=True)
-        self._keys, self._sums = unique, group_sums(inverse, values, len(unique))
+        keys = np.concatenate([self._keys, *(pending[0] for pending in self._pending)])
+        groups, self._keys = _voxels(keys)
+        # One contiguous row per summed quantity: the weighted bin counts read them in one pass
+        # (a (N, 10) array's strided columns and np.unique's sort had cost 2.5x the CPU time).
+        values = np.empty((10, len(keys)))
+        start = self._sums.shape[1]
+        values[:, :start] = self._sums
+        for frame_keys, points, colors, view_dirs in self._pending:
+            stop = start + len(frame_keys)
+            values[_POINT_ROWS, start:stop] = points.T
+            values[_COLOR_ROWS, start:stop] = colors.T
+            values[_VIEW_ROWS, start:stop] = view_dirs.T
+            values[_COUNT_ROW, start:stop] = 1.0
+            start = stop
+        self._sums = np.stack([np.bincount(groups, weights=row, minlength=len(self._keys)) for row in values])
         self._pending, self._pending_points = [], 0
 
     def cloud(self, min_count: int = 1) -> MergedCloud:
         """The voxel centroids of coordinates and colours, and mean viewing directions."""
         self._flush()
-        n = self._sums[:, 9]
+        n = self._sums[_COUNT_ROW]
         keep = n >= min_count
         if not np.any(keep):
             raise ModelError("no depth point fell inside the object's cylinder above the table")
-        sums, n = self._sums[keep], n[keep, None]
-        view = sums[:, 6:9] / np.maximum(np.linalg.norm(sums[:, 6:9], axis=1, keepdims=True), 1e-12)
-        return MergedCloud(
-            points=sums[:, 0:3] / n, colors=sums[:, 3:6] / n, view_dirs=view, counts=n[:, 0].astype(np.int64)
-        )
+        sums, n = self._sums[:, keep].T, n[keep, None]
+        view = sums[:, _VIEW_ROWS] / np.maximum(np.linalg.norm(sums[:, _VIEW_ROWS], axis=1, keepdims=True), 1e-12)
+        points, colors = sums[:, _POINT_ROWS] / n, sums[:, _COLOR_ROWS] / n
+        return MergedCloud(points=points, colors=colors, view_dirs=view, counts=n[:, 0].astype(np.int64))
+
+
+def _voxels(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(each key's voxel index, the voxels' keys in increasing order): np.unique's inverse and
+    unique, through a dense grid over the keys' box when it is small enough (no sort)."""
+    axes = (keys >> 2 * _KEY_BITS, (keys >> _KEY_BITS) & _KEY_MASK, keys & _KEY_MASK)
+    low = [int(axis.min()) for axis in axes]
+    span = [int(axis.max()) - start + 1 for axis, start in zip(axes, low)]
+    if span[0] * span[1] * span[2] > _DENSE_CELLS_PER_POINT * len(keys):
+        unique, inverse = np.unique(keys, return_inverse=True)
+        return inverse, unique
+    # Cells in the keys' own order (x, then y, then z): the ranks of the occupied ones are
+    # np.unique's inverse.
+    cell = axes[0] - low[0]
+    for axis, start, size in zip(axes[1:], low[1:], span[1:]):
+        cell *= size
+        cell += axis - start
+    occupied = np.bincount(cell, minlength=span[0] * span[1] * span[2]) > 0
+    rank = np.cumsum(occupied) - 1
+    x, y, z = np.unravel_index(np.flatnonzero(occupied), span)
+    unique = ((x + low[0]) << 2 * _KEY_BITS) | ((y + low[1]) << _KEY_BITS) | (z + low[2])
+    return rank[cell], unique
 
 
 @dataclass(kw_only=True)
