@@ -28,7 +28,9 @@ NODE_DTYPE = np.dtype([
     ("is_leaf", "u1"), ("bin_threshold", "u1"), ("is_categorical", "u1"), ("bitset_idx", "<u4"),
 ])
 MAX_LEAVES = 64  # a tree's leaves are the bits of one uint64
-ROWS_PER_BLOCK = 8192  # rows evaluated together: (rows, trees) tables of a few MB
+# Rows evaluated together: their (rows, trees) masks stay in the core's cache (about 200 kB).
+# On a query's 36,000 rows, 512 took 0.06 CPU-s where whole blocks of 8,192 took 0.09.
+ROWS_PER_BLOCK = 512
 
 
 def _check_children(left: np.ndarray, right: np.ndarray, is_leaf: np.ndarray, name: str) -> None:
@@ -240,15 +242,7 @@ class BoosterArrays:
         rows = np.asarray(features, dtype=np.float64)
         if rows.ndim != 2 or rows.shape[1] != self.n_features:
             raise ValueError(f"{rows.shape=} but expected (N, {self.n_features})")
-        rows = self.encoded(rows)
-        raw = np.zeros(len(rows), dtype=np.float64)
-        raw += self.baseline
-        for start in range(0, len(rows), ROWS_PER_BLOCK):
-            values = self._tables.tree_values(rows[start:start + ROWS_PER_BLOCK])  # (rows, trees)
-            block = raw[start:start + ROWS_PER_BLOCK]
-            for tree in range(values.shape[1]):
-                block += values[:, tree]
-        return expit(raw)
+        return expit(self._tables.raw_scores(self.encoded(rows), self.baseline))
 
 
 def _leaf_ranges(tree: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -326,10 +320,11 @@ class _LeafTables:
             np.bitwise_and.at(table[-1], trees[goes_right_if_missing], keeps[goes_right_if_missing])
             self.columns.append((int(column), thresholds, table))
 
-    def tree_values(self, rows: np.ndarray) -> np.ndarray:
-        """(rows, trees): the value of the leaf each encoded row reaches in each tree."""
+    def raw_scores(self, rows: np.ndarray, baseline: float) -> np.ndarray:
+        """Per encoded row, `baseline` plus the values of the leaves it reaches, summed tree by tree
+        in order (as scikit-learn sums them, so the result is equal to the bit)."""
         common = np.full(self.n_trees, self.all_leaves)  # what columns with one value for all rows leave
-        mask = None
+        gathers = []  # (table, row of the table per row) of the other columns
         for column, thresholds, table in self.columns:
             values = rows[:, column]
             missing = np.isnan(values)
@@ -339,12 +334,31 @@ class _LeafTables:
                 index = np.where(missing, len(table) - 1, np.searchsorted(thresholds, values, side="left"))
             if len(index) and np.all(index == index[0]):  # a query's match and fit distances, its class
                 common &= table[index[0]]
-            elif mask is None:
-                mask = table[index]
             else:
-                mask &= table[index]
-        mask = np.broadcast_to(common, (len(rows), self.n_trees)) if mask is None else mask & common
-        lowest = mask & (~mask + self.dtype.type(1))  # the lowest set bit: the row's leaf
-        _, exponent = np.frexp(lowest.astype(np.float64))
-        leaf = exponent.astype(np.int64) - 1
-        return np.take(self.leaf_values.ravel(), leaf + MAX_LEAVES * np.arange(self.n_trees))
+                gathers.append((table, index))
+        raw = np.empty(len(rows))
+        block = min(ROWS_PER_BLOCK, len(rows))
+        mask = np.empty((block, self.n_trees), dtype=self.dtype)
+        gathered = np.empty_like(mask)
+        terms = np.empty((self.n_trees + 1, block))  # the baseline, then each tree's leaf value
+        leaf_base = MAX_LEAVES * np.arange(self.n_trees)[:, None]
+        for start in range(0, len(rows), ROWS_PER_BLOCK):
+            stop = min(start + ROWS_PER_BLOCK, len(rows))
+            m, g, t = mask[: stop - start], gathered[: stop - start], terms[:, : stop - start]
+            m[:] = common
+            for table, index in gathers:
+                np.take(table, index[start:stop], axis=0, out=g)
+                m &= g
+            lowest = m & (~m + self.dtype.type(1))  # the lowest set bit: the row's leaf
+            t[0] = baseline
+            np.take(self.leaf_values.ravel(), _bit_index(lowest).T + leaf_base, out=t[1:])
+            np.add.reduce(t, axis=0, out=raw[start:stop])  # along the outer axis: tree after tree
+        return raw
+
+
+def _bit_index(powers: np.ndarray) -> np.ndarray:
+    """The exponent of each power of two (every row reaches a leaf, so none is zero)."""
+    if powers.dtype == np.uint32:  # exact in float32: its exponent field, unbiased
+        return (powers.astype(np.float32).view(np.int32) >> 23) - 127
+    _, exponent = np.frexp(powers.astype(np.float64))
+    return exponent.astype(np.int64) - 1
