@@ -178,6 +178,7 @@ LINEAR_LEVELS = {
 
 _ALONG = np.linspace(0.15, 0.85, 12)  # where along each side the profiles are taken (clear of corners)
 _MIN_ROWS = 4  # profiles with one clear crossing a side needs for its line
+_REMAP_GRID = 32  # OpenCV's remap rounds coordinates to 1/32 px (INTER_TAB_SIZE)
 
 
 def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = LINEAR_LEVELS["linear"]) -> np.ndarray:
@@ -212,6 +213,10 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     base = start[:, :, None, :] + _ALONG[None, None, :, None] * side[:, :, None, :]  # (T, 4, N, 2)
     x = base[..., 0, None] + (offsets * outward[..., 0, None])[:, :, None, :]
     y = base[..., 1, None] + (offsets * outward[..., 1, None])[:, :, None, :]
+    # On the grid where OpenCV's remap interpolates exactly (it rounds to it), each crossing
+    # placed between its samples where they lie: on the bench mug's frames the corners moved
+    # 0.003 px (median) and lie as close to the truth, for a third of NumPy's sampling time.
+    x, y = np.round(x * _REMAP_GRID) / _REMAP_GRID, np.round(y * _REMAP_GRID) / _REMAP_GRID
     profiles = bilinear_levels(gray, linear, x, y)
     k = max(2, steps // 5)
     dark = profiles[..., :k].mean(axis=-1)
@@ -225,9 +230,14 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     before = np.take_along_axis(level, i[..., None], axis=-1)[..., 0]
     after = np.take_along_axis(level, i[..., None] + 1, axis=-1)[..., 0]
     fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
-    step = offsets[..., 1] - offsets[..., 0]
-    crossing = offsets[..., :1] + (i + fraction) * step[..., None]  # (T, 4, N)
-    points = base + crossing[..., None] * outward[:, :, None, :]
+    points = np.stack(
+        [
+            (1 - fraction) * np.take_along_axis(c, i[..., None], axis=-1)[..., 0]
+            + fraction * np.take_along_axis(c, i[..., None] + 1, axis=-1)[..., 0]
+            for c in (x, y)
+        ],
+        axis=-1,
+    )  # (T, 4, N, 2)
     # Each side's line through its usable crossing points (total least squares).
     weight = usable.astype(np.float64)
     count = weight.sum(axis=-1)
@@ -249,14 +259,17 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
 
 
 def bilinear_levels(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The linear intensity at (x, y), interpolated between the four pixels around each point,
-    points beyond the border taking the border's (as SciPy's map_coordinates with order 1 and
-    mode "nearest", without converting the whole image first). Images of 2 x 2 pixels or more."""
+    """The linear intensity (float32) at (x, y), interpolated between the four pixels around
+    each point, points beyond the border taking the border's (as SciPy's map_coordinates with
+    order 1 and mode "nearest"). By OpenCV's remap, which rounds the points to 1/32 px
+    (`_REMAP_GRID`): exact on that grid, within 1/64 px of the point elsewhere. Images of 2 x 2
+    pixels or more."""
+    import cv2
+
     height, width = gray.shape
-    x, y = np.clip(x, 0, width - 1), np.clip(y, 0, height - 1)
-    x0, y0 = np.minimum(x.astype(np.intp), width - 2), np.minimum(y.astype(np.intp), height - 2)
-    fx, fy = x - x0, y - y0
-    flat, i = gray.reshape(-1), y0 * width + x0
-    top = linear[flat[i]] * (1 - fx) + linear[flat[i + 1]] * fx
-    bottom = linear[flat[i + width]] * (1 - fx) + linear[flat[i + width + 1]] * fx
-    return top * (1 - fy) + bottom * fy
+    left, top = min(max(int(x.min()) - 1, 0), width - 2), min(max(int(y.min()) - 1, 0), height - 2)
+    right, bottom = max(min(int(x.max()) + 3, width), left + 2), max(min(int(y.max()) + 3, height), top + 2)
+    levels = cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32))  # only the pixels the points reach
+    rows = (-1, x.shape[-1])
+    map_x, map_y = (x - left).astype(np.float32).reshape(rows), (y - top).astype(np.float32).reshape(rows)
+    return cv2.remap(levels, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(x.shape)
