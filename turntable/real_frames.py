@@ -45,7 +45,9 @@ def sharpness(gray: np.ndarray) -> float:
     import cv2
 
     # OpenCV's standard deviation, not NumPy's var (a float64 copy and two passes): 20 % less.
-    return float(cv2.meanStdDev(cv2.Laplacian(gray, cv2.CV_32F, ksize=3))[1][0, 0] ** 2)
+    # The 3 x 3 Laplacian of 8-bit levels is an integer within +-2040: int16 holds it exactly
+    # (the same value as float32's, bit for bit on the bench frames) at a third of the time.
+    return float(cv2.meanStdDev(cv2.Laplacian(gray, cv2.CV_16S, ksize=3))[1][0, 0] ** 2)
 
 
 def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: int = 6) -> np.ndarray | None:
