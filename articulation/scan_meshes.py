@@ -97,18 +97,31 @@ def mesh_fit(
 ) -> dict[str, float | None]:
     """`MeshFit`'s figures: the points' distance to the surface and the surface's to the points
     (`to_mesh`: the distance measure of `mesh`'s triangles, when built)."""
-    from scipy.spatial import cKDTree
-
     if points is None or len(points) == 0:
         return {"points_to_surface_median": None, "points_to_surface_p95": None, "surface_to_points_median": None}
     to_surface = (to_mesh or SurfaceDistance(mesh)).distances(_sample(points, _MEASURED_POINTS))
     on_surface, _ = trimesh.sample.sample_surface(mesh, _MEASURED_POINTS, seed=_SEED)
-    to_points, _ = cKDTree(points).query(on_surface)
     return {
         "points_to_surface_median": float(np.median(to_surface)),
         "points_to_surface_p95": float(np.percentile(to_surface, 95)),
-        "surface_to_points_median": float(np.median(to_points)),
+        "surface_to_points_median": _median_nearest(points, on_surface),
     }
+
+
+def _median_nearest(points: np.ndarray, queries: np.ndarray) -> float:
+    """The median of the `queries`' distances to their nearest of `points`, exactly. Searched
+    first only within twice a subsample's median (the far side of a completion, which the query
+    points do not see, lies centimetres from them and is the slowest to search): when over half
+    the distances lie within that bound, the median is among them (0.06 -> 0.03 CPU-s for 40,000
+    samples of a completion and its 1,500 points)."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(points)
+    probe, _ = tree.query(queries[::50])
+    found, _ = tree.query(queries, distance_upper_bound=2.0 * float(np.median(probe)))
+    if np.count_nonzero(np.isfinite(found)) <= len(found) // 2:
+        found, _ = tree.query(queries)
+    return float(np.median(found))
 
 
 def _collision(
