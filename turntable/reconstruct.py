@@ -11,6 +11,8 @@ Poisson with density trimming; colour baked into a texture on a chart atlas's UV
 from __future__ import annotations
 
 import math
+import queue
+import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -52,6 +54,50 @@ def _mapper(workers: int) -> Iterator[Callable]:
         return
     with ThreadPoolExecutor(max_workers=workers) as pool:
         yield pool.map
+
+
+def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable) -> None:
+    """`read_run(k, run, hand_over)` on each run, a thread each when there are several (no run
+    waits for another's frame: stepping the runs together had left a core idle whenever one
+    frame of a step took longer); what they hand over is kept here, on this thread, as it comes."""
+    if len(runs) <= 1:
+        for k, run in enumerate(runs):
+            read_run(k, run, keep)
+        return
+    handed: queue.SimpleQueue = queue.SimpleQueue()
+    ended, stopping = object(), threading.Event()
+
+    def hand_over(item: object) -> None:
+        if stopping.is_set():  # this thread failed (an interrupt, say): the runs end at their next frame
+            raise _Stopped
+        handed.put(item)
+
+    def whole_run(k: int) -> None:
+        try:
+            read_run(k, runs[k], hand_over)
+        except _Stopped:
+            pass
+        finally:
+            handed.put(ended)
+
+    with ThreadPoolExecutor(max_workers=len(runs)) as pool:
+        futures = [pool.submit(whole_run, k) for k in range(len(runs))]
+        try:
+            running = len(runs)
+            while running:
+                item = handed.get()
+                if item is ended:
+                    running -= 1
+                else:
+                    keep(item)
+        finally:
+            stopping.set()
+        for future in futures:
+            future.result()  # a run's exception, raised here
+
+
+class _Stopped(Exception):
+    """A run's thread told to end early."""
 
 
 @dataclass(kw_only=True)
@@ -145,24 +191,22 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
                 capture.board, camera, reading.pose.camera_from_table, options.detection, predict=options.predict_tags
             )
     search = search or whole
-    # The rest in `workers` runs of consecutive frames, read in step, one frame of each run at a
-    # time: a run's last two poses predict its next frame's tags (see `tag_search.tracked_pose`).
+    # The rest in `workers` runs of consecutive frames, each run read by a thread of its own,
+    # frame after frame: a run's last two poses predict its next frame's tags (see
+    # `tag_search.tracked_pose`). The first run goes on from the frames read above.
     n = options.workers
     runs = [run for i in range(n) if (run := frames[len(frames) * i // n : len(frames) * (i + 1) // n])]
-    # Each run's last two readings; the first run goes on from the frames read above.
-    last: list[list[FrameReading]] = [list(readings.values())[-2:]] + [[] for _ in runs[1:]]
+    befores = [list(readings.values())[-2:]] + [[] for _ in runs[1:]]
 
-    def next_of(k: int, frame: FramePaths) -> FrameReading:
-        before = last[k][-2:]
-        posed = len(before) == 2 and all(isinstance(r.pose, FramePose) for r in before)
-        return one(frame, search, predicted_pose(*(r.pose.camera_from_table for r in before)) if posed else None)
+    def read_run(k: int, run: list[FramePaths], hand_over: Callable[[FrameReading], None]) -> None:
+        before = befores[k]
+        for frame in run:
+            posed = len(before) == 2 and all(isinstance(r.pose, FramePose) for r in before)
+            reading = one(frame, search, predicted_pose(*(r.pose.camera_from_table for r in before)) if posed else None)
+            before = [*before[-1:], reading]
+            hand_over(reading)
 
-    with _mapper(options.workers) as mapper:
-        for step in range(max(map(len, runs), default=0)):
-            batch = [(k, run[step]) for k, run in enumerate(runs) if step < len(run)]
-            for (k, _), reading in zip(batch, mapper(lambda item: next_of(*item), batch)):
-                last[k] = [*last[k][-1:], reading]
-                keep(reading)
+    _read_runs(runs, read_run, keep)
     readings = {f.stem: readings[f.stem] for f in capture.frames if f.stem in readings}  # in the capture's order
 
     poses = {stem: r.pose for stem, r in readings.items() if isinstance(r.pose, FramePose)}
