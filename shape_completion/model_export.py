@@ -98,6 +98,23 @@ def complete(
     non-empty `out_dir` unless `force`; the folder appears whole or not at all; registered
     into `options.map_entry` when given. Progress stages: load, query, matching, rigid_fit,
     deformation, filling, export."""
+    from threadpoolctl import threadpool_limits
+
+    # OpenBLAS's second thread spin-waits (sched_yield) between the query's many small products:
+    # 64,100 sched_yield calls in one run of the README's query, 1,200 on one thread.
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _complete(model, depth_png, out_dir, options, progress=progress, force=force)
+
+
+def _complete(
+    model: Path | ShapeCompleter,
+    depth_png: Path,
+    out_dir: Path,
+    options: CompletionOptions | None,
+    *,
+    progress: Progress | None,
+    force: bool,
+) -> Completion:
     from shape_completion.library import fingerprint_files, library_files
     from shape_completion.model_io import load_model
     from shape_completion.query_input import load_query

@@ -1,13 +1,15 @@
 """Shape completion's faster paths decide as the plain ones do: the booster predicted coarse to
 fine against every voxel predicted, the grid's depth lookup through two pinhole tables against
 projecting every voxel centre, spin images binned in one pass against np.histogram2d, and the
-batched Kabsch fits against one at a time."""
+batched Kabsch fits against one at a time; a query's BLAS on one thread."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from cli_promise import REPO
 
+from homemodel.core.errors import InputError
 from homemodel.evaluation.voxels import solid_occupancy
 from homemodel.geometry.raycast import RayCaster
 from shape_completion.filling import VoxelFiller, carve, depth_behind, grid_depth_behind
@@ -99,3 +101,31 @@ def test_batched_kabsch_is_kabsch():
     source, target = rng.normal(size=(40, 6, 3)), rng.normal(size=(40, 6, 3))
     one_by_one = np.array([kabsch(s, t) for s, t in zip(source, target)])
     assert np.allclose(kabsch_batch(source, target), one_by_one, atol=1e-12)
+
+
+def test_a_query_runs_its_blas_on_one_thread(tmp_path, monkeypatch):
+    """OpenBLAS's second thread spin-waits between a query's many small products (64,100
+    sched_yield calls in one README query, 1,200 on one thread): `complete()` limits BLAS to one
+    thread while it works, and gives the caller's limits back after."""
+    from threadpoolctl import threadpool_info
+
+    from shape_completion import complete
+    from shape_completion.pipeline import ShapeCompleter
+
+    def blas_threads() -> list[int]:
+        return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+
+    before = blas_threads()
+    seen = []
+
+    def record_and_stop(self, depth_m, camera, progress=None):
+        seen.append(blas_threads())
+        raise InputError("stopped by the test")
+
+    monkeypatch.setattr(ShapeCompleter, "complete", record_and_stop)
+    inputs = REPO / "examples" / "database" / "inputs"
+    with pytest.raises(InputError, match="stopped by the test"):
+        complete(inputs / "completer.npz", inputs / "query" / "depth.png", tmp_path / "out")
+    assert seen and set(seen[0]) == {1}
+    assert blas_threads() == before and max(before) > 1  # a machine of one core could not tell
+    assert not (tmp_path / "out").exists()
