@@ -35,9 +35,10 @@ _OPEN3D_FROM_TRIANGLES = 20_000  # from here Open3D's measure repays its import 
 class SurfaceDistance:
     """One mesh's triangles, ready for many distance queries (the tree of their sites is built once)."""
 
-    def __init__(self, mesh: trimesh.Trimesh) -> None:
+    def __init__(self, mesh: trimesh.Trimesh, *, open3d: bool | None = None) -> None:
+        """`open3d`: measured by Open3D's caster, or by numpy (None: Open3D from _OPEN3D_FROM_TRIANGLES)."""
         self._caster: RayCaster | None = None
-        if len(mesh.faces) >= _OPEN3D_FROM_TRIANGLES:
+        if len(mesh.faces) >= _OPEN3D_FROM_TRIANGLES if open3d is None else open3d:
             self._centre = mesh.bounds.mean(axis=0)
             self._caster = RayCaster(trimesh.Trimesh(mesh.vertices - self._centre, mesh.faces, process=False))
             return
