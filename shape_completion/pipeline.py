@@ -321,11 +321,13 @@ class ShapeCompleter(Estimator):
         if len(candidates) == 0:
             raise ModelError("the retrieval forest found no candidate view")
         query_tree = cKDTree(query)
-        scored = [
-            (aligned_chamfer(self.view_clouds_[view], query, query_tree, quarter_turns=turns), view)
-            for view, turns in candidates
-        ]
-        (match_distance, alignment), view_index = min(scored, key=lambda item: item[0][0])
+        match_distance, alignment, view_index = np.inf, None, -1
+        for view, turns in candidates:  # the first of the nearest, as min() takes it
+            scored = aligned_chamfer(
+                self.view_clouds_[view], query, query_tree, quarter_turns=turns, beaten_at=match_distance
+            )
+            if scored is not None and scored[0] < match_distance:
+                (match_distance, alignment), view_index = scored, view
         shape_index = int(self.view_shape_[view_index])
         shape = self.shapes_[shape_index]
         initial = alignment @ self.view_poses_[view_index]

@@ -233,6 +233,9 @@ def test_a_quarter_turn_of_the_query_image_matches_a_rolled_camera():
     assert distances[1] < 0.002 < min(distances[0], distances[2], distances[3])
     _, motion = aligned_chamfer(view, query, tree, quarter_turns=1)
     assert np.abs(motion[:3, :3] - roll[:3, :3]).max() < 0.02
+    # Beaten by the right turn, a wrong one is given up after its cheaper half; the right one is not.
+    assert [aligned_chamfer(view, query, tree, quarter_turns=t, beaten_at=distances[1]) for t in (0, 2, 3)] == [None] * 3
+    assert aligned_chamfer(view, query, tree, quarter_turns=1, beaten_at=0.002)[0] == distances[1]
 
 
 def test_spin_images_do_not_change_with_a_rigid_motion():
