@@ -98,8 +98,9 @@ def test_run_writes_a_valid_model_folder_in_the_camera_frame(trained, tmp_path):
     save_camera(FILLER_CAMERA.model_copy(update={"depth_scale_m": 0.0002}), tmp_path / "camera.yaml")
     write_depth(tmp_path / "depth.png", RayCaster(mesh).depth(FILLER_CAMERA, camera_from_object), depth_scale_m=0.0002)
     # As a user runs it, in a fresh process: a query loads only what it needs (no scikit-learn,
-    # whose trees are numpy tables in the model file; no other part's commands).
-    heavy = ("sklearn", "homemodel.cli.turntable_commands", "homemodel.cli.photogrammetry_commands")
+    # whose trees are numpy tables in the model file; no Open3D, whose import alone costs 0.3-0.7
+    # CPU-s: the scan meshes measure a completion by numpy; no other part's commands).
+    heavy = ("sklearn", "open3d", "homemodel.cli.turntable_commands", "homemodel.cli.photogrammetry_commands")
     code = (
         f"import atexit, sys; atexit.register(lambda: print('imported', [m for m in {heavy!r} if m in sys.modules],"
         " file=sys.stderr)); from homemodel.cli.launcher import main; main()"
