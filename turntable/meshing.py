@@ -29,7 +29,12 @@ class MeshingOptions:
     # distance: marching cubes over the signed distance to the points' tangent planes (fast, keeps
     # unseen concavities open); poisson: screened Poisson, which closes them smoothly.
     surface: Literal["distance", "poisson"] = "distance"
-    grid_voxels: float = 1.0  # the signed-distance grid's cells, in the merge's voxels
+    # The signed-distance grid's cells, in the merge's voxels (the reach, seal and smoothing are
+    # in these cells). 1.25 (1.9 mm): the bench mug's 40 frames 0.426 -> 0.326 mm, VoxelIOU
+    # 0.884 -> 0.894, 69k -> 44k triangles, mesh and texture 0.62 -> 0.48 CPU-s; the accuracy
+    # captures' box 0.087 -> 0.090, cylinder 0.064 -> 0.072 mm. At 1.5 the box's edges round
+    # over (0.13 mm) and a cup's unseen floor is lidded.
+    grid_voxels: float = 1.25
     distance_reach_voxels: float = 3.0  # a grid node's signed distance comes from points this near
     # ... and this near their normal's line: a tangent plane carried sideways past an edge puts
     # the outside beyond the edge inside (a box's corners grew blobs; 0.203 -> 0.186 mm there).
