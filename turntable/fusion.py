@@ -29,7 +29,7 @@ class MergedCloud:
     counts: np.ndarray  # (N,) raw points per voxel
 
 
-_FLUSH_POINTS = 2_000_000
+_FLUSH_POINTS = 250_000
 _KEY_BITS = 21  # per axis of a voxel's key: +-1.5 km at 1.5 mm
 _KEY_OFFSET = 1 << (_KEY_BITS - 1)
 _KEY_MASK = (1 << _KEY_BITS) - 1
