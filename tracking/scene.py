@@ -389,9 +389,24 @@ class Renderer:
         stack = np.full(len(map_from_parts) * n, np.inf)
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
         for i in only:
-            casts = self._cast_depths(i, camera, [camera_from_map @ as_transform(poses[i]) for poses in map_from_parts])
-            cells = np.concatenate([k * n + pixels for k, (pixels, _) in enumerate(casts)])
-            stack[cells] = np.minimum(stack[cells], np.concatenate([t for _, t in casts]))
+            # A part at a pose cast before (the body, as a joint moves; the search's current
+            # estimate, round after round) is cast once.
+            casts: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+            keys, missing = [], {}
+            for poses in map_from_parts:
+                camera_from_part = camera_from_map @ as_transform(poses[i])
+                keys.append((i, camera, camera_from_part.tobytes()))
+                if keys[-1] in self._depths:
+                    self._depths.move_to_end(keys[-1])
+                    casts[keys[-1]] = self._depths[keys[-1]]
+                elif keys[-1] not in casts:
+                    missing[keys[-1]] = camera_from_part
+            if missing:
+                for key, cast in zip(missing, self._cast_depths(i, camera, list(missing.values()))):
+                    casts[key] = cast
+                    self._remember(key, *cast)
+            cells = np.concatenate([k * n + casts[key][0] for k, key in enumerate(keys)])
+            stack[cells] = np.minimum(stack[cells], np.concatenate([casts[key][1] for key in keys]))
         return stack.reshape(len(map_from_parts), camera.height, camera.width)
 
     def pixels_whole(
