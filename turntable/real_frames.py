@@ -60,8 +60,9 @@ def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: i
     valid = depth > 0  # False at NaN; a jump next to a NaN is NaN, and no edge
     # Depth edges: jumps over 1 cm between valid neighbours (silhouettes against the background).
     # Both pixels of a jump are marked, so the edge sits between them, where colour's gradient peaks.
-    gx = (np.abs(np.diff(depth, axis=1)) > 0.01) & valid[:, 1:] & valid[:, :-1]
-    gy = (np.abs(np.diff(depth, axis=0)) > 0.01) & valid[1:] & valid[:-1]
+    # (OpenCV's absdiff: NumPy's abs of diff in a third of the time, NaN alike.)
+    gx = (cv2.absdiff(depth[:, 1:], depth[:, :-1]) > 0.01) & valid[:, 1:] & valid[:, :-1]
+    gy = (cv2.absdiff(depth[1:], depth[:-1]) > 0.01) & valid[1:] & valid[:-1]
     edges = np.zeros(depth.shape, dtype=bool)
     edges[:, 1:] |= gx
     edges[:, :-1] |= gx
@@ -69,19 +70,20 @@ def depth_color_offset_px(depth_m: np.ndarray, gray: np.ndarray, max_shift_px: i
     edges[:-1] |= gy
     m = max_shift_px
     edges[:m], edges[-m:], edges[:, :m], edges[:, -m:] = False, False, False, False
-    ys, xs = np.nonzero(edges)
-    if len(xs) < 50:
+    count = np.count_nonzero(edges)
+    if count < 50:
         return None
     # The mean colour-edge strength along the depth edges at each shift: one cross-correlation
     # of the edges' box with the colour edges' magnitude about it.
-    top, bottom, left, right = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+    rows, cols = np.flatnonzero(edges.any(axis=1)), np.flatnonzero(edges.any(axis=0))
+    top, bottom, left, right = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
     pad = m + 5  # Sobel and the Gaussian's reach beyond the shifted box
     y0, x0 = max(top - pad, 0), max(left - pad, 0)
     g = gray[y0 : bottom + pad, x0 : right + pad].astype(np.float32)
     magnitude = cv2.GaussianBlur(np.hypot(cv2.Sobel(g, cv2.CV_32F, 1, 0), cv2.Sobel(g, cv2.CV_32F, 0, 1)), (0, 0), 1.0)
     around = magnitude[top - m - y0 : bottom + m - y0, left - m - x0 : right + m - x0]
     box = edges[top:bottom, left:right].astype(np.float32)
-    score = cv2.matchTemplate(around, box, cv2.TM_CCORR) / len(xs)  # (2m + 1, 2m + 1): [dy + m, dx + m]
+    score = cv2.matchTemplate(around, box, cv2.TM_CCORR) / count  # (2m + 1, 2m + 1): [dy + m, dx + m]
     iy, ix = np.unravel_index(np.argmax(score), score.shape)
 
     def vertex(values: np.ndarray, i: int) -> float:  # the parabola's peak through three samples
