@@ -55,10 +55,9 @@ def _observed(furniture: ViewSimulator, prior_map: Path, folder: Path, map_from_
     return observe(prior_map, folder), json.loads((folder / "truth.json").read_text())
 
 
-# The targets; with the box over the cupboard's left door and its right door open,
-# the body's sideways slide is pinned by that door alone and the two trade: measured 3.2-3.5
-# degrees there (a miss the report names), so that view is held to 4.
-DOOR_DEG, DRAWER_MM, OCCLUDED_CUPBOARD_DOOR_DEG = 2.0, 5.0, 4.0
+# The targets, on every view (the occluded cupboard's right door: 3.5 deg before its
+# drawer, 0.47 visible, was refined with the pose; 1.1 deg since).
+DOOR_DEG, DRAWER_MM = 2.0, 5.0
 
 
 @pytest.mark.parametrize(
@@ -88,8 +87,7 @@ def test_joints_of_unseen_furniture_within_the_targets(
         if joint.name.startswith("knob") or visible.get(joint.name, 0.0) < 0.5:
             continue
         error = joint.position - truth["joints"][object_id][joint.name]
-        door_limit = OCCLUDED_CUPBOARD_DOOR_DEG if occluded and object_id == "cupboard_1" else DOOR_DEG
-        error, limit = (error * 1000, DRAWER_MM) if joint.type == "prismatic" else (np.degrees(error), door_limit)
+        error, limit = (error * 1000, DRAWER_MM) if joint.type == "prismatic" else (np.degrees(error), DOOR_DEG)
         assert joint.status == "fitted" and abs(error) <= limit, (joint.name, joint.status, error)
         checked += 1
     assert checked >= 1

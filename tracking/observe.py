@@ -65,9 +65,14 @@ class ObserveOptions:
     min_fixed_share: float = 0.1
     rounds: int = 3  # of pose and joints refitted after the first fit of the joints
     together: bool = True  # then the pose and the fitted joints refined at once (`fit_together`)
-    # Of a fitted joint's moving part, for it to take part: a door half cut off by the image's
-    # top turns with the body's shift (on the bench's views a door 0.46 visible went 1.6 -> 2.4 deg).
-    together_min_visible: float = 0.5
+    # Of a fitted joint's moving part, for it to take part: a joint left out is still rendered
+    # at its first fit and anchors the body (an occluded cupboard's drawer 0.47 visible held
+    # its door 3.5 deg off). When the fixed body is too little seen (`min_fixed_share`), the
+    # moving parts alone pin the pose, and a door half cut off by the image's top turns with
+    # it: there `together_min_visible_unseen_body` (a fridge's door 0.47 visible, its body
+    # unseen, went 1.8 -> 2.4 deg).
+    together_min_visible: float = 0.45
+    together_min_visible_unseen_body: float = 0.5
     min_pose_points: int = 150  # fine-view points for a pose refinement
     pose_gate: PoseGate = field(default_factory=PoseGate)  # when a refined pose replaces the map's
     revolute_coarse_step_deg: float = 4.0
@@ -97,7 +102,7 @@ class ObserveOptions:
         if not self.pose_gates_m or any(not g > 0 for g in self.pose_gates_m):
             raise InputError(f"pose_gates_m: {self.pose_gates_m!r} must be one or more positive distances")
         for name in ("min_visible_fraction", "min_confident_fraction", "min_contrast", "min_fixed_share",
-                     "together_min_visible"):
+                     "together_min_visible", "together_min_visible_unseen_body"):
             require_between(name, getattr(self, name), 0.0, 1.0)
         self.small_objects.check()
         self.pose_gate.check()
@@ -253,8 +258,10 @@ def _fit_large_object(
         if options.together:
             # The pose and the joints settled by turns still trade along what they share (the
             # body's shift and a drawer's slide): the last word is a fit of all of them at once.
+            body_seen = _share_seen(state, fine, object_id, fixed, background) >= options.min_fixed_share
+            min_visible = options.together_min_visible if body_seen else options.together_min_visible_unseen_body
             together = [j for j in joints if results[j][0] == "fitted" and not options.search(obj.node.joint(j)).detents
-                        and results[j][1]["visible_fraction"] >= options.together_min_visible]
+                        and results[j][1]["visible_fraction"] >= min_visible]
             refine_pose_and_joints(state, fine, object_id, together, background, gates_m=options.pose_gates_m,
                                    kernel_m=kernel, planar=planar, min_points=options.min_pose_points,
                                    edge_margin_px=options.pose_gate.edge_margin_px, search_view=joint_views[0])
