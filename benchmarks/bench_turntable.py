@@ -13,7 +13,7 @@ axis (circle and turntable fit), merge, mesh (outliers, normals, the signed-dist
 texture. TSDF: it needs poses and the object's cylinder and is GIVEN ours; its own work is
 reading each frame's colour and depth, segmenting by our cylinder (with the pipeline's
 own `object_pixels`, float32, the height above the table first) and integrating
-(UniformTSDFVolume, 1.5 mm voxels, as our merge), then marching cubes. Its column also shows
+(UniformTSDFVolume, 1.5 mm voxels, as our merge; `--tsdf-voxel-m`), then marching cubes. Its column also shows
 our poses and axis stages (the same seconds) for the runs that charge them. Four ratios: our
 whole run against the TSDF's own work given the poses (the issue's comparison, the hardest);
 the whole runs with the TSDF charged our poses and axis; the work after the shared poses and
@@ -21,7 +21,7 @@ axis (ours: merge, mesh, texture; TSDF: integration and extraction, its reading 
 left out, as if it had kept the images from ours); the same without our texture.
 
     .venv/bin/python benchmarks/bench_turntable.py [--object mug] [--frames 200] [--subsets 40 200]
-        [--noise-m 0.0015] [--repeat 1]
+        [--noise-m 0.0015] [--repeat 1] [--tsdf-voxel-m 0.0015]
 
 The capture is rendered once (Blender, Cycles; minutes) into build/bench_turntable/ and
 reused until the rendering code changes; rendering is not part of the timed reconstruction.
@@ -86,7 +86,7 @@ def warm_up() -> None:
     import skimage.measure  # noqa: F401
 
 
-def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]:  # noqa: ANN001
+def tsdf_baseline(capture, result, voxel: float) -> tuple[trimesh.Trimesh, dict[str, float]]:  # noqa: ANN001
     """Open3D TSDF fusion of the same frames, poses and object cylinder; (mesh, CPU seconds of
     reading the frames, of segmenting and integrating them, and of the marching cubes)."""
     import open3d as o3d
@@ -98,7 +98,6 @@ def tsdf_baseline(capture, result) -> tuple[trimesh.Trimesh, dict[str, float]]: 
     start, wall_start = time.process_time(), time.perf_counter()
     reading = reading_wall = 0.0
     cylinder = result.cylinder
-    voxel = 0.0015
     side = 2 * (max(np.ptp(result.mesh.bounds[:, :2], axis=0)) / 2 + 0.02)
     resolution = int(np.ceil(side / voxel))
     origin = np.array([*(result.mesh.bounds[:, :2].mean(axis=0) - side / 2), -0.01])
@@ -216,7 +215,7 @@ class StageCPU:
         self._start, self._wall = now, wall
 
 
-def run_once(capture, capture_dir: Path, truth: trimesh.Trimesh) -> Run:  # noqa: ANN001
+def run_once(capture, capture_dir: Path, truth: trimesh.Trimesh, tsdf_voxel_m: float) -> Run:  # noqa: ANN001
     from threadpoolctl import threadpool_limits
 
     from homemodel.evaluation import mean_surface_distance_m, voxel_iou
@@ -230,7 +229,7 @@ def run_once(capture, capture_dir: Path, truth: trimesh.Trimesh) -> Run:  # noqa
     # One BLAS thread, as the turntable runs: the baseline's per-frame numpy is the same kind
     # of small product, which OpenBLAS's threads slow down many times on a busy machine.
     with threadpool_limits(1, user_api="blas"):
-        baseline, tsdf, tsdf_wall = tsdf_baseline(capture, result)
+        baseline, tsdf, tsdf_wall = tsdf_baseline(capture, result, tsdf_voxel_m)
     centre_mm, angle_deg = pose_error_mm_deg(result, capture_dir)
     return Run(
         frames=len(result.poses),
@@ -317,6 +316,9 @@ def main() -> None:
     parser.add_argument("--noise-m", type=float, default=0.0, help="depth noise std at 0.7 m (0: noise-free)")
     parser.add_argument("--repeat", type=int, default=1, help="runs per subset; the median ratio's is shown")
     parser.add_argument(
+        "--tsdf-voxel-m", type=float, default=0.0015, help="the TSDF's voxel (default: the merge's; cost ~ 1/voxel^3)"
+    )
+    parser.add_argument(
         "--capture", type=Path, help="a capture rendered earlier (with true_cameras.json, ground_truth.ply): no rendering"
     )
     args = parser.parse_args()
@@ -330,9 +332,10 @@ def main() -> None:
     runs = []
     for n in args.subsets:
         subset = dataclasses.replace(capture, frames=capture.frames[:: args.frames // n])
-        runs.append(median_run([run_once(subset, capture_dir, truth) for _ in range(args.repeat)]))
+        runs.append(median_run([run_once(subset, capture_dir, truth, args.tsdf_voxel_m) for _ in range(args.repeat)]))
     noise_mm = args.noise_m * 1000
-    print(f"\n{args.object}, 640x480, depth noise {noise_mm:g} mm at 0.7 m, frames evenly spaced over one turn")
+    print(f"\n{args.object}, 640x480, depth noise {noise_mm:g} mm at 0.7 m, frames evenly spaced over one turn, "
+          f"TSDF voxel {args.tsdf_voxel_m * 1000:g} mm")
     print_table(runs)
 
 
