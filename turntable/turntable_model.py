@@ -152,9 +152,19 @@ def fit_turntable(frames: dict[str, FramePose], orbit: Circle3D, camera: Camera)
         points_camera = in_camera[frame_of_corner, board_point_of_corner]
         return (camera.project(points_camera) - image_points).ravel()
 
-    frame_of_row = frame_of_corner.repeat(2) - 1  # the angle each residual depends on; -1: frame 0's, fixed
-    moving = frame_of_row >= 0
+    # Each frame's residual rows are contiguous (frame after frame), frame 0's first: its angle is
+    # fixed, so the angles' rows are the rest, in runs starting at `angle_starts`.
+    row_starts = 2 * np.concatenate([[0], np.cumsum(counts)[:-1]])
+    first_moving = 2 * counts[0]
+    angle_starts, has_rows = row_starts[1:] - first_moving, counts[1:] > 0
     n_angles = len(stems) - 1
+
+    def per_angle(values: np.ndarray) -> np.ndarray:
+        """Sums over each angle's rows of (..., moving rows) values: (..., angles)."""
+        sums = np.zeros((*values.shape[:-1], n_angles))
+        if np.any(has_rows):
+            sums[..., has_rows] = np.add.reduceat(values, angle_starts[has_rows], axis=-1)
+        return sums
 
     def normal_equations(params: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """JᵀJ and Jᵀr from forward differences in 11 evaluations: one per shared parameter,
@@ -162,26 +172,21 @@ def fit_turntable(frames: dict[str, FramePose], orbit: Circle3D, camera: Camera)
         corners). The angles' block of J has one entry per row, so its products are sums per
         frame: never the dense (rows x frames) matrix."""
         step = 1e-7
-        shared = np.empty((len(base), _SHARED))
+        shared = np.empty((_SHARED, len(base)))  # a row per parameter: contiguous, unlike J's columns
         for j in range(_SHARED):
             moved = params.copy()
             moved[j] += step
-            shared[:, j] = (residuals(moved) - base) / step
+            shared[j] = (residuals(moved) - base) / step
         moved = params.copy()
         moved[_SHARED:] += step
-        angle = (residuals(moved) - base) / step  # row i's derivative by its frame's angle
-        rows, angle_of_row = np.nonzero(moving)[0], frame_of_row[moving]
+        angle = ((residuals(moved) - base) / step)[first_moving:]  # row i's derivative by its frame's angle
         normal = np.zeros((len(params), len(params)))
-        normal[:_SHARED, :_SHARED] = shared.T @ shared
-        cross = np.stack(
-            [np.bincount(angle_of_row, shared[rows, j] * angle[rows], minlength=n_angles) for j in range(_SHARED)]
-        )
+        normal[:_SHARED, :_SHARED] = shared @ shared.T
+        cross = per_angle(shared[:, first_moving:] * angle)
         normal[:_SHARED, _SHARED:] = cross
         normal[_SHARED:, :_SHARED] = cross.T
-        normal[_SHARED:, _SHARED:] = np.diag(np.bincount(angle_of_row, angle[rows] ** 2, minlength=n_angles))
-        gradient = np.concatenate(
-            [shared.T @ base, np.bincount(angle_of_row, angle[rows] * base[rows], minlength=n_angles)]
-        )
+        normal[_SHARED:, _SHARED:] = np.diag(per_angle(angle**2))
+        gradient = np.concatenate([shared @ base, per_angle(angle * base[first_moving:])])
         return normal, gradient
 
     params, converged = _levenberg_marquardt(residuals, normal_equations, _initial_params(poses, orbit))
