@@ -2,7 +2,8 @@
 a few seconds): the object's pixels kept from one reading give the points a whole-image
 back-projection gives; the tag search's decimation follows the tags' size in the image; the
 mesh snapped onto the merged points lands on the surface they sample; the texture carrier's
-decimation keeps a closed mesh closed and on the surface."""
+decimation keeps a closed mesh closed and on the surface; the poses stage's runs of frames,
+read apart on threads, hand every reading over and stop together."""
 
 from __future__ import annotations
 
@@ -100,3 +101,43 @@ def test_the_texture_carrier_stays_closed_and_on_the_surface() -> None:
     expected = (small.vertices - sphere.vertices.min(axis=0)) / np.ptp(sphere.vertices, axis=0)
     assert np.abs(small_colors - expected).max() < 0.05
     assert decimated(sphere, colors, 100_000)[0] is sphere
+
+
+def test_runs_read_apart_hand_over_every_reading_in_order_and_a_failing_run_stops_the_others() -> None:
+    """The poses stage's runs, each on a thread of its own: every reading reaches the caller's
+    thread, each run's in its order; a run that fails raises its error there and the other
+    runs end at their next frame instead of reading to their end."""
+    import threading
+    import time
+
+    from turntable.reconstruct import _read_runs
+
+    runs = [[f"a{i}" for i in range(40)], [f"b{i}" for i in range(40)]]
+    kept: list[str] = []
+    callers: set[int] = set()
+
+    def keep(item: str) -> None:
+        kept.append(item)
+        callers.add(threading.get_ident())
+
+    _read_runs(runs, lambda k, run, hand_over: [hand_over(frame) for frame in run], keep)
+    assert sorted(kept) == sorted(runs[0] + runs[1])
+    assert [f for f in kept if f[0] == "a"] == runs[0] and [f for f in kept if f[0] == "b"] == runs[1]
+    assert callers == {threading.get_ident()}
+
+    failed = threading.Event()
+
+    def read_run(k: int, run: list[str], hand_over) -> None:  # noqa: ANN001
+        for i, frame in enumerate(run):
+            if k == 1 and i == 3:
+                failed.set()
+                raise ValueError(f"{frame}: unreadable")
+            if k == 0 and i == 2:
+                failed.wait(10)
+                time.sleep(0.5)  # the failing run's thread has told the runs to stop by now
+            hand_over(frame)
+
+    kept.clear()
+    with pytest.raises(ValueError, match="b3: unreadable"):
+        _read_runs(runs, read_run, keep)
+    assert [f for f in kept if f[0] == "a"] == ["a0", "a1"] and [f for f in kept if f[0] == "b"] == ["b0", "b1", "b2"]

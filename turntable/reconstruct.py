@@ -68,7 +68,7 @@ def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable)
     ended, stopping = object(), threading.Event()
 
     def hand_over(item: object) -> None:
-        if stopping.is_set():  # this thread failed (an interrupt, say): the runs end at their next frame
+        if stopping.is_set():  # a run or this thread failed (an interrupt, say): the runs end at their next frame
             raise _Stopped
         handed.put(item)
 
@@ -77,6 +77,9 @@ def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable)
             read_run(k, runs[k], hand_over)
         except _Stopped:
             pass
+        except BaseException:
+            stopping.set()
+            raise
         finally:
             handed.put(ended)
 
