@@ -21,7 +21,7 @@ from turntable.fusion import Cylinder, MergedCloud
 # below the footprint instead of being cut open by the cube's face.
 _POISSON_SCALE = 1.5
 _UNMEASURED_SKIN = 0.25  # of the signed-distance solid's skin: more is a leak (see `distance_surface`)
-_SPLAT_CHUNK = 4096  # points whose contributions to the grid are added at once (about 40 MB)
+_SPLAT_CHUNK = 1536  # points added to the grid at once: (P, S) arrays of ~1.5 MB, in cache (4096: 20 % more CPU)
 
 
 @dataclass(kw_only=True)
