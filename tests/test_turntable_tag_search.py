@@ -109,3 +109,23 @@ def test_a_frame_s_tags_predicted_from_the_two_before_give_its_pose_and_hidden_t
     fallback = frame_pose(gray, search, BOARD, CAMERA, options, predicted=wrong)
     assert fallback.tags == searched.tags
     assert np.abs(fallback.camera_from_table[:3, 3] - camera_from_table[:3, 3]).max() < 1e-4
+
+
+def test_the_edge_refinement_s_sampling_is_bilinear_interpolation() -> None:
+    """`bilinear_levels` (OpenCV's remap) against SciPy's order-1 interpolation with the border
+    repeated: equal to float32 precision on remap's 1/32-pixel grid, where the refinement
+    samples, within a 1/64 px shift elsewhere; beyond the image and in maps of more rows than
+    remap takes at once (40,000), for linear and sRGB levels."""
+    from scipy.ndimage import map_coordinates
+
+    from turntable.tags import LINEAR_LEVELS, bilinear_levels
+
+    rng = np.random.default_rng(3)
+    gray = rng.integers(0, 256, (60, 80), dtype=np.uint8)
+    on_grid = np.round(rng.uniform(-4.0, 84.0, (2, 40_000, 3)) * 32) / 32
+    off_grid = rng.uniform(-4.0, 84.0, (2, 1000, 3))
+    for linear in LINEAR_LEVELS.values():
+        levels = linear[gray]
+        for (x, y), tolerance in ((on_grid, 1e-6), (off_grid, np.abs(np.diff(levels)).max() / 32)):
+            expected = map_coordinates(levels, [y.ravel(), x.ravel()], order=1, mode="nearest").reshape(x.shape)
+            assert np.abs(bilinear_levels(gray, linear, x, y) - expected).max() <= tolerance

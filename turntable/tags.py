@@ -179,6 +179,7 @@ LINEAR_LEVELS = {
 _ALONG = np.linspace(0.15, 0.85, 12)  # where along each side the profiles are taken (clear of corners)
 _MIN_ROWS = 4  # profiles with one clear crossing a side needs for its line
 _REMAP_GRID = 32  # OpenCV's remap rounds coordinates to 1/32 px (INTER_TAB_SIZE)
+_REMAP_ROWS = 32766  # the most rows remap's maps may have (SHRT_MAX - 1)
 
 
 def refine_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray = LINEAR_LEVELS["linear"]) -> np.ndarray:
@@ -272,4 +273,10 @@ def bilinear_levels(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.n
     levels = cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32))  # only the pixels the points reach
     rows = (-1, x.shape[-1])
     map_x, map_y = (x - left).astype(np.float32).reshape(rows), (y - top).astype(np.float32).reshape(rows)
-    return cv2.remap(levels, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(x.shape)
+    # remap takes maps of fewer than 32767 rows (a board of ~700 tags would fill them).
+    return np.concatenate(
+        [
+            cv2.remap(levels, map_x[i : i + _REMAP_ROWS], map_y[i : i + _REMAP_ROWS], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            for i in range(0, len(map_x), _REMAP_ROWS)
+        ]
+    ).reshape(x.shape)
