@@ -52,6 +52,8 @@ class VoxelAccumulator:
     _pending_points: int = 0
 
     def add(self, points: np.ndarray, colors: np.ndarray, view_dirs: np.ndarray) -> None:
+        """A frame's points (N, 3), colours (N, 3) and directions (N, 3); the arrays are kept, not
+        copied, until the next fold: the caller does not change them after."""
         if len(points) == 0:
             return
         index = np.floor(points / self.voxel_size_m).astype(np.int64)
