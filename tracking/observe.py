@@ -246,7 +246,13 @@ def _fit_large_object(
         steady = [i for i in state.object_parts(object_id) if not _slides(state, object_id, i)]
         for round_ in range(options.rounds):
             before = (state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id]))
-            fit = refine_pose(state, fine, object_id, steady, background, **pose_kwargs) or fit
+            refined = refine_pose(state, fine, object_id, steady, background, **pose_kwargs)
+            if refined is not None and refined.inlier_fraction < options.pose_gate.min_inliers:
+                # Most of its points do not fit there (a body seen through its door alone, the
+                # door at a wrong angle): the joints would follow the pose off.
+                state.map_from_objects[object_id] = before[0]
+                refined = None
+            fit = refined or fit
             settled = _settled(state, object_id, *before)
             last = settled or round_ == options.rounds - 1
             for joint in joints:
