@@ -106,12 +106,15 @@ def _png_size(data: bytes) -> tuple[int, int] | None:
     ihdr = len(PNG_SIGNATURE)
     if not data.startswith(PNG_SIGNATURE) or len(data) < ihdr + 25:
         return None
-    length, kind, width, height, bits, colour_type = struct.unpack_from(">I4sIIBB", data, ihdr)
-    crc = struct.unpack_from(">I", data, ihdr + 21)[0]
+    length, kind, width, height, bits, colour_type, compression, filtering, interlace, crc = struct.unpack_from(
+        ">I4sIIBBBBBI", data, ihdr
+    )
     if length != 13 or kind != b"IHDR" or zlib.crc32(data[ihdr + 4 : ihdr + 21]) != crc:
         return None
     if not width or not height or bits not in _PNG_BIT_DEPTHS.get(colour_type, ()):
         return None  # Pillow's judgement, and its message
+    if compression or filtering or interlace > 1:  # methods libpng does not know: Pillow judges them
+        return None
     return height, width
 
 
