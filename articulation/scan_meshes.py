@@ -48,8 +48,9 @@ _MEASURED_POINTS = 40_000  # points (and surface samples) measured, drawn with a
 # Up to this many points, the closed mesh is measured by numpy unless Open3D is already imported:
 # Open3D's import costs 0.3-0.7 CPU-s. A completion (50,000 triangles, 1,500 query points; with the
 # convex parts' samples outside it about 12,000 points measured) took 0.2 CPU-s by numpy against
-# 0.03 and the import by Open3D (the first scan meshes of a process 0.95 -> 0.80 CPU-s); a scan's
-# 40,000 points take 1.3 CPU-s by numpy against 0.09, so they stay with Open3D.
+# 0.03 and the import by Open3D (the first scan meshes of a process 0.86-0.87 -> 0.71-0.73 CPU-s,
+# docs/shape_completion.md); a scan's 40,000 points take 1.3 CPU-s by numpy against 0.09, so
+# they stay with Open3D.
 _NUMPY_MEASURE_POINTS = 5_000
 _SEED = 0
 

@@ -162,7 +162,6 @@ def test_distances_agree_with_the_shared_metric() -> None:
     )
 
 
-
 def test_a_completions_few_points_are_measured_without_open3d(tmp_path: Path) -> None:
     """Few points (a completion's 1,500) on a mesh of 20,480 faces, which Open3D's caster would
     measure, are measured by numpy in a process without Open3D (its import costs more than the

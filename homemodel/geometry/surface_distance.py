@@ -38,7 +38,7 @@ class SurfaceDistance:
     def __init__(self, mesh: trimesh.Trimesh, *, open3d: bool | None = None) -> None:
         """`open3d`: measured by Open3D's caster, or by numpy (None: Open3D from _OPEN3D_FROM_TRIANGLES)."""
         self._caster: RayCaster | None = None
-        if len(mesh.faces) >= _OPEN3D_FROM_TRIANGLES if open3d is None else open3d:
+        if (len(mesh.faces) >= _OPEN3D_FROM_TRIANGLES) if open3d is None else open3d:
             self._centre = mesh.bounds.mean(axis=0)
             self._caster = RayCaster(trimesh.Trimesh(mesh.vertices - self._centre, mesh.faces, process=False))
             return
