@@ -43,3 +43,31 @@ def test_a_header_pillow_refuses_is_refused_before_decoding(tmp_path: Path, capf
         with pytest.raises(InputError, match=r"odd.png: not a readable image \(not an image file, or its header is corrupt\)"):
             read(path)
     assert capfd.readouterr().err == ""
+
+
+def test_headers_read_on_threads_at_once_leave_pillow_s_bound_as_it_was(tmp_path: Path) -> None:
+    """Pillow's pixel bound is turned off while a header is read (the bound checked is ours):
+    threads reading a capture's JPEG frames at once must leave it as it was, not off for the
+    rest of the process. Thread switches every microsecond make the overlap sure (~0.2 CPU-s)."""
+    import sys
+    import threading
+
+    path = tmp_path / "frame.jpg"
+    Image.fromarray(np.zeros((48, 64, 3), np.uint8)).save(path)
+    bound, interval = Image.MAX_IMAGE_PIXELS, sys.getswitchinterval()
+
+    def read_many() -> None:
+        for _ in range(300):
+            read_image_size(path)
+
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=read_many) for _ in range(4)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        sys.setswitchinterval(interval)
+        restored, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, bound
+    assert restored == bound is not None

@@ -28,6 +28,9 @@ _PNG_BIT_DEPTHS = {0: (1, 2, 4, 8, 16), 2: (8, 16), 3: (1, 2, 4, 8), 4: (8, 16),
 _QUIET_LOCK = threading.Lock()
 _quiet_users = 0
 _loud_level: int | None = None
+# Pillow's pixel bound is process-wide: threads reading headers at once (a capture's JPEG frames)
+# would each save another's None as the bound to restore, leaving Pillow's check off for good.
+_PILLOW_BOUND_LOCK = threading.Lock()
 
 
 def read_image(path: Path, flags: int | None = None) -> np.ndarray:
@@ -121,17 +124,18 @@ def _png_size(data: bytes) -> tuple[int, int] | None:
 def _pillow_size(path: Path, data: bytes) -> tuple[int, int]:
     from PIL import Image
 
-    bound = Image.MAX_IMAGE_PIXELS
-    try:
-        # Only the header is read here, and the bound below is ours (which a user can raise
-        # past Pillow's): Pillow's own check is off for this call.
-        Image.MAX_IMAGE_PIXELS = None
-        with Image.open(io.BytesIO(data)) as header:
-            width, height = header.size
-    except Exception:  # Pillow's format plugins raise many types on corrupt headers
-        raise InputError(f"{path}: not a readable image (not an image file, or its header is corrupt)") from None
-    finally:
-        Image.MAX_IMAGE_PIXELS = bound
+    with _PILLOW_BOUND_LOCK:
+        bound = Image.MAX_IMAGE_PIXELS
+        try:
+            # Only the header is read here, and the bound below is ours (which a user can raise
+            # past Pillow's): Pillow's own check is off for this call.
+            Image.MAX_IMAGE_PIXELS = None
+            with Image.open(io.BytesIO(data)) as header:
+                width, height = header.size
+        except Exception:  # Pillow's format plugins raise many types on corrupt headers
+            raise InputError(f"{path}: not a readable image (not an image file, or its header is corrupt)") from None
+        finally:
+            Image.MAX_IMAGE_PIXELS = bound
     return height, width
 
 
