@@ -324,6 +324,8 @@ def main() -> None:
     args = parser.parse_args()
     if any(n > args.frames or args.frames % n for n in args.subsets):
         parser.error(f"--subsets {args.subsets}: each must divide --frames {args.frames}")
+    if not args.tsdf_voxel_m > 0:
+        parser.error(f"--tsdf-voxel-m {args.tsdf_voxel_m:g}: must be a positive length in metres")
 
     capture_dir = args.capture or capture_for(args.object, args.frames, args.noise_m, args.samples)
     truth = trimesh.load(capture_dir / "ground_truth.ply", force="mesh")
