@@ -361,19 +361,7 @@ class Renderer:
         scoring many poses of one part needs, without `render`'s normals and colours.
         Each part's depth is kept for the last few poses asked (a fitter renders the parts
         it does not move, and the floor and walls, again and again)."""
-        depth = np.full(camera.width * camera.height, np.inf)
-        camera_from_map = np.linalg.inv(as_transform(map_from_camera))
-        for i in only:
-            camera_from_part = camera_from_map @ as_transform(map_from_parts[i])
-            key = (i, camera, camera_from_part.tobytes())
-            if key in self._depths:
-                self._depths.move_to_end(key)
-                pixels, t = self._depths[key]
-            else:
-                pixels, t = self._cast_depths(i, camera, [camera_from_part])[0]
-                self._remember(key, pixels, t)
-            depth[pixels] = np.minimum(depth[pixels], t)
-        return depth.reshape(camera.height, camera.width)
+        return self.depth_stack([map_from_parts], camera, map_from_camera, only)[0]
 
     def depth_stack(
         self,
