@@ -101,7 +101,7 @@ def complete(
     from threadpoolctl import threadpool_limits
 
     # OpenBLAS's second thread spin-waits (sched_yield) between the query's many small products:
-    # 64,100 sched_yield calls in one run of the README's query, 1,200 on one thread.
+    # 64,100 sched_yield calls in one run of the README's query, 1,359 on one thread.
     with threadpool_limits(limits=1, user_api="blas"):
         return _complete(model, depth_png, out_dir, options, progress=progress, force=force)
 
