@@ -4,6 +4,7 @@ against each other (the fridge seen mostly through its door and drawer)."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.geometry.camera import Camera
 from prior_maps import write_prior_map
 from tracking.fit_state import FitState
-from tracking.fit_together import refine_pose_and_joints
+from tracking.fit_together import GRID_KEPT, _grid_starts, _PoseMotion, refine_pose_and_joints
 from tracking.fit_view import FitView
 from tracking.observe import ObserveOptions
 from tracking.pose_gate import depth_costs, object_depth
@@ -114,3 +115,21 @@ def test_a_body_off_across_the_view_with_its_doors_making_up_for_it(
     assert abs(joints["drawer_0_slide"] - truth["joints"]["cupboard_1"]["drawer_0_slide"]) * 1000 < 5.0
     error = np.linalg.inv(np.array(truth["objects"]["cupboard_1"]["map_from_object"])) @ state.map_from_objects["cupboard_1"]
     assert np.linalg.norm(error[:2, 3]) * 1000 < 8.0
+
+
+def test_a_camera_looking_straight_down_gets_turns_only(
+    kitchen_map: Path, simulator: ViewSimulator, tmp_path: Path
+) -> None:
+    """No direction lies across the view of a camera looking straight down: the grid of starts
+    keeps its turns and drops its slides, instead of poses of NaN (a zero cross product)."""
+    _, state, _, (coarse, _) = _start(kitchen_map, tmp_path, simulator, 0.0)
+    above = np.eye(4)
+    above[:3, :3] = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])  # columns: x, y, z (down)
+    above[:3, 3] = state.map_from_objects["fridge_1"][:3, 3] + [0.0, 0.0, 3.0]
+    down = dataclasses.replace(coarse, map_from_camera=above)
+    starts = _grid_starts(state, down, state.background_depth(down, "fridge_1"), "fridge_1", list(TRUE_JOINTS),
+                          _PoseMotion.of(True))
+    assert len(starts) == GRID_KEPT
+    for pose, joints in starts:
+        assert np.isfinite(pose).all() and np.isfinite(list(joints.values())).all()
+        assert np.allclose(pose[:3, 3], state.map_from_objects["fridge_1"][:3, 3])  # turned about its place, not slid

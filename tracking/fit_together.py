@@ -187,12 +187,14 @@ def _grid_starts(
 ) -> list[tuple[np.ndarray, dict[str, float]]]:
     """The GRID_KEPT poses of the grid about the state's estimate, with their joints keeping their
     parts in place, that have the lowest depth cost (`depth_costs`)."""
-    looking = view.map_from_camera[:3, 2]
-    across = np.cross(looking, [0.0, 0.0, 1.0])
-    across /= np.linalg.norm(across)
+    across = np.cross(view.map_from_camera[:3, 2], [0.0, 0.0, 1.0])
+    length = float(np.linalg.norm(across))
+    # A camera looking straight down has no horizontal direction across its view: turns only.
+    slides = GRID_SLIDES_M if length > 1e-6 else (0.0,)
+    across = across / length if length > 1e-6 else across
     axes = [joint_axis_map(state, object_id, joint) for joint in joints]
     moves = []
-    for slide in GRID_SLIDES_M:
+    for slide in slides:
         for turn in GRID_TURNS_RAD:
             if not (slide or turn):
                 continue
