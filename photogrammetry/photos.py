@@ -14,14 +14,18 @@ MIN_SIDE_PX = 64
 
 
 def list_photos(folder: Path) -> list[Path]:
-    """The photos in `folder` (by suffix, sorted by name; other files are ignored), each checked
-    to decode as an image of at least MIN_SIDE_PX pixels a side."""
+    """The photos in `folder` (by suffix, sorted by name; other files and hidden ones are
+    ignored), each checked to decode as an image of at least MIN_SIDE_PX pixels a side."""
     import cv2
 
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"{folder}: not a folder of photos")
-    photos = sorted(p for p in folder.iterdir() if p.suffix.lower() in PHOTO_SUFFIXES and p.is_file())
+    # Hidden files are no photos: a folder copied from a Mac holds "._IMG_0001.JPG" beside each
+    # photo (its AppleDouble metadata, not an image).
+    photos = sorted(
+        p for p in folder.iterdir() if p.suffix.lower() in PHOTO_SUFFIXES and not p.name.startswith(".") and p.is_file()
+    )
     if not photos:
         raise InputError(f"{folder}: holds no photos ({', '.join(PHOTO_SUFFIXES)})")
     for path in photos:

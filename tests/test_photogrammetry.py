@@ -33,6 +33,7 @@ def test_list_photos_ignores_other_files_and_sorts(tmp_path: Path) -> None:
     for name in ("b.png", "a.JPG"):
         cv2.imwrite(str(tmp_path / name), np.full((80, 100, 3), 128, np.uint8))
     (tmp_path / "notes.txt").write_text("not a photo")
+    (tmp_path / "._a.JPG").write_bytes(b"\x00\x05\x16\x07" + bytes(80))  # macOS's AppleDouble metadata
     assert [p.name for p in list_photos(tmp_path)] == ["a.JPG", "b.png"]
 
 
