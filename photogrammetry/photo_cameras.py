@@ -3,7 +3,8 @@
 COLMAP shares one camera model between photos only when they come from the same camera at
 the same zoom, starts from the EXIF focal length when there is one, and reads pixels as
 stored: a portrait photo whose EXIF says "turn me" would be matched lying on its side. So
-photos are grouped by camera here, and turned photos are written upright into the work folder.
+photos are grouped by camera here, and turned photos are written upright into the work folder
+(with the photos renamed there when a name cannot go into COLMAP's pair lists).
 """
 
 from __future__ import annotations
@@ -92,17 +93,30 @@ def group_by_camera(cameras: dict[str, PhotoCamera]) -> list[list[str]]:
     return list(groups.values())
 
 
-def upright_photo_folder(photos: list[Path], cameras: dict[str, PhotoCamera], work_dir: Path) -> Path:
-    """The folder SfM reads: the photos' own folder, or, when some must be turned, a folder in
-    `work_dir` with those written upright under their own names and links to the rest."""
+def listable(name: str) -> bool:
+    """Whether COLMAP's pair lists can hold `name`: each line is "name1 name2", split at
+    spaces, and a line starting with '#' is a comment."""
+    return not any(c.isspace() for c in name) and not name.startswith("#")
+
+
+def sfm_photo_folder(photos: list[Path], cameras: dict[str, PhotoCamera], work_dir: Path) -> tuple[Path, dict[str, str]]:
+    """The folder SfM reads and the name each photo has there, by its own name: the photos'
+    own folder and names; or, when some must be turned or a name cannot go into COLMAP's pair
+    lists ("IMG 0001.jpg": no pair of it was matched, nothing registered), a folder in
+    `work_dir` with the turned photos written upright and links to the rest, every photo then
+    named after its place in name order and its name with spaces made '_' (the same order,
+    so the same image ids and the same model)."""
     import cv2
 
-    if not any(c.turned for c in cameras.values()):
-        return photos[0].parent
-    folder = work_dir / "upright"
+    renamed = not all(listable(p.name) for p in photos)
+    if not renamed and not any(c.turned for c in cameras.values()):
+        return photos[0].parent, {p.name: p.name for p in photos}
+    folder = work_dir / "photos"
     folder.mkdir(parents=True, exist_ok=True)
-    for path in photos:
-        target = folder / path.name
+    names = {}
+    for index, path in enumerate(sorted(photos)):
+        names[path.name] = f"{index:05d}_{''.join('_' if c.isspace() else c for c in path.name)}" if renamed else path.name
+        target = folder / names[path.name]
         if cameras[path.name].turned:
             # OpenCV's default decode applies the EXIF orientation; writing drops the tag.
             ok, data = cv2.imencode(path.suffix, read_image(path), [cv2.IMWRITE_JPEG_QUALITY, 97])
@@ -114,4 +128,4 @@ def upright_photo_folder(photos: list[Path], cameras: dict[str, PhotoCamera], wo
                 target.symlink_to(path.resolve())
             except OSError:
                 shutil.copyfile(path, target)
-    return folder
+    return folder, names

@@ -28,7 +28,7 @@ from photogrammetry.photo_cameras import (
     PhotoCamera,
     group_by_camera,
     read_photo_camera,
-    upright_photo_folder,
+    sfm_photo_folder,
 )
 from photogrammetry.undistortion import undistort_photos
 
@@ -355,7 +355,6 @@ def run_sfm(
     import pycolmap
 
     options = options or SfmOptions()
-    names = [p.name for p in photos]
     work_dir.mkdir(parents=True, exist_ok=True)
     database = work_dir / "database.db"
     clock = StageClock(progress)
@@ -364,7 +363,9 @@ def run_sfm(
     with quiet_c_libraries(options.verbose):
         clock.start("features")
         cameras = {p.name: read_photo_camera(p) for p in photos}
-        image_dir = upright_photo_folder(photos, cameras, work_dir)
+        image_dir, sfm_name = sfm_photo_folder(photos, cameras, work_dir)
+        cameras = {sfm_name[n]: camera for n, camera in cameras.items()}
+        names = [sfm_name[p.name] for p in photos]
         n_cameras = _extract_features(database, image_dir, cameras, options)
         features = _median_features(database)
 
@@ -377,6 +378,10 @@ def run_sfm(
         clock.start("undistortion")
         model = _undistort(best, image_dir, work_dir, names, options)
     clock.stop()
+    photo_name = {sfm: own for own, sfm in sfm_name.items()}
+    for view in model.views:
+        view.name = photo_name[view.name]
+    model.unregistered = [photo_name[n] for n in model.unregistered]
     model.mean_reprojection_error_px = float(best.compute_mean_reprojection_error())
     model.times_s = clock.times_s
     model.matching = method + note

@@ -21,7 +21,7 @@ from homemodel.exchange.cameras import read_cameras
 from photogrammetry.convergence import in_frame_share
 from photogrammetry import pairing
 from photogrammetry.pairing import chosen_pairs, mutual_match_counts
-from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, upright_photo_folder
+from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, sfm_photo_folder
 from photogrammetry.pose_agreement import load_reference_cameras, pose_agreement, similarity_from_points
 from photogrammetry.sfm import SfmOptions, View, run_sfm
 
@@ -97,7 +97,8 @@ def test_exif_turn_focal_and_camera_are_read_and_turned_photos_written_upright(t
     assert cameras["a.jpg"].focal_px == pytest.approx(28 / 36 * 120)
     assert cameras["c.jpg"].focal_px is None and not cameras["b.jpg"].turned
     assert group_by_camera(cameras) == [["a.jpg"], ["b.jpg"], ["c.jpg"]]  # turned, upright, another camera
-    folder = upright_photo_folder(sorted(photos.iterdir()), cameras, tmp_path / "work")
+    folder, names = sfm_photo_folder(sorted(photos.iterdir()), cameras, tmp_path / "work")
+    assert names == {n: n for n in ("a.jpg", "b.jpg", "c.jpg")}
     upright = cv2.imread(str(folder / "a.jpg"), cv2.IMREAD_IGNORE_ORIENTATION | cv2.IMREAD_COLOR)
     assert upright.shape[:2] == (120, 40)
     assert upright[:20].mean() > 200 and upright[30:].mean() < 40  # the band is now on top
@@ -244,18 +245,20 @@ def test_image_ids_follow_the_names_whatever_order_the_features_were_found_in(tm
 
 
 @pytest.mark.shared_data
-def test_structure_from_motion_repeats_itself(tmp_path: Path) -> None:
+def test_structure_from_motion_repeats_itself_whatever_the_photos_are_named(tmp_path: Path) -> None:
     """Two runs on the same photos give the very same cameras and points (run to run, the
     extraction threads numbered the photos differently, the matching threads drew RANSAC
-    samples from their own generators and the mapping threads added up in another order)."""
+    samples from their own generators and the mapping threads added up in another order),
+    also when the second run's photos have spaces in their names ("kermit 000.jpg": COLMAP's
+    pair lists split at spaces, and no pair was matched)."""
     from photogrammetry.photos import list_photos
 
-    photos = tmp_path / "photos"
-    photos.mkdir()
-    for path in sorted(KERMIT.glob("*.jpg"))[:7]:
-        shutil.copy(path, photos)
-    first, second = (run_sfm(list_photos(photos), tmp_path / f"work{i}") for i in range(2))
-    assert [v.name for v in first.views] == [v.name for v in second.views] and len(first.views) == 7
+    for folder, name in (("photos", "{}{}"), ("spaced", "{} {}")):
+        (tmp_path / folder).mkdir()
+        for path in sorted(KERMIT.glob("*.jpg"))[:7]:
+            shutil.copy(path, tmp_path / folder / name.format(path.name[:6], path.name[6:]))
+    first, second = (run_sfm(list_photos(tmp_path / folder), tmp_path / f"work_{folder}") for folder in ("photos", "spaced"))
+    assert [v.name for v in second.views] == [f"kermit {v.name[6:]}" for v in first.views] and len(first.views) == 7
     assert all(np.array_equal(a.camera_from_world, b.camera_from_world) for a, b in zip(first.views, second.views))
     assert np.array_equal(first.points_world, second.points_world)
 
