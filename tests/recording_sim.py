@@ -176,101 +176,190 @@ def write_open3d(recorded: Recorded, folder: Path) -> None:
     (folder / "intrinsic.json").write_text(json.dumps(intrinsic))
 
 
-def _ros_camera_info(types: object, camera: Camera, frame: str, header: object, ros1: bool) -> object:
-    model = "equidistant" if camera.distortion_model == "kannala_brandt" else "plumb_bob"
-    d = camera.distortion_coefficients if camera.has_distortion else np.zeros(5)
-    roi = types.sensor_msgs__msg__RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
-    p = np.zeros(12)
-    p[[0, 2, 5, 6, 10]] = [camera.fx, camera.cx, camera.fy, camera.cy, 1.0]
-    matrices = {"d": np.asarray(d, dtype=np.float64), "k": camera.matrix.ravel(), "r": np.eye(3).ravel(), "p": p}
-    if ros1:  # ROS 1 spells them D K R P
-        matrices = {name.upper(): value for name, value in matrices.items()}
-    return types.sensor_msgs__msg__CameraInfo(
-        header=header, height=camera.height, width=camera.width, distortion_model=model,
-        binning_x=0, binning_y=0, roi=roi, **matrices,
+class RosMessages:
+    """sensor_msgs, tf2_msgs and their serialisation for one ROS generation, from rosbags'
+    typestore (ROS 1 Noetic or ROS 2 Humble), as the drivers fill them in."""
+
+    def __init__(self, ros_version: int, origin_s: float = 1700000000.0) -> None:
+        from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+        self.ros_version = ros_version
+        self.origin_s = origin_s
+        self.store = get_typestore(Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE)
+        if ros_version == 1:  # rosbags' Noetic store lacks tf2_msgs
+            self.store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
+
+    def type(self, name: str) -> type:
+        return self.store.types[name]
+
+    def header(self, time_s: float, frame: str) -> object:
+        """A header stamped `time_s` after the origin (None: a zero stamp, as some drivers leave it)."""
+        sec, nanosec = 0, 0
+        if time_s is not None:
+            sec = math.floor(self.origin_s + time_s)
+            nanosec = int(round((self.origin_s + time_s - sec) * 1e9)) % 1_000_000_000
+        stamp = self.type("builtin_interfaces/msg/Time")(sec=sec, nanosec=nanosec)
+        seq = {"seq": 0} if self.ros_version == 1 else {}
+        return self.type("std_msgs/msg/Header")(stamp=stamp, frame_id=frame, **seq)
+
+    def image(
+        self, time_s: float, pixels: np.ndarray, encoding: str, frame: str, *, big_endian: bool = False, pad: int = 0
+    ) -> object:
+        """sensor_msgs/Image of `pixels` as stored (the caller orders the channels for the
+        encoding); `pad` bytes closing each row, as some drivers align their rows."""
+        pixels = np.ascontiguousarray(pixels)
+        if big_endian:
+            pixels = pixels.astype(pixels.dtype.newbyteorder(">"))
+        rows = pixels.view(np.uint8).reshape(pixels.shape[0], -1)
+        rows = np.pad(rows, ((0, 0), (0, pad)))
+        return self.type("sensor_msgs/msg/Image")(
+            header=self.header(time_s, frame), height=pixels.shape[0], width=pixels.shape[1], encoding=encoding,
+            is_bigendian=int(big_endian), step=rows.shape[1], data=rows.ravel(),
+        )
+
+    def compressed(self, time_s: float, data: bytes, form: str, frame: str) -> object:
+        return self.type("sensor_msgs/msg/CompressedImage")(
+            header=self.header(time_s, frame), format=form, data=np.frombuffer(data, np.uint8)
+        )
+
+    def camera_info(
+        self, time_s: float, camera: Camera, frame: str, *, model: str | None = None, d: list[float] | None = None
+    ) -> object:
+        """The CameraInfo of `camera` (plumb_bob or equidistant from its model; `model` and `d`
+        to write another, such as rational_polynomial's 8 coefficients)."""
+        if model is None:
+            model = "equidistant" if camera.distortion_model == "kannala_brandt" else "plumb_bob"
+        if d is None:
+            d = camera.distortion_coefficients.tolist() if camera.has_distortion else [0.0] * 5
+        roi = self.type("sensor_msgs/msg/RegionOfInterest")(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        p = np.zeros(12)
+        p[[0, 2, 5, 6, 10]] = [camera.fx, camera.cx, camera.fy, camera.cy, 1.0]
+        matrices = {"d": np.asarray(d, dtype=np.float64), "k": camera.matrix.ravel(), "r": np.eye(3).ravel(), "p": p}
+        if self.ros_version == 1:  # ROS 1 spells them D K R P
+            matrices = {name.upper(): value for name, value in matrices.items()}
+        return self.type("sensor_msgs/msg/CameraInfo")(
+            header=self.header(time_s, frame), height=camera.height, width=camera.width, distortion_model=model,
+            binning_x=0, binning_y=0, roi=roi, **matrices,
+        )
+
+    def tf_static(self, edges: list[tuple[str, str, np.ndarray]]) -> object:
+        """A TFMessage of (parent, child, parent_from_child 4x4) edges."""
+        from scipy.spatial.transform import Rotation
+
+        def stamped(parent: str, child: str, matrix: np.ndarray) -> object:
+            q = Rotation.from_matrix(matrix[:3, :3]).as_quat()
+            translation = self.type("geometry_msgs/msg/Vector3")(*(float(v) for v in matrix[:3, 3]))
+            rotation = self.type("geometry_msgs/msg/Quaternion")(*(float(v) for v in q))
+            return self.type("geometry_msgs/msg/TransformStamped")(
+                header=self.header(0.0, parent), child_frame_id=child,
+                transform=self.type("geometry_msgs/msg/Transform")(translation=translation, rotation=rotation),
+            )
+
+        return self.type("tf2_msgs/msg/TFMessage")(transforms=[stamped(*edge) for edge in edges])
+
+    def serialize(self, message: object) -> bytes:
+        serialize = self.store.serialize_ros1 if self.ros_version == 1 else self.store.serialize_cdr
+        return serialize(message, type(message).__msgtype__)
+
+
+def write_bag(
+    path: Path,
+    ros: RosMessages,
+    messages: list[tuple[float, str, object]],
+    *,
+    storage: str = "sqlite3",
+    compression: str | None = None,
+) -> None:
+    """(log time s, topic, message) to a ROS 1 .bag (`compression`: bz2 or lz4 chunks, as
+    `rosbag record --bz2/--lz4` writes) or a ROS 2 bag folder (`storage`: sqlite3 or mcap,
+    rosbag2 version 9 with the message definitions, as Jazzy writes)."""
+    if ros.ros_version == 1:
+        from rosbags.rosbag1 import Writer
+
+        writer = Writer(path)
+        if compression is not None:
+            writer.set_compression(getattr(Writer.CompressionFormat, compression.upper()))
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        writer = Writer(path, version=9, storage_plugin=getattr(StoragePlugin, storage.upper()))
+    with writer:
+        connections = {}
+        for time_s, topic, message in sorted(messages, key=lambda m: m[0]):
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, type(message).__msgtype__, typestore=ros.store)
+            writer.write(connections[topic], int((ros.origin_s + max(time_s, 0.0)) * 1e9), ros.serialize(message))
+
+
+def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float, str, object]]) -> None:
+    """A ROS 2 Humble bag as `ros2 bag record` writes it: metadata.yaml version 5 and a sqlite3
+    file of schema 3, without the message definitions that later rosbag2 versions keep."""
+    import sqlite3
+
+    import yaml
+
+    assert ros.ros_version == 2
+    folder.mkdir(parents=True)
+    db = sqlite3.connect(folder / f"{folder.name}_0.db3")
+    db.executescript(
+        "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);"
+        "INSERT INTO schema VALUES (3, 'humble');"
+        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,"
+        " serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
+        "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL,"
+        " data BLOB NOT NULL);"
     )
+    topics: dict[str, tuple[int, str, int]] = {}
+    stamps = []
+    for time_s, topic, message in sorted(messages, key=lambda m: m[0]):
+        msgtype = type(message).__msgtype__
+        if topic not in topics:
+            topics[topic] = (len(topics) + 1, msgtype, 0)
+            db.execute("INSERT INTO topics VALUES (?, ?, ?, 'cdr', '')", (len(topics), topic, msgtype))
+        number, _, count = topics[topic]
+        topics[topic] = (number, msgtype, count + 1)
+        stamp = int((ros.origin_s + max(time_s, 0.0)) * 1e9)
+        stamps.append(stamp)
+        db.execute("INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", (number, stamp, ros.serialize(message)))
+    db.commit()
+    db.close()
+    info = {
+        "version": 5,
+        "storage_identifier": "sqlite3",
+        "relative_file_paths": [f"{folder.name}_0.db3"],
+        "duration": {"nanoseconds": max(stamps) - min(stamps)},
+        "starting_time": {"nanoseconds_since_epoch": min(stamps)},
+        "message_count": len(stamps),
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {"name": t, "type": msgtype, "serialization_format": "cdr", "offered_qos_profiles": ""},
+                "message_count": count,
+            }
+            for t, (_, msgtype, count) in topics.items()
+        ],
+        "compression_format": "",
+        "compression_mode": "",
+    }
+    (folder / "metadata.yaml").write_text(yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False))
 
 
 def write_rosbag(recorded: Recorded, path: Path, *, ros_version: int) -> None:
     """/camera/color/image_raw (rgb8) and /camera/depth/image_rect_raw (16UC1, mm) with their
     CameraInfo, and /tf_static placing both optical frames under camera_link."""
-    from rosbags.typesys import Stores, get_typestore
-    from scipy.spatial.transform import Rotation
-
     rig = recorded.rig
     assert rig.depth_scale_m == 0.001 and rig.depth_camera is not None
-    store = get_typestore(Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE)
-    if ros_version == 1:  # rosbags' Noetic store lacks tf2_msgs
-        from rosbags.typesys import get_types_from_msg
-
-        store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
-    types = store.types
-    Time = types["builtin_interfaces/msg/Time"]
-    Header = types["std_msgs/msg/Header"]
-    header_fields = {"seq": 0} if ros_version == 1 else {}
-
-    class _T:  # attribute access to the typestore's classes
-        def __getattr__(self, name: str) -> object:
-            return types[name.replace("__", "/")]
-
-    t = _T()
-    origin = 1700000000.0
-
-    def header(time_s: float, frame: str) -> object:
-        sec = math.floor(origin + time_s)
-        nanosec = int(round((origin + time_s - sec) * 1e9)) % 1_000_000_000
-        return Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id=frame, **header_fields)
-
-    def image(time_s: float, pixels: np.ndarray, encoding: str, frame: str) -> object:
-        data = np.ascontiguousarray(pixels).view(np.uint8).ravel()
-        return t.sensor_msgs__msg__Image(
-            header=header(time_s, frame),
-            height=pixels.shape[0],
-            width=pixels.shape[1],
-            encoding=encoding,
-            is_bigendian=0,
-            step=pixels.shape[1] * pixels.itemsize * (pixels.shape[2] if pixels.ndim == 3 else 1),
-            data=data,
-        )
-
-    def stamped(child: str, link_from_child: np.ndarray) -> object:
-        q = Rotation.from_matrix(link_from_child[:3, :3]).as_quat()
-        return t.geometry_msgs__msg__TransformStamped(
-            header=header(0.0, "camera_link"),
-            child_frame_id=child,
-            transform=t.geometry_msgs__msg__Transform(
-                translation=t.geometry_msgs__msg__Vector3(x=float(link_from_child[0, 3]), y=float(link_from_child[1, 3]), z=float(link_from_child[2, 3])),
-                rotation=t.geometry_msgs__msg__Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])),
-            ),
-        )
-
+    ros = RosMessages(ros_version)
+    color, depth = "camera_color_optical_frame", "camera_depth_optical_frame"
     # camera_link sits at the colour camera; the depth optical frame beside it.
-    tf = t.tf2_msgs__msg__TFMessage(
-        transforms=[stamped("camera_color_optical_frame", np.eye(4)), stamped("camera_depth_optical_frame", rig.color_from_depth)]
-    )
-    messages = [(0.0, "/tf_static", tf)]
-    messages += [(0.0, "/camera/color/camera_info", _ros_camera_info(t, rig.color_camera, "", header(0.0, "camera_color_optical_frame"), ros_version == 1))]
-    messages += [(0.0, "/camera/depth/camera_info", _ros_camera_info(t, rig.depth_camera, "", header(0.0, "camera_depth_optical_frame"), ros_version == 1))]
-    messages += [(ts, "/camera/color/image_raw", image(ts, rgb, "rgb8", "camera_color_optical_frame")) for ts, rgb in recorded.colors]
-    messages += [(ts, "/camera/depth/image_rect_raw", image(ts, d, "16UC1", "camera_depth_optical_frame")) for ts, d in recorded.depths]
-    messages.sort(key=lambda m: m[0])
-    if ros_version == 1:
-        from rosbags.rosbag1 import Writer
-
-        writer = Writer(path)
-    else:
-        from rosbags.rosbag2 import Writer
-
-        writer = Writer(path, version=9)
-    with writer:
-        connections = {}
-        for _, topic, message in messages:
-            if topic not in connections:
-                msgtype = type(message).__msgtype__
-                connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
-        for ts, topic, message in messages:
-            serialize = store.serialize_ros1 if ros_version == 1 else store.serialize_cdr
-            writer.write(connections[topic], int((origin + max(ts, 0.0)) * 1e9), serialize(message, type(message).__msgtype__))
+    tf = ros.tf_static([("camera_link", color, np.eye(4)), ("camera_link", depth, rig.color_from_depth)])
+    messages = [
+        (0.0, "/tf_static", tf),
+        (0.0, "/camera/color/camera_info", ros.camera_info(0.0, rig.color_camera, color)),
+        (0.0, "/camera/depth/camera_info", ros.camera_info(0.0, rig.depth_camera, depth)),
+    ]
+    messages += [(ts, "/camera/color/image_raw", ros.image(ts, rgb, "rgb8", color)) for ts, rgb in recorded.colors]
+    messages += [(ts, "/camera/depth/image_rect_raw", ros.image(ts, d, "16UC1", depth)) for ts, d in recorded.depths]
+    write_bag(path, ros, messages)
 
 
 def write_realsense_bag(recorded: Recorded, path: Path) -> None:
@@ -336,3 +425,67 @@ def write_realsense_bag(recorded: Recorded, path: Path) -> None:
         sensor.stop()
         sensor.close()
     del recorder  # closes the file
+
+
+@dataclass(kw_only=True)
+class TinyFrames:
+    """A few small frames to write in a recording's layout and read back: what an import test
+    compares the capture folder with."""
+
+    camera: Camera  # colour's, depth registered to it
+    times_s: list[float]  # each frame's (both streams'; a writer may jitter them)
+    colors: list[np.ndarray]  # RGB uint8; constant over 2x2 blocks (chroma subsampling, Bayer keep them)
+    depths_m: list[np.ndarray]  # float64 metres on the millimetre grid, 0 where there is none
+
+
+def tiny_frames(n: int = 5, *, width: int = 16, height: int = 12, period_s: float = 1 / 30, seed: int = 0) -> TinyFrames:
+    rng = np.random.default_rng(seed)
+    camera = Camera(width=width, height=height, fx=20.0, fy=20.0, cx=(width - 1) / 2, cy=(height - 1) / 2)
+    blocks = [rng.integers(16, 240, (height // 2, width // 2, 3), dtype=np.uint8) for _ in range(n)]
+    colors = [np.repeat(np.repeat(b, 2, axis=0), 2, axis=1) for b in blocks]
+    depths = [np.round(rng.uniform(0.35, 0.95, (height, width)), 3) for _ in range(n)]
+    for depth in depths:
+        depth[rng.random(depth.shape) < 0.1] = 0.0
+    return TinyFrames(camera=camera, times_s=[0.5 + k * period_s for k in range(n)], colors=colors, depths_m=depths)
+
+
+def read_back(capture_dir: Path) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """A capture folder's colour (RGB) and depth (metres, 0 for none) frames in order."""
+    from turntable.capture import load_capture, read_color, read_depth
+
+    capture = load_capture(capture_dir)
+    colors = [read_color(f.color, capture.camera) for f in capture.frames]
+    depths = [np.nan_to_num(read_depth(f.depth, capture.camera), nan=0.0) for f in capture.frames]
+    return colors, depths
+
+
+def encode_rvl(image: np.ndarray) -> bytes:
+    """RVL of a uint16 image as the paper's encoder (and ROS 2's compressed_depth_image_transport)
+    writes it: 4-bit codes packed high end first into little-endian 32-bit words; runs of zeros
+    and of non-zero pixels, the latter as zigzag differences from the previous non-zero pixel."""
+    codes: list[int] = []
+
+    def put(value: int) -> None:
+        while True:
+            code, value = value & 0x7, value >> 3
+            codes.append(code | (0x8 if value else 0))
+            if not value:
+                return
+
+    flat = [int(v) for v in np.asarray(image).ravel()]
+    at, previous = 0, 0
+    while at < len(flat):
+        start = at
+        while at < len(flat) and flat[at] == 0:
+            at += 1
+        put(at - start)
+        start = at
+        while at < len(flat) and flat[at] != 0:
+            at += 1
+        put(at - start)
+        for value in flat[start:at]:
+            delta, previous = value - previous, value
+            put((delta << 1) ^ (delta >> 31))
+    codes += [0] * (-len(codes) % 8)
+    words = [int("".join(f"{c:x}" for c in codes[k : k + 8]), 16) for k in range(0, len(codes), 8)]
+    return np.array(words, "<u4").tobytes()

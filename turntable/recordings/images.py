@@ -10,8 +10,30 @@ import numpy as np
 from homemodel.core.errors import InputError
 from homemodel.core.images import read_image
 
-_COLOR_ENCODINGS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1, "8uc1": 1, "8uc3": 3}
+# sensor_msgs/image_encodings' colour encodings: bytes stored a pixel, and the name of OpenCV's
+# conversion to RGB (None: stored as RGB). ROS's "yuv422" is UYVY; "yuv422_yuy2" YUYV (Iron
+# names them "uyvy" and "yuyv"); OpenCV names a Bayer pattern by its second row, ROS by its first.
+_COLOR_ENCODINGS: dict[str, tuple[int, str | None]] = {
+    "rgb8": (3, None),
+    "8uc3": (3, None),
+    "bgr8": (3, "COLOR_BGR2RGB"),
+    "rgba8": (4, "COLOR_RGBA2RGB"),
+    "bgra8": (4, "COLOR_BGRA2RGB"),
+    "8uc4": (4, "COLOR_BGRA2RGB"),
+    "mono8": (1, "COLOR_GRAY2RGB"),
+    "8uc1": (1, "COLOR_GRAY2RGB"),
+    "yuv422": (2, "COLOR_YUV2RGB_UYVY"),
+    "uyvy": (2, "COLOR_YUV2RGB_UYVY"),
+    "yuv422_yuy2": (2, "COLOR_YUV2RGB_YUYV"),
+    "yuyv": (2, "COLOR_YUV2RGB_YUYV"),
+    "bayer_rggb8": (1, "COLOR_BayerBG2RGB"),
+    "bayer_bggr8": (1, "COLOR_BayerRG2RGB"),
+    "bayer_gbrg8": (1, "COLOR_BayerGR2RGB"),
+    "bayer_grbg8": (1, "COLOR_BayerGB2RGB"),
+}
 _DEPTH_ENCODINGS = {"16uc1": np.dtype("<u2"), "mono16": np.dtype("<u2"), "32fc1": np.dtype("<f4")}
+# compressed_depth_image_transport's ConfigHeader: the format, then two quantisation parameters.
+_COMPRESSED_DEPTH_HEADER = np.dtype([("format", "<i4"), ("quant_a", "<f4"), ("quant_b", "<f4")])
 
 
 def read_rgb(path: Path) -> np.ndarray:
@@ -56,26 +78,48 @@ def decode_image_message(message: object, where: str) -> np.ndarray:
         return image.astype(dtype.newbyteorder("="))
     if encoding not in _COLOR_ENCODINGS:
         raise InputError(f"{where}: image encoding {message.encoding!r} is neither colour nor depth")
-    channels = _COLOR_ENCODINGS[encoding]
-    image = rows[:, : width * channels].reshape(height, width, channels)
-    conversion = {
-        "bgr8": cv2.COLOR_BGR2RGB,
-        "rgba8": cv2.COLOR_RGBA2RGB,
-        "bgra8": cv2.COLOR_BGRA2RGB,
-        "mono8": cv2.COLOR_GRAY2RGB,
-        "8uc1": cv2.COLOR_GRAY2RGB,
-    }.get(encoding)
-    return np.ascontiguousarray(image if conversion is None else cv2.cvtColor(image, conversion))
+    channels, conversion = _COLOR_ENCODINGS[encoding]
+    image = np.ascontiguousarray(rows[:, : width * channels]).reshape(height, width, channels)
+    return image if conversion is None else cv2.cvtColor(image, getattr(cv2, conversion))
+
+
+def _compressed_depth(data: np.ndarray, form: str, where: str) -> np.ndarray:
+    """compressed_depth_image_transport's payload: a 12-byte header (format, two quantisation
+    parameters), then a 16-bit PNG (or, from ROS 2 Humble on, RVL: width, height, the codes).
+    16UC1 comes back as stored; 32FC1 was quantised as inverse depth, q = A / z + B (0: none)."""
+    import cv2
+
+    if len(data) < _COMPRESSED_DEPTH_HEADER.itemsize + 8:
+        raise InputError(f"{where}: a compressedDepth image of {len(data)} bytes has no room for its header")
+    header = data[: _COMPRESSED_DEPTH_HEADER.itemsize].view(_COMPRESSED_DEPTH_HEADER)[0]
+    quant_a, quant_b = float(header["quant_a"]), float(header["quant_b"])
+    payload = data[_COMPRESSED_DEPTH_HEADER.itemsize :]
+    if "rvl" in form:
+        from turntable.recordings.rvl import decode_rvl
+
+        width, height = (int(v) for v in payload[:8].view("<u4"))
+        image = decode_rvl(payload[8:], width, height, where)
+    else:
+        image = cv2.imdecode(payload, cv2.IMREAD_UNCHANGED)
+        if image is None or image.ndim != 2 or image.dtype != np.uint16:
+            raise InputError(f"{where}: a compressedDepth image ({form!r}) is not a 16-bit PNG after its header")
+    if not form.startswith("32fc1"):
+        return image
+    with np.errstate(divide="ignore"):
+        depth = (quant_a / (image.astype(np.float32) - np.float32(quant_b))).astype(np.float32)
+    depth[image == 0] = np.nan
+    return depth
 
 
 def decode_compressed_message(message: object, where: str) -> np.ndarray:
-    """A sensor_msgs/CompressedImage: JPEG/PNG colour, or compressedDepth (a 12-byte header before a PNG)."""
+    """A sensor_msgs/CompressedImage: JPEG/PNG colour (RGB), a 16-bit PNG depth, or
+    compressedDepth (uint16 units, or float32 metres for 32FC1)."""
     import cv2
 
     data = np.asarray(message.data, dtype=np.uint8)
     form = str(message.format).lower()
     if "compresseddepth" in form:
-        data = data[12:]
+        return _compressed_depth(data, form, where)
     image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     if image is None:
         raise InputError(f"{where}: a compressed image ({message.format!r}) does not decode")

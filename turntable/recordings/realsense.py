@@ -14,25 +14,12 @@ import numpy as np
 from homemodel.core.errors import InputError
 from homemodel.geometry.camera import Camera
 from turntable.recordings.associate import MAX_TOLERANCE_S, StreamAssociation
+from turntable.recordings.lens import refit_as_brown_conrady, undistort_inverse_brown_conrady
 from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
 
 _WAIT_S = 5.0  # a live camera without a frame this long has stalled
 _PLAYBACK_STALL_S = 60.0  # a playback ends by its status; this long without a frame, it hung
 _QUEUE_FRAMES = 8  # frames waiting for the reader (each held outside the SDK's pool)
-
-
-def fit_brown_conrady(undistorted: np.ndarray, distorted: np.ndarray) -> tuple[np.ndarray, float]:
-    """OpenCV Brown-Conrady k1 k2 p1 p2 k3 mapping normalised `undistorted` points onto
-    `distorted` ones, by linear least squares (the model is linear in its coefficients), and the
-    largest residual (normalised units)."""
-    x, y = undistorted[:, 0], undistorted[:, 1]
-    r2 = x * x + y * y
-    rows_x = np.column_stack([x * r2, x * r2 * r2, 2 * x * y, r2 + 2 * x * x, x * r2**3])
-    rows_y = np.column_stack([y * r2, y * r2 * r2, r2 + 2 * y * y, 2 * x * y, y * r2**3])
-    a = np.vstack([rows_x, rows_y])
-    b = np.concatenate([distorted[:, 0] - x, distorted[:, 1] - y])
-    coefficients = np.linalg.lstsq(a, b, rcond=None)[0]
-    return coefficients, float(np.max(np.abs(a @ coefficients - b)))
 
 
 def camera_from_intrinsics(intrinsics: object, depth_scale_m: float) -> tuple[Camera, list[str]]:
@@ -58,20 +45,10 @@ def camera_from_intrinsics(intrinsics: object, depth_scale_m: float) -> tuple[Ca
             notes.append("F-theta distortion read as Kannala-Brandt")
         fields = {"distortion": tuple(coeffs[:4]), "distortion_model": "kannala_brandt"}
     elif model == rs.distortion.inverse_brown_conrady:
-        # Its coefficients undistort: map a grid of image points through them and fit the
-        # forward (OpenCV) model to the pairs.
-        u, v = np.meshgrid(np.linspace(0, camera.width - 1, 40), np.linspace(0, camera.height - 1, 30))
-        distorted = np.column_stack([(u.ravel() - camera.cx) / camera.fx, (v.ravel() - camera.cy) / camera.fy])
-        k1, k2, p1, p2, k3 = coeffs
-        x, y = distorted[:, 0], distorted[:, 1]
-        r2 = x * x + y * y
-        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        undistorted = np.column_stack(
-            [x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * radial + 2 * p2 * x * y + p1 * (r2 + 2 * y * y)]
-        )
-        fitted, residual = fit_brown_conrady(undistorted, distorted)
-        notes.append(f"inverse Brown-Conrady refitted as Brown-Conrady ({residual * camera.fx:.3f} px at worst)")
-        fields = {"distortion": tuple(float(c) for c in fitted)}
+        # Its coefficients undistort: fit the forward (OpenCV) model to what they do.
+        refitted, residual_px = refit_as_brown_conrady(camera, undistort_inverse_brown_conrady(coeffs))
+        notes.append(f"inverse Brown-Conrady refitted as Brown-Conrady ({residual_px:.3f} px at worst)")
+        return refitted, notes
     else:
         if model == rs.distortion.modified_brown_conrady:
             notes.append("modified Brown-Conrady read as Brown-Conrady")

@@ -20,6 +20,7 @@ from turntable.recordings.images import (
     is_color_encoding,
     is_depth_encoding,
 )
+from turntable.recordings.lens import refit_as_brown_conrady, undistort_opencv
 from turntable.recordings.source import StreamSetup
 from turntable.recordings.timed import TimedStreamsSource
 
@@ -59,17 +60,18 @@ def camera_from_info(info: object, where: str) -> tuple[Camera, list[str]]:
     if k[0, 0] <= 0 or k[1, 1] <= 0 or width <= 0 or height <= 0:
         raise InputError(f"{where}: the CameraInfo has no intrinsics (K = {k.ravel().tolist()}, {width}x{height})")
     notes = []
-    fields: dict = {}
-    if model == "equidistant":
-        fields = {"distortion": tuple((d + [0.0] * 4)[:4]), "distortion_model": "kannala_brandt"}
-    elif any(d):
-        if model not in ("plumb_bob", "rational_polynomial", ""):
-            notes.append(f"{where}: distortion model {info.distortion_model!r} read as Brown-Conrady")
-        if any(d[5:]):
-            notes.append(f"{where}: rational terms k4-k6 {d[5:8]} dropped (Brown-Conrady keeps k1 k2 p1 p2 k3)")
-        fields = {"distortion": tuple((d + [0.0] * 5)[:5])}
     camera = Camera.from_matrix(k, width=width, height=height)
-    return Camera(**{**camera.model_dump(), **fields}), notes
+    if model == "equidistant":
+        return Camera(**{**camera.model_dump(), "distortion": tuple((d + [0.0] * 4)[:4]), "distortion_model": "kannala_brandt"}), notes
+    if not any(d):
+        return camera, notes
+    if model not in ("plumb_bob", "rational_polynomial", ""):
+        notes.append(f"{where}: distortion model {info.distortion_model!r} read as Brown-Conrady")
+    if any(d[5:]):  # k4-k6 (Azure Kinect's lenses need them): fit the five-term model to all eight
+        camera, residual_px = refit_as_brown_conrady(camera, undistort_opencv((d + [0.0] * 8)[:8]))
+        notes.append(f"{where}: rational terms k4-k6 {d[5:8]} refitted as Brown-Conrady ({residual_px:.3f} px at worst)")
+        return camera, notes
+    return Camera(**{**camera.model_dump(), "distortion": tuple((d + [0.0] * 5)[:5])}), notes
 
 
 class _TfTree:
@@ -103,6 +105,27 @@ def _transform_matrix(transform: object) -> np.ndarray:
     return matrix
 
 
+# Topic names that say the depth was registered to colour (realsense-ros, openni, Azure Kinect).
+_REGISTERED_NAMES = ("aligned_depth_to_color", "depth_registered", "depth_to_rgb", "depth_to_color")
+
+
+def image_base(connection: object) -> str:
+    """The image topic a connection carries: an image_transport plugin's topic
+    (`.../image_raw/compressed`, `.../compressedDepth`) less its plugin's name."""
+    if connection.msgtype == "sensor_msgs/msg/CompressedImage":
+        return connection.topic.rsplit("/", 1)[0]
+    return connection.topic
+
+
+def _namespace(connection: object) -> str:
+    return image_base(connection).rsplit("/", 1)[0]
+
+
+def _shared_prefix(a: str, b: str) -> int:
+    parts_a, parts_b = a.split("/"), b.split("/")
+    return next((n for n, (x, y) in enumerate(zip(parts_a, parts_b)) if x != y), min(len(parts_a), len(parts_b)))
+
+
 class RosBagSource(TimedStreamsSource):
     """Both ROS generations; `format` says which the importer named (ros1 or ros2)."""
 
@@ -113,39 +136,61 @@ class RosBagSource(TimedStreamsSource):
 
     def open(self) -> StreamSetup:
         from rosbags.highlevel import AnyReader, AnyReaderError
+        from rosbags.typesys import Stores, get_typestore
 
         try:
-            self._reader = AnyReader([bag_path(self.path)])
+            # Bags before ROS 2 Iron keep no message definitions: read them as Humble's.
+            self._reader = AnyReader([bag_path(self.path)], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
             self._reader.open()
         except (AnyReaderError, OSError, ValueError, KeyError) as exc:
             raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {exc}") from None
         where = str(self.path)
         reader = self._reader
-        images = [c for c in reader.connections if c.msgtype in IMAGE_TYPES]
+        images = {c.topic: c for c in reader.connections if c.msgtype in IMAGE_TYPES}
         self._depth_dtypes: dict[str, type] = {}
-        kinds = {c.topic: self._kind(c) for c in images}
-        colors = [c for c in images if kinds[c.topic] == "color"]
-        depths = [c for c in images if kinds[c.topic] == "depth"]
+        kinds = {topic: self._kind(c) for topic, c in images.items()}
+        colors = [c for topic, c in images.items() if kinds[topic] == "color"]
+        depths = [c for topic, c in images.items() if kinds[topic] == "depth"]
         if not depths:
-            raise InputError(f"{where}: no depth image topic (16UC1 or 32FC1); topics: {sorted(kinds)}")
+            raise InputError(f"{where}: no depth image topic (16UC1, 32FC1 or compressedDepth); topics: {sorted(kinds)}")
         if not colors:
             raise InputError(f"{where}: no colour image topic; topics: {sorted(kinds)}")
-        self._color = max(colors, key=lambda c: ("color" in c.topic or "rgb" in c.topic, -len(c.topic)))
-        self._depth = max(depths, key=lambda c: ("aligned_depth_to_color" in c.topic, "depth" in c.topic))
-        color_info = self._info_for(self._color.topic)
-        depth_info = self._info_for(self._depth.topic)
+        infos = {c.topic: self._info_for(c) for c in colors + depths}
+
+        def registered_to(color: object) -> list[object]:
+            info = infos[color.topic]
+            return [] if info is None else [d for d in depths if self._registered(d, infos[d.topic], info)]
+
+        # The colour camera's own stream (not infrared, nor colour resampled into the depth
+        # camera's pixels), one with a depth registered to it first, raw before compressed.
+        self._color = max(
+            colors,
+            key=lambda c: (
+                ("color" in c.topic or "rgb" in c.topic) and "to_depth" not in c.topic,
+                bool(registered_to(c)),
+                c.msgtype == "sensor_msgs/msg/Image",
+                -len(c.topic),
+            ),
+        )
+        color_info = infos[self._color.topic]
         if color_info is None:
             raise InputError(f"{where}: no intrinsics: no CameraInfo beside {self._color.topic}")
+        registered = registered_to(self._color)
+        self._depth = max(
+            depths,
+            key=lambda c: (
+                c in registered,
+                _shared_prefix(_namespace(c), _namespace(self._color)),
+                c.msgtype == "sensor_msgs/msg/Image",
+                "depth" in c.topic,
+            ),
+        )
+        depth_info = infos[self._depth.topic]
         color_camera, notes = camera_from_info(color_info, f"{where} {self._color.topic}")
         depth_scale = 0.001 if self._depth_dtypes[self._depth.topic] == np.uint16 else FLOAT_DEPTH_SCALE_M
         color_camera = Camera(**{**color_camera.model_dump(), "depth_scale_m": depth_scale})
         setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=notes)
-        registered = "aligned_depth_to_color" in self._depth.topic or (
-            depth_info is not None
-            and depth_info.header.frame_id == color_info.header.frame_id
-            and (depth_info.width, depth_info.height) == (color_info.width, color_info.height)
-        )
-        if not registered:
+        if self._depth not in registered:
             if depth_info is None:
                 raise InputError(f"{where}: no intrinsics for the unregistered depth: no CameraInfo beside {self._depth.topic}")
             setup.depth_camera, depth_notes = camera_from_info(depth_info, f"{where} {self._depth.topic}")
@@ -157,6 +202,15 @@ class RosBagSource(TimedStreamsSource):
                     "depth reprojected as if the two cameras sat at one point"
                 )
         return setup
+
+    @staticmethod
+    def _registered(depth: object, depth_info: object | None, color_info: object) -> bool:
+        """Depth in colour's pixels: said by its topic's name, or its CameraInfo is colour's."""
+        return any(name in depth.topic for name in _REGISTERED_NAMES) or (
+            depth_info is not None
+            and depth_info.header.frame_id == color_info.header.frame_id
+            and (depth_info.width, depth_info.height) == (color_info.width, color_info.height)
+        )
 
     def close(self) -> None:
         if self._reader is not None:
@@ -174,9 +228,9 @@ class RosBagSource(TimedStreamsSource):
             return None
         if connection.msgtype.endswith("CompressedImage"):
             form = str(message.format).lower()
-            depth = "compresseddepth" in form or "16uc1" in form or "depth" in connection.topic
+            depth = "compresseddepth" in form or "16uc1" in form or "32fc1" in form or "depth" in connection.topic
             if depth:
-                self._depth_dtypes[connection.topic] = np.uint16
+                self._depth_dtypes[connection.topic] = np.float32 if form.startswith("32fc1") else np.uint16
             return "depth" if depth else "color"
         encoding = str(message.encoding)
         if is_depth_encoding(encoding):
@@ -184,8 +238,9 @@ class RosBagSource(TimedStreamsSource):
             return "depth"
         return "color" if is_color_encoding(encoding) else None
 
-    def _info_for(self, image_topic: str) -> object | None:
-        namespace = image_topic.rsplit("/", 1)[0]
+    def _info_for(self, image: object) -> object | None:
+        """The CameraInfo beside an image topic (`.../color/camera_info` for `.../color/image_raw`)."""
+        namespace = _namespace(image)
         infos = [c for c in self._reader.connections if c.msgtype == INFO_TYPE and c.topic.rsplit("/", 1)[0] == namespace]
         return self._first(infos[0].topic) if infos else None
 
@@ -197,24 +252,35 @@ class RosBagSource(TimedStreamsSource):
                 tree.add(stamped.header.frame_id, stamped.child_frame_id, _transform_matrix(stamped.transform))
         return tree
 
-    def _messages(self) -> Iterator[tuple[str, int, object]]:
+    def _messages(self) -> Iterator[tuple[str, int, object, int]]:
+        """(kind, index in its stream, (connection, raw), log time ns) in the bag's order; every
+        connection of the two topics (a topic recorded from two publishers has two)."""
         counters = {"color": 0, "depth": 0}
-        kind_of = {id(self._color): "color", id(self._depth): "depth"}
-        for connection, _, raw in self._reader.messages(connections=[self._color, self._depth]):
-            kind = kind_of[id(connection)]
+        kind_of = {self._color.topic: "color", self._depth.topic: "depth"}
+        connections = [c for c in self._reader.connections if c.topic in kind_of]
+        for connection, log_ns, raw in self._reader.messages(connections=connections):
+            kind = kind_of[connection.topic]
             index = counters[kind]
             counters[kind] += 1
-            yield kind, index, (connection, raw)
+            yield kind, index, (connection, raw), log_ns
 
     def stream_times(self) -> tuple[np.ndarray, np.ndarray]:
-        times: dict[str, list[float]] = {"color": [], "depth": []}
-        for kind, _, (connection, raw) in self._messages():
-            times[kind].append(_stamp_s(self._reader.deserialize(raw, connection.msgtype)))
-        return np.array(times["color"]), np.array(times["depth"])
+        stamps: dict[str, list[float]] = {"color": [], "depth": []}
+        logged: dict[str, list[float]] = {"color": [], "depth": []}
+        for kind, _, (connection, raw), log_ns in self._messages():
+            stamps[kind].append(_stamp_s(self._reader.deserialize(raw, connection.msgtype)))
+            logged[kind].append(1e-9 * log_ns)
+        unstamped = [kind for kind in stamps if stamps[kind] and not any(stamps[kind])]
+        if unstamped:  # a driver that leaves the header's stamp at zero
+            self.setup.notes.append(
+                f"{' and '.join(unstamped)} images carry no time stamp: paired by the times the bag logged them"
+            )
+            stamps = logged
+        return np.array(stamps["color"]), np.array(stamps["depth"])
 
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
         wanted = {("color", i) for i, _ in chosen} | {("depth", j) for _, j in chosen}
-        for kind, index, (connection, raw) in self._messages():
+        for kind, index, (connection, raw), _ in self._messages():
             if (kind, index) not in wanted:
                 continue
             message = self._reader.deserialize(raw, connection.msgtype)

@@ -1,0 +1,345 @@
+"""ROS 1 and ROS 2 bags in the layouts real drivers and recorders write, imported (no
+reconstruction): small frames written with rosbags' writers (and a Humble bag's sqlite3 by
+hand), read back from the capture folder and compared with what was written."""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import recording_sim as rsim
+from homemodel.cli import app
+from homemodel.geometry.camera import Camera, load_camera
+from turntable.board import grid_board, save_board
+from turntable.recordings import ImportOptions, import_recording
+
+FRAMES = rsim.tiny_frames()
+COLOR_FRAME, DEPTH_FRAME = "camera_color_optical_frame", "camera_depth_optical_frame"
+
+
+@pytest.fixture(scope="module")
+def board(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("board") / "board.yaml"
+    save_board(grid_board(table_diameter_m=0.4, tag_size_m=0.04), path)
+    return path
+
+
+def _mm(depth_m: np.ndarray) -> np.ndarray:
+    return np.round(depth_m * 1000).astype(np.uint16)
+
+
+def _bt601(rgb: np.ndarray) -> np.ndarray:
+    """Y, U, V in video range, as UVC cameras and ROS's yuv422 drivers deliver them."""
+    r, g, b = (rgb[..., k].astype(np.float64) for k in range(3))
+    y = 16 + (65.481 * r + 128.553 * g + 24.966 * b) / 255
+    u = 128 + (-37.797 * r - 74.203 * g + 112.0 * b) / 255
+    v = 128 + (112.0 * r - 93.786 * g - 18.214 * b) / 255
+    return np.round(np.stack([y, u, v], axis=-1)).clip(0, 255).astype(np.uint8)
+
+
+def yuv422(rgb: np.ndarray, order: str) -> np.ndarray:
+    """(H, W, 2) bytes of a 4:2:2 image, `order` "uyvy" or "yuyv" (chroma of the pair's first pixel)."""
+    yuv = _bt601(rgb)
+    y, u, v = yuv[..., 0], yuv[:, 0::2, 1], yuv[:, 0::2, 2]
+    out = np.empty(rgb.shape[:2] + (2,), np.uint8)
+    chroma_first = order == "uyvy"
+    out[..., 1 if chroma_first else 0] = y
+    out[:, 0::2, 0 if chroma_first else 1] = u
+    out[:, 1::2, 0 if chroma_first else 1] = v
+    return out
+
+
+def bayer(rgb: np.ndarray, pattern: str) -> np.ndarray:
+    """The mosaic a sensor with the 2x2 `pattern` (ROS's name: rggb, grbg...) reads of `rgb`."""
+    channel = {"r": 0, "g": 1, "b": 2}
+    out = np.empty(rgb.shape[:2], np.uint8)
+    for k, letter in enumerate(pattern):
+        out[k // 2 :: 2, k % 2 :: 2] = rgb[k // 2 :: 2, k % 2 :: 2, channel[letter]]
+    return out
+
+
+def compressed_depth(depth_m: np.ndarray, encoding: str, *, rvl: bool = False) -> bytes:
+    """compressed_depth_image_transport's payload with its defaults (depth_quantization 100,
+    depth_max 10 m): 16UC1 as stored, 32FC1 as quantised inverse depth; PNG or ROS 2's RVL."""
+    import cv2
+
+    if encoding == "16UC1":
+        quant_a = quant_b = 0.0
+        units = _mm(depth_m)
+    else:
+        quant_a, quant_b = 100.0 * 101.0, 1.0 - 100.0 * 101.0 / 10.0
+        with np.errstate(divide="ignore"):
+            units = np.where(depth_m > 0, (quant_a / depth_m + quant_b), 0).astype(np.uint16)  # truncated, as ROS does
+    header = struct.pack("<iff", 0, quant_a, quant_b)
+    if rvl:
+        body = struct.pack("<II", units.shape[1], units.shape[0]) + rsim.encode_rvl(units)
+    else:
+        body = cv2.imencode(".png", units)[1].tobytes()
+    return header + body
+
+
+def jpeg(rgb: np.ndarray) -> bytes:
+    """image_transport's JPEG (OpenCV's encoder) at full chroma: with 4:2:0, decoding smooths the
+    random 2x2 colour blocks by up to 84 levels, which would hide a channel swap."""
+    import cv2
+
+    sampling = [cv2.IMWRITE_JPEG_SAMPLING_FACTOR, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_444]
+    return cv2.imencode(".jpg", rgb[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 100, *sampling])[1].tobytes()
+
+
+def _streams(
+    ros: rsim.RosMessages,
+    color: tuple[str, Callable[[float | None, int], object]],
+    depth: tuple[str, Callable[[float | None, int], object]],
+    *,
+    color_info: str,
+    depth_info: str | None = None,
+    stamped: bool = True,
+    camera: Camera = FRAMES.camera,
+    color_frame: str = COLOR_FRAME,
+) -> list[tuple[float, str, object]]:
+    """Both streams' messages 2 ms apart in each frame, and the CameraInfo beside each (depth
+    registered: colour's camera and frame)."""
+    messages = [(0.0, color_info, ros.camera_info(0.0, camera, color_frame))]
+    if depth_info:
+        messages.append((0.0, depth_info, ros.camera_info(0.0, camera, color_frame)))
+    for k, t in enumerate(FRAMES.times_s):
+        messages.append((t, color[0], color[1](t if stamped else None, k)))
+        messages.append((t + 0.002, depth[0], depth[1](t + 0.002 if stamped else None, k)))
+    return messages
+
+
+def _raw_color(ros: rsim.RosMessages, topic: str, encoding: str = "rgb8", frame: str = COLOR_FRAME) -> tuple:
+    convert = {
+        "rgb8": lambda c: c,
+        "bgr8": lambda c: c[..., ::-1],
+        "bgra8": lambda c: np.dstack([c[..., ::-1], np.full(c.shape[:2], 255, np.uint8)]),
+        "yuv422": lambda c: yuv422(c, "uyvy"),
+        "yuv422_yuy2": lambda c: yuv422(c, "yuyv"),
+    }[encoding]
+    return topic, lambda t, k: ros.image(t, convert(FRAMES.colors[k]), encoding, frame)
+
+
+def _raw_depth(ros: rsim.RosMessages, topic: str, encoding: str = "16UC1", frame: str = COLOR_FRAME) -> tuple:
+    convert = {"16UC1": _mm, "mono16": _mm, "32FC1": lambda d: np.where(d > 0, d, np.nan).astype(np.float32)}[encoding]
+    return topic, lambda t, k: ros.image(t, convert(FRAMES.depths_m[k]), encoding, frame)
+
+
+def _other_camera_streams(ros: rsim.RosMessages, namespace: str, depth_topic: str) -> list[tuple[float, str, object]]:
+    """A second, unregistered depth stream (another size and frame) and an infrared one: what
+    the driver also publishes and the importer must pass over."""
+    other = Camera(width=8, height=6, fx=10.0, fy=10.0, cx=3.5, cy=2.5)
+    messages = [(0.0, f"{namespace}/depth/camera_info", ros.camera_info(0.0, other, DEPTH_FRAME))]
+    for t in FRAMES.times_s:
+        messages.append((t, depth_topic, ros.image(t, np.full((6, 8), 400, np.uint16), "16UC1", DEPTH_FRAME)))
+        messages.append((t, f"{namespace}/infra1/image_rect_raw", ros.image(t, np.zeros((6, 8), np.uint8), "mono8", DEPTH_FRAME)))
+    return messages
+
+
+def realsense_ros1_lz4(folder: Path) -> Path:
+    """realsense2_camera (ROS 1) with align_depth, recorded `rosbag record --lz4`."""
+    ros = rsim.RosMessages(1)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
+        color_info="/camera/color/camera_info", depth_info="/camera/aligned_depth_to_color/camera_info",
+    )
+    messages += _other_camera_streams(ros, "/camera", "/camera/depth/image_rect_raw")
+    messages.append((0.0, "/tf_static", ros.tf_static([("camera_link", COLOR_FRAME, np.eye(4)), ("camera_link", DEPTH_FRAME, np.eye(4))])))
+    rsim.write_bag(folder / "realsense.bag", ros, messages, compression="lz4")
+    return folder / "realsense.bag"
+
+
+def realsense_ros2_humble(folder: Path) -> Path:
+    """realsense2_camera 4.x (ROS 2, its /camera/camera namespace) recorded by Humble's
+    `ros2 bag record`: no message definitions in the bag."""
+    ros = rsim.RosMessages(2)
+    ns = "/camera/camera"
+    messages = _streams(
+        ros, _raw_color(ros, f"{ns}/color/image_raw", "bgr8"), _raw_depth(ros, f"{ns}/aligned_depth_to_color/image_raw"),
+        color_info=f"{ns}/color/camera_info", depth_info=f"{ns}/aligned_depth_to_color/camera_info",
+    )
+    messages += _other_camera_streams(ros, ns, f"{ns}/depth/image_rect_raw")
+    rsim.write_humble_bag(folder / "humble_bag", ros, messages)
+    return folder / "humble_bag"
+
+
+def mcap_file(folder: Path) -> Path:
+    """A ROS 2 (Jazzy) bag in MCAP storage, given as its .mcap file alone, without metadata.yaml."""
+    import shutil
+
+    ros = rsim.RosMessages(2)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/depth_registered/image_rect", "32FC1"),
+        color_info="/camera/color/camera_info", depth_info="/camera/depth_registered/camera_info",
+    )
+    rsim.write_bag(folder / "jazzy", ros, messages, storage="mcap")
+    shutil.move(next((folder / "jazzy").glob("*.mcap")), folder / "scan.mcap")
+    return folder / "scan.mcap"
+
+
+def compressed_only(folder: Path) -> Path:
+    """Only image_transport's plugins recorded: colour as JPEG (`compressed`), depth as
+    `compressedDepth` PNG."""
+    ros = rsim.RosMessages(1)
+    color = ("/camera/color/image_raw/compressed", lambda t, k: ros.compressed(t, jpeg(FRAMES.colors[k]), "rgb8; jpeg compressed bgr8", COLOR_FRAME))
+    depth = (
+        "/camera/aligned_depth_to_color/image_raw/compressedDepth",
+        lambda t, k: ros.compressed(t, compressed_depth(FRAMES.depths_m[k], "16UC1"), "16UC1; compressedDepth png", COLOR_FRAME),
+    )
+    messages = _streams(ros, color, depth, color_info="/camera/color/camera_info", depth_info="/camera/aligned_depth_to_color/camera_info")
+    rsim.write_bag(folder / "compressed.bag", ros, messages)
+    return folder / "compressed.bag"
+
+
+def compressed_depth_ros2(folder: Path, *, encoding: str, rvl: bool, color_encoding: str) -> Path:
+    """compressedDepth in a ROS 2 sqlite3 bag: PNG, or RVL (Humble's compressed_depth_image_transport
+    with format rvl); of 16UC1, or of 32FC1 (inverse depth quantised)."""
+    ros = rsim.RosMessages(2)
+    form = f"{encoding}; compressedDepth {'rvl' if rvl else 'png'}"
+    depth = (
+        "/camera/aligned_depth_to_color/image_raw/compressedDepth",
+        lambda t, k: ros.compressed(t, compressed_depth(FRAMES.depths_m[k], encoding, rvl=rvl), form, COLOR_FRAME),
+    )
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw", color_encoding), depth,
+        color_info="/camera/color/camera_info", depth_info="/camera/aligned_depth_to_color/camera_info",
+    )
+    rsim.write_bag(folder / "compressed_depth", ros, messages)
+    return folder / "compressed_depth"
+
+
+def azure_kinect(folder: Path) -> Path:
+    """Azure_Kinect_ROS_Driver: BGRA colour, depth_to_rgb (registered) beside the raw depth and
+    a mono16 infrared, the colour lens as rational_polynomial with 8 coefficients."""
+    ros = rsim.RosMessages(1)
+    messages = _streams(
+        ros, _raw_color(ros, "/rgb/image_raw", "bgra8", "rgb_camera_link"), _raw_depth(ros, "/depth_to_rgb/image_raw", frame="rgb_camera_link"),
+        color_info="/rgb/camera_info", color_frame="rgb_camera_link",
+    )
+    messages[0] = (0.0, "/rgb/camera_info", ros.camera_info(0.0, FRAMES.camera, "rgb_camera_link", model="rational_polynomial", d=AZURE_D))
+    messages.append((0.0, "/depth_to_rgb/camera_info", ros.camera_info(0.0, FRAMES.camera, "rgb_camera_link", model="rational_polynomial", d=AZURE_D)))
+    for t in FRAMES.times_s:
+        messages.append((t, "/depth/image_raw", ros.image(t, np.full((6, 8), 400, np.uint16), "16UC1", "depth_camera_link")))
+        messages.append((t, "/ir/image_raw", ros.image(t, np.full((6, 8), 900, np.uint16), "mono16", "depth_camera_link")))
+    rsim.write_bag(folder / "azure.bag", ros, messages)
+    return folder / "azure.bag"
+
+
+# An Azure Kinect colour camera's k1 k2 p1 p2 k3 k4 k5 k6 (its rational terms are far from zero).
+AZURE_D = [0.52, -2.65, 0.0006, -0.0002, 1.51, 0.40, -2.48, 1.44]
+
+
+def kinect2(folder: Path) -> Path:
+    """iai_kinect2: hd, qhd and sd namespaces, one camera_info each; only qhd's depth is
+    registered to a colour stream recorded here."""
+    ros = rsim.RosMessages(1)
+    messages = _streams(
+        ros, _raw_color(ros, "/kinect2/qhd/image_color", "bgr8"), _raw_depth(ros, "/kinect2/qhd/image_depth_rect"),
+        color_info="/kinect2/qhd/camera_info",
+    )
+    hd = Camera(width=32, height=24, fx=40.0, fy=40.0, cx=15.5, cy=11.5)
+    sd = Camera(width=8, height=6, fx=10.0, fy=10.0, cx=3.5, cy=2.5)
+    messages += [(0.0, "/kinect2/hd/camera_info", ros.camera_info(0.0, hd, COLOR_FRAME)), (0.0, "/kinect2/sd/camera_info", ros.camera_info(0.0, sd, "kinect2_ir_optical_frame"))]
+    for t in FRAMES.times_s:
+        messages.append((t, "/kinect2/hd/image_color", ros.image(t, np.zeros((24, 32, 3), np.uint8), "bgr8", COLOR_FRAME)))
+        messages.append((t, "/kinect2/sd/image_depth", ros.image(t, np.full((6, 8), 400, np.uint16), "16UC1", "kinect2_ir_optical_frame")))
+    rsim.write_bag(folder / "kinect2.bag", ros, messages)
+    return folder / "kinect2.bag"
+
+
+def openni_bayer(folder: Path) -> Path:
+    """openni_launch (Kinect v1, Xtion): the raw Bayer colour and depth_registered."""
+    ros = rsim.RosMessages(1)
+    color = ("/camera/rgb/image_raw", lambda t, k: ros.image(t, bayer(UNIFORM[k], "grbg"), "bayer_grbg8", COLOR_FRAME))
+    messages = _streams(ros, color, _raw_depth(ros, "/camera/depth_registered/image_raw"), color_info="/camera/rgb/camera_info")
+    rsim.write_bag(folder / "openni.bag", ros, messages)
+    return folder / "openni.bag"
+
+
+# Uniform frames for the Bayer mosaic (demosaicing interpolates, exactly so only on flat colour).
+UNIFORM = [np.broadcast_to(np.array(c, np.uint8), FRAMES.colors[0].shape).copy() for c in ([200, 40, 90], [30, 180, 60], [90, 20, 230], [128, 128, 128], [250, 250, 10])]
+
+
+def unstamped(folder: Path) -> Path:
+    """A driver that leaves header.stamp at zero: the bag's own log times pair the frames."""
+    ros = rsim.RosMessages(1)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
+        color_info="/camera/color/camera_info", stamped=False,
+    )
+    rsim.write_bag(folder / "unstamped.bag", ros, messages)
+    return folder / "unstamped.bag"
+
+
+VARIANTS = {
+    # name: (writer, format told, colour tolerance, depth tolerance m, expected colours)
+    "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
+    "realsense-ros2-humble-no-definitions": (realsense_ros2_humble, "ros2", 0, 0.0, FRAMES.colors),
+    "ros2-mcap-file-32FC1": (mcap_file, "ros2", 0, 0.0, FRAMES.colors),
+    "compressed-jpeg-and-compressedDepth-png": (compressed_only, "ros1", 3, 0.0, FRAMES.colors),
+    "compressedDepth-32FC1-and-uyvy": (
+        partial(compressed_depth_ros2, encoding="32FC1", rvl=False, color_encoding="yuv422"), "ros2", 3, 2e-4, FRAMES.colors
+    ),
+    "compressedDepth-rvl-and-yuyv": (
+        partial(compressed_depth_ros2, encoding="16UC1", rvl=True, color_encoding="yuv422_yuy2"), "ros2", 3, 0.0, FRAMES.colors
+    ),
+    "azure-kinect-bgra8-rational": (azure_kinect, "ros1", 0, 0.0, FRAMES.colors),
+    "kinect2-namespaces": (kinect2, "ros1", 0, 0.0, FRAMES.colors),
+    "openni-bayer-depth-registered": (openni_bayer, "ros1", 2, 0.0, UNIFORM),
+    "unstamped": (unstamped, "ros1", 0, 0.0, FRAMES.colors),
+}
+
+
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_each_layout_imports_its_frames(name: str, board: Path, tmp_path: Path) -> None:
+    write, told, color_tolerance, depth_tolerance_m, colors = VARIANTS[name]
+    recording = write(tmp_path)
+    report = import_recording(recording, board, tmp_path / "capture", ImportOptions())
+    assert report.format == told and report.registration == "recording", report
+    assert report.frames_written == len(FRAMES.times_s) and report.pairs_associated == len(FRAMES.times_s)
+    read_colors, read_depths = rsim.read_back(tmp_path / "capture")
+    for k, (color, depth) in enumerate(zip(read_colors, read_depths)):
+        assert np.abs(color.astype(int) - colors[k].astype(int)).max() <= color_tolerance, (name, k)
+        truth = FRAMES.depths_m[k]
+        assert np.array_equal(depth > 0, truth > 0), (name, k)  # no depth stays none
+        assert np.abs(depth - truth).max() <= depth_tolerance_m + 1e-6, (name, k)  # float32 read back
+
+
+def test_unstamped_frames_are_said_to_be_paired_by_log_time(board: Path, tmp_path: Path) -> None:
+    report = import_recording(unstamped(tmp_path), board, tmp_path / "capture", ImportOptions())
+    assert any("no time stamp" in note for note in report.notes)
+    assert report.max_time_offset_ms == pytest.approx(2.0, abs=0.01)
+
+
+def test_rational_lens_refitted_to_the_projection_it_makes(board: Path, tmp_path: Path) -> None:
+    """The 8-coefficient lens (OpenCV's rational model) becomes five Brown-Conrady terms that
+    project every pixel's ray within a tenth of a pixel of where the eight put it."""
+    import cv2
+
+    report = import_recording(azure_kinect(tmp_path), board, tmp_path / "capture", ImportOptions())
+    assert any("refitted" in note for note in report.notes)
+    camera = load_camera(tmp_path / "capture" / "camera.yaml")
+    u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
+    pixels = np.column_stack([u.ravel(), v.ravel()]).astype(np.float64)
+    rays = cv2.undistortPointsIter(
+        pixels.reshape(-1, 1, 2), FRAMES.camera.matrix, np.array(AZURE_D), None, None,
+        (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12),
+    ).reshape(-1, 2)
+    projected = camera.project(np.column_stack([rays, np.ones(len(rays))]))
+    assert np.abs(projected - pixels).max() < 0.1
+
+
+def test_a_broken_compressed_depth_is_refused_in_one_line(board: Path, tmp_path: Path) -> None:
+    ros = rsim.RosMessages(2)
+    depth = ("/camera/depth/image_raw/compressedDepth", lambda t, k: ros.compressed(t, compressed_depth(FRAMES.depths_m[k], "16UC1", rvl=True)[:40], "16UC1; compressedDepth rvl", COLOR_FRAME))
+    messages = _streams(ros, _raw_color(ros, "/camera/color/image_raw"), depth, color_info="/camera/color/camera_info", depth_info="/camera/depth/camera_info")
+    rsim.write_bag(tmp_path / "broken", ros, messages)
+    result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / "broken"), "--board", str(board), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "an RVL depth image" in result.output and "broken" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
