@@ -6,7 +6,8 @@ from pathlib import Path
 from typing import Literal, get_args
 
 from homemodel.core.errors import InputError
-from turntable.recordings.open3d_folder import COLOR_FOLDERS, INTRINSICS_FILES
+from turntable.recordings.open3d_folder import COLOR_FOLDERS, intrinsics_file
+from turntable.recordings.tum import LISTS, associations_file
 
 RecordingFormat = Literal["realsense-bag", "ros1", "ros2", "tum", "open3d"]
 FORMATS: tuple[str, ...] = get_args(RecordingFormat)
@@ -35,13 +36,11 @@ def detect_format(path: Path) -> str:
         raise InputError(f"{path}: cannot tell the recording's format (a .bag, .db3 or .mcap file?); give --format")
     if (path / "metadata.yaml").is_file():
         return "ros2"
-    if (path / "rgb.txt").is_file() or (path / "depth.txt").is_file():
+    if any((path / name).is_file() for name in LISTS) or associations_file(path) is not None:
         return "tum"
-    if (path / "depth").is_dir() and (
-        any((path / n).is_dir() for n in COLOR_FOLDERS) or any((path / n).is_file() for n in INTRINSICS_FILES)
-    ):
+    if (path / "depth").is_dir() and (any((path / n).is_dir() for n in COLOR_FOLDERS) or intrinsics_file(path)):
         return "open3d"
     raise InputError(
-        f"{path}: cannot tell the recording's format (no metadata.yaml, rgb.txt/depth.txt, or depth/ "
-        "beside color/); give --format"
+        f"{path}: cannot tell the recording's format (no metadata.yaml, rgb.txt/depth.txt or associations.txt, "
+        "or depth/ beside color/); give --format"
     )

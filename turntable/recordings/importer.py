@@ -28,7 +28,7 @@ _INTRINSICS_TOLERANCE_PX = 1.0
 @dataclass(kw_only=True)
 class ImportOptions:
     format: RecordingFormat | None = None  # None: detected from the path
-    camera_path: Path | None = None  # camera.yaml for recordings without intrinsics (TUM)
+    camera_path: Path | None = None  # camera.yaml for recordings without intrinsics (TUM, Redwood scans)
     every: int = 1  # keep every N-th associated pair
     start_s: float = 0.0  # from the recording's first frame
     end_s: float | None = None
@@ -86,7 +86,7 @@ def open_recording(path: Path, options: ImportOptions) -> FrameSource:
         return TumSource(path, camera=camera, **timed)
     from turntable.recordings.open3d_folder import Open3dSource
 
-    return Open3dSource(path, **timed)
+    return Open3dSource(path, camera=camera, **timed)
 
 
 def intrinsics_disagreement(given: Camera, found: Camera) -> list[str]:

@@ -1,13 +1,19 @@
-"""Open3D / Redwood RGB-D folders: `color/` (or `image/`, `rgb/`), `depth/` (16-bit PNG,
-1 mm unless the intrinsics file says `depth_scale` units a metre), and `intrinsic.json` or
-`camera_intrinsic.json` (Open3D's PinholeCameraIntrinsic: width, height, a column-major
-`intrinsic_matrix`), as Open3D's RealSense recorder and its reconstruction system write them.
-Depth is registered to colour. The frames carry no times: they pair by order, 1/30 s apart
-(the recorder's rate)."""
+"""Open3D / Redwood RGB-D folders: `color/` (or `image/`, `rgb/`), `depth/` (16-bit PNG), and
+the intrinsics as Open3D's PinholeCameraIntrinsic JSON (width, height, a column-major
+`intrinsic_matrix`): `intrinsic.json` (Open3D's RSBagReader.save_frames, with `depth_scale`
+units a metre), `camera_intrinsic.json` (its RealSense recorder), `camera_primesense.json`
+(its Redwood sample), or any JSON in the folder holding an `intrinsic_matrix`. Without one,
+the camera comes from `--camera` (Redwood's object scans ship none). Depth is registered to
+colour, 1 mm unless `depth_scale` says otherwise.
+
+Frames are numbered files (`00000.jpg`, or `0.png`, `1.png`, ... in number order) paired by
+order, 1/30 s apart (the recorders' rate); Redwood's scans name each frame
+`NNNNNNN-TTTTTTTTTTTT` (its number, its time in microseconds), and those pair by time."""
 
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -23,10 +29,17 @@ from turntable.recordings.timed import TimedStreamsSource
 COLOR_FOLDERS = ("color", "image", "rgb")
 INTRINSICS_FILES = ("intrinsic.json", "camera_intrinsic.json")
 FRAME_PERIOD_S = 1 / 30
+_REDWOOD_NAME = re.compile(r"^\d+-(\d+)$")  # frame number - microseconds
+
+
+def _number_order(path: Path) -> tuple:
+    """`10.png` after `9.png`: runs of digits compared as numbers."""
+    return tuple(int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.stem))
 
 
 def _frames(folder: Path, suffixes: tuple[str, ...]) -> list[Path]:
-    return sorted(p for p in folder.iterdir() if p.suffix.lower() in suffixes and not p.name.startswith("."))
+    found = (p for p in folder.iterdir() if p.suffix.lower() in suffixes and not p.name.startswith("."))
+    return sorted(found, key=_number_order)
 
 
 def read_intrinsics(path: Path) -> tuple[Camera, str | None]:
@@ -38,33 +51,70 @@ def read_intrinsics(path: Path) -> tuple[Camera, str | None]:
         per_metre = data.get("depth_scale")
         scale = 0.001 if per_metre is None else 1.0 / float(per_metre)
         camera = Camera(**{**camera.model_dump(), "depth_scale_m": scale})
-    except (ValueError, KeyError, TypeError, RecursionError) as exc:
+    except (ValueError, KeyError, TypeError, RecursionError, ZeroDivisionError) as exc:
         raise InputError(f"{path}: not an Open3D camera intrinsic file: {exc}") from None
     return camera, None if per_metre is not None else "depth units 1 mm (Open3D's default; no depth_scale in the file)"
 
 
+def intrinsics_file(folder: Path) -> Path | None:
+    """The folder's PinholeCameraIntrinsic JSON: a known name first, else any JSON with an
+    intrinsic_matrix (Open3D reads whatever name its caller gives)."""
+    named = next((folder / n for n in INTRINSICS_FILES if (folder / n).is_file()), None)
+    if named is not None:
+        return named
+    for path in sorted(folder.glob("*.json")):
+        if path.stat().st_size < 1 << 20 and b'"intrinsic_matrix"' in read_bounded(path, 1 << 20):
+            return path
+    return None
+
+
+def _redwood_times_s(files: list[Path]) -> np.ndarray | None:
+    matches = [_REDWOOD_NAME.match(p.stem) for p in files]
+    if not files or not all(matches):
+        return None
+    return np.array([1e-6 * int(m.group(1)) for m in matches])
+
+
 class Open3dSource(TimedStreamsSource):
+    def __init__(self, path: Path, *, camera: Camera | None = None, **kwargs: object) -> None:
+        super().__init__(path, **kwargs)
+        self.camera = camera
+
     def open(self) -> StreamSetup:
         color_dir = next((self.path / n for n in COLOR_FOLDERS if (self.path / n).is_dir()), None)
         if color_dir is None:
             raise InputError(f"{self.path}: no colour folder (one of {', '.join(COLOR_FOLDERS)})")
         if not (self.path / "depth").is_dir():
             raise InputError(f"{self.path}: no depth folder (depth/)")
-        intrinsics = next((self.path / n for n in INTRINSICS_FILES if (self.path / n).is_file()), None)
-        if intrinsics is None:
-            raise InputError(f"{self.path}: no intrinsics ({' or '.join(INTRINSICS_FILES)})")
-        camera, note = read_intrinsics(intrinsics)
+        intrinsics = intrinsics_file(self.path)
+        notes = []
+        if intrinsics is not None:
+            camera, note = read_intrinsics(intrinsics)
+            notes += [note] if note else []
+            intrinsics_from = "recording"
+        elif self.camera is not None:
+            camera, intrinsics_from = self.camera, "--camera"
+        else:
+            raise InputError(
+                f"{self.path}: no intrinsics ({' or '.join(INTRINSICS_FILES)}, or a JSON with an intrinsic_matrix); "
+                "give them with --camera camera.yaml"
+            )
         self._colors = _frames(color_dir, (".png", ".jpg", ".jpeg"))
         self._depths = _frames(self.path / "depth", (".png",))
         if not self._depths:
             raise InputError(f"{self.path / 'depth'}: no depth images")
-        if len(self._colors) != len(self._depths):  # then only frames with a common stem pair
-            stems = {p.stem for p in self._colors} & {p.stem for p in self._depths}
-            self._colors = [p for p in self._colors if p.stem in stems]
-            self._depths = [p for p in self._depths if p.stem in stems]
-        return StreamSetup(format="open3d", color_camera=camera, notes=[note] if note else [])
+        self._times = (_redwood_times_s(self._colors), _redwood_times_s(self._depths))
+        if self._times[0] is None or self._times[1] is None:
+            self._times = None
+            if len(self._colors) != len(self._depths):  # then only frames with a common stem pair
+                stems = {p.stem for p in self._colors} & {p.stem for p in self._depths}
+                self._colors = [p for p in self._colors if p.stem in stems]
+                self._depths = [p for p in self._depths if p.stem in stems]
+        return StreamSetup(format="open3d", color_camera=camera, intrinsics_from=intrinsics_from, notes=notes)
 
     def stream_times(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._times is not None:
+            return self._times
         return np.arange(len(self._colors)) * FRAME_PERIOD_S, np.arange(len(self._depths)) * FRAME_PERIOD_S
 
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:

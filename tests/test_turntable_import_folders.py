@@ -1,0 +1,214 @@
+"""TUM and Open3D/Redwood folders as the datasets and tools ship them, imported (no
+reconstruction) and read back against the frames written: the TUM benchmark, TUM's
+associate.py output alone, ICL-NUIM (depth first, frame numbers), ETH3D (its calibration.txt);
+Open3D's RSBagReader.save_frames, its RealSense recorder and Redwood sample (intrinsics JSON
+written by Open3D itself), Redwood's object scans (times in the names, no intrinsics), frames
+numbered without padding."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import recording_sim as rsim
+from homemodel.cli import app
+from homemodel.geometry.camera import Camera, load_camera, save_camera
+from turntable.board import grid_board, save_board
+from turntable.recordings import ImportOptions, detect_format, import_recording
+
+FRAMES = rsim.tiny_frames(12)  # 12: "10.png" sorts before "2.png" by name
+TUM_START_S = 1305031102.0
+
+
+@pytest.fixture(scope="module")
+def board(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("board") / "board.yaml"
+    save_board(grid_board(table_diameter_m=0.4, tag_size_m=0.04), path)
+    return path
+
+
+def _write(path: Path, image: np.ndarray) -> None:
+    """RGB colour (JPEG at full chroma and quality, else PNG) or uint16 depth."""
+    import cv2
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if image.ndim == 3:
+        jpeg = [cv2.IMWRITE_JPEG_QUALITY, 100, cv2.IMWRITE_JPEG_SAMPLING_FACTOR, cv2.IMWRITE_JPEG_SAMPLING_FACTOR_444]
+        assert cv2.imwrite(str(path), image[..., ::-1], jpeg if path.suffix == ".jpg" else [])
+    else:
+        assert cv2.imwrite(str(path), image)
+
+
+def _units(depth_m: np.ndarray, per_metre: float) -> np.ndarray:
+    return np.round(depth_m * per_metre).astype(np.uint16)
+
+
+def _tum_files(folder: Path, *, depth_delay_s: float = 0.012) -> tuple[list[str], list[str]]:
+    """rgb/ and depth/ named by their float time stamps as the TUM benchmark names them; the
+    "timestamp path" lines."""
+    color_lines, depth_lines = [], []
+    for k, t in enumerate(FRAMES.times_s):
+        tc, td = TUM_START_S + t, TUM_START_S + t + depth_delay_s
+        _write(folder / f"rgb/{tc:.6f}.png", FRAMES.colors[k])
+        _write(folder / f"depth/{td:.6f}.png", _units(FRAMES.depths_m[k], 5000))
+        color_lines.append(f"{tc:.6f} rgb/{tc:.6f}.png")
+        depth_lines.append(f"{td:.6f} depth/{td:.6f}.png")
+    return color_lines, depth_lines
+
+
+def tum_benchmark(folder: Path) -> Path:
+    """rgbd_dataset_freiburg*: the two lists with their three comment lines, ground truth and
+    accelerometer beside them."""
+    color, depth = _tum_files(folder)
+    header = "# {} maps\n# file: 'rgbd_dataset_freiburg1_xyz.bag'\n# timestamp filename\n"
+    (folder / "rgb.txt").write_text(header.format("color images") + "\n".join(color) + "\n")
+    (folder / "depth.txt").write_text(header.format("depth") + "\n".join(depth) + "\n")
+    (folder / "groundtruth.txt").write_text("# ground truth trajectory\n# timestamp tx ty tz qx qy qz qw\n")
+    (folder / "accelerometer.txt").write_text("# accelerometer data\n# timestamp ax ay az\n")
+    return folder
+
+
+def tum_associations_only(folder: Path) -> Path:
+    """What ORB-SLAM's examples read: associate.py's "time rgb time depth" lines, no lists."""
+    color, depth = _tum_files(folder)
+    (folder / "associations.txt").write_text("\n".join(f"{c} {d}" for c, d in zip(color, depth)) + "\n")
+    return folder
+
+
+def icl_nuim(folder: Path) -> Path:
+    """ICL-NUIM's TUM-compatible sequences: "n depth/n.png n rgb/n.png", depth first."""
+    lines = []
+    for k in range(len(FRAMES.times_s)):
+        _write(folder / f"rgb/{k}.png", FRAMES.colors[k])
+        _write(folder / f"depth/{k}.png", _units(FRAMES.depths_m[k], 5000))
+        lines.append(f"{k} depth/{k}.png {k} rgb/{k}.png")
+    (folder / "associations.txt").write_text("\n".join(lines) + "\n")
+    return folder
+
+
+def eth3d(folder: Path) -> Path:
+    """ETH3D's SLAM benchmark: TUM's lists, associated.txt, and calibration.txt "fx fy cx cy"."""
+    tum_benchmark(folder)
+    camera = FRAMES.camera
+    (folder / "calibration.txt").write_text(f"{camera.fx} {camera.fy} {camera.cx} {camera.cy}\n")
+    return folder
+
+
+def _write_open3d_intrinsic(path: Path, camera: Camera) -> None:
+    """Open3D's own writer of a PinholeCameraIntrinsic (column-major intrinsic_matrix)."""
+    import open3d as o3d
+
+    intrinsic = o3d.camera.PinholeCameraIntrinsic(camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
+    assert o3d.io.write_pinhole_camera_intrinsic(str(path), intrinsic)
+
+
+def _numbered(folder: Path, names: Callable[[int], tuple[str, str]], per_metre: float) -> None:
+    for k in range(len(FRAMES.times_s)):
+        color, depth = names(k)
+        _write(folder / color, FRAMES.colors[k])
+        _write(folder / depth, _units(FRAMES.depths_m[k], per_metre))
+
+
+def open3d_save_frames_d405(folder: Path) -> Path:
+    """RSBagReader.save_frames of a D405 recording: color/00000.jpg, depth/00000.png in 0.1 mm,
+    intrinsic.json its metadata (the intrinsics with depth_scale 10000, fps, formats)."""
+    import json
+
+    _numbered(folder, lambda k: (f"color/{k:05d}.jpg", f"depth/{k:05d}.png"), 10000)
+    _write_open3d_intrinsic(folder / "intrinsic.json", FRAMES.camera)
+    metadata = json.loads((folder / "intrinsic.json").read_text())
+    metadata.update(depth_scale=10000.0, fps=30, device_name="Intel RealSense D405", serial_number="123622270224",
+                    color_format="RGB8", depth_format="Z16", color_channels=3, stream_length_usec=400000)
+    (folder / "intrinsic.json").write_text(json.dumps(metadata, indent=4))
+    return folder
+
+
+def open3d_realsense_recorder(folder: Path) -> Path:
+    """examples/python/reconstruction_system/sensors/realsense_recorder.py: color/000000.jpg,
+    depth/000000.png in mm, camera_intrinsic.json without a depth scale."""
+    _numbered(folder, lambda k: (f"color/{k:06d}.jpg", f"depth/{k:06d}.png"), 1000)
+    _write_open3d_intrinsic(folder / "camera_intrinsic.json", FRAMES.camera)
+    return folder
+
+
+def redwood_sample(folder: Path) -> Path:
+    """Open3D's SampleRedwoodRGBDImages: color/, depth/, camera_primesense.json, trajectory.log."""
+    _numbered(folder, lambda k: (f"color/{k:05d}.jpg", f"depth/{k:05d}.png"), 1000)
+    _write_open3d_intrinsic(folder / "camera_primesense.json", FRAMES.camera)
+    (folder / "trajectory.log").write_text("0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n")
+    return folder
+
+
+def unpadded_numbers(folder: Path) -> Path:
+    _numbered(folder, lambda k: (f"image/{k}.png", f"depth/{k}.png"), 1000)
+    _write_open3d_intrinsic(folder / "intrinsic.json", FRAMES.camera)
+    return folder
+
+
+def redwood_object_scan(folder: Path) -> Path:
+    """Redwood's object scans: rgb/ and depth/ named frame-microseconds, the depth frames 5 ms
+    after the colour ones and numbered on their own, one depth frame missing, no intrinsics
+    (its camera from --camera); read with one colour frame more than depth frames."""
+    for k, t in enumerate(FRAMES.times_s):
+        _write(folder / f"rgb/{k + 1:07d}-{round(t * 1e6):012d}.jpg", FRAMES.colors[k])
+    depth_numbers = [k for k in range(len(FRAMES.times_s)) if k != 6]
+    for n, k in enumerate(depth_numbers):
+        _write(folder / f"depth/{n + 1:07d}-{round((FRAMES.times_s[k] + 0.005) * 1e6):012d}.png", _units(FRAMES.depths_m[k], 1000))
+    return folder
+
+
+VARIANTS = {
+    # name: (writer, format told, needs --camera, JPEG colour, frames missing)
+    "tum-benchmark": (tum_benchmark, "tum", True, False, ()),
+    "tum-associations-only": (tum_associations_only, "tum", True, False, ()),
+    "icl-nuim-depth-first": (icl_nuim, "tum", True, False, ()),
+    "eth3d-calibration": (eth3d, "tum", False, False, ()),
+    "open3d-save-frames-d405": (open3d_save_frames_d405, "open3d", False, True, ()),
+    "open3d-realsense-recorder": (open3d_realsense_recorder, "open3d", False, True, ()),
+    "redwood-sample": (redwood_sample, "open3d", False, True, ()),
+    "unpadded-numbers": (unpadded_numbers, "open3d", False, False, ()),
+    "redwood-object-scan": (redwood_object_scan, "open3d", True, True, (6,)),
+}
+SCALES = {"tum": 1 / 5000, "open3d-save-frames-d405": 1e-4}
+
+
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_each_layout_imports_its_frames(name: str, board: Path, tmp_path: Path) -> None:
+    write, told, needs_camera, lossy, missing = VARIANTS[name]
+    recording = write(tmp_path / "recording")
+    assert detect_format(recording) == told
+    camera_path = None
+    if needs_camera:
+        camera_path = tmp_path / "camera.yaml"
+        save_camera(FRAMES.camera, camera_path)
+    report = import_recording(recording, board, tmp_path / "capture", ImportOptions(camera_path=camera_path))
+    kept = [k for k in range(len(FRAMES.times_s)) if k not in missing]
+    assert report.format == told and report.frames_written == len(kept), report
+    assert report.intrinsics_from == ("--camera" if needs_camera else "recording")
+    camera = load_camera(tmp_path / "capture" / "camera.yaml")
+    scale = SCALES.get(name, SCALES.get(told, 1e-3))
+    assert (camera.fx, camera.cx, camera.width) == (FRAMES.camera.fx, FRAMES.camera.cx, FRAMES.camera.width)
+    assert camera.depth_scale_m == pytest.approx(scale)
+    colors, depths = rsim.read_back(tmp_path / "capture")
+    for k, color, depth in zip(kept, colors, depths, strict=True):
+        assert np.abs(color.astype(int) - FRAMES.colors[k].astype(int)).max() <= (3 if lossy else 0), (name, k)
+        truth = FRAMES.depths_m[k]
+        assert np.array_equal(depth > 0, truth > 0) and np.abs(depth - truth).max() < 1e-6, (name, k)
+
+
+def test_calibration_txt_wins_over_the_camera_given(board: Path, tmp_path: Path) -> None:
+    given = tmp_path / "camera.yaml"
+    save_camera(Camera(**{**FRAMES.camera.model_dump(), "fx": 30.0}), given)
+    report = import_recording(eth3d(tmp_path / "recording"), board, tmp_path / "capture", ImportOptions(camera_path=given))
+    assert report.intrinsics_disagreement == ["--camera: fx 30.00 vs the recording's 20.00 (the recording's kept)"]
+
+
+def test_a_scan_without_intrinsics_is_refused_in_one_line(board: Path, tmp_path: Path) -> None:
+    recording = redwood_object_scan(tmp_path / "scan")
+    result = CliRunner().invoke(app, ["turntable", "import", str(recording), "--board", str(board), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "no intrinsics" in result.output and "--camera" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
