@@ -8,9 +8,11 @@ import sys
 
 def main() -> None:
     try:
+        from homemodel.core.deferred_imports import defer_networkx
         from homemodel.core.interrupts import raise_if_interrupted, remember_interrupts
 
         remember_interrupts()
+        defer_networkx()  # trimesh's import without networkx's 0.08 CPU-s, for what never uses it
         from homemodel.cli.commands import main as run_command_line
 
         raise_if_interrupted()
