@@ -105,12 +105,16 @@ def fidelity(
     to_real: SurfaceDistance | None = None,
     samples: int = _SAMPLES,
     seed: int = _SEED,
+    hold_real: bool = False,
 ) -> Fidelity:
     """How far convex `shapes` reach past the `real` surface (points on a shape inside the real
     solid, where parts meet inside a wall, count as zero: by ray parity, which a nearly closed
     scan with a few holes still answers for most points) and how
     far the real surface lies outside all of them (zero inside any). `to_real`: `real`'s
-    distance measure already built (a large surface measured against several decompositions)."""
+    distance measure already built (a large surface measured against several decompositions).
+    `hold_real`: the shapes hold all of `real` (its convex hull), so no point of it lies outside
+    them and the gap is zero unmeasured (testing 2,000 points against a completion's hull of
+    1,254 faces cost 0.02 CPU-s)."""
     rng = np.random.default_rng(seed)
     to_real = to_real or SurfaceDistance(real)
     # Every shape's samples measured in one batch (one ray-parity pass, not one per shape);
@@ -128,11 +132,12 @@ def fidelity(
     weights = np.concatenate([np.full(samples, shape.area / samples) for shape in shapes])[order]
     at_95 = np.searchsorted(np.cumsum(weights), 0.95 * weights.sum())
     overshoot_all = float(np.concatenate(distances)[order][min(at_95, len(order) - 1)])
-    points, _ = trimesh.sample.sample_surface(real, 4 * samples, seed=int(rng.integers(1 << 31)))
-    gap = np.zeros(len(points))
-    uncovered = ~_covered(shapes, points, tolerance=1e-6 * float(real.scale))
-    if uncovered.any():
-        gap[uncovered] = SurfaceDistance(trimesh.util.concatenate(shapes)).distances(points[uncovered])
+    gap = np.zeros(4 * samples)
+    if not hold_real:
+        points, _ = trimesh.sample.sample_surface(real, 4 * samples, seed=int(rng.integers(1 << 31)))
+        uncovered = ~_covered(shapes, points, tolerance=1e-6 * float(real.scale))
+        if uncovered.any():
+            gap[uncovered] = SurfaceDistance(trimesh.util.concatenate(shapes)).distances(points[uncovered])
     return Fidelity(
         overshoot_m=np.array(overshoots),
         overshoot_all_m=overshoot_all,
@@ -163,7 +168,8 @@ def _measured(
     """The `Decomposition` of convex `meshes` against `surface`; `inside`: points of its solid."""
     fit = fidelity(meshes, surface, to_real=to_surface)
     if hull_overshoot_m is None:
-        hull_overshoot_m = float(fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1).overshoot_m[0])
+        hull = fidelity([surface.convex_hull], surface, to_real=to_surface, seed=_SEED + 1, hold_real=True)
+        hull_overshoot_m = float(hull.overshoot_m[0])
     covered = _covered(meshes, inside, tolerance=1e-6 * float(surface.scale))
     return Decomposition(
         parts=[ConvexPart(mesh=m, overshoot_m=float(o)) for m, o in zip(meshes, fit.overshoot_m, strict=True)],

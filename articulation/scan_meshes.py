@@ -137,7 +137,7 @@ def _collision(
 ):
     """(shapes, decomposition or None, method, overshoot p95, overshoot max, gap p95, gap max)."""
     hull = solid.convex_hull
-    fit = fidelity([hull], solid, to_real=to_solid)
+    fit = fidelity([hull], solid, to_real=to_solid, hold_real=True)
     best = ([hull], None, "convex hull", fit.overshoot_all_m, fit.overshoot_max_m, fit.gap_m, fit.gap_max_m)
     if best[3] <= tolerance:
         return best
