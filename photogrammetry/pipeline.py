@@ -9,6 +9,7 @@ registers it into a semantic map when asked.
 
 from __future__ import annotations
 
+import logging
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -31,17 +32,19 @@ from photogrammetry.cleaning import (
     mesh_object,
     segment_object,
 )
-from photogrammetry.convergence import in_frame_share
+from photogrammetry.convergence import aimed_focus, in_frame_share
 from photogrammetry.markers import DICTIONARIES, MarkerDictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_image_side_px, depth_maps_to_points
-from photogrammetry.support_plane import camera_up, find_support_plane, focus_point
+from photogrammetry.support_plane import camera_up, find_support_plane
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
 from homemodel.model_folder.map_entry import MapEntry
 from homemodel.model_folder.result import ModelResult
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(kw_only=True)
@@ -135,8 +138,15 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
     sparse = run_sfm(photos, work_dir, options.sfm, progress=progress)
     clock = StageClock(progress)
     clock.start("dense")
+    focus, aimed = aimed_focus(sparse.views)
+    # Photos registered looking past what the others look at are wrongly placed: their depth
+    # would be matched against the wrong views.
+    looking_away = [v.name for v, a in zip(sparse.views, aimed) if not a]
+    if looking_away:
+        log.warning("%s: %d photos dropped, looking away from the others' aim: %s", photos_dir, len(looking_away),
+                    ", ".join(looking_away))  # fmt: skip
+        sparse = sparse.without(set(looking_away))
     centres = np.array([v.centre_world for v in sparse.views])
-    focus = focus_point(centres, np.array([v.optical_axis_world for v in sparse.views]))
     scene_scale = float(np.median(np.linalg.norm(centres - focus, axis=1)))
     voxel = options.cleaning.voxel_fraction * scene_scale
     dense_side_px = depth_image_side_px(sparse, options.dense, focus=focus, voxel=voxel)

@@ -11,7 +11,7 @@ import os
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -123,6 +123,25 @@ class SparseModel:
     matching: str = ""  # how pairs were chosen, and whether groups had to be bridged
     cameras: int = 1  # camera models (one per camera and zoom)
     median_features: int = 0  # SIFT features per photo (median): enough kept of large photos?
+
+    def without(self, names: set[str]) -> SparseModel:
+        """This model less the named views (then reported unregistered), with the points the
+        other views still see from two or more."""
+        kept = [i for i, v in enumerate(self.views) if v.name not in names]
+        index = {old: new for new, old in enumerate(kept)}
+        points, point_views = [], []
+        for point, seen_by in zip(self.points_world, self.point_views):
+            seen = np.array([index[i] for i in seen_by if i in index], dtype=np.int64)
+            if len(seen) >= 2:
+                points.append(point)
+                point_views.append(seen)
+        return replace(
+            self,
+            views=[self.views[i] for i in kept],
+            points_world=np.asarray(points, np.float64).reshape(-1, 3),
+            point_views=point_views,
+            unregistered=[*self.unregistered, *sorted(names)],
+        )
 
 
 @contextmanager

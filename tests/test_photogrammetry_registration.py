@@ -18,12 +18,12 @@ from typer.testing import CliRunner
 
 from homemodel.cli import app
 from homemodel.exchange.cameras import read_cameras
-from photogrammetry.convergence import in_frame_share
+from photogrammetry.convergence import aimed_focus, in_frame_share
 from photogrammetry import pairing
 from photogrammetry.pairing import chosen_pairs, mutual_match_counts
 from photogrammetry.photo_cameras import group_by_camera, read_photo_camera, sfm_photo_folder
 from photogrammetry.pose_agreement import load_reference_cameras, pose_agreement, similarity_from_points
-from photogrammetry.sfm import SfmOptions, View, run_sfm
+from photogrammetry.sfm import SfmOptions, SparseModel, View, run_sfm
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
 KERMIT = DATA / "kermit"
@@ -126,19 +126,45 @@ def test_undistortion_matches_colmaps_own() -> None:
     assert np.abs(ours[inner] - theirs[inner]).mean() < 1.0  # grey levels: the same picture, not shifted
 
 
-def test_in_frame_share_is_one_where_every_camera_looks_and_falls_off_beside() -> None:
+def _view_looking_at(name: str, centre, target) -> View:
     from homemodel.core.transforms import world_from_camera_looking_at
     from homemodel.geometry.camera import Camera
 
     camera = Camera(fx=300.0, fy=300.0, cx=160.0, cy=120.0, width=320, height=240)
-    views = []
-    for azimuth in np.linspace(0, 2 * np.pi, 12, endpoint=False):
-        centre = [np.cos(azimuth), np.sin(azimuth), 0.5]
-        camera_from_world = np.linalg.inv(world_from_camera_looking_at(np.array(centre), np.zeros(3)))
-        views.append(View(name=f"{azimuth}", image_path=Path("x"), camera=camera, camera_from_world=camera_from_world))
+    camera_from_world = np.linalg.inv(world_from_camera_looking_at(np.array(centre, float), np.array(target, float)))
+    return View(name=name, image_path=Path("x"), camera=camera, camera_from_world=camera_from_world)
+
+
+def _ring_views() -> list[View]:
+    """12 views on a ring of radius 1, half a radius up, looking at the origin."""
+    return [_view_looking_at(f"{a:.2f}", (np.cos(a), np.sin(a), 0.5), (0, 0, 0))
+            for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)]  # fmt: skip
+
+
+def test_in_frame_share_is_one_where_every_camera_looks_and_falls_off_beside() -> None:
+    views = _ring_views()
     share = in_frame_share(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.1], [0.8, 0.0, 0.0], [0.0, 0.0, 5.0]]), views)
     assert share[0] == 1.0 and share[1] == 1.0
     assert share[2] < 0.6 and share[3] == 0.0  # beside the object, and above every camera's frame
+
+
+def test_a_photo_registered_looking_away_is_dropped_and_the_focus_stays_on_the_object() -> None:
+    """A view set four ring radii off, looking past the object (as the global mapper placed one
+    of Buddha's 13 colour frames: the least-squares focus left the object and the run failed)
+    is dropped with its share of the points; the focus stays where the ring looks. Without
+    it, every view is kept at the least-squares focus."""
+    ring = _ring_views()
+    focus, aimed = aimed_focus(ring)
+    assert aimed.all() and np.linalg.norm(focus) < 1e-9
+    stray = _view_looking_at("stray.jpg", (4, 0, 0.5), (4, 3, 0.5))
+    focus, aimed = aimed_focus([*ring, stray])
+    assert aimed.tolist() == [True] * 12 + [False] and np.linalg.norm(focus) < 1e-9
+    sparse = SparseModel(views=[*ring, stray], points_world=np.arange(9.0).reshape(3, 3),
+                         point_views=[np.array([0, 12]), np.array([0, 1, 12]), np.array([2, 12])],
+                         mean_reprojection_error_px=0.5, unregistered=["x.jpg"])  # fmt: skip
+    kept = sparse.without({"stray.jpg"})
+    assert [v.name for v in kept.views] == [v.name for v in ring] and kept.unregistered == ["x.jpg", "stray.jpg"]
+    assert [v.tolist() for v in kept.point_views] == [[0, 1]] and kept.points_world.tolist() == [[3.0, 4.0, 5.0]]
 
 
 def test_preemptive_matching_counts_the_features_two_views_share_and_none_of_unrelated_ones() -> None:
