@@ -71,7 +71,7 @@ def reconstruct(
     matching: str = field_option(
         f"{OPTIONS}.sfm.matching",
         help="auto: preemptive up to 120 photos (every pair tried on its 100 largest features, any order; "
-        "each photo matched in full with up to 15 partners sharing 3 or more, and at least its 8 best), "
+        "each photo matched in full with up to 10 partners sharing 3 or more, and at least its 8 best), "
         "image retrieval beyond",
     ),
     max_features: int = field_option(f"{OPTIONS}.sfm.max_num_features", "--max-features", help="SIFT features per photo"),
