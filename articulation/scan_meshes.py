@@ -53,6 +53,7 @@ _MEASURED_POINTS = 40_000  # points (and surface samples) measured, drawn with a
 # they stay with Open3D.
 _NUMPY_MEASURE_POINTS = 5_000
 _SEED = 0
+_PROBE_QUERIES = 800  # the median search's bound comes from this many random queries
 
 
 @dataclass(kw_only=True)
@@ -118,15 +119,16 @@ def mesh_fit(
 
 def _median_nearest(points: np.ndarray, queries: np.ndarray) -> float:
     """The median of the `queries`' distances to their nearest of `points`, exactly. Searched
-    first only within twice a subsample's median (the far side of a completion, which the query
-    points do not see, lies centimetres from them and is the slowest to search): when over half
-    the distances lie within that bound, the median is among them (0.06 -> 0.03 CPU-s for 40,000
-    samples of a completion and its 1,500 points)."""
+    first only within the 60th percentile of 800 random queries' distances (the far side of a
+    completion, which the query points do not see, lies centimetres from them and is the slowest
+    to search): when over half the distances lie within that bound, the median is among them
+    (40,000 samples of a completion and its 1,500 points: 0.06 CPU-s searched unbounded, 0.03
+    within twice the median of every 50th query, 0.024 now)."""
     from scipy.spatial import cKDTree
 
     tree = cKDTree(points)
-    probe, _ = tree.query(queries[::50])
-    found, _ = tree.query(queries, distance_upper_bound=2.0 * float(np.median(probe)))
+    probe, _ = tree.query(_sample(queries, _PROBE_QUERIES))
+    found, _ = tree.query(queries, distance_upper_bound=float(np.quantile(probe, 0.6)))
     if np.count_nonzero(np.isfinite(found)) <= len(found) // 2:
         found, _ = tree.query(queries)
     return float(np.median(found))

@@ -246,3 +246,19 @@ def test_a_completed_cups_folder_holds_both_meshes(trained, tmp_path: Path) -> N
     # The query's points (one view) lie on the completed surface within their spacing.
     assert meshes["points"] > 500 and meshes["visual"]["within_point_spacing"], meshes["visual"]
     assert meshes["collision"]["parts"] > 1 and meshes["collision"]["within_tolerance"], meshes["collision"]
+
+
+def test_the_surface_to_points_median_is_exact_when_searched_within_a_bound() -> None:
+    """The median of 40,000 queries' nearest distances, searched within a bound from a probe,
+    equals the unbounded search's; queries all at one distance (ties at the bound) take the
+    unbounded search."""
+    from scipy.spatial import cKDTree
+
+    from articulation.scan_meshes import _median_nearest
+
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(1500, 3)) * [0.05, 0.05, 0.01]  # one side seen, the rest far
+    queries = rng.normal(size=(40_000, 3)) * 0.05
+    assert _median_nearest(points, queries) == float(np.median(cKDTree(points).query(queries)[0]))
+    lattice = np.stack(np.meshgrid(*[np.arange(4.0)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    assert _median_nearest(lattice, lattice + [0.5, 0.0, 0.0]) == 0.5
