@@ -11,14 +11,22 @@ the usual SystemExit instead.
 from __future__ import annotations
 
 import atexit
+import gc
 import os
 import sys
 import threading
 from pathlib import Path
 from typing import NoReturn
 
+# The cyclic garbage collector's first generation is collected after this many allocations
+# (Python's default: 700). A command makes millions of objects as it starts (its modules'), few
+# of them cyclic garbage: at 700 the collector took 0.12 CPU-s of a completion query (287
+# collections, the full ones going through every module's objects), at 7,000 0.06 (28, none full).
+GC_FIRST_GENERATION = 7000
+
 
 def main() -> None:
+    gc.set_threshold(GC_FIRST_GENERATION, *gc.get_threshold()[1:])
     try:
         from homemodel.core.deferred_imports import defer_networkx
         from homemodel.core.interrupts import raise_if_interrupted, remember_interrupts
