@@ -221,3 +221,21 @@ def mesh_object(obj: ObjectPoints, scene_scale: float, options: CleaningOptions)
     if len(mesh.faces) == 0:
         raise ModelError("the Poisson surface lies entirely below the support plane")
     return largest_piece(mesh)
+
+
+def face_the_cameras(mesh: trimesh.Trimesh, centres: np.ndarray) -> trimesh.Trimesh:
+    """`mesh`, or it inverted when most of its area faces away from the cameras at `centres`
+    (N, 3). A surface seen from one side (Kermit on his chair) is open: it has no inside to wind
+    it outward from, and the repair's Open3D `orient_triangles` winds it either way; Kermit
+    with two photos of broken EXIF came out inside out, and the texture, baked only where a
+    view faces the surface, covered 13 % of the atlas instead of 79 %. A closed mesh is already
+    wound outward and is returned as it is."""
+    if mesh.is_watertight:
+        return mesh
+    normals, corners_centre, area = mesh.face_normals, mesh.triangles_center, mesh.area_faces
+    vote = sum(float(area @ np.sign(np.einsum("ij,ij->i", normals, centre - corners_centre))) for centre in centres)
+    if vote >= 0:
+        return mesh
+    inverted = mesh.copy()
+    inverted.invert()
+    return inverted

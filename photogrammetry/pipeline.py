@@ -29,6 +29,7 @@ from homemodel.geometry.mesh_ops import watertight_finish
 from photogrammetry.cleaning import (
     CleaningOptions,
     downsample,
+    face_the_cameras,
     mesh_object,
     segment_object,
 )
@@ -231,7 +232,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         frame.model_from_sfm[2, 3] -= lift
 
     clock.start("meshing")
-    mesh = watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
+    mesh = face_the_cameras(watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces),
+                            frame.apply(np.array([v.centre_world for v in sparse.views])))  # fmt: skip
 
     clock.start("texturing")
     views = [frame.view(v) for v in sparse.views]

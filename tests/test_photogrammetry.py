@@ -12,7 +12,7 @@ import trimesh
 from homemodel.core.errors import InputError
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
-from photogrammetry.cleaning import CleaningOptions, mesh_object, segment_object
+from photogrammetry.cleaning import CleaningOptions, face_the_cameras, mesh_object, segment_object
 from photogrammetry.markers import aruco_dictionary, detect_markers, triangulate_markers
 from photogrammetry.metric_frame import metric_frame
 from photogrammetry.photos import list_photos
@@ -309,3 +309,19 @@ def test_a_pair_depth_matches_a_textured_plane_even_where_opencv_rectifies_it_wi
     found = depth[depth > 0]
     assert len(found) > 0.2 * w * h, len(found) / (w * h)
     assert abs(np.median(found) - plane_z) < 0.005 * plane_z and np.mean(np.abs(found - plane_z) < 0.02 * plane_z) > 0.95
+
+
+def test_an_open_surface_is_wound_to_face_the_cameras_and_a_closed_one_is_left_outward() -> None:
+    """A surface seen from one side has no inside: wound away from the cameras (as the repair
+    left Kermit with two broken-EXIF photos), it is inverted; wound towards them, or closed, it
+    is returned as it is."""
+    patch = trimesh.creation.box(extents=(1.0, 1.0, 0.2))
+    patch.update_faces(patch.face_normals[:, 2] > 0.5)  # the top only: an open square facing +z
+    above = np.array([[0.0, -2.0, 2.0], [2.0, 0.0, 2.0], [0.0, 0.0, 3.0]])
+    assert face_the_cameras(patch, above) is patch
+    away = patch.copy()
+    away.invert()
+    facing = face_the_cameras(away, above)
+    assert np.allclose(facing.face_normals[:, 2], 1.0)
+    box = trimesh.creation.box()
+    assert face_the_cameras(box, np.zeros((1, 3))) is box  # closed: outward, wherever the cameras are
