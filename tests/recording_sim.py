@@ -362,69 +362,108 @@ def write_rosbag(recorded: Recorded, path: Path, *, ros_version: int) -> None:
     write_bag(path, ros, messages)
 
 
-def write_realsense_bag(recorded: Recorded, path: Path) -> None:
+@dataclass(kw_only=True)
+class RealSenseLayout:
+    """What a .bag's device holds, as the RealSense Viewer records each camera."""
+
+    color_format: str = "rgb8"  # the colour stream's pixels: rgb8, bgr8, rgba8, bgra8 or yuyv
+    color_on_depth_sensor: bool = False  # D405: colour comes from the stereo module itself
+    infrared: bool = False  # the stereo module's two Y8 streams recorded too
+    color_model: str = "brown_conrady"  # D415/D435 colour: inverse_brown_conrady (zero coefficients)
+    device_name: str | None = None  # the device's camera_info name, as a real device reports it
+    compressed: bool = False  # the recorder's LZ4 chunks
+
+
+def write_realsense_streams(
+    path: Path,
+    rig: Rig,
+    colors: list[tuple[float, np.ndarray]],
+    depths: list[tuple[float, np.ndarray]],
+    layout: RealSenseLayout | None = None,
+) -> None:
     """A RealSense .bag written by pyrealsense2's software device and recorder (2.55.1 writes
-    .bag), depth in the depth sensor's units with its own intrinsics and extrinsics to colour."""
+    .bag), depth in the depth sensor's units with its own intrinsics and extrinsics to colour;
+    colour given as RGB, stored in the layout's format."""
     import pyrealsense2 as rs
 
-    rig = recorded.rig
-    assert rig.depth_camera is not None
+    layout = layout or RealSenseLayout()
+    depth_camera = rig.depth_camera or rig.color_camera
 
-    def intrinsics(camera: Camera) -> object:
+    def intrinsics(camera: Camera, model: str) -> object:
         i = rs.intrinsics()
         i.width, i.height, i.fx, i.fy, i.ppx, i.ppy = camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
-        i.model = rs.distortion.brown_conrady
+        i.model = getattr(rs.distortion, model)
         i.coeffs = [float(c) for c in (camera.distortion_coefficients if camera.has_distortion else np.zeros(5))]
         return i
 
+    def stored(rgb: np.ndarray) -> np.ndarray:
+        form = layout.color_format
+        if form == "yuyv":
+            return yuv422(rgb, "yuyv")
+        channels = rgb[..., ::-1] if form.startswith("bgr") else rgb
+        return np.dstack([channels, np.full(rgb.shape[:2], 255, np.uint8)]) if form.endswith("a8") else channels
+
     device = rs.software_device()
-    depth_sensor, color_sensor = device.add_sensor("Depth"), device.add_sensor("Color")
+    if layout.device_name:
+        device.register_info(rs.camera_info.name, layout.device_name)
+        device.register_info(rs.camera_info.serial_number, "123622270224")
+    depth_sensor = device.add_sensor("Stereo Module")
+    color_sensor = depth_sensor if layout.color_on_depth_sensor else device.add_sensor("RGB Camera")
+    # The frame rate the recording claims: one a period (the importer pairs within half of it).
+    fps = max(1, round(1 / rig.period_s))
+    streams = [
+        (depth_sensor, rs.stream.depth, 0, depth_camera, 0, 2, rs.format.z16, "brown_conrady"),
+        (color_sensor, rs.stream.color, 0, rig.color_camera, 1, stored(colors[0][1]).shape[2], getattr(rs.format, layout.color_format), layout.color_model),
+    ]
+    if layout.infrared:
+        streams += [(depth_sensor, rs.stream.infrared, n, depth_camera, 1 + n, 1, rs.format.y8, "brown_conrady") for n in (1, 2)]
     profiles = []
-    for sensor, kind, camera, uid, bpp, form in (
-        (depth_sensor, rs.stream.depth, rig.depth_camera, 0, 2, rs.format.z16),
-        (color_sensor, rs.stream.color, rig.color_camera, 1, 3, rs.format.rgb8),
-    ):
+    for sensor, kind, index, camera, uid, bpp, form, model in streams:
         stream = rs.video_stream()
-        # The frame rate the recording claims: one a period (the importer pairs within half of it).
-        fps = max(1, round(1 / rig.period_s))
-        stream.type, stream.uid, stream.index, stream.fps, stream.bpp, stream.fmt = kind, uid, 0, fps, bpp, form
-        stream.width, stream.height, stream.intrinsics = camera.width, camera.height, intrinsics(camera)
+        stream.type, stream.uid, stream.index, stream.fps, stream.bpp, stream.fmt = kind, uid, index, fps, bpp, form
+        stream.width, stream.height, stream.intrinsics = camera.width, camera.height, intrinsics(camera, model)
         profiles.append(sensor.add_video_stream(stream))
-    depth_profile, color_profile = profiles
+    depth_profile, color_profile = profiles[:2]
     depth_sensor.add_read_only_option(rs.option.depth_units, rig.depth_scale_m)
     extrinsics = rs.extrinsics()
-    color_from_depth = rig.color_from_depth
-    extrinsics.rotation = color_from_depth[:3, :3].T.ravel().tolist()  # column-major
-    extrinsics.translation = color_from_depth[:3, 3].tolist()
+    extrinsics.rotation = rig.color_from_depth[:3, :3].T.ravel().tolist()  # column-major
+    extrinsics.translation = rig.color_from_depth[:3, 3].tolist()
     depth_profile.register_extrinsics_to(color_profile, extrinsics)
-    recorder = rs.recorder(str(path), device)
+    recorder = rs.recorder(str(path), device, layout.compressed)
     queue = rs.syncer()
-    depth_sensor.open(depth_profile)
-    color_sensor.open(color_profile)
-    depth_sensor.start(queue)
-    color_sensor.start(queue)
-    events = [(t, "depth", d) for t, d in recorded.depths] + [(t, "color", c) for t, c in recorded.colors]
-    numbers = {"depth": 0, "color": 0}
+    sensors = {id(s): s for s, *_ in streams}
+    for sensor in sensors.values():
+        sensor.open([profile for profile, (owner, *_) in zip(profiles, streams) if owner is sensor])
+        sensor.start(queue)
+    events = [(t, "depth", d) for t, d in depths] + [(t, "color", stored(c)) for t, c in colors]
+    if layout.infrared:
+        events += [(t, f"infrared{n}", np.zeros(d.shape, np.uint8)) for t, d in depths for n in (1, 2)]
+    profile_of = {"depth": depth_profile, "color": color_profile, "infrared1": profiles[-2], "infrared2": profiles[-1]}
+    sensor_of = {"depth": depth_sensor, "color": color_sensor, "infrared1": depth_sensor, "infrared2": depth_sensor}
+    numbers = dict.fromkeys(profile_of, 0)
     for t, kind, pixels in sorted(events, key=lambda e: e[0]):
         frame = rs.software_video_frame()
         frame.pixels = np.ascontiguousarray(pixels)
-        frame.bpp = 2 if kind == "depth" else 3
+        frame.bpp = pixels.itemsize * (pixels.shape[2] if pixels.ndim == 3 else 1)
         frame.stride = pixels.shape[1] * frame.bpp
         frame.timestamp = 1000.0 * (t + 1.0)
         frame.domain = rs.timestamp_domain.system_time
         numbers[kind] += 1
         frame.frame_number = numbers[kind]
+        frame.profile = profile_of[kind].as_video_stream_profile()
         if kind == "depth":
-            frame.profile = depth_profile.as_video_stream_profile()
             frame.depth_units = rig.depth_scale_m
-            depth_sensor.on_video_frame(frame)
-        else:
-            frame.profile = color_profile.as_video_stream_profile()
-            color_sensor.on_video_frame(frame)
-    for sensor in (depth_sensor, color_sensor):
+        sensor_of[kind].on_video_frame(frame)
+    for sensor in sensors.values():
         sensor.stop()
         sensor.close()
     del recorder  # closes the file
+
+
+def write_realsense_bag(recorded: Recorded, path: Path) -> None:
+    """The recorded streams as a RealSense Viewer .bag of a D400 (RGB colour on its own sensor)."""
+    assert recorded.rig.depth_camera is not None
+    write_realsense_streams(path, recorded.rig, recorded.colors, recorded.depths)
 
 
 @dataclass(kw_only=True)
@@ -489,3 +528,24 @@ def encode_rvl(image: np.ndarray) -> bytes:
     codes += [0] * (-len(codes) % 8)
     words = [int("".join(f"{c:x}" for c in codes[k : k + 8]), 16) for k in range(0, len(codes), 8)]
     return np.array(words, "<u4").tobytes()
+
+
+def _bt601(rgb: np.ndarray) -> np.ndarray:
+    """Y, U, V in video range, as UVC cameras and ROS's yuv422 drivers deliver them."""
+    r, g, b = (rgb[..., k].astype(np.float64) for k in range(3))
+    y = 16 + (65.481 * r + 128.553 * g + 24.966 * b) / 255
+    u = 128 + (-37.797 * r - 74.203 * g + 112.0 * b) / 255
+    v = 128 + (112.0 * r - 93.786 * g - 18.214 * b) / 255
+    return np.round(np.stack([y, u, v], axis=-1)).clip(0, 255).astype(np.uint8)
+
+
+def yuv422(rgb: np.ndarray, order: str) -> np.ndarray:
+    """(H, W, 2) bytes of a 4:2:2 image, `order` "uyvy" or "yuyv" (chroma of the pair's first pixel)."""
+    yuv = _bt601(rgb)
+    y, u, v = yuv[..., 0], yuv[:, 0::2, 1], yuv[:, 0::2, 2]
+    out = np.empty(rgb.shape[:2] + (2,), np.uint8)
+    chroma_first = order == "uyvy"
+    out[..., 1 if chroma_first else 0] = y
+    out[:, 0::2, 0 if chroma_first else 1] = u
+    out[:, 1::2, 0 if chroma_first else 1] = v
+    return out

@@ -34,27 +34,6 @@ def _mm(depth_m: np.ndarray) -> np.ndarray:
     return np.round(depth_m * 1000).astype(np.uint16)
 
 
-def _bt601(rgb: np.ndarray) -> np.ndarray:
-    """Y, U, V in video range, as UVC cameras and ROS's yuv422 drivers deliver them."""
-    r, g, b = (rgb[..., k].astype(np.float64) for k in range(3))
-    y = 16 + (65.481 * r + 128.553 * g + 24.966 * b) / 255
-    u = 128 + (-37.797 * r - 74.203 * g + 112.0 * b) / 255
-    v = 128 + (112.0 * r - 93.786 * g - 18.214 * b) / 255
-    return np.round(np.stack([y, u, v], axis=-1)).clip(0, 255).astype(np.uint8)
-
-
-def yuv422(rgb: np.ndarray, order: str) -> np.ndarray:
-    """(H, W, 2) bytes of a 4:2:2 image, `order` "uyvy" or "yuyv" (chroma of the pair's first pixel)."""
-    yuv = _bt601(rgb)
-    y, u, v = yuv[..., 0], yuv[:, 0::2, 1], yuv[:, 0::2, 2]
-    out = np.empty(rgb.shape[:2] + (2,), np.uint8)
-    chroma_first = order == "uyvy"
-    out[..., 1 if chroma_first else 0] = y
-    out[:, 0::2, 0 if chroma_first else 1] = u
-    out[:, 1::2, 0 if chroma_first else 1] = v
-    return out
-
-
 def bayer(rgb: np.ndarray, pattern: str) -> np.ndarray:
     """The mosaic a sensor with the 2x2 `pattern` (ROS's name: rggb, grbg...) reads of `rgb`."""
     channel = {"r": 0, "g": 1, "b": 2}
@@ -120,8 +99,8 @@ def _raw_color(ros: rsim.RosMessages, topic: str, encoding: str = "rgb8", frame:
         "rgb8": lambda c: c,
         "bgr8": lambda c: c[..., ::-1],
         "bgra8": lambda c: np.dstack([c[..., ::-1], np.full(c.shape[:2], 255, np.uint8)]),
-        "yuv422": lambda c: yuv422(c, "uyvy"),
-        "yuv422_yuy2": lambda c: yuv422(c, "yuyv"),
+        "yuv422": lambda c: rsim.yuv422(c, "uyvy"),
+        "yuv422_yuy2": lambda c: rsim.yuv422(c, "yuyv"),
     }[encoding]
     return topic, lambda t, k: ros.image(t, convert(FRAMES.colors[k]), encoding, frame)
 

@@ -5,7 +5,6 @@ sensor's units; the colour intrinsics and distortion come from the stream."""
 from __future__ import annotations
 
 import queue
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -66,8 +65,9 @@ def _rgb(frame: object) -> np.ndarray:
         return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
     if form in (rs.format.rgba8, rs.format.bgra8):
         return cv2.cvtColor(image, cv2.COLOR_RGBA2RGB if form == rs.format.rgba8 else cv2.COLOR_BGRA2RGB)
-    if form == rs.format.yuyv:
-        return cv2.cvtColor(image.reshape(image.shape[0], -1, 2), cv2.COLOR_YUV2RGB_YUYV)
+    if form == rs.format.yuyv:  # the SDK hands its two bytes a pixel over as uint16
+        pairs = np.frombuffer(image.tobytes(), np.uint8).reshape(image.shape[0], -1, 2)
+        return cv2.cvtColor(pairs, cv2.COLOR_YUV2RGB_YUYV)
     if form != rs.format.rgb8:
         raise InputError(f"colour stream format {form} is not supported (rgb8, bgr8, rgba8, bgra8, yuyv)")
     return image.copy()
@@ -101,7 +101,6 @@ class RealSenseSource(FrameSource):
         self._sensors: list = []
         self._playback = None
         self._frames: queue.Queue = queue.Queue(maxsize=_QUEUE_FRAMES)
-        self._ended = threading.Event()  # the playback reached the end of the file
         self._closing = False
         self._composing: tuple = ()  # the colour and depth frames the composer makes a frameset of
         self.where = str(self.bag) if self.bag else f"RealSense {serial or '(first connected)'}"
@@ -115,9 +114,11 @@ class RealSenseSource(FrameSource):
                 device = context.load_device(str(self.bag))
             except RuntimeError as exc:
                 raise InputError(f"{self.where}: cannot be played back: {exc}") from None
-            self._playback = device.as_playback()  # kept: its status callback lives with it
+            # Its end is read from its status, not told by a status callback: the SDK calls that
+            # from its reading thread while pause() and resume() wait for that thread, holding
+            # Python's lock, so each stalled 10 s (the SDK's time-out) before the callback ran.
+            self._playback = device.as_playback()
             self._playback.set_real_time(False)  # every frame, waiting for our callbacks
-            self._playback.set_status_changed_callback(self._on_status)
             return device
         devices = {d.get_info(rs.camera_info.serial_number): d for d in context.query_devices()}
         if not devices:
@@ -125,12 +126,6 @@ class RealSenseSource(FrameSource):
         if self.serial is not None and self.serial not in devices:
             raise InputError(f"no RealSense camera with serial {self.serial} (connected: {', '.join(devices)})")
         return devices[self.serial] if self.serial is not None else next(iter(devices.values()))
-
-    def _on_status(self, status: object) -> None:
-        import pyrealsense2 as rs
-
-        if status == rs.playback_status.stopped:
-            self._ended.set()
 
     def _profiles(self, device: object) -> dict[object, tuple[object, object]]:
         """stream -> (its sensor, its profile): a recording's own, or the sizes asked of a camera."""
@@ -232,12 +227,19 @@ class RealSenseSource(FrameSource):
             try:
                 return self._frames.get(timeout=0.1)
             except queue.Empty:
-                if self._ended.is_set() and self._frames.empty():
+                if self._playback_ended() and self._frames.empty():
                     return None
                 waited_s += 0.1
                 limit_s = _WAIT_S if self.bag is None else _PLAYBACK_STALL_S
                 if waited_s > limit_s:
                     raise InputError(f"{self.where}: no frames for {limit_s:.0f} s") from None
+
+    def _playback_ended(self) -> bool:
+        """A playback's status is "stopped" before it starts and once it ends; `_start`'s resume
+        returns once it plays."""
+        import pyrealsense2 as rs
+
+        return self._playback is not None and self._playback.current_status() == rs.playback_status.stopped
 
     def _colour_z(self, units: np.ndarray) -> np.ndarray:
         """Aligned depth units to float32 metres along colour's axis (NaN: none)."""
