@@ -94,14 +94,13 @@ def test_snapping_moves_a_smoothed_surface_onto_the_points_and_leaves_unseen_par
 def test_the_texture_carrier_stays_closed_and_on_the_surface() -> None:
     sphere = trimesh.creation.icosphere(subdivisions=6, radius=0.05)  # 81,920 faces
     colors = (sphere.vertices - sphere.vertices.min(axis=0)) / np.ptp(sphere.vertices, axis=0)
-    small, nearest = decimated(sphere, 12_000)
-    small_colors = colors[nearest]
+    small, small_colors = decimated(sphere, colors, 12_000)
     assert 11_000 <= len(small.faces) <= 12_000 and small.is_watertight
     assert np.abs(np.linalg.norm(small.vertices, axis=1) - 0.05).max() < 0.0005
     # Colours come from the nearest original vertex, so they follow the position.
     expected = (small.vertices - sphere.vertices.min(axis=0)) / np.ptp(sphere.vertices, axis=0)
     assert np.abs(small_colors - expected).max() < 0.05
-    assert decimated(sphere, 100_000)[0] is sphere
+    assert decimated(sphere, colors, 100_000)[0] is sphere
 
 
 def test_runs_read_apart_hand_over_every_reading_in_order_and_a_failing_run_stops_the_others() -> None:

@@ -20,7 +20,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
@@ -114,9 +113,7 @@ class FrameReading:
     pixels: ObjectPixels | None = None  # where the object may be (see `object_region`)
     flying: int = 0
     valid: int = 0  # pixels with a depth
-    # A few frames' depth and grey levels, kept for the depth-to-colour misregistration (see
-    # `misregistration_offsets`), which is measured after the poses, off their threads.
-    probe: tuple[np.ndarray, np.ndarray] | None = None
+    offset_px: np.ndarray | None = None  # depth-to-colour misregistration, on a few frames
 
 
 @dataclass(kw_only=True)
@@ -145,8 +142,8 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
     with a reason."""
     camera = capture.camera
     # The pixel rays (float32 halves the per-pixel arithmetic; 0.1 um at 1 m) on another thread:
-    # the first frame is searched before its pixels need them (10 ms of NumPy at 640 x 480, far
-    # more undistorting a real lens's), and the second core is idle until then.
+    # the first frame is searched before its pixels need them, with the second core idle
+    # (15 ms of NumPy at 640 x 480; 0.23 s undistorting a 1280 x 720 lens's).
     with ThreadPoolExecutor(max_workers=1) as pool:
         rays = pool.submit(lambda: camera.pixel_rays().astype(np.float32))
         return _read_frames(capture, options, report, rays)
@@ -186,7 +183,7 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
             pixels=pixels,
             flying=flying,
             valid=int(np.count_nonzero(np.isfinite(depth))),
-            probe=(depth, gray) if frame.stem in probes else None,
+            offset_px=depth_color_offset_px(depth, gray) if frame.stem in probes else None,
         )
 
     readings: dict[str, FrameReading] = {}
@@ -248,19 +245,6 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     return FrameReadings(poses=poses, skipped=skipped, readings=readings, rays=rays.result())
 
 
-def misregistration_offsets(readings: dict[str, FrameReading]) -> dict[str, np.ndarray]:
-    """The depth-to-colour offset of each probed frame that has one (see `depth_color_offset_px`);
-    the probes' images are let go."""
-    offsets = {}
-    for stem, reading in readings.items():
-        if reading.probe is not None:
-            offset = depth_color_offset_px(*reading.probe)
-            reading.probe = None
-            if offset is not None:
-                offsets[stem] = offset
-    return offsets
-
-
 def object_cylinder(capture: Capture, axis: TableAxis, options: ReconstructOptions) -> Cylinder:
     if options.cylinder_radius_m is not None:
         radius = options.cylinder_radius_m
@@ -281,11 +265,9 @@ def merge_frames(
     options: ReconstructOptions,
     report: Progress,
     figures: dict,
-    probe_offsets: Callable[[], dict[str, np.ndarray]],
 ) -> MergedCloud:
     """The frames' kept pixels in the table frame, voxel-averaged; fills `figures` with the
-    real-frame figures (flying pixels, holes, and the misregistration: the median of
-    `probe_offsets()` over the merged frames)."""
+    real-frame figures (flying pixels, holes, misregistration)."""
     skipped, readings = frames.skipped, frames.readings
     accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
     # A depth frame taken `depth_offset_s` after its colour frame sees the table turned on by
@@ -343,8 +325,8 @@ def merge_frames(
             table_from_camera = np.linalg.inv(turned_table(cylinder.axis_xy_m, angle)) @ table_from_camera
         return reading, pixel_points(reading.pixels, frames.rays, table_from_camera, cylinder)
 
-    flying_total = valid_total = 0
-    merged_stems = set()
+    flying_total = valid_total = merged_total = 0
+    offsets = []
     # The frames' points on the workers' threads (NumPy lets go of the GIL), summed in order here.
     with _mapper(options.workers) as mapper:
         done_frames = enumerate(zip(merged, mapper(points_of, merged)), start=1)
@@ -356,16 +338,17 @@ def merge_frames(
                 accumulator.add(*points)
                 flying_total += reading.flying
                 valid_total += reading.valid
-                merged_stems.add(frame.stem)
+                merged_total += 1
+                if reading.offset_px is not None:
+                    offsets.append(reading.offset_px)
             report("merge", done, len(merged))
-    offsets = [offset for stem, offset in probe_offsets().items() if stem in merged_stems]
     offset_px = np.median(offsets, axis=0) if offsets else None
     figures.update(
         {
             "flying_pixels_dropped": flying_total,  # around the object's pixels
             "flying_pixel_fraction": flying_total / max(valid_total, 1),
             "holes_filled": 0,  # never: a hole is no measurement
-            "depth_valid_fraction": valid_total / max(len(merged_stems) * capture.camera.width * capture.camera.height, 1),
+            "depth_valid_fraction": valid_total / max(merged_total * capture.camera.width * capture.camera.height, 1),
             "depth_to_color_offset_px": None if offset_px is None else [round(float(v), 2) for v in offset_px],
             "misregistration_frames": len(offsets),
             "turn_rate_deg_s": None if rate is None else math.degrees(rate),
@@ -395,25 +378,11 @@ def reconstruct_capture(
 
 
 def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
+    from turntable.texture import bake_vertex_colors, decimated
+
     clock = StageClock(progress)
     clock.start("poses")
     frames = read_frames(capture, options, clock.progress)
-    # The misregistration is a figure for the summary: measured on another thread while the
-    # axis is fitted and the frames merged (the poses' threads were busy; this one is not).
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        misregistration = pool.submit(misregistration_offsets, frames.readings)
-        return _after_poses(capture, options, clock, frames, misregistration.result)
-
-
-def _after_poses(
-    capture: Capture,
-    options: ReconstructOptions,
-    clock: StageClock,
-    frames: FrameReadings,
-    probe_offsets: Callable[[], dict[str, np.ndarray]],
-) -> Reconstruction:
-    from turntable.texture import bake, carrier_layout
-
     poses, skipped = frames.poses, frames.skipped
     real_frames = {
         "blurred_frames_skipped": sum(r.startswith("blur:") for r in skipped.values()),
@@ -431,28 +400,17 @@ def _after_poses(
     cylinder = object_cylinder(capture, axis, options)
 
     clock.start("merge")
-    cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames, probe_offsets)
+    cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames)
 
     clock.start("mesh", 1)
+    mesh, colors, figures = object_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
+
     textured = uv = texture = None
-    texturing = options.texture_size_px > 0
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        # The texture's carrier is laid out on another thread while the vertex colours are found
-        # (its CPU time shows in the mesh stage's).
-        layout: list[Future] = []
-
-        def lay_out(surface: trimesh.Trimesh) -> None:
-            # A mesh of its own: trimesh's caches are not made for two threads.
-            own = trimesh.Trimesh(surface.vertices.copy(), surface.faces.copy(), process=False)
-            size, most = options.texture_size_px, options.texture_max_triangles
-            layout.append(pool.submit(carrier_layout, own, max_triangles=most, size_px=size))
-
-        mesh, colors, figures = object_mesh(
-            cloud, cylinder, options.voxel_size_m, options.meshing, on_surface=lay_out if texturing else None
+    if options.texture_size_px > 0:
+        clock.start("texture", 1)
+        textured, uv, texture = bake_vertex_colors(
+            *decimated(mesh, colors, options.texture_max_triangles), size_px=options.texture_size_px
         )
-        if texturing:
-            clock.start("texture", 1)
-            textured, uv, texture = bake(layout[0].result(), colors)
     clock.stop()
     return Reconstruction(
         mesh=mesh,
