@@ -272,7 +272,8 @@ def write_bag(
 ) -> None:
     """(log time s, topic, message) to a ROS 1 .bag (`compression`: bz2 or lz4 chunks, as
     `rosbag record --bz2/--lz4` writes) or a ROS 2 bag folder (`storage`: sqlite3 or mcap,
-    rosbag2 version 9 with the message definitions, as Jazzy writes)."""
+    rosbag2 version 9 with the message definitions, as Jazzy writes; `compression`: file or
+    message, zstd as `ros2 bag record --compression-mode` writes)."""
     if ros.ros_version == 1:
         from rosbags.rosbag1 import Writer
 
@@ -280,9 +281,11 @@ def write_bag(
         if compression is not None:
             writer.set_compression(getattr(Writer.CompressionFormat, compression.upper()))
     else:
-        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 
         writer = Writer(path, version=9, storage_plugin=getattr(StoragePlugin, storage.upper()))
+        if compression is not None:
+            writer.set_compression(getattr(CompressionMode, compression.upper()), CompressionFormat.ZSTD)
     with writer:
         connections = {}
         for time_s, topic, message in sorted(messages, key=lambda m: m[0]):

@@ -148,6 +148,33 @@ def realsense_ros2_humble(folder: Path) -> Path:
     return folder / "humble_bag"
 
 
+def ros2_sqlite(folder: Path, *, compression: str | None, file_alone: bool) -> Path:
+    """`ros2 bag record` in sqlite3: zstd-compressed whole (`--compression-mode file`) or a
+    message at a time (`message`); or given as its .db3 file alone."""
+    import shutil
+
+    ros = rsim.RosMessages(2)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
+        color_info="/camera/color/camera_info",
+    )
+    rsim.write_bag(folder / "bag", ros, messages, compression=compression)
+    if not file_alone:
+        return folder / "bag"
+    shutil.move(next((folder / "bag").glob("*.db3")), folder / "scan.db3")
+    return folder / "scan.db3"
+
+
+def ros1_bz2_padded_big_endian(folder: Path) -> Path:
+    """`rosbag record --bz2`; colour rows padded to a 64-byte step, depth mono16 big-endian."""
+    ros = rsim.RosMessages(1)
+    color = ("/camera/color/image_raw", lambda t, k: ros.image(t, FRAMES.colors[k], "rgb8", COLOR_FRAME, pad=64 - 3 * 16))
+    depth = ("/camera/depth_registered/image_raw", lambda t, k: ros.image(t, _mm(FRAMES.depths_m[k]), "mono16", COLOR_FRAME, big_endian=True))
+    messages = _streams(ros, color, depth, color_info="/camera/color/camera_info")
+    rsim.write_bag(folder / "bz2.bag", ros, messages, compression="bz2")
+    return folder / "bz2.bag"
+
+
 def mcap_file(folder: Path) -> Path:
     """A ROS 2 (Jazzy) bag in MCAP storage, given as its .mcap file alone, without metadata.yaml."""
     import shutil
@@ -261,6 +288,10 @@ VARIANTS = {
     "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
     "realsense-ros2-humble-no-definitions": (realsense_ros2_humble, "ros2", 0, 0.0, FRAMES.colors),
     "ros2-mcap-file-32FC1": (mcap_file, "ros2", 0, 0.0, FRAMES.colors),
+    "ros2-zstd-file": (partial(ros2_sqlite, compression="file", file_alone=False), "ros2", 0, 0.0, FRAMES.colors),
+    "ros2-zstd-message": (partial(ros2_sqlite, compression="message", file_alone=False), "ros2", 0, 0.0, FRAMES.colors),
+    "ros2-db3-file-alone": (partial(ros2_sqlite, compression=None, file_alone=True), "ros2", 0, 0.0, FRAMES.colors),
+    "ros1-bz2-padded-rows-big-endian-mono16": (ros1_bz2_padded_big_endian, "ros1", 0, 0.0, FRAMES.colors),
     "compressed-jpeg-and-compressedDepth-png": (compressed_only, "ros1", 3, 0.0, FRAMES.colors),
     "compressedDepth-32FC1-and-uyvy": (
         partial(compressed_depth_ros2, encoding="32FC1", rvl=False, color_encoding="yuv422"), "ros2", 3, 2e-4, FRAMES.colors
