@@ -29,6 +29,9 @@ MIN_SHARE_ABOVE = 0.75
 BELOW_WEIGHT = 1.0
 BELOW_MARGIN = 0.005  # share of the object points
 MIN_CAMERAS_ABOVE = 0.8
+# A photo is held upright (or upside down), not turned a quarter, when its y axis is within 60
+# degrees of up: a camera looking down 60 degrees at the object, held upright, is at 60.
+UPRIGHT_MIN_COS = 0.5
 
 
 @dataclass(kw_only=True)
@@ -77,7 +80,8 @@ def camera_up(rotations: np.ndarray) -> np.ndarray:
     cameras' mean downward look (18 degrees on Kermit's photos, all taken from the front);
     where the level axes do not pin a direction (all cameras facing one way) it is what is
     left. Photos turned at any angle (Buddha's frames) make it a weak hint only (56 degrees off
-    the table there)."""
+    the table there). Its sign: -y's where half the photos or more are held upright or upside
+    down, else the cameras look down."""
     rotations = np.asarray(rotations, np.float64)
     if rotations.ndim != 3 or rotations.shape[1:] != (3, 3):
         raise ValueError(f"{rotations.shape=} but expected (N, 3, 3)")
@@ -90,8 +94,14 @@ def camera_up(rotations: np.ndarray) -> np.ndarray:
         if len(singular) < 3 or singular[1] < 2 * singular[2]:
             break  # the level axes span no plane: up stays
         up = vt[-1] * np.sign(vt[-1] @ up)
-    # Objects are photographed from above: most cameras look down (the mean -y may not tell,
-    # when many photos are turned).
+    # Photos held upright (or upside down) say which way is up by their -y: when half of them
+    # or more are, their vote decides. A tall object photographed at eye level is looked up at,
+    # and the look-down rule below turned such a model upside down.
+    held = np.abs(y @ up) >= UPRIGHT_MIN_COS
+    if 2 * held.sum() >= len(rotations):
+        return up if np.sum(-y[held] @ up) >= 0 else -up
+    # Else (many photos turned a quarter, Buddha's frames): objects are photographed from above,
+    # most cameras look down.
     return up if np.sum(rotations[:, 2, :] @ up) <= 0 else -up
 
 

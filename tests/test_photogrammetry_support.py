@@ -58,6 +58,15 @@ def test_camera_up_is_level_with_upright_and_quarter_turned_photos() -> None:
         camera_up(np.zeros((3, 4, 4)))
 
 
+def test_camera_up_of_upright_photos_looking_up_at_a_tall_object_points_up() -> None:
+    """Upright photos taken below the middle of a tall object look up at it: their -y gives the
+    sign (the cameras' look alone put such a model upside down); with most photos turned a
+    quarter, -y cannot tell, and the cameras' look decides as before."""
+    up = np.array([0.0, 0.0, 1.0])
+    assert camera_up(_ring(up, height=-0.3)[:, :3, :3]) @ up > 0.99
+    assert camera_up(_ring(up, height=1.0, rolls=(90.0, -90.0, 0.0))[:, :3, :3]) @ up > 0.99
+
+
 def _scene(rng: np.random.Generator, *, table: bool) -> tuple[np.ndarray, np.ndarray]:
     """A 0.3 m box on a table (z = 0, 1 m square, 1 mm noise) with a wall behind (x = -0.45);
     all points, and the box's (what stays in every frame)."""
