@@ -353,3 +353,41 @@ def test_a_broken_compressed_depth_is_refused_in_one_line(board: Path, tmp_path:
     result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / "broken"), "--board", str(board), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "an RVL depth image" in result.output and "broken" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_realsense_extrinsics_place_the_depth_camera_without_tf_static(board: Path, tmp_path: Path) -> None:
+    """realsense-ros recorded without /tf_static, in a Humble bag (no message definitions): the
+    depth camera, 5 cm behind colour and turned 5 degrees, placed by .../extrinsics/depth_to_color.
+    A wall square to the depth camera, 0.6 m away, must land where the colour camera sees it."""
+    from rosbags.typesys import get_types_from_msg
+    from scipy.spatial.transform import Rotation
+
+    ros = rsim.RosMessages(2)
+    ros.store.register(get_types_from_msg("float64[9] rotation\nfloat64[3] translation", "realsense2_camera_msgs/msg/Extrinsics"))
+    camera = Camera(width=32, height=24, fx=30.0, fy=30.0, cx=15.5, cy=11.5)
+    color_from_depth = np.eye(4)
+    color_from_depth[:3, :3] = Rotation.from_euler("y", 5, degrees=True).as_matrix()
+    color_from_depth[:3, 3] = [0.01, 0.0, -0.05]
+    extrinsics = ros.type("realsense2_camera_msgs/msg/Extrinsics")(
+        rotation=color_from_depth[:3, :3].T.ravel(), translation=color_from_depth[:3, 3].copy()  # column-major
+    )
+    ns = "/camera/camera"
+    messages = [
+        (0.0, f"{ns}/extrinsics/depth_to_color", extrinsics),
+        (0.0, f"{ns}/color/camera_info", ros.camera_info(0.0, camera, COLOR_FRAME)),
+        (0.0, f"{ns}/depth/camera_info", ros.camera_info(0.0, camera, DEPTH_FRAME)),
+    ]
+    for t in FRAMES.times_s:
+        messages.append((t, f"{ns}/color/image_raw", ros.image(t, np.zeros((24, 32, 3), np.uint8), "rgb8", COLOR_FRAME)))
+        messages.append((t, f"{ns}/depth/image_rect_raw", ros.image(t, np.full((24, 32), 600, np.uint16), "16UC1", DEPTH_FRAME)))
+    rsim.write_humble_bag(tmp_path / "bag", ros, messages)
+    report = import_recording(tmp_path / "bag", board, tmp_path / "capture", ImportOptions())
+    assert report.registration == "reprojected" and any("extrinsics/depth_to_color" in n for n in report.notes)
+    _, depths = rsim.read_back(tmp_path / "capture")
+    # The wall in colour's frame: normal R z, through R (0, 0, 0.6) + t; each pixel's ray meets it.
+    normal = color_from_depth[:3, :3][:, 2]
+    offset = normal @ (color_from_depth[:3, :3] @ [0, 0, 0.6] + color_from_depth[:3, 3])
+    rays = camera.pixel_rays().reshape(24, 32, 3)
+    expected = offset / (rays @ normal)
+    seen = depths[0] > 0
+    assert seen.mean() > 0.6 and np.abs(depths[0] - expected)[seen].max() < 0.0015

@@ -105,6 +105,10 @@ def _transform_matrix(transform: object) -> np.ndarray:
     return matrix
 
 
+# realsense-ros's depth-to-colour extrinsics, and its ROS 2 message (ROS 1's adds a header
+# first; its bags carry their definitions).
+_EXTRINSICS_TOPIC = "extrinsics/depth_to_color"
+_EXTRINSICS_MSG = "float64[9] rotation\nfloat64[3] translation"
 # Topic names that say the depth was registered to colour (realsense-ros, openni, Azure Kinect).
 _REGISTERED_NAMES = ("aligned_depth_to_color", "depth_registered", "depth_to_rgb", "depth_to_color")
 
@@ -197,11 +201,32 @@ class RosBagSource(TimedStreamsSource):
             setup.notes += depth_notes
             setup.color_from_depth = self._static_tf().a_from_b(color_info.header.frame_id, depth_info.header.frame_id)
             if setup.color_from_depth is None:
+                setup.color_from_depth = self._realsense_extrinsics()
+                if setup.color_from_depth is not None:
+                    setup.notes.append(f"no /tf_static: the depth camera placed by {_EXTRINSICS_TOPIC}")
+            if setup.color_from_depth is None:
                 setup.notes.append(
                     f"no /tf_static from {depth_info.header.frame_id} to {color_info.header.frame_id}: "
                     "depth reprojected as if the two cameras sat at one point"
                 )
         return setup
+
+    def _realsense_extrinsics(self) -> np.ndarray | None:
+        """color_from_depth from realsense-ros's `.../extrinsics/depth_to_color` (a column-major
+        rotation and a translation in metres), recorded where /tf_static was not."""
+        connections = [c for c in self._reader.connections if c.topic.endswith(_EXTRINSICS_TOPIC)]
+        if not connections:
+            return None
+        msgtype = connections[0].msgtype
+        if msgtype not in self._reader.typestore.fielddefs:  # a bag without message definitions
+            from rosbags.typesys import get_types_from_msg
+
+            self._reader.typestore.register(get_types_from_msg(_EXTRINSICS_MSG, msgtype))
+        message = self._first(connections[0].topic)
+        matrix = np.eye(4)
+        matrix[:3, :3] = np.asarray(message.rotation, dtype=np.float64).reshape(3, 3).T
+        matrix[:3, 3] = np.asarray(message.translation, dtype=np.float64)
+        return matrix
 
     @staticmethod
     def _registered(depth: object, depth_info: object | None, color_info: object) -> bool:
