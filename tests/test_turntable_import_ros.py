@@ -283,6 +283,17 @@ def unstamped(folder: Path) -> Path:
     return folder / "unstamped.bag"
 
 
+def shared_camera_info(folder: Path) -> Path:
+    """One CameraInfo for the camera, not beside either image (`/camera/camera_info` with
+    `/camera/rgb/image` and `/camera/depth/image`), and a smaller one that fits neither."""
+    ros = rsim.RosMessages(2)
+    messages = _streams(ros, _raw_color(ros, "/camera/rgb/image"), _raw_depth(ros, "/camera/depth/image"), color_info="/camera/camera_info")
+    other = Camera(width=8, height=6, fx=10.0, fy=10.0, cx=3.5, cy=2.5)
+    messages.append((0.0, "/camera/rgb/preview/camera_info", ros.camera_info(0.0, other, COLOR_FRAME)))
+    rsim.write_bag(folder / "shared_info", ros, messages)
+    return folder / "shared_info"
+
+
 VARIANTS = {
     # name: (writer, format told, colour tolerance, depth tolerance m, expected colours)
     "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
@@ -303,6 +314,7 @@ VARIANTS = {
     "kinect2-namespaces": (kinect2, "ros1", 0, 0.0, FRAMES.colors),
     "openni-bayer-depth-registered": (openni_bayer, "ros1", 2, 0.0, UNIFORM),
     "unstamped": (unstamped, "ros1", 0, 0.0, FRAMES.colors),
+    "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
 }
 
 

@@ -152,6 +152,7 @@ class RosBagSource(TimedStreamsSource):
         reader = self._reader
         images = {c.topic: c for c in reader.connections if c.msgtype in IMAGE_TYPES}
         self._depth_dtypes: dict[str, type] = {}
+        self._sizes: dict[str, tuple[int, int]] = {}  # image topic -> (width, height) of its first image
         kinds = {topic: self._kind(c) for topic, c in images.items()}
         colors = [c for topic, c in images.items() if kinds[topic] == "color"]
         depths = [c for topic, c in images.items() if kinds[topic] == "depth"]
@@ -248,15 +249,19 @@ class RosBagSource(TimedStreamsSource):
         return None
 
     def _kind(self, connection: object) -> str | None:
+        """"color", "depth" or None (no message, or neither encoding); notes its size and depth type."""
         message = self._first(connection.topic)
         if message is None:
             return None
         if connection.msgtype.endswith("CompressedImage"):
+            shape = decode_compressed_message(message, f"{self.path} {connection.topic}").shape
+            self._sizes[connection.topic] = (shape[1], shape[0])
             form = str(message.format).lower()
             depth = "compresseddepth" in form or "16uc1" in form or "32fc1" in form or "depth" in connection.topic
             if depth:
                 self._depth_dtypes[connection.topic] = np.float32 if form.startswith("32fc1") else np.uint16
             return "depth" if depth else "color"
+        self._sizes[connection.topic] = (int(message.width), int(message.height))
         encoding = str(message.encoding)
         if is_depth_encoding(encoding):
             self._depth_dtypes[connection.topic] = np.uint16 if encoding.lower() != "32fc1" else np.float32
@@ -264,10 +269,20 @@ class RosBagSource(TimedStreamsSource):
         return "color" if is_color_encoding(encoding) else None
 
     def _info_for(self, image: object) -> object | None:
-        """The CameraInfo beside an image topic (`.../color/camera_info` for `.../color/image_raw`)."""
+        """The CameraInfo beside an image topic (`.../color/camera_info` for `.../color/image_raw`);
+        else, elsewhere (`/camera/camera_info` for `/camera/rgb/image`), the nearest one of the
+        image's size."""
         namespace = _namespace(image)
-        infos = [c for c in self._reader.connections if c.msgtype == INFO_TYPE and c.topic.rsplit("/", 1)[0] == namespace]
-        return self._first(infos[0].topic) if infos else None
+        infos = [c for c in self._reader.connections if c.msgtype == INFO_TYPE]
+        beside = [c for c in infos if c.topic.rsplit("/", 1)[0] == namespace]
+        if beside:
+            return self._first(beside[0].topic)
+        fitting = [
+            (_shared_prefix(c.topic.rsplit("/", 1)[0], namespace), info)
+            for c in infos
+            if (info := self._first(c.topic)) is not None and (int(info.width), int(info.height)) == self._sizes[image.topic]
+        ]
+        return max(fitting, key=lambda f: f[0])[1] if fitting else None
 
     def _static_tf(self) -> _TfTree:
         tree = _TfTree()
