@@ -3,7 +3,7 @@ reconstruction) and read back against the frames written: the TUM benchmark, TUM
 associate.py output alone, ICL-NUIM (depth first, frame numbers), ETH3D (its calibration.txt);
 Open3D's RSBagReader.save_frames, its RealSense recorder and Redwood sample (intrinsics JSON
 written by Open3D itself), Redwood's object scans (times in the names, no intrinsics), frames
-numbered without padding."""
+numbered without padding, a reconstruction system config JSON given as the recording."""
 
 from __future__ import annotations
 
@@ -161,6 +161,20 @@ def redwood_object_scan(folder: Path) -> Path:
     return folder
 
 
+def open3d_config(folder: Path) -> Path:
+    """Open3D's reconstruction system run on a TUM-like dataset: its config JSON (given as the
+    recording) names the dataset folder and says depth_scale 5000; the folder holds
+    camera_intrinsic.json."""
+    import json
+
+    _numbered(folder / "dataset", lambda k: (f"color/{k:06d}.png", f"depth/{k:06d}.png"), 5000)
+    _write_open3d_intrinsic(folder / "dataset" / "camera_intrinsic.json", FRAMES.camera)
+    config = {"name": "tum scan", "path_dataset": "../dataset/", "path_intrinsic": "", "depth_scale": 5000.0, "depth_max": 3.0}
+    (folder / "config").mkdir()
+    (folder / "config" / "tum.json").write_text(json.dumps(config, indent=4))
+    return folder / "config" / "tum.json"
+
+
 VARIANTS = {
     # name: (writer, format told, needs --camera, JPEG colour, frames missing)
     "tum-benchmark": (tum_benchmark, "tum", True, False, ()),
@@ -172,8 +186,9 @@ VARIANTS = {
     "redwood-sample": (redwood_sample, "open3d", False, True, ()),
     "unpadded-numbers": (unpadded_numbers, "open3d", False, False, ()),
     "redwood-object-scan": (redwood_object_scan, "open3d", True, True, (6,)),
+    "open3d-reconstruction-config": (open3d_config, "open3d", False, False, ()),
 }
-SCALES = {"tum": 1 / 5000, "open3d-save-frames-d405": 1e-4}
+SCALES = {"tum": 1 / 5000, "open3d-save-frames-d405": 1e-4, "open3d-reconstruction-config": 1 / 5000}
 
 
 @pytest.mark.parametrize("name", list(VARIANTS))

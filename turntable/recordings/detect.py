@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Literal, get_args
 
 from homemodel.core.errors import InputError
-from turntable.recordings.open3d_folder import COLOR_FOLDERS, intrinsics_file
+from turntable.recordings.open3d_folder import COLOR_FOLDERS, intrinsics_file, is_config
 from turntable.recordings.tum import LISTS, associations_file
 
 RecordingFormat = Literal["realsense-bag", "ros1", "ros2", "tum", "open3d"]
@@ -29,11 +29,15 @@ def detect_format(path: Path) -> str:
     if not path.exists():
         raise InputError(f"{path}: no such recording")
     if path.is_file():
+        if is_config(path):
+            return "open3d"
         if path.suffix == ".bag":
             return "realsense-bag" if _is_realsense_bag(path) else "ros1"
         if path.suffix in (".db3", ".mcap"):
             return "ros2"
-        raise InputError(f"{path}: cannot tell the recording's format (a .bag, .db3 or .mcap file?); give --format")
+        raise InputError(
+            f"{path}: cannot tell the recording's format (a .bag, .db3, .mcap or Open3D config .json file?); give --format"
+        )
     if (path / "metadata.yaml").is_file():
         return "ros2"
     if any((path / name).is_file() for name in LISTS) or associations_file(path) is not None:

@@ -4,7 +4,8 @@ the intrinsics as Open3D's PinholeCameraIntrinsic JSON (width, height, a column-
 units a metre), `camera_intrinsic.json` (its RealSense recorder), `camera_primesense.json`
 (its Redwood sample), or any JSON in the folder holding an `intrinsic_matrix`. Without one,
 the camera comes from `--camera` (Redwood's object scans ship none). Depth is registered to
-colour, 1 mm unless `depth_scale` says otherwise.
+colour, 1 mm unless `depth_scale` says otherwise. The recording may also be given as the
+reconstruction system's config JSON: its `path_dataset`, `path_intrinsic` and `depth_scale`.
 
 Frames are numbered files (`00000.jpg`, or `0.png`, `1.png`, ... in number order) paired by
 order, 1/30 s apart (the recorders' rate); Redwood's scans name each frame
@@ -68,6 +69,32 @@ def intrinsics_file(folder: Path) -> Path | None:
     return None
 
 
+def is_config(path: Path) -> bool:
+    """An Open3D reconstruction system config (a JSON naming its `path_dataset`)."""
+    return path.suffix.lower() == ".json" and path.stat().st_size < 1 << 20 and b'"path_dataset"' in read_bounded(path, 1 << 20)
+
+
+def read_config(path: Path) -> tuple[Path, Path | None, float | None]:
+    """An Open3D reconstruction system config's dataset folder, its intrinsics file (None: not
+    named) and its depth units a metre (None: not said). Relative paths are tried from the
+    config's folder, then from the working folder (where Open3D's scripts run)."""
+    try:
+        data = json.loads(read_bounded(path, 1 << 20))
+        dataset, named, per_metre = str(data["path_dataset"]), data.get("path_intrinsic") or None, data.get("depth_scale")
+        per_metre = None if per_metre is None else float(per_metre)
+    except (ValueError, KeyError, TypeError, RecursionError) as exc:
+        raise InputError(f"{path}: not an Open3D reconstruction config: {exc}") from None
+    if per_metre is not None and not per_metre > 0:
+        raise InputError(f"{path}: depth_scale {per_metre} is not positive")
+
+    def resolve(value: str) -> Path:
+        given = Path(value).expanduser()
+        tried = [given] if given.is_absolute() else [path.parent / given, Path.cwd() / given]
+        return next((p for p in tried if p.exists()), tried[0])
+
+    return resolve(dataset), None if named is None else resolve(str(named)), per_metre
+
+
 def _redwood_times_s(files: list[Path]) -> np.ndarray | None:
     matches = [_REDWOOD_NAME.match(p.stem) for p in files]
     if not files or not all(matches):
@@ -81,28 +108,33 @@ class Open3dSource(TimedStreamsSource):
         self.camera = camera
 
     def open(self) -> StreamSetup:
-        color_dir = next((self.path / n for n in COLOR_FOLDERS if (self.path / n).is_dir()), None)
+        folder, intrinsics, per_metre = self.path, None, None
+        if self.path.is_file():
+            folder, intrinsics, per_metre = read_config(self.path)
+        color_dir = next((folder / n for n in COLOR_FOLDERS if (folder / n).is_dir()), None)
         if color_dir is None:
-            raise InputError(f"{self.path}: no colour folder (one of {', '.join(COLOR_FOLDERS)})")
-        if not (self.path / "depth").is_dir():
-            raise InputError(f"{self.path}: no depth folder (depth/)")
-        intrinsics = intrinsics_file(self.path)
+            raise InputError(f"{folder}: no colour folder (one of {', '.join(COLOR_FOLDERS)})")
+        if not (folder / "depth").is_dir():
+            raise InputError(f"{folder}: no depth folder (depth/)")
+        intrinsics = intrinsics or intrinsics_file(folder)
         notes = []
         if intrinsics is not None:
             camera, note = read_intrinsics(intrinsics)
-            notes += [note] if note else []
+            notes += [note] if note and per_metre is None else []
             intrinsics_from = "recording"
         elif self.camera is not None:
             camera, intrinsics_from = self.camera, "--camera"
         else:
             raise InputError(
-                f"{self.path}: no intrinsics ({' or '.join(INTRINSICS_FILES)}, or a JSON with an intrinsic_matrix); "
+                f"{folder}: no intrinsics ({' or '.join(INTRINSICS_FILES)}, or a JSON with an intrinsic_matrix); "
                 "give them with --camera camera.yaml"
             )
+        if per_metre is not None:
+            camera = Camera(**{**camera.model_dump(), "depth_scale_m": 1.0 / per_metre})
         self._colors = _frames(color_dir, (".png", ".jpg", ".jpeg"))
-        self._depths = _frames(self.path / "depth", (".png",))
+        self._depths = _frames(folder / "depth", (".png",))
         if not self._depths:
-            raise InputError(f"{self.path / 'depth'}: no depth images")
+            raise InputError(f"{folder / 'depth'}: no depth images")
         self._times = (_redwood_times_s(self._colors), _redwood_times_s(self._depths))
         if self._times[0] is None or self._times[1] is None:
             self._times = None
