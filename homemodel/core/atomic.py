@@ -81,6 +81,7 @@ class _FolderFlush:
         self._pool: ThreadPoolExecutor | None = None
         self._flushes: list[Future[None]] = []
         self._slots = threading.BoundedSemaphore(self.PENDING)
+        self._adding = threading.Lock()  # a writer's threads that share its context may add at once
 
     def holding(self, path: Path) -> _FolderFlush | None:
         """The innermost atomic folder that `path` is written into, or None."""
@@ -92,9 +93,10 @@ class _FolderFlush:
     def add(self, fd: int) -> None:
         """Flush the open file `fd` (a descriptor of its own: closed once flushed)."""
         self._slots.acquire()
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(1, thread_name_prefix="homemodel-fsync")
-        self._flushes.append(self._pool.submit(self._flush, fd))
+        with self._adding:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="homemodel-fsync")
+            self._flushes.append(self._pool.submit(self._flush, fd))
 
     def _flush(self, fd: int) -> None:
         try:
