@@ -294,6 +294,22 @@ def shared_camera_info(folder: Path) -> Path:
     return folder / "shared_info"
 
 
+def image_proc_rectified(folder: Path) -> Path:
+    """image_proc's `image_rect_color`: rectified, so seen with the CameraInfo's P; its K and D
+    (another focal length, a strong lens) are the raw image's."""
+    ros = rsim.RosMessages(1)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/rgb/image_rect_color"), _raw_depth(ros, "/camera/depth_registered/image_raw"),
+        color_info="/camera/rgb/camera_info",
+    )
+    raw = Camera(**{**FRAMES.camera.model_dump(), "fx": 23.0, "fy": 23.0, "distortion": (0.2, -0.1, 0.01, 0.0, 0.0)})
+    info = ros.camera_info(0.0, raw, COLOR_FRAME)
+    info.P[[0, 2, 5, 6]] = [FRAMES.camera.fx, FRAMES.camera.cx, FRAMES.camera.fy, FRAMES.camera.cy]
+    messages[0] = (0.0, "/camera/rgb/camera_info", info)
+    rsim.write_bag(folder / "rectified.bag", ros, messages)
+    return folder / "rectified.bag"
+
+
 VARIANTS = {
     # name: (writer, format told, colour tolerance, depth tolerance m, expected colours)
     "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
@@ -315,6 +331,7 @@ VARIANTS = {
     "openni-bayer-depth-registered": (openni_bayer, "ros1", 2, 0.0, UNIFORM),
     "unstamped": (unstamped, "ros1", 0, 0.0, FRAMES.colors),
     "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
+    "image-proc-rectified": (image_proc_rectified, "ros1", 0, 0.0, FRAMES.colors),
 }
 
 
@@ -325,6 +342,9 @@ def test_each_layout_imports_its_frames(name: str, board: Path, tmp_path: Path) 
     report = import_recording(recording, board, tmp_path / "capture", ImportOptions())
     assert report.format == told and report.registration == "recording", report
     assert report.frames_written == len(FRAMES.times_s) and report.pairs_associated == len(FRAMES.times_s)
+    camera = load_camera(tmp_path / "capture" / "camera.yaml")
+    if name != "azure-kinect-bgra8-rational":  # its lens refitted: test_rational_lens_refitted...
+        assert (camera.fx, camera.cy, camera.has_distortion) == (FRAMES.camera.fx, FRAMES.camera.cy, False), name
     read_colors, read_depths = rsim.read_back(tmp_path / "capture")
     for k, (color, depth) in enumerate(zip(read_colors, read_depths)):
         assert np.abs(color.astype(int) - colors[k].astype(int)).max() <= color_tolerance, (name, k)

@@ -50,17 +50,29 @@ def _stamp_s(message: object) -> float:
     return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
 
 
-def camera_from_info(info: object, where: str) -> tuple[Camera, list[str]]:
+def is_rectified(image_topic: str) -> bool:
+    """image_proc's rectified images (`image_rect`, `image_rect_color`): seen with CameraInfo's
+    P, without distortion. (realsense-ros's `image_rect_raw` is its sensor's own image.)"""
+    name = image_topic.rstrip("/").rsplit("/", 1)[-1]
+    return name.startswith("image_rect") and name != "image_rect_raw"
+
+
+def camera_from_info(info: object, where: str, *, rectified: bool = False) -> tuple[Camera, list[str]]:
     """The Camera of a CameraInfo (plumb_bob / rational_polynomial: Brown-Conrady; equidistant:
-    Kannala-Brandt) and notes on what it could not carry."""
+    Kannala-Brandt; a rectified image: P's intrinsics, no distortion) and notes on what it could
+    not carry."""
     k = np.asarray(_field(info, "k", "K"), dtype=np.float64).reshape(3, 3)
     d = [float(v) for v in np.asarray(_field(info, "d", "D"), dtype=np.float64)]
     model = str(info.distortion_model).lower()
     width, height = int(info.width), int(info.height)
+    if rectified:
+        k = np.asarray(_field(info, "p", "P"), dtype=np.float64).reshape(3, 4)[:, :3]
     if k[0, 0] <= 0 or k[1, 1] <= 0 or width <= 0 or height <= 0:
         raise InputError(f"{where}: the CameraInfo has no intrinsics (K = {k.ravel().tolist()}, {width}x{height})")
     notes = []
     camera = Camera.from_matrix(k, width=width, height=height)
+    if rectified:
+        return camera, notes
     if model == "equidistant":
         return Camera(**{**camera.model_dump(), "distortion": tuple((d + [0.0] * 4)[:4]), "distortion_model": "kannala_brandt"}), notes
     if not any(d):
@@ -191,14 +203,18 @@ class RosBagSource(TimedStreamsSource):
             ),
         )
         depth_info = infos[self._depth.topic]
-        color_camera, notes = camera_from_info(color_info, f"{where} {self._color.topic}")
+        color_camera, notes = camera_from_info(
+            color_info, f"{where} {self._color.topic}", rectified=is_rectified(image_base(self._color))
+        )
         depth_scale = 0.001 if self._depth_dtypes[self._depth.topic] == np.uint16 else FLOAT_DEPTH_SCALE_M
         color_camera = Camera(**{**color_camera.model_dump(), "depth_scale_m": depth_scale})
         setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=notes)
         if self._depth not in registered:
             if depth_info is None:
                 raise InputError(f"{where}: no intrinsics for the unregistered depth: no CameraInfo beside {self._depth.topic}")
-            setup.depth_camera, depth_notes = camera_from_info(depth_info, f"{where} {self._depth.topic}")
+            setup.depth_camera, depth_notes = camera_from_info(
+                depth_info, f"{where} {self._depth.topic}", rectified=is_rectified(image_base(self._depth))
+            )
             setup.notes += depth_notes
             setup.color_from_depth = self._static_tf().a_from_b(color_info.header.frame_id, depth_info.header.frame_id)
             if setup.color_from_depth is None:
