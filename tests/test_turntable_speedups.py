@@ -3,7 +3,8 @@ a few seconds): the object's pixels kept from one reading give the points a whol
 back-projection gives; the tag search's decimation follows the tags' size in the image; the
 mesh snapped onto the merged points lands on the surface they sample; the texture carrier's
 decimation keeps a closed mesh closed and on the surface; the poses stage's runs of frames,
-read apart on threads, hand every reading over and stop together."""
+read apart on threads, hand every reading over and stop together; one AprilTag detector serves
+every decimation, and detectors built ahead are the ones the searches take."""
 
 from __future__ import annotations
 
@@ -17,7 +18,10 @@ from turntable.board import grid_board
 from turntable.fusion import Cylinder, object_pixels, pixel_points
 from turntable.meshing import snap_to_points
 from turntable.real_frames import drop_flying_pixels
+from turntable import tags
+from turntable.board import tag_bits
 from turntable.tag_search import tag_decimation
+from turntable.tags import DetectionOptions, detect_tags, prepare_detectors
 from turntable.texture import decimated
 
 CAMERA = Camera(width=320, height=240, fx=280.0, fy=280.0, cx=159.5, cy=119.5)
@@ -141,3 +145,37 @@ def test_runs_read_apart_hand_over_every_reading_in_order_and_a_failing_run_stop
     with pytest.raises(ValueError, match="b3: unreadable"):
         _read_runs(runs, read_run, keep)
     assert [f for f in kept if f[0] == "a"] == ["a0", "a1"] and [f for f in kept if f[0] == "b"] == ["b0", "b1", "b2"]
+
+
+def _tags_image() -> np.ndarray:
+    """Tags 4 to 7 on white, 60, 40, 14 and 12 px wide (AprilTag's 2x decimation misses the small ones)."""
+    image = np.full((120, 320), 255, np.uint8)
+    for tag_id, (left, side) in zip(range(4, 8), [(10, 60), (90, 40), (150, 14), (180, 12)]):
+        cells = np.ones((10, 10), bool)
+        cells[1:-1, 1:-1] = tag_bits(tag_id)
+        image[30 : 30 + side, left : left + side] = np.kron(cells, np.ones((side, side), np.uint8))[:: 10, :: 10][:side, :side] * 255
+    return image
+
+
+def test_one_detector_serves_each_decimation_as_a_new_one_would(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tag search's detectors are kept and reused at any decimation (its field set before
+    each search): a reused one finds what a new one at that decimation finds."""
+    image = _tags_image()
+    coarse, fine = DetectionOptions(decimate=2.0, edge_refinement=False), DetectionOptions(decimate=1.0, edge_refinement=False)
+    found = {}
+    for options in (coarse, fine):  # each by a detector of its own
+        monkeypatch.setattr(tags, "_idle_detectors", [])
+        found[options.decimate] = detect_tags(image, options)
+    assert set(found[1.0]) == {4, 5, 6, 7} and set(found[2.0]) < set(found[1.0])  # the decimation matters here
+    monkeypatch.setattr(tags, "_idle_detectors", [])
+    monkeypatch.setattr(tags, "_detectors_built", 0)
+    for options in (fine, coarse, fine, coarse):  # one detector, turned from one to the other
+        reused = detect_tags(image, options)
+        assert reused.keys() == found[options.decimate].keys()
+        assert all(np.array_equal(reused[i], found[options.decimate][i]) for i in reused)
+    assert len(tags._idle_detectors) == 1 and tags._detectors_built == 1
+    # Built ahead up to a count: the searches then build none.
+    prepare_detectors(fine, 2)
+    assert len(tags._idle_detectors) == 2 and tags._detectors_built == 2
+    prepare_detectors(fine, 2)
+    assert len(tags._idle_detectors) == 2

@@ -38,6 +38,7 @@ from turntable.real_frames import (
 from turntable.pose import FramePose, PoseSkip
 from turntable.reconstruction import Reconstruction, ReconstructOptions
 from turntable.tag_search import TagSearch, capture_search, frame_pose, predicted_pose
+from turntable.tags import prepare_detectors
 from turntable.turntable_model import fit_turntable
 
 STAGES = ("poses", "axis", "merge", "mesh", "texture", "export")
@@ -141,11 +142,13 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
     be, kept for the merge. Frames with unreadable images, too few tags or blur are skipped
     with a reason."""
     camera = capture.camera
-    # The pixel rays (float32 halves the per-pixel arithmetic; 0.1 um at 1 m) on another thread:
-    # the first frame is searched before its pixels need them, with the second core idle
-    # (15 ms of NumPy at 640 x 480; 0.23 s undistorting a 1280 x 720 lens's).
+    # While the first frame is searched alone, on the other core: the pixel rays (float32 halves
+    # the per-pixel arithmetic; 0.1 um at 1 m), which its pixels need next (15 ms of NumPy at
+    # 640 x 480; 0.23 s undistorting a 1280 x 720 lens's), then the tag detectors the runs'
+    # first searches need (35 ms each) beside the one the first frame's search builds.
     with ThreadPoolExecutor(max_workers=1) as pool:
         rays = pool.submit(lambda: camera.pixel_rays().astype(np.float32))
+        pool.submit(prepare_detectors, options.detection, options.workers)
         return _read_frames(capture, options, report, rays)
 
 

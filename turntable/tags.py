@@ -64,7 +64,8 @@ class PixelWindow:
         )
 
 
-_idle_detectors: dict[float, list] = {}  # by decimation, the detectors no thread is using
+_idle_detectors: list = []  # the detectors no thread is using
+_detectors_built = 0  # or being built
 _idle_lock = threading.Lock()
 
 
@@ -72,20 +73,45 @@ _idle_lock = threading.Lock()
 def _apriltag_detector(decimate: float) -> Iterator:
     """A detector set to `decimate` for this thread's use (one is not safe to share between
     threads): an idle one if any, else a new one. Building one, its tag family's decoding
-    table, costs 35 ms of CPU; a capture needs only as many as its threads search at once."""
-    from pupil_apriltags import Detector
-
+    table, costs 35 ms of CPU; a capture needs only as many as its threads search at once,
+    whatever their decimations (a detector's is a field set before each search)."""
+    global _detectors_built
     with _idle_lock:
-        idle = _idle_detectors.setdefault(decimate, [])
-        detector = idle.pop() if idle else None
+        detector = _idle_detectors.pop() if _idle_detectors else None
+        if detector is None:
+            _detectors_built += 1
     if detector is None:
-        detector = Detector(families="tag36h11", nthreads=1, quad_decimate=decimate, quad_sigma=0.0, refine_edges=1)
-        atexit.register(_release, detector)
+        detector = _new_detector()
+    detector.tag_detector_ptr.contents.quad_decimate = float(decimate)
     try:
         yield detector
     finally:
         with _idle_lock:
-            _idle_detectors[decimate].append(detector)
+            _idle_detectors.append(detector)
+
+
+def _new_detector():  # noqa: ANN202
+    from pupil_apriltags import Detector
+
+    detector = Detector(families="tag36h11", nthreads=1, quad_sigma=0.0, refine_edges=1)
+    atexit.register(_release, detector)
+    return detector
+
+
+def prepare_detectors(options: DetectionOptions, count: int) -> None:
+    """Build detectors until `count` exist: a capture's runs each search their first frames at
+    once, and building theirs while the first frame is searched, on the core that search
+    leaves idle, takes their 35 ms each off the runs' start."""
+    global _detectors_built
+    if options.detector != "apriltag":
+        return
+    with _idle_lock:
+        missing = max(count - _detectors_built, 0)
+        _detectors_built += missing
+    for _ in range(missing):
+        detector = _new_detector()
+        with _idle_lock:
+            _idle_detectors.append(detector)
 
 
 def _release(detector) -> None:  # noqa: ANN001
