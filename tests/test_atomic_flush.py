@@ -64,3 +64,17 @@ def test_a_file_outside_an_atomic_folder_is_flushed_before_the_write_returns(tmp
     with atomic_dir(tmp_path / "out"):
         write_bytes_atomic(tmp_path / "map.xml", b"<map/>")
         assert (tmp_path / "map.xml").stat().st_ino in flushed
+
+
+def test_a_forked_child_flushes_its_own_files(tmp_path: Path, monkeypatch) -> None:
+    """A child forked inside an atomic folder has no flush thread: its writes flush before they return."""
+    flushed: set[int] = set()
+    _recording_fsync(monkeypatch, flushed)
+    with atomic_dir(tmp_path / "out") as tmp:
+        write_bytes_atomic(tmp / "parent.txt", b"parent")  # the parent's flush thread runs: not the child's
+        child = os.fork()
+        if child == 0:  # the child: its exit code says what it found
+            write_bytes_atomic(tmp / "child.txt", b"child")
+            os._exit(0 if (tmp / "child.txt").stat().st_ino in flushed else 1)
+        _, status = os.waitpid(child, 0)
+    assert os.waitstatus_to_exitcode(status) == 0

@@ -82,9 +82,12 @@ class _FolderFlush:
         self._flushes: list[Future[None]] = []
         self._slots = threading.BoundedSemaphore(self.PENDING)
         self._adding = threading.Lock()  # a writer's threads that share its context may add at once
+        self._owner = os.getpid()  # a forked child has no flush thread: it flushes its own files
 
     def holding(self, path: Path) -> _FolderFlush | None:
         """The innermost atomic folder that `path` is written into, or None."""
+        if os.getpid() != self._owner:
+            return None
         where = os.path.abspath(path)
         if os.path.commonpath([where, self.folder]) == self.folder:
             return self
