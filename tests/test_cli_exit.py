@@ -1,4 +1,4 @@
-"""The command ends without the interpreter's teardown (0.15 CPU-s after a completion query):
+"""The command ends without the interpreter's teardown (0.20 CPU-s of a completion query's 2.6):
 its exit handlers still run, its output is all written, its exit code is kept."""
 
 from __future__ import annotations
