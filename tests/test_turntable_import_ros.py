@@ -387,34 +387,43 @@ def test_a_broken_compressed_depth_is_refused_in_one_line(board: Path, tmp_path:
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
-def test_realsense_extrinsics_place_the_depth_camera_without_tf_static(board: Path, tmp_path: Path) -> None:
-    """realsense-ros recorded without /tf_static, in a Humble bag (no message definitions): the
-    depth camera, 5 cm behind colour and turned 5 degrees, placed by .../extrinsics/depth_to_color.
-    A wall square to the depth camera, 0.6 m away, must land where the colour camera sees it."""
+@pytest.mark.parametrize("placed_by", ["extrinsics/depth_to_color", "/tf"])
+def test_without_tf_static_the_depth_camera_is_placed_by(placed_by: str, board: Path, tmp_path: Path) -> None:
+    """An unregistered depth camera 5 cm behind colour and turned 5 degrees, recorded without
+    /tf_static: placed by realsense-ros's extrinsics/depth_to_color (a Humble bag, no message
+    definitions), or by /tf repeated (ROS 1's tf static_transform_publisher). A wall square to
+    the depth camera, 0.6 m away, must land where the colour camera sees it."""
     from rosbags.typesys import get_types_from_msg
     from scipy.spatial.transform import Rotation
 
-    ros = rsim.RosMessages(2)
-    ros.store.register(get_types_from_msg("float64[9] rotation\nfloat64[3] translation", "realsense2_camera_msgs/msg/Extrinsics"))
+    ros = rsim.RosMessages(2 if placed_by.startswith("extrinsics") else 1)
     camera = Camera(width=32, height=24, fx=30.0, fy=30.0, cx=15.5, cy=11.5)
     color_from_depth = np.eye(4)
     color_from_depth[:3, :3] = Rotation.from_euler("y", 5, degrees=True).as_matrix()
     color_from_depth[:3, 3] = [0.01, 0.0, -0.05]
-    extrinsics = ros.type("realsense2_camera_msgs/msg/Extrinsics")(
-        rotation=color_from_depth[:3, :3].T.ravel(), translation=color_from_depth[:3, 3].copy()  # column-major
-    )
     ns = "/camera/camera"
     messages = [
-        (0.0, f"{ns}/extrinsics/depth_to_color", extrinsics),
         (0.0, f"{ns}/color/camera_info", ros.camera_info(0.0, camera, COLOR_FRAME)),
         (0.0, f"{ns}/depth/camera_info", ros.camera_info(0.0, camera, DEPTH_FRAME)),
     ]
+    if placed_by.startswith("extrinsics"):
+        msgtype = "realsense2_camera_msgs/msg/Extrinsics"
+        ros.store.register(get_types_from_msg("float64[9] rotation\nfloat64[3] translation", msgtype))
+        rotation, translation = color_from_depth[:3, :3].T.ravel(), color_from_depth[:3, 3].copy()  # column-major
+        messages.append((0.0, f"{ns}/extrinsics/depth_to_color", ros.type(msgtype)(rotation=rotation, translation=translation)))
+    else:
+        edges = [("camera_link", COLOR_FRAME, np.eye(4)), ("camera_link", DEPTH_FRAME, color_from_depth)]
+        messages += [(0.1 * k, "/tf", ros.tf_static(edges)) for k in range(3)]
     for t in FRAMES.times_s:
         messages.append((t, f"{ns}/color/image_raw", ros.image(t, np.zeros((24, 32, 3), np.uint8), "rgb8", COLOR_FRAME)))
         messages.append((t, f"{ns}/depth/image_rect_raw", ros.image(t, np.full((24, 32), 600, np.uint16), "16UC1", DEPTH_FRAME)))
-    rsim.write_humble_bag(tmp_path / "bag", ros, messages)
-    report = import_recording(tmp_path / "bag", board, tmp_path / "capture", ImportOptions())
-    assert report.registration == "reprojected" and any("extrinsics/depth_to_color" in n for n in report.notes)
+    bag = tmp_path / ("bag" if ros.ros_version == 2 else "scan.bag")
+    if ros.ros_version == 2:
+        rsim.write_humble_bag(bag, ros, messages)
+    else:
+        rsim.write_bag(bag, ros, messages)
+    report = import_recording(bag, board, tmp_path / "capture", ImportOptions())
+    assert report.registration == "reprojected" and f"no /tf_static: the depth camera placed by {placed_by}" in report.notes
     _, depths = rsim.read_back(tmp_path / "capture")
     # The wall in colour's frame: normal R z, through R (0, 0, 0.6) + t; each pixel's ray meets it.
     normal = color_from_depth[:3, :3][:, 2]

@@ -216,11 +216,15 @@ class RosBagSource(TimedStreamsSource):
                 depth_info, f"{where} {self._depth.topic}", rectified=is_rectified(image_base(self._depth))
             )
             setup.notes += depth_notes
-            setup.color_from_depth = self._static_tf().a_from_b(color_info.header.frame_id, depth_info.header.frame_id)
-            if setup.color_from_depth is None:
-                setup.color_from_depth = self._realsense_extrinsics()
-                if setup.color_from_depth is not None:
-                    setup.notes.append(f"no /tf_static: the depth camera placed by {_EXTRINSICS_TOPIC}")
+            frames = (color_info.header.frame_id, depth_info.header.frame_id)
+            setup.color_from_depth = np.eye(4) if frames[0] == frames[1] else self._tf(*frames, "/tf_static")
+            for placed_by, find in (
+                ("/tf", lambda: self._tf(*frames, "/tf")),
+                (_EXTRINSICS_TOPIC, self._realsense_extrinsics),
+            ):
+                if setup.color_from_depth is None and (found := find()) is not None:
+                    setup.color_from_depth = found
+                    setup.notes.append(f"no /tf_static: the depth camera placed by {placed_by}")
             if setup.color_from_depth is None:
                 setup.notes.append(
                     f"no /tf_static from {depth_info.header.frame_id} to {color_info.header.frame_id}: "
@@ -300,13 +304,23 @@ class RosBagSource(TimedStreamsSource):
         ]
         return max(fitting, key=lambda f: f[0])[1] if fitting else None
 
-    def _static_tf(self) -> _TfTree:
+    def _tf(self, a: str, b: str, topic: str) -> np.ndarray | None:
+        """a_from_b from the transforms on `topic` (/tf_static; or /tf, where ROS 1's tf
+        static_transform_publisher repeats them), each edge as first given."""
         tree = _TfTree()
-        connections = [c for c in self._reader.connections if c.msgtype == TF_TYPE and c.topic.endswith("tf_static")]
+        seen: set[tuple[str, str]] = set()
+        connections = [c for c in self._reader.connections if c.msgtype == TF_TYPE and c.topic.rstrip("/").endswith(topic)]
         for connection, _, raw in self._reader.messages(connections=connections) if connections else ():
+            added = False
             for stamped in self._reader.deserialize(raw, connection.msgtype).transforms:
-                tree.add(stamped.header.frame_id, stamped.child_frame_id, _transform_matrix(stamped.transform))
-        return tree
+                edge = (stamped.header.frame_id, stamped.child_frame_id)
+                if edge not in seen:
+                    seen.add(edge)
+                    tree.add(*edge, _transform_matrix(stamped.transform))
+                    added = True
+            if added and (found := tree.a_from_b(a, b)) is not None:
+                return found
+        return None
 
     def _messages(self) -> Iterator[tuple[str, int, object, int]]:
         """(kind, index in its stream, (connection, raw), log time ns) in the bag's order; every
