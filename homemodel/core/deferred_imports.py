@@ -31,14 +31,14 @@ def _importer_initialising() -> bool:
 
 
 class _LoadedOnFirstUse(types.ModuleType):
-    """Stands for a module in sys.modules until one of its attributes is asked for."""
+    """Stands for networkx in sys.modules until one of its attributes is asked for."""
 
     def __getattr__(self, attribute: str) -> Any:
         if _importer_initialising():
             raise AttributeError(f"module {self.__name__!r} is loaded on first use, after {_IMPORTER}'s import")
-        if sys.modules.get(self.__name__) is self:
-            del sys.modules[self.__name__]
-        return getattr(importlib.import_module(self.__name__), attribute)
+        if sys.modules.get(_DEFERRED) is self:
+            del sys.modules[_DEFERRED]
+        return getattr(importlib.import_module("networkx"), attribute)
 
 
 class _BeforeTrimesh(importlib.abc.MetaPathFinder):
