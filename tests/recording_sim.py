@@ -375,6 +375,7 @@ class RealSenseLayout:
     color_model: str = "brown_conrady"  # D415/D435 colour: inverse_brown_conrady (zero coefficients)
     device_name: str | None = None  # the device's camera_info name, as a real device reports it
     compressed: bool = False  # the recorder's LZ4 chunks
+    depth_units_option: bool = True  # False: a writer that leaves out the depth sensor's depth_units
 
 
 def write_realsense_streams(
@@ -427,7 +428,8 @@ def write_realsense_streams(
         stream.width, stream.height, stream.intrinsics = camera.width, camera.height, intrinsics(camera, model)
         profiles.append(sensor.add_video_stream(stream))
     depth_profile, color_profile = profiles[:2]
-    depth_sensor.add_read_only_option(rs.option.depth_units, rig.depth_scale_m)
+    if layout.depth_units_option:
+        depth_sensor.add_read_only_option(rs.option.depth_units, rig.depth_scale_m)
     extrinsics = rs.extrinsics()
     extrinsics.rotation = rig.color_from_depth[:3, :3].T.ravel().tolist()  # column-major
     extrinsics.translation = rig.color_from_depth[:3, 3].tolist()

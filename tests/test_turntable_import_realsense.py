@@ -29,6 +29,7 @@ LAYOUTS = {
     "yuyv-compressed": (rsim.RealSenseLayout(color_format="yuyv", compressed=True), 0.001, 3),
     "rgba8": (rsim.RealSenseLayout(color_format="rgba8"), 0.001, 0),
     "bgra8": (rsim.RealSenseLayout(color_format="bgra8"), 0.001, 0),
+    "no-depth-units-option": (rsim.RealSenseLayout(depth_units_option=False), 0.001, 0),
 }
 
 
@@ -49,6 +50,7 @@ def test_each_camera_s_bag_imports_its_frames(name: str, board: Path, tmp_path: 
     assert detect_format(tmp_path / "scan.bag") == "realsense-bag"
     report = import_recording(tmp_path / "scan.bag", board, tmp_path / "capture", ImportOptions())
     assert report.format == "realsense-bag" and report.frames_written == len(FRAMES.times_s), report
+    assert any("no depth units" in note for note in report.notes) == (not layout.depth_units_option)
     camera = load_camera(tmp_path / "capture" / "camera.yaml")
     assert camera.depth_scale_m == pytest.approx(units_m) and (camera.fx, camera.cx) == (FRAMES.camera.fx, FRAMES.camera.cx)
     colors, read_depths = rsim.read_back(tmp_path / "capture")

@@ -21,6 +21,16 @@ _PLAYBACK_STALL_S = 60.0  # a playback ends by its status; this long without a f
 _QUEUE_FRAMES = 8  # frames waiting for the reader (each held outside the SDK's pool)
 
 
+def _depth_units_m(depth_sensor: object) -> tuple[float, list[str]]:
+    """The depth sensor's units (its depth_units option, as a camera and the Viewer's .bag keep
+    it); 1 mm, said, for a recording without the option."""
+    import pyrealsense2 as rs
+
+    if depth_sensor.supports(rs.option.depth_units):
+        return float(depth_sensor.get_option(rs.option.depth_units)), []
+    return 0.001, ["no depth units in the recording: 1 mm assumed (the D400's default)"]
+
+
 def camera_from_intrinsics(intrinsics: object, depth_scale_m: float) -> tuple[Camera, list[str]]:
     """Our Camera of an rs.intrinsics, and notes on what its distortion model became."""
     import pyrealsense2 as rs
@@ -155,11 +165,12 @@ class RealSenseSource(FrameSource):
         device = self._device()
         profiles = self._profiles(device)
         (depth_sensor, depth_profile), (color_sensor, color_profile) = profiles[rs.stream.depth], profiles[rs.stream.color]
-        depth_scale = device.first_depth_sensor().get_depth_scale()
+        depth_scale, notes = _depth_units_m(depth_sensor)
         intrinsics = color_profile.get_intrinsics()
         if intrinsics.fx <= 0 or intrinsics.fy <= 0:
             raise InputError(f"{self.where}: the colour stream has no intrinsics")
-        camera, notes = camera_from_intrinsics(intrinsics, depth_scale)
+        camera, lens_notes = camera_from_intrinsics(intrinsics, depth_scale)
+        notes += lens_notes
         self._align = rs.align(rs.stream.color)
         # The SDK aligns a frameset: ours are made of the two frames we paired.
         self._framesets = rs.frame_queue(1)
