@@ -376,6 +376,7 @@ class RealSenseLayout:
     device_name: str | None = None  # the device's camera_info name, as a real device reports it
     compressed: bool = False  # the recorder's LZ4 chunks
     depth_units_option: bool = True  # False: a writer that leaves out the depth sensor's depth_units
+    frame_numbers: bool = True  # False: every frame numbered 0, as a writer that never sets them
 
 
 def write_realsense_streams(
@@ -454,7 +455,7 @@ def write_realsense_streams(
         frame.timestamp = 1000.0 * (t + 1.0)
         frame.domain = rs.timestamp_domain.system_time
         numbers[kind] += 1
-        frame.frame_number = numbers[kind]
+        frame.frame_number = numbers[kind] if layout.frame_numbers else 0
         frame.profile = profile_of[kind].as_video_stream_profile()
         if kind == "depth":
             frame.depth_units = rig.depth_scale_m

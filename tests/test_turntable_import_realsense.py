@@ -30,6 +30,7 @@ LAYOUTS = {
     "rgba8": (rsim.RealSenseLayout(color_format="rgba8"), 0.001, 0),
     "bgra8": (rsim.RealSenseLayout(color_format="bgra8"), 0.001, 0),
     "no-depth-units-option": (rsim.RealSenseLayout(depth_units_option=False), 0.001, 0),
+    "frames-unnumbered": (rsim.RealSenseLayout(frame_numbers=False), 0.001, 0),
 }
 
 

@@ -278,23 +278,25 @@ class RealSenseSource(FrameSource):
         while not self._frames.empty():
             self._frames.get_nowait()
 
-    def _associated(self, seen: dict[str, set[int]]) -> Iterator[tuple[object, object, float]]:
-        """(colour frame, depth frame, depth minus colour seconds) in time order, each frame once."""
+    def _associated(self, seen: dict[str, set[tuple[int, float]]]) -> Iterator[tuple[object, object, float]]:
+        """(colour frame, depth frame, depth minus colour seconds) in time order, each frame once
+        (a frame delivered twice has the same number and time; a writer may leave every number 0)."""
         import pyrealsense2 as rs
 
         association = StreamAssociation(self.tolerance_s)
         while (frame := self._next_frame()) is not None:
             kind = "color" if frame.get_profile().stream_type() == rs.stream.color else "depth"
-            if frame.get_frame_number() in seen[kind]:  # delivered twice
+            key = (frame.get_frame_number(), frame.get_timestamp())
+            if key in seen[kind]:
                 continue
-            seen[kind].add(frame.get_frame_number())
+            seen[kind].add(key)
             yield from association.add(kind, frame.get_timestamp() / 1000, frame)
         yield from association.finish()
 
     def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
         counts = self.counts
         origin = None
-        seen: dict[str, set[int]] = {"color": set(), "depth": set()}
+        seen: dict[str, set[tuple[int, float]]] = {"color": set(), "depth": set()}
         kept = 0
         try:
             for color, depth, offset_s in self._associated(seen):
@@ -311,8 +313,8 @@ class RealSenseSource(FrameSource):
                 yield RgbdPair(time_s=time_s, color=color_image, depth=depth_image, depth_offset_s=offset_s)
         finally:
             for kind in ("color", "depth"):
-                numbers = seen[kind]
-                setattr(counts, f"{kind}_frames", len(numbers))
-                # Frames the camera counted but never delivered are dropped too.
-                missing = max(numbers) - min(numbers) + 1 - len(numbers) if numbers else 0
-                setattr(counts, f"dropped_{kind}", len(numbers) - counts.pairs + missing)
+                numbers = {number for number, _ in seen[kind]}
+                setattr(counts, f"{kind}_frames", len(seen[kind]))
+                # Frames the camera counted but never delivered are dropped too (when it numbered them).
+                missing = max(numbers) - min(numbers) + 1 - len(numbers) if len(numbers) == len(seen[kind]) > 0 else 0
+                setattr(counts, f"dropped_{kind}", len(seen[kind]) - counts.pairs + missing)
