@@ -161,6 +161,16 @@ def redwood_object_scan(folder: Path) -> Path:
     return folder
 
 
+def hand_written_row_major(folder: Path) -> Path:
+    """An intrinsic.json written by hand in reading order (row-major), not as Open3D writes it."""
+    import json
+
+    _numbered(folder, lambda k: (f"color/{k:06d}.png", f"depth/{k:06d}.png"), 1000)
+    matrix = FRAMES.camera.matrix.ravel().tolist()
+    (folder / "intrinsic.json").write_text(json.dumps({"width": 16, "height": 12, "intrinsic_matrix": matrix}))
+    return folder
+
+
 def open3d_config(folder: Path) -> Path:
     """Open3D's reconstruction system run on a TUM-like dataset: its config JSON (given as the
     recording) names the dataset folder and says depth_scale 5000; the folder holds
@@ -187,6 +197,7 @@ VARIANTS = {
     "unpadded-numbers": (unpadded_numbers, "open3d", False, False, ()),
     "redwood-object-scan": (redwood_object_scan, "open3d", True, True, (6,)),
     "open3d-reconstruction-config": (open3d_config, "open3d", False, False, ()),
+    "hand-written-row-major-intrinsics": (hand_written_row_major, "open3d", False, False, ()),
 }
 SCALES = {"tum": 1 / 5000, "open3d-save-frames-d405": 1e-4, "open3d-reconstruction-config": 1 / 5000}
 

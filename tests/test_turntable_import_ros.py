@@ -283,6 +283,19 @@ def unstamped(folder: Path) -> Path:
     return folder / "unstamped.bag"
 
 
+def one_stamp(folder: Path) -> Path:
+    """A writer that stamps every header with one time (the recording's start), ROS 2."""
+    ros = rsim.RosMessages(2)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
+        color_info="/camera/color/camera_info",
+    )
+    for _, _, message in messages:
+        message.header.stamp = ros.header(0.25, "").stamp
+    rsim.write_bag(folder / "one_stamp", ros, messages)
+    return folder / "one_stamp"
+
+
 def shared_camera_info(folder: Path) -> Path:
     """One CameraInfo for the camera, not beside either image (`/camera/camera_info` with
     `/camera/rgb/image` and `/camera/depth/image`), and a smaller one that fits neither."""
@@ -330,6 +343,7 @@ VARIANTS = {
     "kinect2-namespaces": (kinect2, "ros1", 0, 0.0, FRAMES.colors),
     "openni-bayer-depth-registered": (openni_bayer, "ros1", 2, 0.0, UNIFORM),
     "unstamped": (unstamped, "ros1", 0, 0.0, FRAMES.colors),
+    "one-stamp-throughout": (one_stamp, "ros2", 0, 0.0, FRAMES.colors),
     "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
     "image-proc-rectified": (image_proc_rectified, "ros1", 0, 0.0, FRAMES.colors),
 }

@@ -43,18 +43,24 @@ def _frames(folder: Path, suffixes: tuple[str, ...]) -> list[Path]:
     return sorted(found, key=_number_order)
 
 
-def read_intrinsics(path: Path) -> tuple[Camera, str | None]:
-    """The colour camera (depth_scale_m set) and a note when the depth scale was assumed."""
+def read_intrinsics(path: Path) -> tuple[Camera, list[str]]:
+    """The colour camera (depth_scale_m set) and notes on what was assumed."""
     try:
         data = json.loads(read_bounded(path, 1 << 20))
         matrix = np.asarray(data["intrinsic_matrix"], dtype=np.float64).reshape(3, 3).T  # column-major
+        row_major = not np.allclose(matrix[2], [0, 0, 1]) and np.allclose(matrix[:, 2], [0, 0, 1])
+        if row_major:  # written by hand in reading order: its last row would carry cx, cy
+            matrix = matrix.T
         camera = Camera.from_matrix(matrix, width=int(data["width"]), height=int(data["height"]))
         per_metre = data.get("depth_scale")
         scale = 0.001 if per_metre is None else 1.0 / float(per_metre)
         camera = Camera(**{**camera.model_dump(), "depth_scale_m": scale})
     except (ValueError, KeyError, TypeError, RecursionError, ZeroDivisionError) as exc:
         raise InputError(f"{path}: not an Open3D camera intrinsic file: {exc}") from None
-    return camera, None if per_metre is not None else "depth units 1 mm (Open3D's default; no depth_scale in the file)"
+    notes = ["intrinsic_matrix read row-major (Open3D writes it column-major: its last row held cx, cy)"] if row_major else []
+    if per_metre is None:
+        notes.append("depth units 1 mm (Open3D's default; no depth_scale in the file)")
+    return camera, notes
 
 
 def intrinsics_file(folder: Path) -> Path | None:
@@ -119,8 +125,8 @@ class Open3dSource(TimedStreamsSource):
         intrinsics = intrinsics or intrinsics_file(folder)
         notes = []
         if intrinsics is not None:
-            camera, note = read_intrinsics(intrinsics)
-            notes += [note] if note and per_metre is None else []
+            camera, intrinsics_notes = read_intrinsics(intrinsics)
+            notes += [n for n in intrinsics_notes if per_metre is None or not n.startswith("depth units")]
             intrinsics_from = "recording"
         elif self.camera is not None:
             camera, intrinsics_from = self.camera, "--camera"

@@ -340,10 +340,12 @@ class RosBagSource(TimedStreamsSource):
         for kind, _, (connection, raw), log_ns in self._messages():
             stamps[kind].append(_stamp_s(self._reader.deserialize(raw, connection.msgtype)))
             logged[kind].append(1e-9 * log_ns)
-        unstamped = [kind for kind in stamps if stamps[kind] and not any(stamps[kind])]
-        if unstamped:  # a driver that leaves the header's stamp at zero
+        # A driver (or writer) that leaves the header's stamp at zero, or at one value throughout.
+        unstamped = [kind for kind in stamps if len(stamps[kind]) > 1 and len(set(stamps[kind])) == 1]
+        if unstamped:
             self.setup.notes.append(
-                f"{' and '.join(unstamped)} images carry no time stamp: paired by the times the bag logged them"
+                f"{' and '.join(unstamped)} images carry no time stamp (all {stamps[unstamped[0]][0]:.3f} s): "
+                "paired by the times the bag logged them"
             )
             stamps = logged
         return np.array(stamps["color"]), np.array(stamps["depth"])
