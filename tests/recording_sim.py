@@ -377,6 +377,7 @@ class RealSenseLayout:
     compressed: bool = False  # the recorder's LZ4 chunks
     depth_units_option: bool = True  # False: a writer that leaves out the depth sensor's depth_units
     frame_numbers: bool = True  # False: every frame numbered 0, as a writer that never sets them
+    extrinsics: bool = True  # False: no depth-to-colour extrinsics registered
 
 
 def write_realsense_streams(
@@ -434,7 +435,8 @@ def write_realsense_streams(
     extrinsics = rs.extrinsics()
     extrinsics.rotation = rig.color_from_depth[:3, :3].T.ravel().tolist()  # column-major
     extrinsics.translation = rig.color_from_depth[:3, 3].tolist()
-    depth_profile.register_extrinsics_to(color_profile, extrinsics)
+    if layout.extrinsics:
+        depth_profile.register_extrinsics_to(color_profile, extrinsics)
     recorder = rs.recorder(str(path), device, layout.compressed)
     queue = rs.syncer()
     sensors = {id(s): s for s, *_ in streams}

@@ -31,6 +31,7 @@ LAYOUTS = {
     "bgra8": (rsim.RealSenseLayout(color_format="bgra8"), 0.001, 0),
     "no-depth-units-option": (rsim.RealSenseLayout(depth_units_option=False), 0.001, 0),
     "frames-unnumbered": (rsim.RealSenseLayout(frame_numbers=False), 0.001, 0),
+    "no-extrinsics": (rsim.RealSenseLayout(extrinsics=False), 0.001, 0),
 }
 
 

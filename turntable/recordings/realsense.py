@@ -179,10 +179,23 @@ class RealSenseSource(FrameSource):
         )
         self._composer.start(self._framesets)
         setup = StreamSetup(format="realsense-bag" if self.bag else "realsense-live", color_camera=camera, notes=notes)
-        extrinsics = depth_profile.get_extrinsics_to(color_profile)
-        rotation = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
-        translation = np.asarray(extrinsics.translation, dtype=np.float64)
-        if intrinsics.model in (rs.distortion.brown_conrady, rs.distortion.kannala_brandt4) and any(intrinsics.coeffs):
+        try:
+            extrinsics = depth_profile.get_extrinsics_to(color_profile)
+            rotation = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
+            translation = np.asarray(extrinsics.translation, dtype=np.float64)
+        except RuntimeError:  # "Requested extrinsics are not available!" (the SDK's align needs them)
+            rotation, translation = np.eye(3), np.zeros(3)
+            depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
+            self._align = None
+            missing = "no depth-to-colour extrinsics in the recording"
+            if depth_camera == camera:
+                setup.notes.append(f"{missing}; the depth has colour's camera: taken as registered")
+            else:
+                setup.depth_camera, setup.color_from_depth = depth_camera, np.eye(4)
+                setup.notes += [*depth_notes, f"{missing}: depth reprojected as if the two cameras sat at one point"]
+        if self._align is not None and intrinsics.model in (rs.distortion.brown_conrady, rs.distortion.kannala_brandt4) and any(
+            intrinsics.coeffs
+        ):
             # The SDK's align lands depth up to mm off the truth under a forward-distorting colour
             # lens here (measured against ray-cast depth); D400 colour uses inverse Brown-Conrady.
             setup.depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
