@@ -296,6 +296,14 @@ def one_stamp(folder: Path) -> Path:
     return folder / "one_stamp"
 
 
+def colour_info_only(folder: Path) -> Path:
+    """A depth stream of colour's size with no CameraInfo of its own (only colour's recorded)."""
+    ros = rsim.RosMessages(2)
+    messages = _streams(ros, _raw_color(ros, "/cam/color/image"), _raw_depth(ros, "/cam/depth/image"), color_info="/cam/color/camera_info")
+    rsim.write_bag(folder / "colour_info_only", ros, messages)
+    return folder / "colour_info_only"
+
+
 def shared_camera_info(folder: Path) -> Path:
     """One CameraInfo for the camera, not beside either image (`/camera/camera_info` with
     `/camera/rgb/image` and `/camera/depth/image`), and a smaller one that fits neither."""
@@ -345,6 +353,7 @@ VARIANTS = {
     "unstamped": (unstamped, "ros1", 0, 0.0, FRAMES.colors),
     "one-stamp-throughout": (one_stamp, "ros2", 0, 0.0, FRAMES.colors),
     "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
+    "depth-without-camera-info": (colour_info_only, "ros2", 0, 0.0, FRAMES.colors),
     "image-proc-rectified": (image_proc_rectified, "ros1", 0, 0.0, FRAMES.colors),
 }
 

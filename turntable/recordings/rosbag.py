@@ -209,6 +209,8 @@ class RosBagSource(TimedStreamsSource):
         depth_scale = 0.001 if self._depth_dtypes[self._depth.topic] == np.uint16 else FLOAT_DEPTH_SCALE_M
         color_camera = Camera(**{**color_camera.model_dump(), "depth_scale_m": depth_scale})
         setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=notes)
+        if self._depth in registered and depth_info is None and not any(n in self._depth.topic for n in _REGISTERED_NAMES):
+            setup.notes.append(f"{self._depth.topic} has no CameraInfo and colour's size: taken as registered to colour")
         if self._depth not in registered:
             if depth_info is None:
                 raise InputError(f"{where}: no intrinsics for the unregistered depth: no CameraInfo beside {self._depth.topic}")
@@ -249,13 +251,15 @@ class RosBagSource(TimedStreamsSource):
         matrix[:3, 3] = np.asarray(message.translation, dtype=np.float64)
         return matrix
 
-    @staticmethod
-    def _registered(depth: object, depth_info: object | None, color_info: object) -> bool:
-        """Depth in colour's pixels: said by its topic's name, or its CameraInfo is colour's."""
+    def _registered(self, depth: object, depth_info: object | None, color_info: object) -> bool:
+        """Depth in colour's pixels: said by its topic's name, or its CameraInfo is colour's, or
+        it has none and colour's size (a camera's single CameraInfo)."""
+        color_size = (int(color_info.width), int(color_info.height))
+        if depth_info is None:
+            return any(name in depth.topic for name in _REGISTERED_NAMES) or self._sizes[depth.topic] == color_size
         return any(name in depth.topic for name in _REGISTERED_NAMES) or (
-            depth_info is not None
-            and depth_info.header.frame_id == color_info.header.frame_id
-            and (depth_info.width, depth_info.height) == (color_info.width, color_info.height)
+            depth_info.header.frame_id == color_info.header.frame_id
+            and (int(depth_info.width), int(depth_info.height)) == color_size
         )
 
     def close(self) -> None:
