@@ -16,6 +16,36 @@ _MAX_TRIANGLE_PX = 8  # a triangle's projection larger than this a side: skipped
 _EDGE_RELATIVE_JUMP = 0.03  # a triangle whose depths differ more than this (x depth) spans an edge
 
 
+def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> list[np.ndarray]:
+    """Per triangle of each 2x2 block of (H, W) colour-pixel coordinates x, y and depth z
+    (NaN: none): its bounding box's first pixel and size (0 for a triangle not drawn: a corner
+    without depth, across a depth jump, too large, or degenerate), and s, t, 1/z as affine
+    functions of the pixel (x, y) (the barycentric coordinates; 1/z interpolates linearly).
+    Computed on the blocks' corner views, without gathering."""
+    columns = []
+    a, b, c, d = (np.s_[:-1, :-1], np.s_[:-1, 1:], np.s_[1:, :-1], np.s_[1:, 1:])
+    for corners in ((a, b, c), (b, d, c)):  # the block's two triangles
+        (x0, y0, z0), (x1, y1, z1), (x2, y2, z2) = ((x[k], y[k], z[k]) for k in corners)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            low, high = np.fmin(np.fmin(z0, z1), z2), np.fmax(np.fmax(z0, z1), z2)
+            ok = np.isfinite(z0 + z1 + z2) & ((high - low) <= _EDGE_RELATIVE_JUMP * low)
+            first_x = np.ceil(np.minimum(np.minimum(x0, x1), x2))
+            first_y = np.ceil(np.minimum(np.minimum(y0, y1), y2))
+            size_x = np.floor(np.maximum(np.maximum(x0, x1), x2)) - first_x + 1
+            size_y = np.floor(np.maximum(np.maximum(y0, y1), y2)) - first_y + 1
+            e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x0, y2 - y0
+            det = e1x * e2y - e1y * e2x
+            ok &= (size_x <= _MAX_TRIANGLE_PX) & (size_y <= _MAX_TRIANGLE_PX) & (size_x > 0) & (size_y > 0)
+            ok &= np.abs(det) > 1e-12
+            s_x, s_y, t_x, t_y = e2y / det, -e2x / det, -e1y / det, e1x / det
+            s_c, t_c = -(s_x * x0 + s_y * y0), -(t_x * x0 + t_y * y0)
+            w0, w1, w2 = 1.0 / z0, 1.0 / z1 - 1.0 / z0, 1.0 / z2 - 1.0 / z0
+            w_x, w_y, w_c = w1 * s_x + w2 * t_x, w1 * s_y + w2 * t_y, w0 + w1 * s_c + w2 * t_c
+        bounds = [np.where(ok, v, 0).astype(np.int64) for v in (first_x, first_y, size_x, size_y)]
+        columns.append([v.ravel() for v in (*bounds, s_x, s_y, s_c, t_x, t_y, t_c, w_x, w_y, w_c)])
+    return [np.concatenate(pair) for pair in zip(*columns)]
+
+
 def register_depth(
     depth_m: np.ndarray, depth_camera: Camera, color_camera: Camera, color_from_depth: np.ndarray
 ) -> np.ndarray:
@@ -34,42 +64,28 @@ def register_depth(
     front = valid.ravel() & (points[:, 2] > 1e-6)
     pixels = np.full((height * width, 2), np.nan)
     pixels[front] = color_camera.project(points[front])
-    z = np.where(front, points[:, 2], np.nan)
-    index = np.arange(height * width).reshape(height, width)
-    a, b, c, d = index[:-1, :-1].ravel(), index[:-1, 1:].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel()
-    triangles = np.concatenate([np.column_stack([a, b, c]), np.column_stack([b, d, c])])
-    # Per-triangle minima and maxima over the three corners pairwise: numpy's reductions
-    # along a length-3 axis cost several times more (most of this function's time).
-    tz = z[triangles]
-    ok = np.isfinite(tz[:, 0]) & np.isfinite(tz[:, 1]) & np.isfinite(tz[:, 2])
-    triangles, tz = triangles[ok], tz[ok]
-    low = np.minimum(np.minimum(tz[:, 0], tz[:, 1]), tz[:, 2])
-    high = np.maximum(np.maximum(tz[:, 0], tz[:, 1]), tz[:, 2])
-    ok = (high - low) <= _EDGE_RELATIVE_JUMP * low
-    triangles, tz = triangles[ok], tz[ok]
-    tp = pixels[triangles]  # (T, 3, 2)
-    first = np.ceil(np.minimum(np.minimum(tp[:, 0], tp[:, 1]), tp[:, 2])).astype(np.int64)
-    size = np.floor(np.maximum(np.maximum(tp[:, 0], tp[:, 1]), tp[:, 2])).astype(np.int64) - first + 1
-    ok = (size[:, 0] <= _MAX_TRIANGLE_PX) & (size[:, 1] <= _MAX_TRIANGLE_PX) & (size[:, 0] > 0) & (size[:, 1] > 0)
-    tp, tz, first, size = tp[ok], tz[ok], first[ok], size[ok]
-    # Barycentric coordinates from the triangle's edge vectors; 1/z interpolates linearly.
-    e1, e2 = tp[:, 1] - tp[:, 0], tp[:, 2] - tp[:, 0]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    ok = np.abs(det) > 1e-12
-    tp, tz, first, size, e1, e2, det = tp[ok], tz[ok], first[ok], size[ok], e1[ok], e2[ok], det[ok]
-    inverse_z = 1.0 / tz
+    z = np.where(front, points[:, 2], np.nan).reshape(height, width)
+    first_x, first_y, size_x, size_y, *coefficients = _triangle_columns(
+        pixels[:, 0].reshape(height, width), pixels[:, 1].reshape(height, width), z
+    )
+    # Triangles grouped by their bounding box's size: each group's passes over its boxes'
+    # pixels run on contiguous arrays (most triangles cover 1-3 pixels a side; size 0: none).
+    drawn = np.flatnonzero(size_x > 0)
+    drawn = drawn[np.lexsort((size_x[drawn], size_y[drawn]))]
+    columns = [v[drawn] for v in (first_x, first_y, *coefficients)]
+    size = np.column_stack([size_x[drawn], size_y[drawn]])
+    cuts = np.flatnonzero(np.any(np.diff(size, axis=0) != 0, axis=1)) + 1
     out = np.full(color_camera.height * color_camera.width, np.inf)
-    for dy in range(int(size[:, 1].max(initial=0))):
-        for dx in range(int(size[:, 0].max(initial=0))):
-            k = np.flatnonzero((size[:, 0] > dx) & (size[:, 1] > dy))  # most triangles cover 1-3 pixels a side
-            x, y = first[k, 0] + dx, first[k, 1] + dy
-            px, py = x - tp[k, 0, 0], y - tp[k, 0, 1]
-            s = (px * e2[k, 1] - py * e2[k, 0]) / det[k]
-            t = (e1[k, 0] * py - e1[k, 1] * px) / det[k]
-            inside = (s >= -1e-9) & (t >= -1e-9) & (s + t <= 1 + 1e-9)
-            inside &= (x >= 0) & (x < color_camera.width) & (y >= 0) & (y < color_camera.height)
-            k, s, t = k[inside], s[inside], t[inside]
-            values = 1.0 / (inverse_z[k, 0] * (1 - s - t) + inverse_z[k, 1] * s + inverse_z[k, 2] * t)
-            np.minimum.at(out, y[inside] * color_camera.width + x[inside], values)
+    for start, end in zip(np.r_[0, cuts], np.r_[cuts, len(size)]):
+        fx, fy, sx, sy, sc, tx, ty, tc, wx, wy, wc = (v[start:end] for v in columns)
+        for dy in range(size[start, 1]):
+            y = fy + dy
+            s_row, t_row, w_row = sy * y + sc, ty * y + tc, wy * y + wc
+            for dx in range(size[start, 0]):
+                x = fx + dx
+                s, t = sx * x + s_row, tx * x + t_row
+                inside = (s >= -1e-9) & (t >= -1e-9) & (s + t <= 1 + 1e-9)
+                inside &= (x >= 0) & (x < color_camera.width) & (y >= 0) & (y < color_camera.height)
+                np.minimum.at(out, (y * color_camera.width + x)[inside], 1.0 / (wx * x + w_row)[inside])
     out[~np.isfinite(out)] = np.nan
     return out.reshape(color_camera.height, color_camera.width).astype(np.float32)
