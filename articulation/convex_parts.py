@@ -86,6 +86,33 @@ def inside_convex(hull: trimesh.Trimesh, points: np.ndarray, tolerance: float = 
     return np.all(points @ normals.T - offsets <= tolerance, axis=1)
 
 
+def as_convex_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """`mesh` itself when it already bounds a convex solid, else its convex hull. A mesh bounds
+    one when it is closed and consistently wound (every directed edge once, its reverse once),
+    uses every vertex, holds a volume, and has every vertex on or behind every face's plane.
+    The test costs a tenth of qhull's hull (a scan's 32 cell hulls: 0.035 CPU-s rebuilt)."""
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    if len(faces) >= 4 and len(np.unique(faces)) == len(vertices):
+        edges = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        directed = np.unique(edges[:, 0] * len(vertices) + edges[:, 1])
+        reverse = edges[:, 1] * len(vertices) + edges[:, 0]
+        corners = vertices[faces]
+        normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        volume = np.einsum("ij,ij->", corners[:, 0], normals) / 6
+        size = float(np.ptp(vertices, axis=0).max())
+        # A vertex may stand a billionth of the size past a face's plane (round-off on coplanar
+        # facets; the normals are not unit, so the allowance scales with them).
+        tolerance = 1e-9 * size * np.linalg.norm(normals, axis=1)
+        if (
+            len(directed) == len(edges)
+            and np.isin(reverse, directed).all()
+            and volume > 1e-12 * size**3
+            and np.all(vertices @ normals.T - np.einsum("ij,ij->i", normals, corners[:, 0]) <= tolerance)
+        ):
+            return mesh
+    return mesh.convex_hull
+
+
 def _covered(shapes: list[trimesh.Trimesh], points: np.ndarray, tolerance: float) -> np.ndarray:
     """Which points lie inside some convex shape (each shape tests only the points still out
     within its bounding box)."""

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.convex_parts import spans_a_volume, decompose, is_concave
+from articulation.convex_parts import as_convex_hull, spans_a_volume, decompose, is_concave
 from homemodel.exchange.model_files import write_model_files
 from homemodel.model_folder.gate.validate import validate_path
 from articulation.model import MeshGeometry
@@ -68,3 +68,22 @@ def test_a_flat_or_collapsed_part_is_left_out_rather_than_given_to_qhull() -> No
     assert not spans_a_volume(square)
     assert not spans_a_volume(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0]], float))
     assert spans_a_volume(trimesh.creation.box().vertices)
+
+
+def test_a_mesh_that_bounds_a_convex_solid_is_its_own_hull() -> None:
+    # The exporters write each collision mesh's hull: a part that already is one is written as it
+    # is, anything else is rebuilt by qhull.
+    box = trimesh.creation.box((0.1, 0.2, 0.3))
+    assert as_convex_hull(box) is box
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=0.05)
+    assert as_convex_hull(sphere) is sphere
+    cup = trimesh.creation.annulus(0.04, 0.045, 0.1)  # concave: its inner wall faces inwards
+    inverted = box.copy()
+    inverted.invert()  # the faces' planes turned inwards
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-1], process=False)  # not closed
+    stray = trimesh.Trimesh(np.vstack([box.vertices, [[0.0, 0.0, 0.0]]]), box.faces, process=False)
+    doubled = trimesh.Trimesh(box.vertices, np.vstack([box.faces, box.faces]), process=False)
+    for mesh in (cup, inverted, open_box, stray, doubled):
+        hull = as_convex_hull(mesh)
+        assert hull is not mesh and hull.is_convex and hull.volume > 0
+        assert hull.volume == pytest.approx(mesh.convex_hull.volume, rel=1e-12)

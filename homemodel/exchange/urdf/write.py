@@ -25,6 +25,7 @@ from articulation.model import (
     Sphere,
     Visual,
 )
+from articulation.convex_parts import as_convex_hull
 from articulation.naming import file_stem, unique
 from homemodel.core.atomic import write_text_atomic
 from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
@@ -71,7 +72,7 @@ class _MeshWriter:
 
     def collision(self, link: Link, collision: Collision, geometry: MeshGeometry) -> str:
         stem = unique(file_stem(f"{link.name}_{collision.name}_collision"), self.taken)
-        hull = geometry.mesh.convex_hull
+        hull = as_convex_hull(geometry.mesh)
         write_text_atomic(self.mesh_dir / f"{stem}.obj", obj_text(hull, mtl_file=None, material=None, uv=None))
         return f"{MESH_DIR}/{stem}.obj"
 
