@@ -149,8 +149,8 @@ def realsense_ros2_humble(folder: Path) -> Path:
 
 
 def ros2_sqlite(folder: Path, *, compression: str | None, file_alone: bool) -> Path:
-    """`ros2 bag record` in sqlite3: zstd-compressed whole (`--compression-mode file`) or a
-    message at a time (`message`); or given as its .db3 file alone."""
+    """`ros2 bag record` in sqlite3: zstd-compressed whole (`--compression-mode file`, given as
+    its metadata.yaml) or a message at a time (`message`); or given as its .db3 file alone."""
     import shutil
 
     ros = rsim.RosMessages(2)
@@ -160,7 +160,7 @@ def ros2_sqlite(folder: Path, *, compression: str | None, file_alone: bool) -> P
     )
     rsim.write_bag(folder / "bag", ros, messages, compression=compression)
     if not file_alone:
-        return folder / "bag"
+        return folder / "bag" / "metadata.yaml" if compression == "file" else folder / "bag"
     shutil.move(next((folder / "bag").glob("*.db3")), folder / "scan.db3")
     return folder / "scan.db3"
 

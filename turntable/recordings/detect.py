@@ -33,7 +33,7 @@ def detect_format(path: Path) -> str:
             return "open3d"
         if path.suffix == ".bag":
             return "realsense-bag" if _is_realsense_bag(path) else "ros1"
-        if path.suffix in (".db3", ".mcap"):
+        if path.suffix in (".db3", ".mcap") or path.name == "metadata.yaml":
             return "ros2"
         raise InputError(
             f"{path}: cannot tell the recording's format (a .bag, .db3, .mcap or Open3D config .json file?); give --format"

@@ -31,8 +31,11 @@ FLOAT_DEPTH_SCALE_M = 0.0001  # float depth (32FC1 metres) is written in 0.1 mm 
 
 
 def bag_path(path: Path) -> Path:
-    """What rosbags opens: a ROS 1 .bag file, or a ROS 2 bag's folder."""
+    """What rosbags opens: a ROS 1 .bag file, or a ROS 2 bag's folder (given as itself, its
+    metadata.yaml, or one of its storage files)."""
     path = Path(path)
+    if path.is_file() and path.name == "metadata.yaml":
+        return path.parent
     if path.is_file() and path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
         return path.parent
     return path
