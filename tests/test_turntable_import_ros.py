@@ -165,6 +165,20 @@ def ros2_sqlite(folder: Path, *, compression: str | None, file_alone: bool) -> P
     return folder / "scan.db3"
 
 
+def step_left_unset(folder: Path) -> Path:
+    """A writer that leaves every Image's step at 0 (its rows unpadded)."""
+    ros = rsim.RosMessages(2)
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
+        color_info="/camera/color/camera_info",
+    )
+    for _, _, message in messages:
+        if hasattr(message, "step"):
+            message.step = 0
+    rsim.write_bag(folder / "step_unset", ros, messages)
+    return folder / "step_unset"
+
+
 def ros1_bz2_padded_big_endian(folder: Path) -> Path:
     """`rosbag record --bz2`; colour rows padded to a 64-byte step, depth mono16 big-endian."""
     ros = rsim.RosMessages(1)
@@ -354,6 +368,7 @@ VARIANTS = {
     "one-stamp-throughout": (one_stamp, "ros2", 0, 0.0, FRAMES.colors),
     "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
     "depth-without-camera-info": (colour_info_only, "ros2", 0, 0.0, FRAMES.colors),
+    "step-left-unset": (step_left_unset, "ros2", 0, 0.0, FRAMES.colors),
     "image-proc-rectified": (image_proc_rectified, "ros1", 0, 0.0, FRAMES.colors),
 }
 

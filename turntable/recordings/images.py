@@ -67,7 +67,15 @@ def decode_image_message(message: object, where: str) -> np.ndarray:
     encoding = str(message.encoding).lower()
     height, width, step = int(message.height), int(message.width), int(message.step)
     data = np.asarray(message.data, dtype=np.uint8)
-    if len(data) < height * step:
+    if encoding in _DEPTH_ENCODINGS:
+        pixel_bytes = _DEPTH_ENCODINGS[encoding].itemsize
+    elif encoding in _COLOR_ENCODINGS:
+        pixel_bytes = _COLOR_ENCODINGS[encoding][0]
+    else:
+        raise InputError(f"{where}: image encoding {message.encoding!r} is neither colour nor depth")
+    if step < width * pixel_bytes and len(data) == height * width * pixel_bytes:
+        step = width * pixel_bytes  # a writer that left step unset (0): rows unpadded
+    if height <= 0 or step < width * pixel_bytes or len(data) < height * step:
         raise InputError(f"{where}: an image message has {len(data)} bytes, {height} rows of {step} expected")
     rows = data[: height * step].reshape(height, step)
     if encoding in _DEPTH_ENCODINGS:
@@ -76,8 +84,6 @@ def decode_image_message(message: object, where: str) -> np.ndarray:
             dtype = dtype.newbyteorder(">")
         image = rows[:, : width * dtype.itemsize].copy().view(dtype).reshape(height, width)
         return image.astype(dtype.newbyteorder("="))
-    if encoding not in _COLOR_ENCODINGS:
-        raise InputError(f"{where}: image encoding {message.encoding!r} is neither colour nor depth")
     channels, conversion = _COLOR_ENCODINGS[encoding]
     image = np.ascontiguousarray(rows[:, : width * channels]).reshape(height, width, channels)
     return image if conversion is None else cv2.cvtColor(image, getattr(cv2, conversion))
