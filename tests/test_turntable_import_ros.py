@@ -110,6 +110,14 @@ def _raw_depth(ros: rsim.RosMessages, topic: str, encoding: str = "16UC1", frame
     return topic, lambda t, k: ros.image(t, convert(FRAMES.depths_m[k]), encoding, frame)
 
 
+def _aligned(ros: rsim.RosMessages, **options: object) -> list[tuple[float, str, object]]:
+    """realsense-ros's colour and aligned depth, with colour's CameraInfo."""
+    return _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
+        color_info="/camera/color/camera_info", **options,
+    )
+
+
 def _other_camera_streams(ros: rsim.RosMessages, namespace: str, depth_topic: str) -> list[tuple[float, str, object]]:
     """A second, unregistered depth stream (another size and frame) and an infrared one: what
     the driver also publishes and the importer must pass over."""
@@ -154,29 +162,12 @@ def ros2_sqlite(folder: Path, *, compression: str | None, file_alone: bool) -> P
     import shutil
 
     ros = rsim.RosMessages(2)
-    messages = _streams(
-        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
-        color_info="/camera/color/camera_info",
-    )
+    messages = _aligned(ros)
     rsim.write_bag(folder / "bag", ros, messages, compression=compression)
     if not file_alone:
         return folder / "bag" / "metadata.yaml" if compression == "file" else folder / "bag"
     shutil.move(next((folder / "bag").glob("*.db3")), folder / "scan.db3")
     return folder / "scan.db3"
-
-
-def step_left_unset(folder: Path) -> Path:
-    """A writer that leaves every Image's step at 0 (its rows unpadded)."""
-    ros = rsim.RosMessages(2)
-    messages = _streams(
-        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
-        color_info="/camera/color/camera_info",
-    )
-    for _, _, message in messages:
-        if hasattr(message, "step"):
-            message.step = 0
-    rsim.write_bag(folder / "step_unset", ros, messages)
-    return folder / "step_unset"
 
 
 def ros1_bz2_padded_big_endian(folder: Path) -> Path:
@@ -289,25 +280,28 @@ UNIFORM = [np.broadcast_to(np.array(c, np.uint8), FRAMES.colors[0].shape).copy()
 def unstamped(folder: Path) -> Path:
     """A driver that leaves header.stamp at zero: the bag's own log times pair the frames."""
     ros = rsim.RosMessages(1)
-    messages = _streams(
-        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
-        color_info="/camera/color/camera_info", stamped=False,
-    )
+    messages = _aligned(ros, stamped=False)
     rsim.write_bag(folder / "unstamped.bag", ros, messages)
     return folder / "unstamped.bag"
 
 
-def one_stamp(folder: Path) -> Path:
-    """A writer that stamps every header with one time (the recording's start), ROS 2."""
+def edited_ros2(folder: Path, edit: Callable[[rsim.RosMessages, object], None]) -> Path:
+    """realsense-ros's streams in a ROS 2 bag, every message edited as a careless writer leaves it."""
     ros = rsim.RosMessages(2)
-    messages = _streams(
-        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/aligned_depth_to_color/image_raw"),
-        color_info="/camera/color/camera_info",
-    )
+    messages = _aligned(ros)
     for _, _, message in messages:
-        message.header.stamp = ros.header(0.25, "").stamp
-    rsim.write_bag(folder / "one_stamp", ros, messages)
-    return folder / "one_stamp"
+        edit(ros, message)
+    rsim.write_bag(folder / "edited", ros, messages)
+    return folder / "edited"
+
+
+def _one_stamp(ros: rsim.RosMessages, message: object) -> None:
+    message.header.stamp = ros.header(0.25, "").stamp  # every header stamped the recording's start
+
+
+def _step_unset(_: rsim.RosMessages, message: object) -> None:
+    if hasattr(message, "step"):
+        message.step = 0  # rows unpadded, step left 0
 
 
 def colour_info_only(folder: Path) -> Path:
@@ -365,10 +359,10 @@ VARIANTS = {
     "kinect2-namespaces": (kinect2, "ros1", 0, 0.0, FRAMES.colors),
     "openni-bayer-depth-registered": (openni_bayer, "ros1", 2, 0.0, UNIFORM),
     "unstamped": (unstamped, "ros1", 0, 0.0, FRAMES.colors),
-    "one-stamp-throughout": (one_stamp, "ros2", 0, 0.0, FRAMES.colors),
+    "one-stamp-throughout": (partial(edited_ros2, edit=_one_stamp), "ros2", 0, 0.0, FRAMES.colors),
     "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
     "depth-without-camera-info": (colour_info_only, "ros2", 0, 0.0, FRAMES.colors),
-    "step-left-unset": (step_left_unset, "ros2", 0, 0.0, FRAMES.colors),
+    "step-left-unset": (partial(edited_ros2, edit=_step_unset), "ros2", 0, 0.0, FRAMES.colors),
     "image-proc-rectified": (image_proc_rectified, "ros1", 0, 0.0, FRAMES.colors),
 }
 
