@@ -149,16 +149,13 @@ def fidelity(
     on_shapes = np.concatenate(
         [trimesh.sample.sample_surface(shape, samples, seed=int(rng.integers(1 << 31)))[0] for shape in shapes]
     )
-    distance = np.zeros(len(on_shapes))
     outside = ~real.contains(on_shapes)
-    distance[outside] = to_real.distances(on_shapes[outside])
+    # Each shape's samples weigh by its area in the figure over all the shapes.
+    weights = np.concatenate([np.full(samples, shape.area / samples) for shape in shapes])
+    distance = _deciding_distances(to_real, on_shapes, outside, samples, weights)
     distances = np.split(distance, len(shapes))
     overshoots = [float(np.percentile(d, 95)) for d in distances]
-    # Over all the shapes: each shape's samples weigh by its area.
-    order = np.argsort(np.concatenate(distances))
-    weights = np.concatenate([np.full(samples, shape.area / samples) for shape in shapes])[order]
-    at_95 = np.searchsorted(np.cumsum(weights), 0.95 * weights.sum())
-    overshoot_all = float(np.concatenate(distances)[order][min(at_95, len(order) - 1)])
+    overshoot_all = _weighted_95(distance, weights)
     gap = np.zeros(4 * samples)
     if not hold_real:
         points, _ = trimesh.sample.sample_surface(real, 4 * samples, seed=int(rng.integers(1 << 31)))
@@ -172,6 +169,46 @@ def fidelity(
         gap_m=float(np.percentile(gap, 95)),
         gap_max_m=float(gap.max()),
     )
+
+
+def _weighted_95(values: np.ndarray, weights: np.ndarray) -> float:
+    """The value below which 95 % of the weight lies."""
+    order = np.argsort(values)
+    at_95 = np.searchsorted(np.cumsum(weights[order]), 0.95 * weights[order].sum())
+    return float(values[order][min(at_95, len(order) - 1)])
+
+
+def _deciding_distances(
+    to_real: SurfaceDistance, points: np.ndarray, outside: np.ndarray, samples: int, weights: np.ndarray
+) -> np.ndarray:
+    """Distances of the `points` (`samples` a shape, in order) to the real surface, zero inside
+    it, that give `fidelity`'s figures as measuring every point would: each shape's 95th
+    percentile, the `weights`' 95th percentile over all, and the maximum.
+
+    Every point starts at its upper bound (`SurfaceDistance.bounds`, exact for most). A point
+    whose bounds hold a figure (as these values give it) is measured exactly, and the figures
+    are taken again, until none is left: then each point not measured lies on the same side of
+    every figure whatever its distance within its bounds, so the figures are those of the exact
+    distances. A completion's 32 cells: 10,000 points outside, about a tenth measured."""
+    lower, value = np.zeros(len(points)), np.zeros(len(points))
+    lower[outside], value[outside] = to_real.bounds(points[outside])
+    loose = lower < value
+    # np.percentile's 95th interpolates between these two ranks of a shape's samples.
+    first = int(np.floor(0.95 * (samples - 1)))
+    ranks = [first, min(first + 1, samples - 1)]
+    while loose.any():
+        per_shape = np.sort(value.reshape(-1, samples), axis=1)[:, ranks]
+        low_at, high_at = (np.repeat(per_shape[:, i], samples) for i in (0, 1))
+        over_all = _weighted_95(value, weights)
+        holds = (value >= low_at) & (lower <= high_at)
+        holds |= (value >= over_all) & (lower <= over_all)
+        holds |= value >= value.max()
+        measure = np.flatnonzero(holds & loose)
+        if not len(measure):
+            break
+        value[measure] = to_real.distances(points[measure])
+        loose[measure] = False
+    return value
 
 
 def spans_a_volume(vertices: np.ndarray) -> bool:

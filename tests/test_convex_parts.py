@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from articulation.convex_parts import as_convex_hull, spans_a_volume, decompose, is_concave
+from articulation.convex_parts import as_convex_hull, cell_decomposition, fidelity, spans_a_volume, decompose, is_concave
 from homemodel.exchange.model_files import write_model_files
 from homemodel.model_folder.gate.validate import validate_path
 from articulation.model import MeshGeometry
 from articulation.scan_model import scan_model
+from homemodel.geometry.surface_distance import SurfaceDistance
 
 
 def _microwave_frame() -> trimesh.Trimesh:
@@ -87,3 +88,33 @@ def test_a_mesh_that_bounds_a_convex_solid_is_its_own_hull() -> None:
         hull = as_convex_hull(mesh)
         assert hull is not mesh and hull.is_convex and hull.volume > 0
         assert hull.volume == pytest.approx(mesh.convex_hull.volume, rel=1e-12)
+
+
+class _LooseBounds:
+    """A surface's distances with bounds loosened at random around them (`fidelity` measures
+    exactly only the points whose bounds could change its figures)."""
+
+    def __init__(self, to_surface: SurfaceDistance, *, exact: bool = False) -> None:
+        self.to_surface, self.exact, self.rng = to_surface, exact, np.random.default_rng(3)
+
+    def distances(self, points: np.ndarray) -> np.ndarray:
+        return self.to_surface.distances(points)
+
+    def bounds(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        d = self.to_surface.distances(points)
+        if self.exact:
+            return d, d
+        return d * self.rng.uniform(0, 1, len(d)), d * self.rng.uniform(1, 2, len(d))
+
+
+def test_the_overshoots_are_those_of_every_point_measured() -> None:
+    # A cup's wall of 12,288 small triangles, 8 cells: their hulls reach about 10 mm into it.
+    cup = trimesh.creation.annulus(0.04, 0.045, 0.1, sections=24).subdivide().subdivide().subdivide()
+    to_cup = SurfaceDistance(cup, open3d=False)
+    parts = [p.mesh for p in cell_decomposition(cup, 8, to_surface=to_cup).parts]
+    every = fidelity(parts, cup, to_real=_LooseBounds(to_cup, exact=True))
+    for measure in (to_cup, _LooseBounds(to_cup)):
+        fit = fidelity(parts, cup, to_real=measure)
+        assert np.array_equal(fit.overshoot_m, every.overshoot_m)
+        assert (fit.overshoot_all_m, fit.overshoot_max_m) == (every.overshoot_all_m, every.overshoot_max_m)
+    assert 0.005 < every.overshoot_all_m < 0.02

@@ -26,8 +26,14 @@ def test_distances_to_a_box_are_exact_inside_outside_and_far_away(subdivisions: 
         box = box.subdivide()
     rng = np.random.default_rng(0)
     points = np.concatenate([rng.uniform(-0.08, 0.08, (3000, 3)), rng.normal(scale=2.0, size=(50, 3))])
-    measured = SurfaceDistance(box.apply_translation((3.0, -2.0, 1.0))).distances(points + (3.0, -2.0, 1.0))
+    to_box = SurfaceDistance(box.apply_translation((3.0, -2.0, 1.0)))
+    measured = to_box.distances(points + (3.0, -2.0, 1.0))
     np.testing.assert_allclose(measured, box_surface_distance(points, half), atol=1e-12)
+    # The bounds hold the distances; the tree's first step leaves some loose, the pairs none.
+    lower, upper = to_box.bounds(points + (3.0, -2.0, 1.0))
+    assert np.all(lower <= measured) and np.all(measured <= upper)
+    assert np.count_nonzero(lower < upper) > (100 if subdivisions else -1)
+    assert subdivisions or np.array_equal(lower, upper)
 
 
 def test_distances_agree_with_open3d_on_a_curved_mesh_and_a_sliver_is_its_segment() -> None:
