@@ -16,12 +16,16 @@ import importlib.abc
 import importlib.machinery
 import importlib.util
 import sys
+import threading
 import types
 from collections.abc import Sequence
 from typing import Any
 
 _DEFERRED = "networkx"
 _IMPORTER = "trimesh"
+# Two threads' first uses at once: without it, one could take the real module the other just
+# imported out of sys.modules again (a KeyError, or a second networkx whose classes differ).
+_LOADING = threading.RLock()
 
 
 def _importer_initialising() -> bool:
@@ -36,9 +40,11 @@ class _LoadedOnFirstUse(types.ModuleType):
     def __getattr__(self, attribute: str) -> Any:
         if _importer_initialising():
             raise AttributeError(f"module {self.__name__!r} is loaded on first use, after {_IMPORTER}'s import")
-        if sys.modules.get(_DEFERRED) is self:
-            del sys.modules[_DEFERRED]
-        return getattr(importlib.import_module("networkx"), attribute)
+        with _LOADING:
+            if sys.modules.get(_DEFERRED) is self:
+                del sys.modules[_DEFERRED]
+            real = importlib.import_module("networkx")
+        return getattr(real, attribute)
 
 
 class _BeforeTrimesh(importlib.abc.MetaPathFinder):
