@@ -54,24 +54,33 @@ def _smoothed_directions(mesh: trimesh.Trimesh, rounds: int = 6) -> np.ndarray:
     slot = np.arange(len(a)) - np.searchsorted(a, a)  # 0, 1, 2 within each face's run
     fits = slot < 3
     neighbours[a[fits], 1 + slot[fits]] = b[fits]
-    present = (neighbours >= 0)[:, :, None]
+    present = neighbours >= 0
     neighbours = np.maximum(neighbours, 0)
     facing = mesh.face_normals @ DIRECTIONS.T
     allowed = facing >= np.cos(np.radians(MAX_CHART_ANGLE_DEG))
-    rows = np.arange(count)
+    nearest = np.argmax(facing, axis=1)
 
     def fit(direction: np.ndarray) -> np.ndarray:
-        return np.where(allowed[rows, direction], direction, np.argmax(facing, axis=1))
+        return np.where(np.take_along_axis(allowed, direction[:, None], axis=1)[:, 0], direction, nearest)
 
-    smooth = mesh.face_normals * mesh.area_faces[:, None]
+    # A missing neighbour reads a zero row; the slots are added in order, as a sum over them would.
+    smooth = np.vstack([mesh.face_normals * mesh.area_faces[:, None], np.zeros((1, 3))])
+    padded = np.where(present, neighbours, count)
     for _ in range(rounds):
-        smooth = np.sum(smooth[neighbours] * present, axis=1)
-    direction = fit(np.argmax(smooth @ DIRECTIONS.T, axis=1))
+        smooth[:count] = smooth[padded[:, 0]] + smooth[padded[:, 1]] + smooth[padded[:, 2]] + smooth[padded[:, 3]]
+    direction = fit(np.argmax(smooth[:count] @ DIRECTIONS.T, axis=1))
     for _ in range(rounds):
-        labels = np.where(present[:, :, 0], direction[neighbours], -1)
-        votes = (labels[:, :, None] == labels[:, None, :]).sum(axis=2)
-        votes[(labels < 0) | ~allowed[rows[:, None], np.maximum(labels, 0)]] = 0
-        direction = fit(labels[rows, np.argmax(votes, axis=1)])  # ties: its own first
+        labels = direction[neighbours]
+        # Each slot's votes: the slots (itself included) holding its label; none for a missing
+        # neighbour or a label the face may not take.
+        same = labels[:, :, None] == labels[:, None, :]
+        same &= present[:, None, :]
+        votes = same.sum(axis=2, dtype=np.int8)
+        votes[~present | ~np.take_along_axis(allowed, labels, axis=1)] = 0
+        choice = fit(np.take_along_axis(labels, np.argmax(votes, axis=1)[:, None], axis=1)[:, 0])  # ties: its own first
+        if np.array_equal(choice, direction):
+            break  # a round is a function of the directions alone: the rest would not change them
+        direction = choice
     return direction
 
 
@@ -82,10 +91,9 @@ def _charts(mesh: trimesh.Trimesh, tile: float) -> tuple[np.ndarray, np.ndarray]
 
     direction = _smoothed_directions(mesh)
     flat = np.einsum("fkd,fad->fka", mesh.triangles, AXES[direction])  # (F, 3 corners, 2)
-    cell = np.floor(flat.mean(axis=1) / tile).astype(np.int64)
-    key = np.unique(np.column_stack([direction, cell]), axis=0, return_inverse=True)[1].ravel()
+    key = np.column_stack([direction, np.floor(flat.mean(axis=1) / tile).astype(np.int64)])  # direction, tile
     pairs = mesh.face_adjacency
-    pairs = pairs[key[pairs[:, 0]] == key[pairs[:, 1]]]
+    pairs = pairs[np.all(key[pairs[:, 0]] == key[pairs[:, 1]], axis=1)]
     count = len(mesh.faces)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(count, count))
     return connected_components(graph, directed=False)[1], flat
