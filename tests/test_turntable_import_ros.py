@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 import recording_sim as rsim
 from homemodel.cli import app
+from homemodel.core.errors import InputError
 from homemodel.geometry.camera import Camera, load_camera
 from turntable.board import grid_board, save_board
 from turntable.recordings import ImportOptions, import_recording
@@ -417,6 +418,31 @@ def test_a_broken_compressed_depth_is_refused_in_one_line(board: Path, tmp_path:
     result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / "broken"), "--board", str(board), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "an RVL depth image" in result.output and "broken" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def _rvl_bytes(codes: list[int]) -> np.ndarray:
+    """4-bit codes packed as RVL packs them: the high end of little-endian 32-bit words first."""
+    codes = codes + [0] * (-len(codes) % 8)
+    words = [int("".join(f"{c:x}" for c in codes[k : k + 8]), 16) for k in range(0, len(codes), 8)]
+    return np.frombuffer(np.array(words, "<u4").tobytes(), np.uint8)
+
+
+def test_a_hostile_rvl_stream_is_refused_at_once_and_a_dense_one_decodes_whole() -> None:
+    """A value of 22 codes (2**63 - 1024 plus 2**63: -1024 in 64 bits) made a run negative: alone
+    it raised an IndexError, and after a run of 1,020 pixels the decoder went back and forth for
+    ever, its memory growing. Both are refused in one line. What the decoder reads of a message
+    is bounded by its pixels; the densest image (every step 65,534: 6 codes a pixel) is within
+    it, and bytes after an image change nothing."""
+    from turntable.recordings.rvl import decode_rvl
+
+    overflowing = [0x8, 0x8, 0x8, 0xE] + [0xF] * 17 + [0x1]
+    looping = [0x0, 0xC, 0xF, 0xF, 0x1] + [0x0] * 1021 + overflowing  # runs 0, 1,020 ... 0, -1,024
+    for codes in ([0x0, *overflowing], looping):
+        with pytest.raises(InputError, match="depth: an RVL depth image holds a value longer than any run"):
+            decode_rvl(_rvl_bytes(codes), 640, 480, "depth")
+    dense = np.where(np.indices((48, 64)).sum(axis=0) % 2, 65535, 1).astype(np.uint16)
+    data = np.frombuffer(rsim.encode_rvl(dense), np.uint8)
+    assert np.array_equal(decode_rvl(np.concatenate([data, np.zeros(1 << 20, np.uint8)]), 64, 48, "depth"), dense)
 
 
 @pytest.mark.parametrize("placed_by", ["extrinsics/depth_to_color", "/tf"])
