@@ -42,16 +42,21 @@ class Texels:
         painted one, so bilinear filtering and mip-maps do not bleed the background into the model."""
         from scipy import ndimage
 
-        texture = np.zeros((self.size_px, self.size_px, 3), np.uint8)
-        texture[self.rows, self.cols] = colours
-        empty = np.ones((self.size_px, self.size_px), bool)
-        empty[self.rows, self.cols] = False
+        size = self.size_px
+        texture = np.zeros((size, size, 3), np.uint8)
+        texels = texture.reshape(-1, 3)  # flat views: one index per texel instead of two
+        painted = self.rows * size + self.cols
+        texels[painted] = colours
+        empty = np.ones(size * size, bool)
+        empty[painted] = False
         if not empty.any():
             return texture
         # Chessboard distance: the gutter reaches as far diagonally as along rows.
-        distance, (rows, cols) = ndimage.distance_transform_cdt(empty, metric="chessboard", return_indices=True)
-        fill = empty if gutter_px is None else empty & (distance <= gutter_px)
-        texture[fill] = texture[rows[fill], cols[fill]]
+        distance, (rows, cols) = ndimage.distance_transform_cdt(
+            empty.reshape(size, size), metric="chessboard", return_indices=True
+        )
+        fill = empty if gutter_px is None else empty & (distance.ravel() <= gutter_px)
+        texels[fill] = texels[rows.ravel()[fill] * size + cols.ravel()[fill]]
         return texture
 
 
@@ -60,24 +65,26 @@ def atlas_texels(atlas: Atlas, size_px: int) -> Texels:
     included, and where each lies on the surface."""
     import cv2
 
-    mesh, uv = atlas.mesh, atlas.uv
+    faces, uv = atlas.mesh.faces, atlas.uv
     face_ids = np.full((size_px, size_px), -1, np.int32)
-    corners_px = np.stack([uv[:, 0] * size_px - 0.5, (1 - uv[:, 1]) * size_px - 0.5], axis=1)
-    triangles = np.round(corners_px[mesh.faces] * 16).astype(np.int32)  # 4 bits of sub-pixel precision
-    for index, triangle in enumerate(triangles):
-        cv2.fillConvexPoly(face_ids, triangle, int(index), lineType=cv2.LINE_8, shift=4)
+    x_px, y_px = uv[:, 0] * size_px - 0.5, (1 - uv[:, 1]) * size_px - 0.5
+    triangles = np.round(np.stack([x_px, y_px], axis=1)[faces] * 16).astype(np.int32)  # 4 bits of sub-pixel precision
+    fill = cv2.fillConvexPoly  # 12,000 calls for the turntable's carrier: the loop's own overhead counts
+    for index, triangle in enumerate(list(triangles)):
+        fill(face_ids, triangle, index, cv2.LINE_8, 4)
     rows, cols = np.nonzero(face_ids >= 0)
-    faces = face_ids[rows, cols]
-    # Barycentric coordinates of each texel centre in its triangle's UV corners.
-    a, b, c = (corners_px[mesh.faces[faces, k]] for k in range(3))
-    p = np.stack([cols, rows], axis=1).astype(np.float64)
-    v0, v1, v2 = b - a, c - a, p - a
-    denominator = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
-    denominator = np.where(np.abs(denominator) < 1e-12, 1e-12, denominator)
-    w1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / denominator
-    w2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / denominator
+    corners = faces[face_ids[rows, cols]]
+    # Barycentric coordinates of each texel centre in its triangle's UV corners, from 1-D
+    # columns (the same arithmetic as on (N, 2) rows, without the strided reads).
+    ax, ay = x_px[corners[:, 0]], y_px[corners[:, 0]]
+    v0x, v0y = x_px[corners[:, 1]] - ax, y_px[corners[:, 1]] - ay
+    v1x, v1y = x_px[corners[:, 2]] - ax, y_px[corners[:, 2]] - ay
+    v2x, v2y = cols - ax, rows - ay
+    denominator = v0x * v1y - v1x * v0y
+    denominator[np.abs(denominator) < 1e-12] = 1e-12
+    w1 = (v2x * v1y - v1x * v2y) / denominator
+    w2 = (v0x * v2y - v2x * v0y) / denominator
     weights = np.clip(np.stack([1 - w1 - w2, w1, w2], axis=1), 0, 1)
     weights /= weights.sum(axis=1, keepdims=True)
-    corners = mesh.faces[faces]
-    points = np.einsum("nk,nkd->nd", weights, mesh.vertices[corners])
+    points = np.einsum("nk,nkd->nd", weights, atlas.mesh.vertices[corners])
     return Texels(size_px=size_px, rows=rows, cols=cols, corners=corners, weights=weights, points=points)
