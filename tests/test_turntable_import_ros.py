@@ -445,6 +445,26 @@ def test_a_hostile_rvl_stream_is_refused_at_once_and_a_dense_one_decodes_whole()
     assert np.array_equal(decode_rvl(np.concatenate([data, np.zeros(1 << 20, np.uint8)]), 64, 48, "depth"), dense)
 
 
+
+def test_images_claiming_too_many_pixels_or_an_odd_yuv_width_are_refused_before_decoding() -> None:
+    """A compressed message's PNG header is checked against the pixel bound before OpenCV decodes
+    it (a few megabytes of 16-bit PNG can claim gigabytes); a 4:2:2 image of odd width is refused
+    in one line (OpenCV raised its assertion)."""
+    import zlib
+    from types import SimpleNamespace
+
+    from turntable.recordings.images import decode_compressed_message, decode_image_message
+
+    header = struct.pack(">IIBBBBB", 20000, 20000, 16, 0, 0, 0, 0)
+    png = b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + header + struct.pack(">I", zlib.crc32(b"IHDR" + header))
+    for form, data in (("png", png), ("16UC1; compressedDepth png", bytes(12) + png)):
+        message = SimpleNamespace(format=form, data=np.frombuffer(data, np.uint8))
+        with pytest.raises(InputError, match="depth: 20000x20000: 400000000 pixels is over the limit"):
+            decode_compressed_message(message, "depth")
+    yuyv = SimpleNamespace(encoding="yuyv", width=3, height=2, step=6, is_bigendian=0, data=np.zeros(12, np.uint8))
+    with pytest.raises(InputError, match="colour: a yuyv image 3 pixels wide"):
+        decode_image_message(yuyv, "colour")
+
 @pytest.mark.parametrize("placed_by", ["extrinsics/depth_to_color", "/tf"])
 def test_without_tf_static_the_depth_camera_is_placed_by(placed_by: str, board: Path, tmp_path: Path) -> None:
     """An unregistered depth camera 5 cm behind colour and turned 5 degrees, recorded without

@@ -40,7 +40,7 @@ def read_image(path: Path, flags: int | None = None) -> np.ndarray:
 
     path = Path(path)
     data = read_bounded(path, MAX_IMAGE_BYTES)
-    _checked_size(path, data)
+    checked_image_size(path, data)
     if data.startswith(PNG_SIGNATURE) and (problem := _png_problem(data)):
         raise InputError(f"{path}: not a readable image: {problem}")
     try:
@@ -91,15 +91,17 @@ def _opencv_silenced(cv2) -> Iterator[None]:
 def read_image_size(path: Path) -> tuple[int, int]:
     """(height, width) of an image file as stored (before any EXIF turn), from its header."""
     path = Path(path)
-    return _checked_size(path, read_bounded(path, MAX_IMAGE_BYTES))
+    return checked_image_size(path, read_bounded(path, MAX_IMAGE_BYTES))
 
 
-def _checked_size(path: Path, data: bytes) -> tuple[int, int]:
+def checked_image_size(source: Path | str, data: bytes) -> tuple[int, int]:
+    """(height, width) from an encoded image's header, refused (naming `source`: a file, or
+    where in a recording the bytes came from) when it claims more than IMAGE_PIXELS."""
     size = _png_size(data)
     if size is None:
-        size = _pillow_size(path, data)
+        size = _pillow_size(source, data)
     height, width = size
-    check_pixel_count(path, width, height)
+    check_pixel_count(source, width, height)
     return height, width
 
 
@@ -121,7 +123,7 @@ def _png_size(data: bytes) -> tuple[int, int] | None:
     return height, width
 
 
-def _pillow_size(path: Path, data: bytes) -> tuple[int, int]:
+def _pillow_size(source: Path | str, data: bytes) -> tuple[int, int]:
     from PIL import Image
 
     with _PILLOW_BOUND_LOCK:
@@ -133,12 +135,12 @@ def _pillow_size(path: Path, data: bytes) -> tuple[int, int]:
             with Image.open(io.BytesIO(data)) as header:
                 width, height = header.size
         except Exception:  # Pillow's format plugins raise many types on corrupt headers
-            raise InputError(f"{path}: not a readable image (not an image file, or its header is corrupt)") from None
+            raise InputError(f"{source}: not a readable image (not an image file, or its header is corrupt)") from None
         finally:
             Image.MAX_IMAGE_PIXELS = bound
     return height, width
 
 
-def check_pixel_count(path: Path, width: int, height: int) -> None:
+def check_pixel_count(path: Path | str, width: int, height: int) -> None:
     """Refuse an image whose header claims more than IMAGE_PIXELS (for readers of other formats)."""
     IMAGE_PIXELS.check(f"{path}: {width}x{height}", width * height)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from homemodel.core.errors import InputError
-from homemodel.core.images import read_image
+from homemodel.core.images import checked_image_size, read_image
 
 # sensor_msgs/image_encodings' colour encodings: bytes stored a pixel, and the name of OpenCV's
 # conversion to RGB (None: stored as RGB). ROS's "yuv422" is UYVY; "yuv422_yuy2" YUYV (Iron
@@ -85,6 +85,8 @@ def decode_image_message(message: object, where: str) -> np.ndarray:
         image = rows[:, : width * dtype.itemsize].copy().view(dtype).reshape(height, width)
         return image.astype(dtype.newbyteorder("="))
     channels, conversion = _COLOR_ENCODINGS[encoding]
+    if channels == 2 and width % 2:  # YUV 4:2:2: a U and V to each pair of pixels
+        raise InputError(f"{where}: a {message.encoding} image {width} pixels wide (4:2:2 pairs pixels)")
     image = np.ascontiguousarray(rows[:, : width * channels]).reshape(height, width, channels)
     return image if conversion is None else cv2.cvtColor(image, getattr(cv2, conversion))
 
@@ -106,6 +108,7 @@ def _compressed_depth(data: np.ndarray, form: str, where: str) -> np.ndarray:
         width, height = (int(v) for v in payload[:8].view("<u4"))
         image = decode_rvl(payload[8:], width, height, where)
     else:
+        checked_image_size(where, payload.tobytes())  # before decoding: a small PNG can claim gigabytes
         image = cv2.imdecode(payload, cv2.IMREAD_UNCHANGED)
         if image is None or image.ndim != 2 or image.dtype != np.uint16:
             raise InputError(f"{where}: a compressedDepth image ({form!r}) is not a 16-bit PNG after its header")
@@ -126,6 +129,7 @@ def decode_compressed_message(message: object, where: str) -> np.ndarray:
     form = str(message.format).lower()
     if "compresseddepth" in form:
         return _compressed_depth(data, form, where)
+    checked_image_size(where, data.tobytes())  # before decoding: a small PNG or JPEG can claim gigabytes
     image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     if image is None:
         raise InputError(f"{where}: a compressed image ({message.format!r}) does not decode")
