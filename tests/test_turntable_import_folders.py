@@ -235,6 +235,7 @@ def test_calibration_txt_wins_over_the_camera_given(board: Path, tmp_path: Path)
 
 def test_a_scan_without_intrinsics_is_refused_in_one_line(board: Path, tmp_path: Path) -> None:
     recording = redwood_object_scan(tmp_path / "scan")
+    (recording / "moved.json").symlink_to(tmp_path / "gone.json")  # a dangling link is no intrinsics file
     result = CliRunner().invoke(app, ["turntable", "import", str(recording), "--board", str(board), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "no intrinsics" in result.output and "--camera" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

@@ -70,7 +70,7 @@ def intrinsics_file(folder: Path) -> Path | None:
     if named is not None:
         return named
     for path in sorted(folder.glob("*.json")):
-        if path.stat().st_size < 1 << 20 and b'"intrinsic_matrix"' in read_bounded(path, 1 << 20):
+        if path.is_file() and path.stat().st_size < 1 << 20 and b'"intrinsic_matrix"' in read_bounded(path, 1 << 20):
             return path
     return None
 

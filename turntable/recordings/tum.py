@@ -40,16 +40,16 @@ def _rows(path: Path, columns: int) -> list[tuple[int, list[str]]]:
     return rows
 
 
-def _time(path: Path, number: int, field: str) -> float:
+def _number(path: Path, number: int, field: str, what: str = "a time stamp") -> float:
     try:
         return float(field)
     except ValueError:
-        raise InputError(f"{path}:{number}: {field!r} is not a time stamp") from None
+        raise InputError(f"{path}:{number}: {field!r} is not {what}") from None
 
 
 def _list(path: Path) -> tuple[np.ndarray, list[Path]]:
     rows = _rows(path, 2)
-    times = [_time(path, number, fields[0]) for number, fields in rows]
+    times = [_number(path, number, fields[0]) for number, fields in rows]
     return np.array(times, dtype=np.float64), [path.parent / fields[1] for _, fields in rows]
 
 
@@ -63,7 +63,7 @@ def _associations(path: Path) -> tuple[np.ndarray, list[Path], np.ndarray, list[
     if depth_first == ("depth" in Path(rows[0][1][3]).parent.name.lower()):
         raise InputError(f"{path}:{rows[0][0]}: cannot tell the colour image from the depth image (neither or both under depth/)")
     color_at, depth_at = (2, 0) if depth_first else (0, 2)
-    times = {at: [_time(path, number, fields[at]) for number, fields in rows] for at in (color_at, depth_at)}
+    times = {at: [_number(path, number, fields[at]) for number, fields in rows] for at in (color_at, depth_at)}
     return (
         np.array(times[color_at]),
         [path.parent / fields[color_at + 1] for _, fields in rows],
@@ -77,7 +77,7 @@ def _calibration_camera(path: Path, first_color: Path) -> Camera:
     if not rows:
         raise InputError(f"{path}: no 'fx fy cx cy' line")
     number, fields = rows[0]
-    fx, fy, cx, cy = (_time(path, number, f) for f in fields[:4])
+    fx, fy, cx, cy = (_number(path, number, f, "a number (fx fy cx cy)") for f in fields[:4])
     height, width = read_image_size(first_color)
     try:
         return Camera(width=width, height=height, fx=fx, fy=fy, cx=cx, cy=cy)
