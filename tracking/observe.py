@@ -268,9 +268,12 @@ def _fit_large_object(
             min_visible = options.together_min_visible if body_seen else options.together_min_visible_unseen_body
             together = [j for j in joints if results[j][0] == "fitted" and not options.search(obj.node.joint(j)).detents
                         and results[j][1]["visible_fraction"] >= min_visible]
+            # The other parts fitted stay where they were seen as the body moves.
+            in_place = tuple(j for j in joints if results[j][0] in ("fitted", "partly seen") and j not in together)
             refine_pose_and_joints(state, fine, object_id, together, background, gates_m=options.pose_gates_m,
                                    kernel_m=kernel, planar=planar, min_points=options.min_pose_points,
-                                   edge_margin_px=options.pose_gate.edge_margin_px, search_view=joint_views[0])
+                                   edge_margin_px=options.pose_gate.edge_margin_px, search_view=joint_views[0],
+                                   kept_in_place=in_place)
     if not joints or _share_seen(state, fine, object_id, fixed, background) >= options.min_fixed_share:
         verdict = judge_pose(state, fine, object_id, previous_pose, fit.inlier_fraction if fit else None, background,
                              options.pose_gate)
