@@ -14,12 +14,11 @@ import trimesh
 
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
-from turntable.board import grid_board
+from turntable import tags
+from turntable.board import grid_board, tag_bits
 from turntable.fusion import Cylinder, object_pixels, pixel_points
 from turntable.meshing import snap_to_points
 from turntable.real_frames import drop_flying_pixels
-from turntable import tags
-from turntable.board import tag_bits
 from turntable.tag_search import tag_decimation
 from turntable.tags import DetectionOptions, detect_tags, prepare_detectors
 from turntable.texture import decimated
