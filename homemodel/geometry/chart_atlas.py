@@ -15,6 +15,8 @@ shelves fit into the texture.
 
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
 import trimesh
 
@@ -105,17 +107,22 @@ def _shelf_pack(sizes: np.ndarray, width: int) -> tuple[np.ndarray, int]:
     if sizes[:, 0].max() > width:
         return np.zeros((len(sizes), 2), np.int64), np.inf
     order = np.argsort(-sizes[:, 1], kind="stable")
-    ends = np.cumsum(sizes[order, 0])  # where each box ends if all were in one row
+    widths, heights = sizes[order, 0], sizes[order, 1]
+    ends = np.cumsum(widths)  # where each box ends if all were in one row
+    # One row at a time: the boxes that fit after the row's first. On Python ints, as the
+    # bisection lays the charts out some 20 times.
+    ends_list, widths_list = ends.tolist(), widths.tolist()
+    starts = []
+    start = 0
+    while start < len(order):
+        starts.append(start)
+        start = bisect.bisect_right(ends_list, ends_list[start] - widths_list[start] + width)
+    row_heights = heights[starts]  # the tallest first
+    row = np.repeat(np.arange(len(starts)), np.diff(starts + [len(order)]))
     corners = np.zeros((len(sizes), 2), np.int64)
-    start, y = 0, 0
-    while start < len(order):  # one row at a time: the boxes that fit after the row's first
-        row_start = ends[start] - sizes[order[start], 0]
-        stop = int(np.searchsorted(ends, row_start + width, side="right"))
-        members = order[start:stop]
-        corners[members, 0] = ends[start:stop] - sizes[members, 0] - row_start
-        corners[members, 1] = y
-        y += int(sizes[members, 1].max())  # the tallest first
-        start = stop
+    corners[order, 0] = ends - widths - (ends - widths)[starts][row]
+    corners[order, 1] = (np.cumsum(row_heights) - row_heights)[row]
+    y = int(row_heights.sum())
     return corners, y
 
 
