@@ -9,6 +9,7 @@ corner, row 0 of the image is its top (v = 1), texel centres sit at half-integer
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import trimesh
@@ -30,7 +31,12 @@ class Texels:
     cols: np.ndarray  # (N,)
     corners: np.ndarray  # (N, 3) vertex indices of the texel's triangle
     weights: np.ndarray  # (N, 3) barycentric weights of the texel centre, clipped onto the triangle
-    points: np.ndarray  # (N, 3) the texel's point on the surface
+    vertices: np.ndarray  # (V, 3) the atlas mesh's, which `corners` index
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        """(N, 3) the texel's point on the surface; on first use, as baking vertex colours needs none."""
+        return self.interpolate(self.vertices)
 
     def interpolate(self, values: np.ndarray) -> np.ndarray:
         """Per-vertex `values` (V, C) blended at each texel (N, C)."""
@@ -86,5 +92,4 @@ def atlas_texels(atlas: Atlas, size_px: int) -> Texels:
     w2 = (v0x * v2y - v2x * v0y) / denominator
     weights = np.clip(np.stack([1 - w1 - w2, w1, w2], axis=1), 0, 1)
     weights /= weights.sum(axis=1, keepdims=True)
-    points = np.einsum("nk,nkd->nd", weights, atlas.mesh.vertices[corners])
-    return Texels(size_px=size_px, rows=rows, cols=cols, corners=corners, weights=weights, points=points)
+    return Texels(size_px=size_px, rows=rows, cols=cols, corners=corners, weights=weights, vertices=atlas.mesh.vertices)
