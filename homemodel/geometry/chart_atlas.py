@@ -75,9 +75,9 @@ def _smoothed_directions(mesh: trimesh.Trimesh, rounds: int = 6) -> np.ndarray:
         labels = direction[neighbours]
         # Each slot's votes: the slots (itself included) holding its label; none for a missing
         # neighbour or a label the face may not take.
-        same = labels[:, :, None] == labels[:, None, :]
-        same &= present[:, None, :]
-        votes = same.sum(axis=2, dtype=np.int8)
+        votes = np.zeros((count, 4), np.int8)
+        for k in range(4):
+            votes += (labels == labels[:, k, None]) & present[:, k, None]
         votes[~present | ~np.take_along_axis(allowed, labels, axis=1)] = 0
         choice = fit(np.take_along_axis(labels, np.argmax(votes, axis=1)[:, None], axis=1)[:, 0])  # ties: its own first
         if np.array_equal(choice, direction):
