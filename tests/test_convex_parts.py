@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +89,20 @@ def test_a_mesh_that_bounds_a_convex_solid_is_its_own_hull() -> None:
         hull = as_convex_hull(mesh)
         assert hull is not mesh and hull.is_convex and hull.volume > 0
         assert hull.volume == pytest.approx(mesh.convex_hull.volume, rel=1e-12)
+
+
+def test_a_large_closed_mesh_is_hulled_by_qhull_without_a_vertex_by_face_matrix() -> None:
+    # Every vertex against every face of an imported asset's collision mesh would take GBs (a
+    # sphere of 10,000 vertices: 3.3 GB): past a bound qhull builds the hull.
+    sphere = trimesh.creation.icosphere(subdivisions=4)  # 2,562 vertices, 5,120 faces
+    tracemalloc.start()
+    try:
+        hull = as_convex_hull(sphere)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20e6, peak
+    assert hull is not sphere and hull.volume == pytest.approx(sphere.volume, rel=1e-9)
 
 
 class _LooseBounds:
