@@ -97,3 +97,28 @@ def test_many_charts_fit_a_small_texture_with_less_padding() -> None:
     atlas = chart_atlas(_bumpy_torus(4), size_px=128, padding_px=4)
     assert atlas.uv.min() >= 0 and atlas.uv.max() <= 1
     assert len(atlas_texels(atlas, 128).rows) > 0.2 * 128**2
+
+
+def test_shelf_packing_lays_boxes_apart_in_rows_tallest_first() -> None:
+    """Random boxes (ties in height included): each inside the width, none overlapping another,
+    rows filled left to right with the tallest first, the height the rows' sum; a box wider
+    than the texture cannot be laid."""
+    from homemodel.geometry.chart_atlas import _shelf_pack
+
+    rng = np.random.default_rng(4)
+    for count, width in ((1, 10), (40, 37), (300, 128)):
+        sizes = np.column_stack([rng.integers(1, width + 1, count), rng.integers(1, 12, count)])
+        corners, height = _shelf_pack(sizes, width)
+        ends = corners + sizes
+        assert (corners >= 0).all() and (ends[:, 0] <= width).all() and ends[:, 1].max() == height
+        apart = (ends[:, None, 0] <= corners[None, :, 0]) | (ends[None, :, 0] <= corners[:, None, 0])
+        apart |= (ends[:, None, 1] <= corners[None, :, 1]) | (ends[None, :, 1] <= corners[:, None, 1])
+        assert apart[~np.eye(count, dtype=bool)].all()
+        rows = np.unique(corners[:, 1])
+        for top, below in zip(rows, [*rows[1:], height]):
+            row = corners[:, 1] == top
+            assert sizes[row, 1].max() == below - top  # a row as tall as its tallest box
+            assert sizes[row, 1].min() >= sizes[corners[:, 1] > top, 1].max(initial=0)  # taller rows first
+            left = np.sort(corners[row, 0])
+            assert left[0] == 0 and np.array_equal(np.sort(ends[row, 0])[:-1], left[1:])  # side by side
+    assert _shelf_pack(np.array([[11, 3], [2, 2]]), 10)[1] == np.inf
