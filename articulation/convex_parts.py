@@ -40,6 +40,9 @@ _SAMPLES = 500
 # a cell's or V-HACD part's hull has a few hundred faces, about 30,000 pairs. Spheres: 52,000
 # pairs tested in 0.5 ms against qhull's 1.9, 822,000 in 17 ms against 11.
 _OWN_HULL_PAIRS = 200_000
+# `fidelity` measures the points that decide its figures in at most this many rounds (a
+# completion's cells take two), then in one last, wider round.
+_DECIDING_ROUNDS = 3
 _SEED = 0
 
 
@@ -193,29 +196,42 @@ def _deciding_distances(
     percentile, the `weights`' 95th percentile over all, and the maximum.
 
     Every point starts at its upper bound (`SurfaceDistance.bounds`, exact for most). A point
-    whose bounds hold a figure (as these values give it) is measured exactly, and the figures
-    are taken again, until none is left: then each point not measured lies on the same side of
-    every figure whatever its distance within its bounds, so the figures are those of the exact
-    distances. A completion's 32 cells: 10,000 points outside, about a tenth measured."""
+    whose bounds hold a figure, as these values give it, is measured exactly, and the figures
+    are taken again. When none is left, each point not measured lies on the same side of every
+    figure whatever its distance within its bounds, so the figures are those of the exact
+    distances. If some are still left after `_DECIDING_ROUNDS`, the last round takes each
+    figure's range from the points' lower bounds to their values: the figure lies in it, and
+    the points whose bounds meet it are all measured at once. A completion's 32 cells: 10,000
+    points outside, about a tenth measured, in two rounds."""
     lower, value = np.zeros(len(points)), np.zeros(len(points))
     lower[outside], value[outside] = to_real.bounds(points[outside])
     loose = lower < value
-    # np.percentile's 95th interpolates between these two ranks of a shape's samples.
-    first = int(np.floor(0.95 * (samples - 1)))
-    ranks = [first, min(first + 1, samples - 1)]
-    while loose.any():
-        per_shape = np.sort(value.reshape(-1, samples), axis=1)[:, ranks]
-        low_at, high_at = (np.repeat(per_shape[:, i], samples) for i in (0, 1))
-        over_all = _weighted_95(value, weights)
-        holds = (value >= low_at) & (lower <= high_at)
-        holds |= (value >= over_all) & (lower <= over_all)
-        holds |= value >= value.max()
-        measure = np.flatnonzero(holds & loose)
+    for round_ in range(_DECIDING_ROUNDS + 1):
+        if not loose.any():
+            break
+        # The figures' low ends: from the values (a guess) or, in the last round, the lower bounds.
+        low = lower if round_ == _DECIDING_ROUNDS else value
+        measure = np.flatnonzero(_holding_a_figure(low, value, lower, samples, weights) & loose)
         if not len(measure):
             break
-        value[measure] = to_real.distances(points[measure])
+        value[measure] = lower[measure] = to_real.distances(points[measure])
         loose[measure] = False
     return value
+
+
+def _holding_a_figure(
+    low: np.ndarray, high: np.ndarray, lower: np.ndarray, samples: int, weights: np.ndarray
+) -> np.ndarray:
+    """Which points' bounds (`lower`, `high`) meet a figure's range: from the figure of the
+    `low` values to that of the `high` ones."""
+    # np.percentile's 95th interpolates between these two ranks of a shape's samples.
+    first = int(np.floor(0.95 * (samples - 1)))
+    low_at = np.repeat(np.partition(low.reshape(-1, samples), first, axis=1)[:, first], samples)
+    second = min(first + 1, samples - 1)
+    high_at = np.repeat(np.partition(high.reshape(-1, samples), second, axis=1)[:, second], samples)
+    holds = (high >= low_at) & (lower <= high_at)
+    holds |= (high >= _weighted_95(low, weights)) & (lower <= _weighted_95(high, weights))
+    return holds | (high >= low.max())
 
 
 def spans_a_volume(vertices: np.ndarray) -> bool:

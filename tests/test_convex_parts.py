@@ -105,31 +105,39 @@ def test_a_large_closed_mesh_is_hulled_by_qhull_without_a_vertex_by_face_matrix(
     assert hull is not sphere and hull.volume == pytest.approx(sphere.volume, rel=1e-9)
 
 
-class _LooseBounds:
-    """A surface's distances with bounds loosened at random around them (`fidelity` measures
-    exactly only the points whose bounds could change its figures)."""
+class _Measure:
+    """A surface's distances whose bounds are the real ones, exact, or loosened at random around
+    the distances; counts the points asked about and the points measured exactly."""
 
-    def __init__(self, to_surface: SurfaceDistance, *, exact: bool = False) -> None:
-        self.to_surface, self.exact, self.rng = to_surface, exact, np.random.default_rng(3)
+    def __init__(self, to_surface: SurfaceDistance, bounds: str) -> None:
+        self.to_surface, self.kind, self.rng = to_surface, bounds, np.random.default_rng(3)
+        self.asked = self.measured = 0
 
     def distances(self, points: np.ndarray) -> np.ndarray:
+        self.measured += len(points)
         return self.to_surface.distances(points)
 
     def bounds(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        self.asked += len(points)
+        if self.kind == "real":
+            return self.to_surface.bounds(points)
         d = self.to_surface.distances(points)
-        if self.exact:
+        if self.kind == "exact":
             return d, d
         return d * self.rng.uniform(0, 1, len(d)), d * self.rng.uniform(1, 2, len(d))
 
 
 def test_the_overshoots_are_those_of_every_point_measured() -> None:
     # A cup's wall of 12,288 small triangles, 8 cells: their hulls reach about 10 mm into it.
+    # `fidelity` measures exactly only the points whose bounds could change its figures.
     cup = trimesh.creation.annulus(0.04, 0.045, 0.1, sections=24).subdivide().subdivide().subdivide()
     to_cup = SurfaceDistance(cup, open3d=False)
     parts = [p.mesh for p in cell_decomposition(cup, 8, to_surface=to_cup).parts]
-    every = fidelity(parts, cup, to_real=_LooseBounds(to_cup, exact=True))
-    for measure in (to_cup, _LooseBounds(to_cup)):
+    every = fidelity(parts, cup, to_real=_Measure(to_cup, "exact"))
+    for kind in ("real", "loose"):
+        measure = _Measure(to_cup, kind)
         fit = fidelity(parts, cup, to_real=measure)
         assert np.array_equal(fit.overshoot_m, every.overshoot_m)
         assert (fit.overshoot_all_m, fit.overshoot_max_m) == (every.overshoot_all_m, every.overshoot_max_m)
+        assert 0 < measure.measured < measure.asked / 2
     assert 0.005 < every.overshoot_all_m < 0.02
