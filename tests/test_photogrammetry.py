@@ -271,6 +271,27 @@ def test_agreeing_depth_is_the_mean_of_the_depths_near_their_median(pairs: int) 
     assert (expected > 0).any() == (pairs >= options.min_agreeing_pairs)
 
 
+def test_sparse_points_drop_a_wrong_pair_and_let_one_confirmed_pair_stand_alone() -> None:
+    from photogrammetry.stereo import DenseOptions, checked_depth, sparse_verdict
+
+    options = DenseOptions()
+    rng = np.random.default_rng(0)
+    truth = rng.uniform(2.0, 3.0, (30, 40)).astype(np.float32)
+    pixels = np.column_stack([rng.integers(0, 40, 50), rng.integers(0, 30, 50)])
+    sparse_depths = truth[pixels[:, 1], pixels[:, 0]]
+    good, other_good, wrong = truth * 1.002, truth * 0.998, truth * 1.3  # wrong: a mismatched pair
+    unseen = np.where(np.arange(40) < 20, good, 0).astype(np.float32)
+    unseen[pixels[:, 1], pixels[:, 0]] = 0  # covers no sparse point: no verdict
+    assert [sparse_verdict(d, pixels, sparse_depths, options) for d in (good, wrong, unseen)] == [True, False, None]
+    # One confirmed pair beside a refuted one: its own depth, where the two never agreed.
+    assert np.array_equal(checked_depth([good, wrong], [True, False], options), good)
+    # Two confirmed pairs: their agreeing mean, the refuted pair out of the vote.
+    both = checked_depth([good, other_good, wrong], [True, True, False], options)
+    assert np.allclose(both, truth, rtol=1e-5)
+    # Nothing confirmed: the pairs must agree as before (one pair alone gives nothing).
+    assert not checked_depth([unseen, wrong], [None, False], options).any()
+
+
 # The relative pose of one of Kermit's strongly converging pairs (21.6 deg about y, 10 deg of
 # roll): OpenCV's rectification that keeps every pixel gives it a negative focal length.
 KERMIT_PAIR_ROTATION_DEG = (-4.1, 21.6, 10.0)
