@@ -61,8 +61,11 @@ class Texels:
         distance, (rows, cols) = ndimage.distance_transform_cdt(
             empty.reshape(size, size), metric="chessboard", return_indices=True
         )
-        fill = empty if gutter_px is None else empty & (distance.ravel() <= gutter_px)
-        texels[fill] = texels[rows.ravel()[fill] * size + cols.ravel()[fill]]
+        nearest = (rows * size + cols).ravel()
+        if gutter_px is None:  # every texel its nearest painted one's colour: a painted texel is its own
+            return texels[nearest].reshape(texture.shape)
+        fill = empty & (distance.ravel() <= gutter_px)
+        texels[fill] = texels[nearest[fill]]
         return texture
 
 
