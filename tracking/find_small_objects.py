@@ -184,7 +184,8 @@ POSE_DOUBT_M = 0.03
 
 def _off_their_sides(state: FitState, in_view: list[str], clusters: list[_Cluster]) -> list[bool]:
     """Whether each cluster lies, by the median of its points, farther than POSE_DOUBT_M from
-    the faces of the large objects in view that do not face up: nearer, it is as well one of
+    the faces of the large objects in view that do not face up (fronts, sides, backs and the
+    undersides of shelves and tops): nearer, it is as well one of
     them seen a little off its estimate (an oven kept 2 cm off showed its three knobs and two
     edges as six clusters standing on its surfaces, each then searched for every small object)."""
     from homemodel.geometry.raycast import RayCaster
