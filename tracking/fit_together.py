@@ -104,12 +104,18 @@ def refine_pose_and_joints(
         state.map_from_objects[object_id], state.joint_positions[object_id] = pose.copy(), dict(positions)
         steps += _gauss_newton(state, view, object_id, joints, background_m, gates_m, kernel_m, min_points, motion,
                                iterations)
-        # Judged with the body moved, a part left where the start's body had it would count
-        # against the end that puts the body right (a fridge behind a box at 2.5 m: every end
-        # 0.4 mm from the truth, its door 0.05 deg, yet none kept for its drawer front 11 mm out).
-        _keep_in_place(state, object_id, kept_in_place, *start)
         ends.append((state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])))
         depths.append(object_depth(state, view, object_id))
+        if kept_in_place:
+            # Each end judged twice: with the parts not refined here carried along by the body,
+            # and kept where they were fitted. Carried, a part fitted at the start's body would
+            # count against the end that puts the body right (a fridge behind a box at 2.5 m,
+            # `--seed 1`: every end 0.4 mm from the truth, none kept for its drawer front 11 mm
+            # out); kept, a part fitted wrong holds the body to it (a cupboard behind a box at
+            # 1.2 m, `--seed 3`: its drawer 0.46 seen, the pose 12.6 mm off, a door 3.3 deg).
+            _keep_in_place(state, object_id, kept_in_place, *start)
+            ends.append((state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])))
+            depths.append(object_depth(state, view, object_id))
     # Judged like a refined pose (`judge_pose`): by the rendered depth, silhouettes included,
     # which the point-to-plane residuals of the object's own pixels do not see; every end on
     # the same pixels.
