@@ -37,6 +37,12 @@ def in_frame_share(points: np.ndarray, views: list[View], *, margin: float = 0.0
     return count / max(len(views), 1)
 
 
+# The pairs of axes tried are those of at most this many views, spread evenly in name order:
+# each pair's point is looked for in every view, and all pairs of all views grew as the cube of
+# the photos (120: 0.08 CPU-s, 300: 2.2, 600: 20).
+_CANDIDATE_VIEWS = 100
+
+
 def _closest_points_of_axes(centres: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """(K, 3) for every pair of optical axes that are not parallel, the midpoint of where they
     pass closest."""
@@ -68,7 +74,8 @@ def aimed_focus(views: list[View]) -> tuple[np.ndarray, np.ndarray]:
     sees = np.array([in_frame_share(focus[None], [v], margin=0.0)[0] == 1 for v in views])
     if sees.all() or len(views) < 3:
         return focus, np.ones(len(views), bool)
-    candidates = _closest_points_of_axes(centres, axes)
+    pick = np.unique(np.linspace(0, len(views) - 1, min(len(views), _CANDIDATE_VIEWS)).round().astype(int))
+    candidates = _closest_points_of_axes(centres[pick], axes[pick])
     best = candidates[np.argmax(in_frame_share(candidates, views, margin=0.0))]
     aimed = np.array([in_frame_share(best[None], [v], margin=0.0)[0] == 1 for v in views])
     refined = focus_point(centres[aimed], axes[aimed])

@@ -135,10 +135,10 @@ def _view_looking_at(name: str, centre, target) -> View:
     return View(name=name, image_path=Path("x"), camera=camera, camera_from_world=camera_from_world)
 
 
-def _ring_views() -> list[View]:
-    """12 views on a ring of radius 1, half a radius up, looking at the origin."""
+def _ring_views(count: int = 12) -> list[View]:
+    """`count` views on a ring of radius 1, half a radius up, looking at the origin."""
     return [_view_looking_at(f"{a:.2f}", (np.cos(a), np.sin(a), 0.5), (0, 0, 0))
-            for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)]  # fmt: skip
+            for a in np.linspace(0, 2 * np.pi, count, endpoint=False)]  # fmt: skip
 
 
 def test_in_frame_share_is_one_where_every_camera_looks_and_falls_off_beside() -> None:
@@ -166,6 +166,21 @@ def test_a_photo_registered_looking_away_is_dropped_and_the_focus_stays_on_the_o
     assert [v.name for v in kept.views] == [v.name for v in ring] and kept.unregistered == ["x.jpg", "stray.jpg"]
     assert [v.tolist() for v in kept.point_views] == [[0, 1]] and kept.points_world.tolist() == [[3.0, 4.0, 5.0]]
 
+
+
+def test_the_aim_of_many_photos_is_looked_for_among_the_pairs_of_a_bounded_number_of_views(monkeypatch) -> None:
+    """300 views and a stray: the pairs of axes tried are those of 100 of the views (every pair
+    of every view, each looked for in all 301, took 2.2 CPU-s and grew as the cube of the
+    photos); the stray is still the one dropped."""
+    from photogrammetry import convergence
+
+    tried: list[int] = []
+    closest = convergence._closest_points_of_axes
+    monkeypatch.setattr(convergence, "_closest_points_of_axes", lambda c, a: tried.append(len(c)) or closest(c, a))
+    stray = _view_looking_at("stray.jpg", (4, 0, 0.5), (4, 3, 0.5))
+    focus, aimed = aimed_focus([*_ring_views(300), stray])
+    assert aimed.tolist() == [True] * 300 + [False] and np.linalg.norm(focus) < 1e-9
+    assert tried == [100]
 
 def test_preemptive_matching_counts_the_features_two_views_share_and_none_of_unrelated_ones() -> None:
     """Two views of one scene share 40 of their 100 largest features (in another order, with
