@@ -135,7 +135,6 @@ def test_a_camera_looking_straight_down_gets_turns_only(
         assert np.allclose(pose[:3, 3], state.map_from_objects["fridge_1"][:3, 3])  # turned about its place, not slid
 
 
-
 def test_parts_not_refined_stay_where_they_were_seen_as_the_body_moves(kitchen_map: Path, tmp_path: Path) -> None:
     """A drawer and a door fitted but not refined with the pose keep their parts where they
     were as the body shifts 2 cm and turns 2 degrees: judged at the body's new pose, a part
