@@ -96,10 +96,15 @@ class _FolderFlush:
     def add(self, fd: int) -> None:
         """Flush the open file `fd` (a descriptor of its own: closed once flushed)."""
         self._slots.acquire()
-        with self._adding:
-            if self._pool is None:
-                self._pool = ThreadPoolExecutor(1, thread_name_prefix="homemodel-fsync")
-            self._flushes.append(self._pool.submit(self._flush, fd))
+        try:
+            with self._adding:
+                if self._pool is None:
+                    self._pool = ThreadPoolExecutor(1, thread_name_prefix="homemodel-fsync")
+                self._flushes.append(self._pool.submit(self._flush, fd))
+        except BaseException:  # a pool already shut (a writer outliving its folder): no leaked fd or slot
+            os.close(fd)
+            self._slots.release()
+            raise
 
     def _flush(self, fd: int) -> None:
         try:
@@ -110,8 +115,10 @@ class _FolderFlush:
 
     def wait(self, *, report: bool = True) -> None:
         """Wait for every flush; with `report`, raise the first one's error."""
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
+        with self._adding:
+            pool = self._pool
+        if pool is not None:
+            pool.shutdown(wait=True)
         for flush in self._flushes if report else ():
             flush.result()
 
