@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from articulation.convex_parts import as_convex_hull
 from articulation.model import (
     Box,
     Collision,
@@ -25,7 +26,6 @@ from articulation.model import (
     Sphere,
     Visual,
 )
-from articulation.convex_parts import as_convex_hull
 from articulation.naming import file_stem, unique
 from homemodel.core.atomic import write_text_atomic
 from homemodel.exchange.numbers import canonical_xyz_rpy, fixed, fixed_list, significant
