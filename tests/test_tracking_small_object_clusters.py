@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tracking.find_small_objects import POSE_DOUBT_M, _Cluster, _off_their_sides
+from tracking.find_small_objects import POSE_DOUBT_M, _Cluster, _faces, _off_their_sides
 from tracking.fit_state import FitState
 from tracking.scene import HomeScene
 
@@ -35,6 +35,7 @@ def test_a_cluster_against_a_large_objects_face_is_not_taken_for_a_moved_object(
     table_top = float(state.scene.object("table_1").model.world_mesh().bounds[1, 2])
     on_table = _cluster(state, "table_1", half_cup + [0.0, 0.0, table_top], table_top)
     beside = _cluster(state, "oven_1", half_cup + [0.0, high[1] + 0.05, 0.2], 0.2)  # its half seen from the front
-    clear = _off_their_sides(state, ["oven_1", "table_1"], [back, side, on_table, beside])
+    faces = [_faces(state, object_id) for object_id in ("oven_1", "table_1")]
+    clear = _off_their_sides(faces, [back, side, on_table, beside])
     assert clear == [False, False, True, True]
     assert POSE_DOUBT_M >= 0.02  # the map's pose is 2-3 cm off

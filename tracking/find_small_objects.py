@@ -87,10 +87,10 @@ def find_small_objects(
     smalls = [obj for obj in state.scene.objects.values() if isinstance(obj.node, SmallObject)]
     if not smalls or not in_view:
         return []
-    surfaces = {owner: _upward_faces(state, owner) for owner in in_view}
-    surfaces = {owner: faces for owner, faces in surfaces.items() if len(faces[0])}
+    faces = {owner: _faces(state, owner) for owner in in_view}
+    surfaces = {owner: (triangles[up], top) for owner, (triangles, up, top) in faces.items() if up.any()}
     clusters = _clusters(state, full, surfaces, search)
-    off_sides = _off_their_sides(state, in_view, clusters)
+    off_sides = _off_their_sides(list(faces.values()), clusters)
     bounds = {obj.id: obj.model.world_mesh().bounds for obj in smalls}
     reports: dict[str, SmallObjectReport] = {}
     # Where the map has them first, for all of them; then the moved ones anywhere else (an
@@ -163,18 +163,13 @@ def _faces(state: FitState, object_id: str) -> tuple[np.ndarray, np.ndarray, flo
         tri = vertices[part.faces]
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         length = np.linalg.norm(normal, axis=1)
-        triangles.append(tri[length > 1e-12])
-        up.append(normal[length > 1e-12, 2] > 0.97 * length[length > 1e-12])
+        proper = length > 1e-12
+        triangles.append(tri[proper])
+        up.append(normal[proper, 2] > 0.97 * length[proper])
         top = max(top, float(vertices[:, 2].max()))
     if not triangles:
         return np.empty((0, 3, 3)), np.empty(0, dtype=bool), top
     return np.concatenate(triangles), np.concatenate(up), top
-
-
-def _upward_faces(state: FitState, object_id: str) -> tuple[np.ndarray, float]:
-    """(F, 3, 3) map-frame triangles of the object's upward surfaces at its estimates, and its top height."""
-    triangles, up, top = _faces(state, object_id)
-    return triangles[up], top
 
 
 # How far off its estimate a large object may be seen: the map's pose 2-3 cm off, kept when
@@ -182,15 +177,14 @@ def _upward_faces(state: FitState, object_id: str) -> tuple[np.ndarray, float]:
 POSE_DOUBT_M = 0.03
 
 
-def _off_their_sides(state: FitState, in_view: list[str], clusters: list[_Cluster]) -> list[bool]:
+def _off_their_sides(faces: list[tuple[np.ndarray, np.ndarray, float]], clusters: list[_Cluster]) -> list[bool]:
     """Whether each cluster lies, by the median of its points, farther than POSE_DOUBT_M from
-    the faces of the large objects in view that do not face up (fronts, sides, backs and the
-    undersides of shelves and tops): nearer, it is as well one of
+    the faces of the large objects in view (their `_faces`) that do not face up (fronts, sides,
+    backs and the undersides of shelves and tops): nearer, it is as well one of
     them seen a little off its estimate (an oven kept 2 cm off showed its three knobs and two
     edges as six clusters standing on its surfaces, each then searched for every small object)."""
     from homemodel.geometry.raycast import RayCaster
 
-    faces = [_faces(state, object_id) for object_id in in_view]
     sides = np.concatenate([triangles[~up] for triangles, up, _ in faces])
     if not len(sides) or not clusters:
         return [True] * len(clusters)
