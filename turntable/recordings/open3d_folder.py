@@ -31,6 +31,7 @@ COLOR_FOLDERS = ("color", "image", "rgb")
 INTRINSICS_FILES = ("intrinsic.json", "camera_intrinsic.json")
 FRAME_PERIOD_S = 1 / 30
 _REDWOOD_NAME = re.compile(r"^\d+-(\d+)$")  # frame number - microseconds
+_MAX_JSON_BYTES = 1 << 20
 
 
 def _number_order(path: Path) -> tuple:
@@ -46,7 +47,7 @@ def _frames(folder: Path, suffixes: tuple[str, ...]) -> list[Path]:
 def read_intrinsics(path: Path) -> tuple[Camera, list[str]]:
     """The colour camera (depth_scale_m set) and notes on what was assumed."""
     try:
-        data = json.loads(read_bounded(path, 1 << 20))
+        data = json.loads(read_bounded(path, _MAX_JSON_BYTES))
         matrix = np.asarray(data["intrinsic_matrix"], dtype=np.float64).reshape(3, 3).T  # column-major
         row_major = not np.allclose(matrix[2], [0, 0, 1]) and np.allclose(matrix[:, 2], [0, 0, 1])
         if row_major:  # written by hand in reading order: its last row would carry cx, cy
@@ -70,14 +71,19 @@ def intrinsics_file(folder: Path) -> Path | None:
     if named is not None:
         return named
     for path in sorted(folder.glob("*.json")):
-        if path.is_file() and path.stat().st_size < 1 << 20 and b'"intrinsic_matrix"' in read_bounded(path, 1 << 20):
+        if path.is_file() and _json_naming(path, "intrinsic_matrix"):
             return path
     return None
 
 
+def _json_naming(path: Path, key: str) -> bool:
+    """A JSON file small enough to read that holds `key` (a sniff: a larger one is not ours)."""
+    return path.stat().st_size < _MAX_JSON_BYTES and f'"{key}"'.encode() in read_bounded(path, _MAX_JSON_BYTES)
+
+
 def is_config(path: Path) -> bool:
     """An Open3D reconstruction system config (a JSON naming its `path_dataset`)."""
-    return path.suffix.lower() == ".json" and path.stat().st_size < 1 << 20 and b'"path_dataset"' in read_bounded(path, 1 << 20)
+    return path.suffix.lower() == ".json" and _json_naming(path, "path_dataset")
 
 
 def read_config(path: Path) -> tuple[Path, Path | None, float | None]:
@@ -85,7 +91,7 @@ def read_config(path: Path) -> tuple[Path, Path | None, float | None]:
     named) and its depth units a metre (None: not said). Relative paths are tried from the
     config's folder, then from the working folder (where Open3D's scripts run)."""
     try:
-        data = json.loads(read_bounded(path, 1 << 20))
+        data = json.loads(read_bounded(path, _MAX_JSON_BYTES))
         dataset, named, per_metre = str(data["path_dataset"]), data.get("path_intrinsic") or None, data.get("depth_scale")
         per_metre = None if per_metre is None else float(per_metre)
     except (ValueError, KeyError, TypeError, RecursionError) as exc:
