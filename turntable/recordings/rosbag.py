@@ -128,6 +128,10 @@ _EXTRINSICS_MSG = "float64[9] rotation\nfloat64[3] translation"
 _REGISTERED_NAMES = ("aligned_depth_to_color", "depth_registered", "depth_to_rgb", "depth_to_color")
 
 
+def _named_registered(depth_topic: str) -> bool:
+    return any(name in depth_topic for name in _REGISTERED_NAMES)
+
+
 def image_base(connection: object) -> str:
     """The image topic a connection carries: an image_transport plugin's topic
     (`.../image_raw/compressed`, `.../compressedDepth`) less its plugin's name."""
@@ -212,7 +216,7 @@ class RosBagSource(TimedStreamsSource):
         depth_scale = 0.001 if self._depth_dtypes[self._depth.topic] == np.uint16 else FLOAT_DEPTH_SCALE_M
         color_camera = Camera(**{**color_camera.model_dump(), "depth_scale_m": depth_scale})
         setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=notes)
-        if self._depth in registered and depth_info is None and not any(n in self._depth.topic for n in _REGISTERED_NAMES):
+        if self._depth in registered and depth_info is None and not _named_registered(self._depth.topic):
             setup.notes.append(f"{self._depth.topic} has no CameraInfo and colour's size: taken as registered to colour")
         if self._depth not in registered:
             if depth_info is None:
@@ -257,13 +261,13 @@ class RosBagSource(TimedStreamsSource):
     def _registered(self, depth: object, depth_info: object | None, color_info: object) -> bool:
         """Depth in colour's pixels: said by its topic's name, or its CameraInfo is colour's, or
         it has none and colour's size (a camera's single CameraInfo)."""
+        if _named_registered(depth.topic):
+            return True
         color_size = (int(color_info.width), int(color_info.height))
         if depth_info is None:
-            return any(name in depth.topic for name in _REGISTERED_NAMES) or self._sizes[depth.topic] == color_size
-        return any(name in depth.topic for name in _REGISTERED_NAMES) or (
-            depth_info.header.frame_id == color_info.header.frame_id
-            and (int(depth_info.width), int(depth_info.height)) == color_size
-        )
+            return self._sizes[depth.topic] == color_size
+        depth_size = (int(depth_info.width), int(depth_info.height))
+        return depth_info.header.frame_id == color_info.header.frame_id and depth_size == color_size
 
     def close(self) -> None:
         if self._reader is not None:
