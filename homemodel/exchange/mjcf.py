@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from articulation.convex_parts import as_convex_hull
 from articulation.export_dynamics import actuator_effort, export_dynamics
 from articulation.joint_loads import subtree_links
 from articulation.model import Box, Cylinder, Joint, JointState, Link, MeshGeometry, Model, Sphere
@@ -142,7 +143,7 @@ class _Writer:
                 geom.set("size", fixed(shape.radius_m))
             elif isinstance(shape, MeshGeometry):
                 geom.set("type", "mesh")
-                geom.set("mesh", self.mesh_asset(obj, f"{link.name}_{collision.name}_hull", shape.mesh.convex_hull))
+                geom.set("mesh", self.mesh_asset(obj, f"{link.name}_{collision.name}_hull", as_convex_hull(shape.mesh)))
             _pos_quat(geom, collision.link_from_collision)
 
     def joint(self, body: etree._Element, obj: SceneObject, joint: Joint) -> None:

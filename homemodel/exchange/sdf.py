@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from articulation.convex_parts import as_convex_hull
 from articulation.export_dynamics import export_dynamics
 from articulation.joint_loads import STANDARD_GRAVITY_M_S2
 from articulation.model import Box, Cylinder, Link, Material, MeshGeometry, Sphere
@@ -89,7 +90,7 @@ def _link(model_el: etree._Element, obj: SceneObject, link: Link, model_from_lin
     for collision in link.collisions:
         shape = collision.geometry
         if isinstance(shape, MeshGeometry):
-            name, uri = meshes.write(obj, f"{link.name}_{collision.name}_hull", shape.mesh.convex_hull)
+            name, uri = meshes.write(obj, f"{link.name}_{collision.name}_hull", as_convex_hull(shape.mesh))
         else:
             name, uri = meshes.name(obj, f"{link.name}_{collision.name}_collision"), None
         c = etree.SubElement(el, "collision", name=name)
