@@ -144,6 +144,19 @@ def seen_matrix(model: SparseModel) -> np.ndarray:
     return seen
 
 
+def in_frame_pixels(
+    points: np.ndarray, camera_from_world: np.ndarray, camera: Camera, shape: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Of `points` (N, 3, world), those in front of the camera whose pixel, rounded, lies in an
+    image of `shape`: their indices, pixels (K, 2) as (x, y), and depths."""
+    camera_points = points @ camera_from_world[:3, :3].T + camera_from_world[:3, 3]
+    index = np.flatnonzero(camera_points[:, 2] > 0)
+    pixels = np.round(camera.project(camera_points[index])).astype(np.int64)
+    height, width = shape[:2]
+    inside = (pixels[:, 0] >= 0) & (pixels[:, 0] < width) & (pixels[:, 1] >= 0) & (pixels[:, 1] < height)
+    return index[inside], pixels[inside], camera_points[index[inside], 2]
+
+
 def pair_windows(
     model: SparseModel, neighbours: list[list[int]], options: DenseOptions, *, roi: tuple[np.ndarray, float] | None = None
 ) -> dict[tuple[int, int], PairWindow]:
@@ -406,13 +419,9 @@ def compute_depth_maps(
     def depth_map(i: int) -> DepthMap:
         view = model.views[i]
         camera_ref = view.camera.scaled(factors[i])
-        points = model.points_world[sparse_seen[:, i]]
-        points = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
-        points = points[points[:, 2] > 0]
-        pixels = np.round(camera_ref.project(points)).astype(int)
-        height, width = images[i].shape[:2]
-        inside = (pixels[:, 0] >= 0) & (pixels[:, 0] < width) & (pixels[:, 1] >= 0) & (pixels[:, 1] < height)
-        pixels, point_depths = pixels[inside], points[inside, 2]
+        _, pixels, point_depths = in_frame_pixels(
+            model.points_world[sparse_seen[:, i]], view.camera_from_world, camera_ref, images[i].shape
+        )
         candidates = []
         for j in neighbours[i]:
             src_from_ref = model.views[j].camera_from_world @ np.linalg.inv(view.camera_from_world)

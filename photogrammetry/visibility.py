@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from photogrammetry.sfm import View
-from photogrammetry.stereo import DepthMap
+from photogrammetry.stereo import DepthMap, in_frame_pixels
 
 
 def free_space_votes(
@@ -23,17 +23,11 @@ def free_space_votes(
     through = np.zeros(len(points), np.int32)
     for depth_map in maps:
         view = views[depth_map.view_index]
-        camera = points @ view.camera_from_world[:3, :3].T + view.camera_from_world[:3, 3]
-        z = camera[:, 2]
-        front = z > 0
-        col, row = np.round(depth_map.camera.project(camera[front])).astype(np.int64).T
-        height, width = depth_map.depth.shape
-        inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
-        index = np.nonzero(front)[0][inside]
-        observed = depth_map.depth[row[inside], col[inside]]
+        index, pixels, z = in_frame_pixels(points, view.camera_from_world, depth_map.camera, depth_map.depth.shape)
+        observed = depth_map.depth[pixels[:, 1], pixels[:, 0]]
         known = observed > 0
-        index, observed = index[known], observed[known]
-        relative = (observed - z[index]) / z[index]
+        index, observed, z = index[known], observed[known], z[known]
+        relative = (observed - z) / z
         seen[index[np.abs(relative) <= tolerance]] += 1
         through[index[relative > tolerance]] += 1
     return seen, through
