@@ -78,7 +78,6 @@ def scaled_furniture(scene, factor: float):
     """`scene` (a `HomeScene`, changed and returned) with each large object's model `factor`
     times its size about its own frame, links and joint origins, and each small object's place
     on its parent moved with the parent's surfaces."""
-    import copy
     import dataclasses
 
     from semantic_map.nodes import Pose
