@@ -232,8 +232,8 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         frame.model_from_sfm[2, 3] -= lift
 
     clock.start("meshing")
-    mesh = face_the_cameras(watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces),
-                            frame.apply(np.array([v.centre_world for v in sparse.views])))  # fmt: skip
+    mesh = watertight_finish(mesh_object(obj, model_scale, options.cleaning), options.max_faces)
+    mesh = face_the_cameras(mesh, frame.apply(centres))
 
     clock.start("texturing")
     views = [frame.view(v) for v in sparse.views]
