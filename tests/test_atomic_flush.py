@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import errno
 import os
+import signal
 import threading
 from pathlib import Path
 
 import pytest
 
-from homemodel.core import atomic
+from homemodel.core import atomic, interrupts
 from homemodel.core.atomic import atomic_dir, write_bytes_atomic
 
 
@@ -78,3 +79,29 @@ def test_a_forked_child_flushes_its_own_files(tmp_path: Path, monkeypatch) -> No
             os._exit(0 if (tmp / "child.txt").stat().st_ino in flushed else 1)
         _, status = os.waitpid(child, 0)
     assert os.waitstatus_to_exitcode(status) == 0
+
+
+def test_ctrl_c_while_a_flush_is_handed_over_closes_its_descriptor_once(tmp_path: Path, monkeypatch) -> None:
+    """A SIGINT landing inside the pool's `submit`, after it queued the flush, used to close the
+    file's descriptor there and again in the flush thread (EBADF: CI's Ctrl-C test)."""
+    closed: list[int] = []
+    real_close = os.close
+    monkeypatch.setattr(atomic.os, "close", lambda fd: (closed.append(fd), real_close(fd))[1])
+    real_submit = atomic.ThreadPoolExecutor.submit
+
+    def submit(pool, *args, **kwargs):
+        future = real_submit(pool, *args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)  # Python runs the handler at the next bytecode
+        return future
+
+    monkeypatch.setattr(atomic.ThreadPoolExecutor, "submit", submit)
+    previous = signal.getsignal(signal.SIGINT)
+    interrupts.remember_interrupts()
+    try:
+        with pytest.raises(KeyboardInterrupt), atomic_dir(tmp_path / "out") as tmp:
+            write_bytes_atomic(tmp / "model.urdf", b"<robot/>")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        monkeypatch.setattr(interrupts, "_interrupted", False)
+    assert len(closed) == len(set(closed))
+    assert list(tmp_path.iterdir()) == []

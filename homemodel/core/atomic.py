@@ -30,7 +30,7 @@ from contextvars import ContextVar
 from pathlib import Path
 
 from homemodel.core.errors import WRITE_ERRNOS, InputError, OutputError, OutputExistsError
-from homemodel.core.interrupts import raise_if_interrupted
+from homemodel.core.interrupts import interrupts_deferred, raise_if_interrupted
 
 RENAME_EXCHANGE = 2  # linux/fs.h
 _TEMPORARY = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[^.]+\.(tmp|old)")
@@ -95,16 +95,23 @@ class _FolderFlush:
 
     def add(self, fd: int) -> None:
         """Flush the open file `fd` (a descriptor of its own: closed once flushed)."""
-        self._slots.acquire()
         try:
-            with self._adding:
-                if self._pool is None:
-                    self._pool = ThreadPoolExecutor(1, thread_name_prefix="homemodel-fsync")
-                self._flushes.append(self._pool.submit(self._flush, fd))
-        except BaseException:  # a pool already shut (a writer outliving its folder): no leaked fd or slot
+            self._slots.acquire()
+        except BaseException:  # Ctrl-C while waiting for a slot
             os.close(fd)
-            self._slots.release()
             raise
+        # Ctrl-C is held over the hand-over: one landing inside `submit` after it queued the
+        # flush closed `fd` here and again in the flush thread (EBADF in CI).
+        with interrupts_deferred():
+            try:
+                with self._adding:
+                    if self._pool is None:
+                        self._pool = ThreadPoolExecutor(1, thread_name_prefix="homemodel-fsync")
+                    self._flushes.append(self._pool.submit(self._flush, fd))
+            except BaseException:  # a pool already shut (a writer outliving its folder): no leaked fd or slot
+                os.close(fd)
+                self._slots.release()
+                raise
 
     def _flush(self, fd: int) -> None:
         try:
