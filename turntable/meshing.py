@@ -277,38 +277,51 @@ def _plane_distances(
     tree's CPU time on the bench mug."""
     reach = int(np.ceil(reach_voxels + np.sqrt(3) / 2))  # a point lies within half a cell of its nearest node
     steps = np.stack(np.meshgrid(*[np.arange(-reach, reach + 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-    steps = steps[np.linalg.norm(steps, axis=1) <= reach_voxels + np.sqrt(3) / 2]
     strides = np.array([shape[1] * shape[2], shape[2], 1])
     size = int(np.prod(shape))
     # In voxels and float32, nodes as int32, fewer (P, S) temporaries: 0.19 -> 0.15 CPU-s on the
     # bench mug's 26k points, the same field to 2 nm.
-    offsets = steps.astype(np.float32)  # (S, 3)
-    offsets_squared = np.sum(offsets**2, axis=1)
     nearest = np.round((points - origin) / voxel_size_m).astype(np.int64)
     to_nearest = ((origin - points) / voxel_size_m + nearest).astype(np.float32)  # from each point to its node
     index_type = np.int32 if size < 2**31 else np.int64
-    point_nodes, step_nodes = (nearest @ strides).astype(index_type), (steps @ strides).astype(index_type)
+    point_nodes = (nearest @ strides).astype(index_type)
     reach_squared, lateral_squared = np.float32(reach_voxels**2), np.float32(lateral_voxels**2)
+    # The points by the octant their node lies in, seen from them: a node offset can reach a
+    # point of that octant only if it lies within the reach of the octant's half-cell box, two
+    # thirds of the offsets that reach some point of any octant (the same entries, a third fewer
+    # tried).
+    octant = (to_nearest > 0) @ np.array([4, 2, 1])
+    order = np.argsort(octant, kind="stable")
+    ends = np.searchsorted(octant[order], np.arange(9))
     nodes, weights, weighted = [], [], []
-    for start in range(0, len(points), _SPLAT_CHUNK):
-        chunk = slice(start, start + _SPLAT_CHUNK)
-        here, normal = to_nearest[chunk], normals[chunk].astype(np.float32)
-        squared = here @ (2 * offsets.T)  # (P, S): |here + offset|^2
-        squared += offsets_squared
-        squared += np.sum(here**2, axis=1)[:, None]
-        values = normal @ offsets.T  # (P, S): the signed distance to the point's plane
-        values += np.sum(normal * here, axis=1)[:, None]
-        inside = squared <= reach_squared
-        lateral = values * values
-        np.subtract(squared, lateral, out=lateral)
-        inside &= lateral <= lateral_squared
-        # The ~16 % of the (P, S) entries kept, found once and gathered from the flat arrays.
-        kept = np.flatnonzero(inside)
-        point, step = np.divmod(kept, len(steps))
-        weight = np.exp(-squared.ravel()[kept])
-        nodes.append(point_nodes[chunk][point] + step_nodes[step])
-        weights.append(weight)
-        weighted.append(weight * values.ravel()[kept])
+    for code in range(8):
+        positive = np.array([(code >> 2) & 1, (code >> 1) & 1, code & 1], dtype=bool)
+        low, high = np.where(positive, 0.0, -0.5), np.where(positive, 0.5, 0.0)  # its points' `to_nearest`
+        closest = np.clip(0.0, steps + low, steps + high)  # the offset's nearest reach from that box
+        octant_steps = steps[np.sum(closest**2, axis=1) <= reach_voxels**2]
+        offsets = octant_steps.astype(np.float32)  # (S, 3)
+        offsets_squared = np.sum(offsets**2, axis=1)
+        step_nodes = (octant_steps @ strides).astype(index_type)
+        group = order[ends[code] : ends[code + 1]]
+        for start in range(0, len(group), _SPLAT_CHUNK):
+            chunk = group[start : start + _SPLAT_CHUNK]
+            here, normal = to_nearest[chunk], normals[chunk].astype(np.float32)
+            squared = here @ (2 * offsets.T)  # (P, S): |here + offset|^2
+            squared += offsets_squared
+            squared += np.sum(here**2, axis=1)[:, None]
+            values = normal @ offsets.T  # (P, S): the signed distance to the point's plane
+            values += np.sum(normal * here, axis=1)[:, None]
+            inside = squared <= reach_squared
+            lateral = values * values
+            np.subtract(squared, lateral, out=lateral)
+            inside &= lateral <= lateral_squared
+            # The ~20 % of the (P, S) entries kept, found once and gathered from the flat arrays.
+            kept = np.flatnonzero(inside)
+            point, step = np.divmod(kept, len(offsets))
+            weight = np.exp(-squared.ravel()[kept])
+            nodes.append(point_nodes[chunk][point] + step_nodes[step])
+            weights.append(weight)
+            weighted.append(weight * values.ravel()[kept])
     # One sum over all chunks (a whole-grid bin count per chunk had cost a fifth of the splat).
     nodes = np.concatenate(nodes)
     weight_sums = np.bincount(nodes, np.concatenate(weights), minlength=size)
