@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from homemodel.model_folder.write import PipelineSummary, write_model_folder
 from articulation.naming import check_model_name
@@ -53,13 +54,17 @@ def _matrix(m: np.ndarray | None) -> list[list[float]] | None:
     return None if m is None else [[float(v) for v in row] for row in m]
 
 
-def completion_summary(completion: Completion, support: SupportPlane | None = None) -> dict:
+def completion_summary(
+    completion: Completion, support: SupportPlane | None = None, *, object_mesh: trimesh.Trimesh | None = None
+) -> dict:
     """The completion's own figures in summary.json (under `completion`), in the written
-    mesh's frame; the size, triangles and times are the summary's common ones."""
+    mesh's frame; the size, triangles and times are the summary's common ones. `object_mesh`:
+    `completion.object_mesh` when the caller made it already (its watertightness then comes
+    from the inertial's test, not from a second copy)."""
     fit = completion.fit
     frame = completion.frame or object_frame(completion.mesh, map_from_camera=None, support=None, axis=None)
     object_from_camera = np.linalg.inv(frame.camera_from_object)
-    mesh = completion.object_mesh
+    mesh = completion.object_mesh if object_mesh is None else object_mesh
     axis = None if fit.axis is None else fit.axis.transformed(object_from_camera)
     return {
         "class": completion.class_name,
@@ -167,7 +172,7 @@ def _complete(
         out_dir,
         PipelineSummary(
             source="completion",
-            figures=completion_summary(completion, query.support),
+            figures=completion_summary(completion, query.support, object_mesh=object_mesh),
             times_s=completion.times_s,  # gains the export's and the gate's
             inputs={**model_inputs, "depth": depth_png, "camera": camera_path, **mask_input},
             meshes=meshes.figures,
