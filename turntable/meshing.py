@@ -141,11 +141,13 @@ def object_mesh(
             smoothing_voxels=options.smoothing_voxels,
             table_top=options.close_bottom,
         )
-        mesh = _on_table_top(mesh) if len(mesh.faces) else mesh
-        if len(mesh.faces) and not mesh.is_watertight:
-            mesh = repair_surface(mesh)
+        closed = False
+        if len(mesh.faces):
+            mesh, closed = _marched_on_table_top(mesh)
+            if not closed:
+                mesh = repair_surface(mesh)
     triangles_poisson = trimmed = None
-    if mesh is None or len(mesh.faces) == 0 or not mesh.is_watertight:  # Poisson closes: the fallback
+    if mesh is None or len(mesh.faces) == 0 or not (closed or mesh.is_watertight):  # Poisson closes: the fallback
         mesh, triangles_poisson, trimmed = _poisson_closed(
             *with_footprint(0, voxel_size_m), cloud, cylinder, voxel_size_m, options
         )
@@ -273,8 +275,8 @@ def _plane_distances(
     """Each grid node's Gaussian-weighted (sigma: a voxel over the square root of 2) mean signed
     distance to the tangent planes of the points within `reach_voxels` (and `lateral_voxels` of
     the normal's line), and which nodes have any. Each point adds itself to the nodes round it
-    (one bin count per chunk of points), not each node looking for its points: a third of a k-d
-    tree's CPU time on the bench mug."""
+    (one bin count over all points' entries), not each node looking for its points: a third of a
+    k-d tree's CPU time on the bench mug."""
     reach = int(np.ceil(reach_voxels + np.sqrt(3) / 2))  # a point lies within half a cell of its nearest node
     steps = np.stack(np.meshgrid(*[np.arange(-reach, reach + 1)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
     strides = np.array([shape[1] * shape[2], shape[2], 1])
@@ -399,9 +401,39 @@ def _on_table_top(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     below z = 0."""
     if len(mesh.faces):
         mesh = largest_piece(mesh)
-    vertices = mesh.vertices.copy()
+    return _flattened(mesh.vertices, mesh.faces)
+
+
+def _marched_on_table_top(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, bool]:
+    """`_on_table_top` for marching cubes' mesh, and whether the piece is closed with its faces
+    wound one way (each directed edge once, and its reverse once). Its pieces are found through
+    shared vertices: marching cubes gives each crossing of a grid edge one vertex, so pieces
+    meet at none. A quarter of trimesh's face adjacency and watertight check (6 against 26 ms on
+    the bench mug's 44k triangles)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    vertices, faces = mesh.vertices, mesh.faces
+    count = len(vertices)
+    graph = coo_matrix(
+        (np.ones(2 * len(faces), dtype=np.int8), (faces[:, :2].ravel(), faces[:, 1:].ravel())), shape=(count, count)
+    )
+    pieces, labels = connected_components(graph, directed=False)
+    if pieces > 1:
+        kept = labels == np.argmax(np.bincount(labels[faces[:, 0]]))
+        vertices, faces = vertices[kept], (np.cumsum(kept) - 1)[faces[kept[faces[:, 0]]]]
+        count = len(vertices)
+    ends, starts = faces.ravel().astype(np.int64), faces[:, [1, 2, 0]].ravel().astype(np.int64)
+    edges, reversed_edges = np.sort(starts * count + ends), np.sort(ends * count + starts)
+    closed = bool(np.all(edges[1:] != edges[:-1]) and np.array_equal(edges, reversed_edges))
+    return _flattened(vertices, faces), closed
+
+
+def _flattened(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
+    """The mesh with nothing below z = 0: the object stands on the table top."""
+    vertices = vertices.copy()
     vertices[:, 2] = np.maximum(vertices[:, 2], 0.0)
-    return trimesh.Trimesh(vertices, mesh.faces, process=False)
+    return trimesh.Trimesh(vertices, faces, process=False)
 
 
 def footprint_points(points: np.ndarray, z_min_m: float, spacing_m: float, *, inset_cells: int = 0) -> np.ndarray:
