@@ -39,7 +39,7 @@ from photogrammetry.metric_frame import ModelFrame, metric_frame
 from photogrammetry.photos import list_photos
 from photogrammetry.sfm import SfmOptions, SparseModel, View, quiet_c_libraries, run_sfm
 from photogrammetry.stereo import DenseOptions, compute_depth_maps, depth_image_side_px, depth_maps_to_points
-from photogrammetry.support_plane import camera_up, find_support_plane
+from photogrammetry.support_plane import find_support_plane, scene_up
 from photogrammetry.texturing import TexturedMesh, TextureBakingOptions, bake_texture
 from photogrammetry.visibility import keep_surface_points
 from homemodel.model_folder.map_entry import MapEntry
@@ -175,19 +175,15 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
             "no one object is seen from all round (take the photos circling the object, or give --marker-size-m)"
         )
     camera_from_world = np.array([v.camera_from_world for v in sparse.views])
-    # The table reaches beyond the frames' common part: the plane is looked for in every point
-    # near the object, and must have what stays in frame above it.
+    # The table reaches beyond the frames' common part: up and the plane are looked for in every
+    # point near the object, and must have what stays in frame above them. Their threshold is
+    # wider than the cut's clearance: a seat's cushion or a warped board is not quite flat.
+    plane_threshold = options.cleaning.plane_clearance_fraction * scene_scale
+    seed = options.sfm.random_state
+    up = scene_up(points, points[keep], camera_from_world, focus, threshold=plane_threshold, seed=seed)
     plane = None
     if options.cleaning.remove_support:
-        plane = find_support_plane(
-            points,
-            points[keep],
-            camera_from_world,
-            focus,
-            seed=options.sfm.random_state,
-            # Wider than the cut's clearance: a seat's cushion or a warped board is not quite flat.
-            threshold=options.cleaning.plane_clearance_fraction * scene_scale,
-        )
+        plane = find_support_plane(points, points[keep], camera_from_world, focus, threshold=plane_threshold, seed=seed, up=up)
     points, colours, to_camera = points[keep], colours[keep], to_camera[keep]
     if options.marker_size_m is not None:
         clock.start("markers")
@@ -203,7 +199,7 @@ def reconstruct_photos(photos_dir: Path, options: ReconstructOptions | None = No
         marker_size_m=options.marker_size_m,
         object_centre_sfm=focus,
         x_hint_sfm=sparse.views[0].camera_from_world[0, :3],
-        up_hint_sfm=camera_up(camera_from_world[:, :3, :3]),
+        up_hint_sfm=up,
     )
 
     clock.start("cleaning")

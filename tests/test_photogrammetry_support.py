@@ -13,7 +13,7 @@ import photo_runs
 import pytest
 import trimesh
 
-from photogrammetry.support_plane import camera_up, find_support_plane
+from photogrammetry.support_plane import camera_up, find_support_plane, scene_up
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "photogrammetry"
 
@@ -65,6 +65,42 @@ def test_camera_up_of_upright_photos_looking_up_at_a_tall_object_points_up() -> 
     up = np.array([0.0, 0.0, 1.0])
     assert camera_up(_ring(up, height=-0.3)[:, :3, :3]) @ up > 0.99
     assert camera_up(_ring(up, height=1.0, rolls=(90.0, -90.0, 0.0))[:, :3, :3]) @ up > 0.99
+
+
+def _head_on_a_stand(rng: np.random.Generator, *, stand: bool) -> np.ndarray:
+    """Points (1 mm noise) of a 0.1 m radius cylinder from z = -0.2 to 0.2 under a dome to
+    0.3, standing on a ring of table out to 0.2 m (`stand`); without it, the cylinder's flat
+    foot is a dome too."""
+    angle = rng.uniform(0, 2 * np.pi, 4000)
+    side = np.column_stack([0.1 * np.cos(angle), 0.1 * np.sin(angle), rng.uniform(-0.2, 0.2, 4000)])
+    dome = rng.normal(size=(1500, 3))
+    dome = 0.1 * dome / np.linalg.norm(dome, axis=1, keepdims=True)
+    dome[:, 2] = np.abs(dome[:, 2])
+    parts = [side, dome + [0, 0, 0.2]]
+    if stand:
+        radius, angle = np.sqrt(rng.uniform(0.1**2, 0.2**2, 1500)), rng.uniform(0, 2 * np.pi, 1500)
+        parts.append(np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.full(1500, -0.2)]))
+    else:
+        parts.append(dome * [1, 1, -1] - [0, 0, 0.2])
+    points = np.vstack(parts)
+    return points + rng.normal(0, 0.001, points.shape)
+
+
+def test_scene_up_from_the_side_the_support_is_on_when_photos_turned_a_quarter_look_level() -> None:
+    """Photos mostly turned a quarter (no EXIF turn) taken round a tall object from below its
+    middle look up at it (Buddha's lowest band): the look-down rule turns it upside down, the
+    side its stand is on does not; with no support in the points (a dome at either end), the
+    points give no word and the cameras' look decides, as before."""
+    rng = np.random.default_rng(5)
+    up = np.array([0.0, 0.0, 1.0])
+    poses = _ring(up, height=-0.08, rolls=(90.0, 90.0, 90.0, 90.0, 90.0, 0.0))  # two of 12 upright
+    assert camera_up(poses[:, :3, :3]) @ up < -0.99  # the old rule's sign
+    points = _head_on_a_stand(rng, stand=True)
+    assert scene_up(points, points, poses, np.zeros(3), threshold=0.006) @ up > 0.99
+    plane = find_support_plane(points, points, poses, np.zeros(3), threshold=0.006)
+    assert plane is None  # the cameras do not look down on the stand: up only
+    points = _head_on_a_stand(rng, stand=False)
+    assert scene_up(points, points, poses, np.zeros(3), threshold=0.006) @ up < -0.99
 
 
 def _scene(rng: np.random.Generator, *, table: bool) -> tuple[np.ndarray, np.ndarray]:
