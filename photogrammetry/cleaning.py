@@ -17,6 +17,7 @@ from homemodel.core.checks import require_between, require_positive
 from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import largest_piece, point_cloud, poisson_surface
 from homemodel.geometry.open3d_loader import load_open3d
+from homemodel.geometry.raycast import RayCaster
 from homemodel.geometry.voxel_cells import cell_keys, group_sums
 
 
@@ -223,18 +224,33 @@ def mesh_object(obj: ObjectPoints, scene_scale: float, options: CleaningOptions)
     return largest_piece(mesh)
 
 
+# Rays cast from each camera towards its faces by `face_the_cameras`: Buddha's 67 views, 33,500
+# rays, on a 100,000-face mesh in a tenth of a second.
+FACING_RAYS_PER_CAMERA = 500
+
+
 def face_the_cameras(mesh: trimesh.Trimesh, centres: np.ndarray) -> trimesh.Trimesh:
-    """`mesh`, or it inverted when most of its area faces away from the cameras at `centres`
-    (N, 3). A surface seen from one side (Kermit on his chair) is open: it has no inside to wind
-    it outward from, and the repair's Open3D `orient_triangles` winds it either way; Kermit
-    with two photos of broken EXIF came out inside out, and the texture, baked only where a
-    view faces the surface, covered 13 % of the atlas instead of 79 %. A closed mesh is already
-    wound outward and is returned as it is."""
+    """`mesh`, or it inverted when most of what the cameras at `centres` (N, 3) see first of it
+    faces away from them. Rays go from each camera towards points of the mesh (area-weighted);
+    the face each ray meets first is one the camera sees, and it faces the camera unless the
+    winding is inverted. A surface seen from one side (Kermit on his chair) or with holes is
+    open: it has no inside to wind it outward from, and the repair's Open3D `orient_triangles`
+    winds it either way; Kermit with two photos of broken EXIF came out inside out, and the
+    texture, baked only where a view faces the surface, covered 13 % of the atlas instead of
+    79 %. Whether each face merely had the cameras on its front side decided it before: cameras
+    all round an object have most of them behind any one face, so that vote was near even or
+    wrong (Buddha's lowest band, open at the crown: 0 % of the first hits facing the camera
+    after it). A closed mesh is already wound outward and is returned as it is."""
     if mesh.is_watertight:
         return mesh
-    normals, corners_centre, area = mesh.face_normals, mesh.triangles_center, mesh.area_faces
-    vote = sum(float(area @ np.sign(np.einsum("ij,ij->i", normals, centre - corners_centre))) for centre in centres)
-    if vote >= 0:
+    rng = np.random.default_rng(0)  # the same mesh is faced the same way every run
+    caster = RayCaster(mesh)
+    targets = mesh.triangles_center[rng.choice(len(mesh.faces), (len(centres), FACING_RAYS_PER_CAMERA), p=mesh.area_faces / mesh.area)]
+    directions = targets - centres[:, None, :]
+    directions = (directions / np.linalg.norm(directions, axis=2, keepdims=True)).reshape(-1, 3)
+    hits = caster.first_hits(np.repeat(centres, FACING_RAYS_PER_CAMERA, axis=0), directions)
+    facing = np.einsum("ij,ij->i", mesh.face_normals[hits.triangle[hits.hit]], -directions[hits.hit]) > 0
+    if 2 * facing.sum() >= len(facing):
         return mesh
     inverted = mesh.copy()
     inverted.invert()

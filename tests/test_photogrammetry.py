@@ -346,3 +346,20 @@ def test_an_open_surface_is_wound_to_face_the_cameras_and_a_closed_one_is_left_o
     assert np.allclose(facing.face_normals[:, 2], 1.0)
     box = trimesh.creation.box()
     assert face_the_cameras(box, np.zeros((1, 3))) is box  # closed: outward, wherever the cameras are
+
+
+def test_an_open_tube_seen_from_all_round_is_wound_outward() -> None:
+    """Cameras all round a tube open at both ends (Buddha's lowest band gave a head open at the
+    crown): any one face has most of them behind it, yet what each camera sees first faces it.
+    Wound outward the tube is left; wound inward it is inverted (the vote of the cameras on each
+    face's front side inverted the outward one and kept the inward one)."""
+    tube = trimesh.creation.cylinder(radius=0.3, height=1.0, sections=48)
+    tube.update_faces(np.abs(tube.face_normals[:, 2]) < 0.5)
+    tube.remove_unreferenced_vertices()
+    angles = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    around = np.column_stack([np.cos(angles), np.sin(angles), np.full(12, 0.1)])
+    assert face_the_cameras(tube, around) is tube
+    inward = tube.copy()
+    inward.invert()
+    outward = face_the_cameras(inward, around)
+    assert np.all(np.einsum("ij,ij->i", outward.face_normals, outward.triangles_center * [1, 1, 0]) > 0)
