@@ -299,9 +299,23 @@ def test_missing_check_urdf_fails_and_says_make_setup(tmp_path: Path, monkeypatc
 
 def test_a_hung_tool_is_killed_with_its_children() -> None:
     started = time.perf_counter()
-    with pytest.raises(subprocess.TimeoutExpired):
-        gate_process.run_bounded(["sh", "-c", "sleep 30 & sleep 30"], timeout_s=0.3)
+    with pytest.raises(subprocess.TimeoutExpired), gate_process.BoundedRun(["sh", "-c", "sleep 30 & sleep 30"]) as run:
+        run.result(timeout_s=0.3)
     assert time.perf_counter() - started < 5
+
+
+def test_a_tool_left_running_is_ended_with_its_children() -> None:
+    # check_urdf runs beside the gate's own checks: a gate that stops early must not leave it.
+    with gate_process.BoundedRun(["sh", "-c", "sleep 30 & sleep 30"]) as run:
+        group = run.pid
+    deadline = time.perf_counter() + 5
+    while time.perf_counter() < deadline:
+        try:
+            os.killpg(group, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.02)
+    pytest.fail(f"process group {group} still runs")
 
 
 XXE = """<?xml version="1.0"?>

@@ -8,29 +8,48 @@ import subprocess
 from collections.abc import Mapping, Sequence
 
 
-def run_bounded(argv: Sequence[str], timeout_s: float, env: Mapping[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    """Run `argv` capturing its output; raises `subprocess.TimeoutExpired` after `timeout_s`.
+class BoundedRun:
+    """An external checker started at once, its output collected later within a time bound, so
+    that it runs on another core while the caller goes on. The child gets its own session so a
+    timeout kills its children too (cmeel's `check_urdf` is a Python wrapper that spawns the real
+    binary). Use as a context manager: leaving it ends a checker whose result was not taken."""
 
-    The child gets its own session so a timeout kills its children too (cmeel's
-    `check_urdf` is a Python wrapper that spawns the real binary).
-    """
-    proc = subprocess.Popen(
-        list(argv),
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        errors="replace",
-        start_new_session=True,
-        env=env,
-    )
-    try:
-        out, err = proc.communicate(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.communicate()
-        raise
-    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+    def __init__(self, argv: Sequence[str], env: Mapping[str, str] | None = None) -> None:
+        self._proc = subprocess.Popen(
+            list(argv),
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            errors="replace",
+            start_new_session=True,
+            env=env,
+        )
+
+    @property
+    def pid(self) -> int:
+        """The checker's process id, which is also its process group's."""
+        return self._proc.pid
+
+    def result(self, timeout_s: float) -> subprocess.CompletedProcess[str]:
+        """Its exit status and output; raises `subprocess.TimeoutExpired` after `timeout_s` more."""
+        try:
+            out, err = self._proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self._kill()
+            raise
+        return subprocess.CompletedProcess(self._proc.args, self._proc.returncode, out, err)
+
+    def _kill(self) -> None:
+        os.killpg(self._proc.pid, signal.SIGKILL)
+        self._proc.communicate()
+
+    def __enter__(self) -> BoundedRun:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._proc.returncode is None and self._proc.poll() is None:
+            self._kill()
 
 
 def last_lines(text: str, count: int = 3) -> str:

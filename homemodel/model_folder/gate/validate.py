@@ -18,7 +18,7 @@ from homemodel.exchange.urdf import Element
 from homemodel.exchange.urdf.mesh_paths import with_package_uris_resolved
 from homemodel.exchange.urdf.read import find_urdf
 from homemodel.geometry.mesh_io import meshes_read_once
-from homemodel.model_folder.gate.clients import check_urdf_check, pybullet_check, yourdfpy_check
+from homemodel.model_folder.gate.clients import check_urdf_beside, pybullet_check, yourdfpy_check
 from homemodel.model_folder.gate.collisions import collisions_check
 from homemodel.model_folder.gate.finite_numbers import finite_numbers_check
 from homemodel.model_folder.gate.gltf import gltf_checks
@@ -88,12 +88,13 @@ def _pybullet_refusal(
 def _urdf_checks(urdf: Path, robot: Element, package_paths: Sequence[Path]) -> list[Check]:
     """The checks of a URDF whose XML was safe to parse (`robot`)."""
     checks = [Check("safe XML", True, f"no DOCTYPE or entities; <robot name={robot.get('name')!r}>")]
-    tree = tree_check(robot)
-    meshes = meshes_check(robot, urdf.parent, package_paths)
-    finite = finite_numbers_check(robot)
-    checks += [tree, finite, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
-    geometry = mesh_geometry_check(robot, urdf.parent, package_paths)
-    checks += [geometry, check_urdf_check(urdf)]
+    with check_urdf_beside(urdf) as check_urdf:
+        tree = tree_check(robot)
+        meshes = meshes_check(robot, urdf.parent, package_paths)
+        finite = finite_numbers_check(robot)
+        checks += [tree, finite, limits_check(robot), axes_check(robot), inertials_check(robot), meshes]
+        geometry = mesh_geometry_check(robot, urdf.parent, package_paths)
+        checks += [geometry, check_urdf()]
     if over_triangle_bound(meshes):  # the clients would read every triangle into memory
         declared_check, declared = Check("yourdfpy", False, "not run: meshes over the triangle bound"), None
     else:
