@@ -5,6 +5,7 @@ distance (the default), or screened Poisson with density trimming (the fallback)
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Literal
 
@@ -22,6 +23,7 @@ from turntable.fusion import Cylinder, MergedCloud
 _POISSON_SCALE = 1.5
 _UNMEASURED_SKIN = 0.25  # of the signed-distance solid's skin: more is a leak (see `distance_surface`)
 _SPLAT_CHUNK = 1536  # points added to the grid at once: (P, S) arrays of ~1.5 MB, in cache (4096: 20 % more CPU)
+_SPLAT_THREADS = 2  # threads making the splat's chunks (NumPy lets go of the GIL in each of their steps)
 
 
 @dataclass(kw_only=True)
@@ -203,23 +205,26 @@ def distance_surface(
         points, normals, origin, shape, voxel_size_m, reach_voxels, lateral_voxels or reach_voxels
     )
     field[known & (field == 0.0)] = 1e-9 * voxel_size_m
-    # The outside: where a ball `seal_voxels` wide rolls in from the border without touching
-    # the band (a flood fill of the band's complement, opened by that ball).
-    blocked = ndimage.binary_dilation(known, iterations=seal_voxels) if seal_voxels else known
-    below_table = np.zeros(shape, dtype=bool)
-    if table_top:
-        below_table[:, :, : max(int(round(-origin[2] / voxel_size_m + 0.5)), 0)] = True
-        blocked |= below_table
-    labels, _ = ndimage.label(~blocked)
-    outside = labels == labels[0, 0, -1]  # the padding is free and in one piece
-    if seal_voxels:
-        outside = ndimage.binary_dilation(outside, iterations=seal_voxels)
-    # The rest (the inside, and the plugs in gaps the ball could not pass) signed like the
-    # nearest measured node: inside behind the band, the band's sides across a gap. Those lie
-    # in the band's box, and so does every measured node: the transform runs there alone (the
-    # padding round it is a third of the grid); beyond it, what is not outside lies under the table.
+    # The rest (the inside, and the plugs in gaps the ball could not pass: see below) will be
+    # signed like the nearest measured node: inside behind the band, the band's sides across a
+    # gap. Those lie in the band's box, and so does every measured node: the transform runs
+    # there alone (the padding round it is a third of the grid); beyond it, what is not outside
+    # lies under the table. On another thread, beside the flood fill (SciPy lets go of the GIL).
     band = _box_of(known)
-    nearest = ndimage.distance_transform_edt(~known[band], return_distances=False, return_indices=True)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        nearest = pool.submit(ndimage.distance_transform_edt, ~known[band], return_distances=False, return_indices=True)
+        # The outside: where a ball `seal_voxels` wide rolls in from the border without touching
+        # the band (a flood fill of the band's complement, opened by that ball).
+        blocked = ndimage.binary_dilation(known, iterations=seal_voxels) if seal_voxels else known
+        below_table = np.zeros(shape, dtype=bool)
+        if table_top:
+            below_table[:, :, : max(int(round(-origin[2] / voxel_size_m + 0.5)), 0)] = True
+            blocked |= below_table
+        labels, _ = ndimage.label(~blocked)
+        outside = labels == labels[0, 0, -1]  # the padding is free and in one piece
+        if seal_voxels:
+            outside = ndimage.binary_dilation(outside, iterations=seal_voxels)
+        nearest = nearest.result()
     nearest_sign = np.full(shape, reach_m)
     nearest_sign[band] = np.where(field[band][tuple(nearest)] >= 0, reach_m, -reach_m)
     field = np.where(known, field, np.where(outside, reach_m, nearest_sign))
@@ -295,35 +300,39 @@ def _plane_distances(
     octant = (to_nearest > 0) @ np.array([4, 2, 1])
     order = np.argsort(octant, kind="stable")
     ends = np.searchsorted(octant[order], np.arange(9))
-    nodes, weights, weighted = [], [], []
+    tasks = []
     for code in range(8):
         positive = np.array([(code >> 2) & 1, (code >> 1) & 1, code & 1], dtype=bool)
         low, high = np.where(positive, 0.0, -0.5), np.where(positive, 0.5, 0.0)  # its points' `to_nearest`
         closest = np.clip(0.0, steps + low, steps + high)  # the offset's nearest reach from that box
         octant_steps = steps[np.sum(closest**2, axis=1) <= reach_voxels**2]
-        offsets = octant_steps.astype(np.float32)  # (S, 3)
-        offsets_squared = np.sum(offsets**2, axis=1)
-        step_nodes = (octant_steps @ strides).astype(index_type)
+        stencil = (octant_steps.astype(np.float32), (octant_steps @ strides).astype(index_type))  # (S, 3), (S,)
         group = order[ends[code] : ends[code + 1]]
-        for start in range(0, len(group), _SPLAT_CHUNK):
-            chunk = group[start : start + _SPLAT_CHUNK]
-            here, normal = to_nearest[chunk], normals[chunk].astype(np.float32)
-            squared = here @ (2 * offsets.T)  # (P, S): |here + offset|^2
-            squared += offsets_squared
-            squared += np.sum(here**2, axis=1)[:, None]
-            values = normal @ offsets.T  # (P, S): the signed distance to the point's plane
-            values += np.sum(normal * here, axis=1)[:, None]
-            inside = squared <= reach_squared
-            lateral = values * values
-            np.subtract(squared, lateral, out=lateral)
-            inside &= lateral <= lateral_squared
-            # The ~20 % of the (P, S) entries kept, found once and gathered from the flat arrays.
-            kept = np.flatnonzero(inside)
-            point, step = np.divmod(kept, len(offsets))
-            weight = np.exp(-squared.ravel()[kept])
-            nodes.append(point_nodes[chunk][point] + step_nodes[step])
-            weights.append(weight)
-            weighted.append(weight * values.ravel()[kept])
+        tasks += [(stencil, group[start : start + _SPLAT_CHUNK]) for start in range(0, len(group), _SPLAT_CHUNK)]
+
+    def entries(task: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A chunk's kept (node, weight, weight x signed distance) entries."""
+        (offsets, step_nodes), chunk = task
+        here, normal = to_nearest[chunk], normals[chunk].astype(np.float32)
+        squared = here @ (2 * offsets.T)  # (P, S): |here + offset|^2
+        squared += np.sum(offsets**2, axis=1)
+        squared += np.sum(here**2, axis=1)[:, None]
+        values = normal @ offsets.T  # (P, S): the signed distance to the point's plane
+        values += np.sum(normal * here, axis=1)[:, None]
+        inside = squared <= reach_squared
+        lateral = values * values
+        np.subtract(squared, lateral, out=lateral)
+        inside &= lateral <= lateral_squared
+        # The ~20 % of the (P, S) entries kept, found once and gathered from the flat arrays.
+        kept = np.flatnonzero(inside)
+        point, step = np.divmod(kept, len(offsets))
+        weight = np.exp(-squared.ravel()[kept])
+        return point_nodes[chunk][point] + step_nodes[step], weight, weight * values.ravel()[kept]
+
+    # On two threads: NumPy lets go of the GIL in each step of a chunk; the entries come back in
+    # the tasks' order, so the sums are the same whichever thread made them.
+    with ThreadPoolExecutor(max_workers=_SPLAT_THREADS) as pool:
+        nodes, weights, weighted = zip(*pool.map(entries, tasks))
     # One sum over all chunks (a whole-grid bin count per chunk had cost a fifth of the splat).
     nodes = np.concatenate(nodes)
     weight_sums = np.bincount(nodes, np.concatenate(weights), minlength=size)
