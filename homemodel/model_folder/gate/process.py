@@ -48,8 +48,9 @@ class BoundedRun:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self._proc.returncode is None and self._proc.poll() is None:
-            self._kill()
+        with self._proc:  # closes its pipes and reaps it, whether its result was taken or not
+            if self._proc.poll() is None:  # not taken: the caller stopped early
+                os.killpg(self._proc.pid, signal.SIGKILL)
 
 
 def last_lines(text: str, count: int = 3) -> str:
