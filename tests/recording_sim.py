@@ -91,6 +91,7 @@ def record(
     blurred: tuple[int, ...] = (),
     noise: bool = True,
     seed: int = 0,
+    start_frame: int = 0,
 ) -> Recorded:
     import cv2
 
@@ -101,6 +102,7 @@ def record(
     clean_camera = load_camera(clean_dir / "camera.yaml")
     poses = read_cameras(true_cameras_file(clean_dir)).poses
     stems = sorted(poses)
+    stems = stems[start_frame:] + stems[:start_frame]  # a recording started mid-turn
     n = len(stems)
     map_x, map_y = rig.color_camera.remap_from(clean_camera)
     axis = np.array([*options.axis_offset_m, 0.0])
@@ -378,6 +380,7 @@ class RealSenseLayout:
     depth_units_option: bool = True  # False: a writer that leaves out the depth sensor's depth_units
     frame_numbers: bool = True  # False: every frame numbered 0, as a writer that never sets them
     extrinsics: bool = True  # False: no depth-to-colour extrinsics registered
+    motion: bool = False  # D435i/D455: the Motion Module's accel (100 Hz) and gyro (200 Hz) streams recorded too
 
 
 def write_realsense_streams(
@@ -430,6 +433,13 @@ def write_realsense_streams(
         stream.width, stream.height, stream.intrinsics = camera.width, camera.height, intrinsics(camera, model)
         profiles.append(sensor.add_video_stream(stream))
     depth_profile, color_profile = profiles[:2]
+    motion_rates = {"accel": 100, "gyro": 200} if layout.motion else {}
+    motion_sensor = device.add_sensor("Motion Module") if layout.motion else None
+    for uid, (kind, rate) in enumerate(motion_rates.items(), start=10):
+        stream = rs.motion_stream()
+        stream.type, stream.uid, stream.index, stream.fps, stream.fmt = getattr(rs.stream, kind), uid, 0, rate, rs.format.motion_xyz32f
+        profiles.append(motion_sensor.add_motion_stream(stream))
+        streams.append((motion_sensor, kind))
     if layout.depth_units_option:
         depth_sensor.add_read_only_option(rs.option.depth_units, rig.depth_scale_m)
     extrinsics = rs.extrinsics()
@@ -446,17 +456,29 @@ def write_realsense_streams(
     events = [(t, "depth", d) for t, d in depths] + [(t, "color", stored(c)) for t, c in colors]
     if layout.infrared:
         events += [(t, f"infrared{n}", np.zeros(d.shape, np.uint8)) for t, d in depths for n in (1, 2)]
-    profile_of = {"depth": depth_profile, "color": color_profile, "infrared1": profiles[-2], "infrared2": profiles[-1]}
+    end_s = max(t for t, *_ in events)
+    for kind, rate in motion_rates.items():  # gravity on y, a little noise: what a still camera reads
+        events += [(k / rate, kind, np.array([0.01, -9.81 if kind == "accel" else 0.0, 0.02], np.float32)) for k in range(int(end_s * rate) + 1)]
+    profile_of = dict(zip(["depth", "color", *(["infrared1", "infrared2"] if layout.infrared else []), *motion_rates], profiles))
     sensor_of = {"depth": depth_sensor, "color": color_sensor, "infrared1": depth_sensor, "infrared2": depth_sensor}
+    sensor_of |= dict.fromkeys(motion_rates, motion_sensor)
     numbers = dict.fromkeys(profile_of, 0)
     for t, kind, pixels in sorted(events, key=lambda e: e[0]):
+        numbers[kind] += 1
+        if kind in motion_rates:
+            motion = rs.software_motion_frame()
+            motion.data = rs.vector()
+            motion.data.x, motion.data.y, motion.data.z = (float(v) for v in pixels)
+            motion.timestamp, motion.domain, motion.frame_number = 1000.0 * (t + 1.0), rs.timestamp_domain.system_time, numbers[kind]
+            motion.profile = profile_of[kind].as_motion_stream_profile()
+            motion_sensor.on_motion_frame(motion)
+            continue
         frame = rs.software_video_frame()
         frame.pixels = np.ascontiguousarray(pixels)
         frame.bpp = pixels.itemsize * (pixels.shape[2] if pixels.ndim == 3 else 1)
         frame.stride = pixels.shape[1] * frame.bpp
         frame.timestamp = 1000.0 * (t + 1.0)
         frame.domain = rs.timestamp_domain.system_time
-        numbers[kind] += 1
         frame.frame_number = numbers[kind] if layout.frame_numbers else 0
         frame.profile = profile_of[kind].as_video_stream_profile()
         if kind == "depth":

@@ -55,7 +55,7 @@ class ImportReport:
     frames_dropped: dict[str, int]  # colour and depth frames without a partner (or missing from the camera's count)
     max_time_offset_ms: float
     mean_time_offset_ms: float  # of the written pairs, depth minus colour
-    registration: str  # "recording" (already registered), "sdk" (RealSense align) or "reprojected"
+    registration: str  # "recording" (already registered) or "reprojected"
     intrinsics_from: str
     intrinsics_disagreement: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
@@ -186,9 +186,7 @@ def import_recording(
             frames_dropped={"color": counts.dropped_color, "depth": counts.dropped_depth},
             max_time_offset_ms=1000 * counts.max_offset_s,
             mean_time_offset_ms=1000 * float(np.mean(offsets)),
-            registration="reprojected"
-            if setup.depth_camera is not None
-            else ("sdk" if setup.format.startswith("realsense") else "recording"),
+            registration="reprojected" if setup.depth_camera is not None else "recording",
             intrinsics_from=setup.intrinsics_from,
             intrinsics_disagreement=disagreement,
             notes=setup.notes,

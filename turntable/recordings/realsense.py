@@ -1,6 +1,11 @@
 """Intel RealSense through `pyrealsense2`: a connected camera (live) or a recorded .bag played
-back without one. Depth is aligned to colour by the SDK (`rs.align`), keeping the depth
-sensor's units; the colour intrinsics and distortion come from the stream."""
+back without one. Depth keeps the depth sensor's units and is registered to colour by the
+reader of the pairs with both streams' intrinsics and the recorded extrinsics
+(`register.register_depth`), not by the SDK's `rs.align`: that paints each depth pixel's value
+over a block of colour pixels, later pixels over earlier ones, and on a 848x480 depth into a
+1280x720 colour left the depth 1.3 mm short (median) and the table's edge standing above it,
+which the mesh then took in (a mug at 0.5 m: 8.2 mm from the truth against 0.73 mm). The
+colour intrinsics and distortion come from the stream."""
 
 from __future__ import annotations
 
@@ -112,7 +117,6 @@ class RealSenseSource(FrameSource):
         self._playback = None
         self._frames: queue.Queue = queue.Queue(maxsize=_QUEUE_FRAMES)
         self._closing = False
-        self._composing: tuple = ()  # the colour and depth frames the composer makes a frameset of
         self.where = str(self.bag) if self.bag else f"RealSense {serial or '(first connected)'}"
 
     def _device(self) -> object:
@@ -171,44 +175,23 @@ class RealSenseSource(FrameSource):
             raise InputError(f"{self.where}: the colour stream has no intrinsics")
         camera, lens_notes = camera_from_intrinsics(intrinsics, depth_scale)
         notes += lens_notes
-        self._align = rs.align(rs.stream.color)
-        # The SDK aligns a frameset: ours are made of the two frames we paired.
-        self._framesets = rs.frame_queue(1)
-        self._composer = rs.processing_block(
-            lambda frame, source: source.frame_ready(source.allocate_composite_frame(list(self._composing)))
-        )
-        self._composer.start(self._framesets)
         setup = StreamSetup(format="realsense-bag" if self.bag else "realsense-live", color_camera=camera, notes=notes)
+        depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
+        color_from_depth, missing = np.eye(4), None
         try:
             extrinsics = depth_profile.get_extrinsics_to(color_profile)
-            rotation = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
-            translation = np.asarray(extrinsics.translation, dtype=np.float64)
-        except RuntimeError:  # "Requested extrinsics are not available!" (the SDK's align needs them)
-            rotation, translation = np.eye(3), np.zeros(3)
-            depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
-            self._align = None
+            color_from_depth[:3, :3] = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
+            color_from_depth[:3, 3] = extrinsics.translation
+        except RuntimeError:  # "Requested extrinsics are not available!"
             missing = "no depth-to-colour extrinsics in the recording"
-            if depth_camera == camera:
+        if depth_camera == camera and np.allclose(color_from_depth, np.eye(4), atol=1e-9):  # one camera (D405's colour)
+            if missing:
                 setup.notes.append(f"{missing}; the depth has colour's camera: taken as registered")
-            else:
-                setup.depth_camera, setup.color_from_depth = depth_camera, np.eye(4)
-                setup.notes += [*depth_notes, f"{missing}: depth reprojected as if the two cameras sat at one point"]
-        if self._align is not None and intrinsics.model in (rs.distortion.brown_conrady, rs.distortion.kannala_brandt4) and any(
-            intrinsics.coeffs
-        ):
-            # The SDK's align lands depth up to mm off the truth under a forward-distorting colour
-            # lens here (measured against ray-cast depth); D400 colour uses inverse Brown-Conrady.
-            setup.depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
-            setup.color_from_depth = np.eye(4)
-            setup.color_from_depth[:3, :3], setup.color_from_depth[:3, 3] = rotation, translation
-            setup.notes += depth_notes + ["a distorting colour lens: depth reprojected here, not by the SDK's align"]
-            self._align = None
-        # The SDK's align keeps each depth pixel's own z (the depth camera's), not the z in
-        # colour's frame: off by the cameras' relative tilt (mm at a metre for half a degree).
-        # The point lies on its colour pixel's ray r at z_c: z_d = z_c (R^T r)_z - (R^T t)_z.
-        depth_from_color_rays = camera.pixel_rays() @ rotation  # rows: (R^T r)^T
-        self._z_gain = (1.0 / depth_from_color_rays[:, 2]).reshape(camera.height, camera.width).astype(np.float32)
-        self._z_offset_m = float((rotation.T @ translation)[2])
+        else:
+            setup.depth_camera, setup.color_from_depth = depth_camera, color_from_depth
+            setup.notes += depth_notes
+            if missing:
+                setup.notes.append(f"{missing}: depth reprojected as if the two cameras sat at one point")
         if self.tolerance_s is None:  # half a frame interval
             self.tolerance_s = min(0.5 / max(color_profile.fps(), 1), MAX_TOLERANCE_S)
         self._start(profiles)
@@ -265,19 +248,9 @@ class RealSenseSource(FrameSource):
 
         return self._playback is not None and self._playback.current_status() == rs.playback_status.stopped
 
-    def _colour_z(self, units: np.ndarray) -> np.ndarray:
-        """Aligned depth units to float32 metres along colour's axis (NaN: none)."""
-        z_depth = units.astype(np.float32) * np.float32(self.setup.color_camera.depth_scale_m)
-        z_depth[units == 0] = np.nan
-        return (z_depth + np.float32(self._z_offset_m)) * self._z_gain
-
     def _images(self, color: object, depth: object) -> tuple[np.ndarray, np.ndarray]:
-        if self._align is None:  # registered by the reader of the pairs (setup.depth_camera)
-            return _rgb(color), np.asanyarray(depth.get_data()).copy()
-        self._composing = (color, depth)
-        self._composer.invoke(color)
-        aligned = self._align.process(self._framesets.wait_for_frame().as_frameset())
-        return _rgb(aligned.get_color_frame()), self._colour_z(np.asanyarray(aligned.get_depth_frame().get_data()))
+        """Colour as RGB and depth in its units, registered later (setup.depth_camera)."""
+        return _rgb(color), np.asanyarray(depth.get_data()).copy()
 
     def close(self) -> None:
         self._closing = True
