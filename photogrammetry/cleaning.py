@@ -237,10 +237,10 @@ def face_the_cameras(mesh: trimesh.Trimesh, centres: np.ndarray) -> trimesh.Trim
     open: it has no inside to wind it outward from, and the repair's Open3D `orient_triangles`
     winds it either way; Kermit with two photos of broken EXIF came out inside out, and the
     texture, baked only where a view faces the surface, covered 13 % of the atlas instead of
-    79 %. Whether each face merely had the cameras on its front side decided it before: cameras
-    all round an object have most of them behind any one face, so that vote was near even or
-    wrong (Buddha's lowest band, open at the crown: 0 % of the first hits facing the camera
-    after it). A closed mesh is already wound outward and is returned as it is."""
+    79 %. Counting the cameras on each face's front side is no vote: cameras all round an
+    object have most of them behind any one face (Buddha's lowest band, open at the crown, came
+    out with 0 % of the first hits facing the cameras). A closed mesh is already wound outward
+    and is returned as it is."""
     if mesh.is_watertight:
         return mesh
     rng = np.random.default_rng(0)  # the same mesh is faced the same way every run
