@@ -44,6 +44,31 @@ def distorted(camera: Camera, **fields: object) -> Camera:
     return Camera(**{**camera.model_dump(), **fields})
 
 
+# An Azure Kinect depth lens (k1 k2 p1 p2 k3 k4 k5 k6, rational_polynomial as its ROS driver
+# gives it): at fx 504 its 1024x1024 WFOV image spans 120 degrees.
+AZURE_WFOV_DEPTH_D = (5.14, 3.46, 0.0, 0.0, 0.172, 5.47, 5.23, 0.92)
+
+
+class RationalLensCamera(Camera):
+    """A depth camera through a radial rational lens (`rational`, OpenCV's eight coefficients,
+    p1 = p2 = 0), which the Camera's models only approximate: its rays from the forward model
+    by a monotone table, not by OpenCV's iterative inversion an importer may use."""
+
+    rational: tuple[float, ...] = AZURE_WFOV_DEPTH_D
+
+    def pixel_rays(self) -> np.ndarray:
+        k1, k2, _, _, k3, k4, k5, k6 = self.rational
+        undistorted = np.tan(np.radians(np.linspace(0.0, 84.0, 20000)))
+        r2 = undistorted**2
+        distorted = undistorted * (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+        v, u = np.mgrid[0 : self.height, 0 : self.width]
+        x, y = (u.ravel() - self.cx) / self.fx, (v.ravel() - self.cy) / self.fy
+        r = np.hypot(x, y)
+        scale = np.interp(r, distorted, undistorted, right=np.nan) / np.where(r > 0, r, 1.0)
+        scale[r == 0] = 1.0
+        return np.column_stack([x * scale, y * scale, np.ones_like(x)])
+
+
 def depth_camera_for(color: Camera, *, width: int, height: int, hfov_deg: float) -> Camera:
     f = width / 2 / math.tan(math.radians(hfov_deg) / 2)
     return Camera(width=width, height=height, fx=f, fy=f * 1.002, cx=(width - 1) / 2 + 1.3, cy=(height - 1) / 2 - 0.8)

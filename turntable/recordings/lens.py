@@ -66,3 +66,19 @@ def undistort_opencv(coefficients: list[float]) -> Callable[[np.ndarray], np.nda
         return xy.reshape(-1, 2)
 
     return undistort
+
+
+def opencv_pixel_rays(camera: Camera, coefficients: list[float]) -> tuple[np.ndarray, float]:
+    """(h*w, 3) rays (z = 1) through `camera`'s pixel centres under OpenCV's model with all of
+    `coefficients`, and the fraction of pixels without one: NaN where the iterative inversion
+    does not land back on its pixel (past the model's reach, such as a wide lens's corners)."""
+    import cv2
+
+    v, u = np.mgrid[0 : camera.height, 0 : camera.width]
+    pixels = np.column_stack([u.ravel(), v.ravel()]).astype(np.float64)
+    distorted = (pixels - [camera.cx, camera.cy]) / [camera.fx, camera.fy]
+    rays = np.column_stack([undistort_opencv(coefficients)(distorted), np.ones(len(pixels))])
+    back = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), camera.matrix, np.asarray(coefficients, np.float64))[0]
+    lost = ~(np.linalg.norm(back.reshape(-1, 2) - pixels, axis=1) < 0.01)
+    rays[lost] = np.nan
+    return rays, float(lost.mean())

@@ -47,9 +47,14 @@ def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> list[np.nd
 
 
 def register_depth(
-    depth_m: np.ndarray, depth_camera: Camera, color_camera: Camera, color_from_depth: np.ndarray
+    depth_m: np.ndarray,
+    depth_camera: Camera,
+    color_camera: Camera,
+    color_from_depth: np.ndarray,
+    depth_rays: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(color H, color W) float32 metres, NaN where no depth lands."""
+    """(color H, color W) float32 metres, NaN where no depth lands; `depth_rays` (h*w, 3) the
+    depth pixels' rays by a lens `depth_camera` only approximates."""
     depth = np.asarray(depth_m, dtype=np.float64)
     if depth.shape != (depth_camera.height, depth_camera.width):
         raise ValueError(f"{depth.shape=} but the depth camera is {depth_camera.width}x{depth_camera.height}")
@@ -59,7 +64,8 @@ def register_depth(
     height, width = depth.shape
     valid = np.isfinite(depth) & (depth > 0)
     # Every pixel's point in colour's frame and where colour sees it.
-    points = depth_camera.pixel_rays() * np.where(valid, depth, 1.0).reshape(-1, 1)
+    rays = depth_camera.pixel_rays() if depth_rays is None else depth_rays
+    points = rays * np.where(valid, depth, 1.0).reshape(-1, 1)
     points = points @ color_from_depth[:3, :3].T + color_from_depth[:3, 3]
     front = valid.ravel() & (points[:, 2] > 1e-6)
     pixels = np.full((height * width, 2), np.nan)

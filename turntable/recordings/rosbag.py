@@ -20,7 +20,7 @@ from turntable.recordings.images import (
     is_color_encoding,
     is_depth_encoding,
 )
-from turntable.recordings.lens import refit_as_brown_conrady, undistort_opencv
+from turntable.recordings.lens import opencv_pixel_rays, refit_as_brown_conrady, undistort_opencv
 from turntable.recordings.source import StreamSetup
 from turntable.recordings.timed import TimedStreamsSource
 
@@ -221,9 +221,14 @@ class RosBagSource(TimedStreamsSource):
         if self._depth not in registered:
             if depth_info is None:
                 raise InputError(f"{where}: no intrinsics for the unregistered depth: no CameraInfo beside {self._depth.topic}")
-            setup.depth_camera, depth_notes = camera_from_info(
-                depth_info, f"{where} {self._depth.topic}", rectified=is_rectified(image_base(self._depth))
-            )
+            rectified = is_rectified(image_base(self._depth))
+            setup.depth_camera, depth_notes = camera_from_info(depth_info, f"{where} {self._depth.topic}", rectified=rectified)
+            d = [float(v) for v in np.asarray(_field(depth_info, "d", "D"), dtype=np.float64)]
+            if any(d[5:]) and not rectified:
+                # A lens with k4-k6 (an Azure Kinect's 120-degree WFOV one is 580 px off its
+                # Brown-Conrady refit): the depth reprojected along its own model's rays.
+                setup.depth_rays, lost = opencv_pixel_rays(setup.depth_camera, (d + [0.0] * 8)[:8])
+                depth_notes = [f"{where} {self._depth.topic}: rays from its rational_polynomial lens ({lost:.1%} of pixels past its reach)"]
             setup.notes += depth_notes
             frames = (color_info.header.frame_id, depth_info.header.frame_id)
             setup.color_from_depth = np.eye(4) if frames[0] == frames[1] else self._tf(*frames, "/tf_static")

@@ -23,6 +23,9 @@ class StreamSetup:
     # own camera, its images to be reprojected into colour's with `color_from_depth`.
     depth_camera: Camera | None = None
     color_from_depth: np.ndarray | None = None  # 4x4; None: not in the recording (identity assumed)
+    # (h*w, 3) rays (z = 1) through the depth camera's pixels by its recorded lens model, when
+    # `depth_camera` only approximates that lens (an Azure Kinect's wide rational one); NaN: none.
+    depth_rays: np.ndarray | None = None
     intrinsics_from: str = "recording"  # or "--camera"
     notes: list[str] = field(default_factory=list)  # what the reader had to assume or approximate
 
