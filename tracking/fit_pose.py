@@ -140,14 +140,30 @@ def _constrained(local: np.ndarray, points: np.ndarray, normals: np.ndarray) -> 
     """The planar correction `local` (about the points' centroid) without its part along the
     motions the surfaces do not pin down: a cupboard seen only from the front cannot tell a
     slide sideways, and ICP's answer along it is noise (degeneracy-aware remapping)."""
+    kept = _motions(points, normals, MIN_CONSTRAINT, pinned=True)
+    yaw = np.arctan2(local[1, 0], local[0, 0])
+    motion = np.array([local[0, 3], local[1, 3], yaw * LEVER_M])
+    x, y, lever_yaw = kept @ (kept.T @ motion)
+    return _planar_transform(x, y, lever_yaw / LEVER_M)
+
+
+def free_motions(points: np.ndarray, normals: np.ndarray, min_constraint: float) -> np.ndarray:
+    """(3, k): the planar motions (x, y, yaw) about the points' centroid that the surfaces
+    at `points` (with `normals`) pin down less than `min_constraint`, one a column (yaw in
+    radians)."""
+    free = _motions(points - points.mean(axis=0), normals, min_constraint, pinned=False)
+    return free * np.array([[1.0], [1.0], [1.0 / LEVER_M]])
+
+
+def _motions(points: np.ndarray, normals: np.ndarray, min_constraint: float, *, pinned: bool) -> np.ndarray:
+    """Orthonormal (x, y, yaw x LEVER_M) motions about the origin of `points` that their
+    surfaces pin down (`pinned`) or leave free: the eigenvectors of the point-to-plane
+    information (the share of the points whose normals oppose the motion) from
+    `min_constraint` up, or under it."""
     jacobian = np.column_stack([normals[:, 0], normals[:, 1], np.cross(points, normals)[:, 2] / LEVER_M])
     information = jacobian.T @ jacobian / max(len(points), 1)
     values, vectors = np.linalg.eigh(information)
-    yaw = np.arctan2(local[1, 0], local[0, 0])
-    motion = np.array([local[0, 3], local[1, 3], yaw * LEVER_M])
-    kept = vectors[:, values >= MIN_CONSTRAINT]
-    x, y, lever_yaw = kept @ (kept.T @ motion)
-    return _planar_transform(x, y, lever_yaw / LEVER_M)
+    return vectors[:, (values >= min_constraint) == pinned]
 
 
 def _planar_transform(x: float, y: float, yaw: float) -> np.ndarray:
