@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import trimesh
@@ -17,6 +17,9 @@ from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import decimate_closed, largest_piece, point_cloud, poisson_surface, repair_surface
 from homemodel.geometry.open3d_loader import load_open3d
 from turntable.fusion import Cylinder, MergedCloud
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 # Poisson's cube around the points, relative to their extent: room for the surface to close
 # below the footprint instead of being cut open by the cube's face.
@@ -110,6 +113,15 @@ def object_mesh(
     cloud: MergedCloud, cylinder: Cylinder, voxel_size_m: float, options: MeshingOptions
 ) -> tuple[trimesh.Trimesh, np.ndarray, MeshingFigures]:
     """A watertight-as-possible mesh in the table frame and its vertex colours (V, 3) in [0, 1]."""
+    mesh, kept, figures = object_surface(cloud, cylinder, voxel_size_m, options)
+    return mesh, vertex_colors(mesh, kept), figures
+
+
+def object_surface(
+    cloud: MergedCloud, cylinder: Cylinder, voxel_size_m: float, options: MeshingOptions
+) -> tuple[trimesh.Trimesh, MergedCloud, MeshingFigures]:
+    """`object_mesh`'s mesh without its colours, and the merged points the outlier filters kept
+    (which `vertex_colors` takes them from)."""
     o3d = load_open3d()
 
     points_in = len(cloud.points)
@@ -158,7 +170,6 @@ def object_mesh(
     mesh = decimate_closed(mesh, options.max_triangles)
     if len(mesh.faces) == 0:
         raise ModelError("the object's mesh is empty")
-    colors = _vertex_colors(mesh, cloud)
     figures = MeshingFigures(
         points_in=points_in,
         points_after_outliers=len(cloud.points),
@@ -166,7 +177,7 @@ def object_mesh(
         triangles=len(mesh.faces),
         density_trimmed=trimmed,
     )
-    return mesh, colors, figures
+    return mesh, cloud, figures
 
 
 def distance_surface(
@@ -472,10 +483,15 @@ def footprint_points(points: np.ndarray, z_min_m: float, spacing_m: float, *, in
     return np.column_stack([origin + (np.column_stack([ii, jj]) + 0.5) * spacing_m, np.zeros(len(ii))])
 
 
-def _vertex_colors(mesh: trimesh.Trimesh, cloud: MergedCloud, neighbours: int = 4) -> np.ndarray:
-    """Colour of each vertex: inverse-distance mean of its nearest merged points."""
+def vertex_colors(
+    mesh: trimesh.Trimesh, cloud: MergedCloud, neighbours: int = 4, *, tree: cKDTree | None = None, workers: int = -1
+) -> np.ndarray:
+    """Colour of each vertex, (V, 3) in [0, 1]: inverse-distance mean of its nearest merged
+    points, found in `tree` (the cloud's points' k-d tree, built here if None) on `workers`
+    threads (-1: every core)."""
     from scipy.spatial import cKDTree
 
-    distances, index = cKDTree(cloud.points).query(mesh.vertices, k=neighbours, workers=-1)
+    tree = cKDTree(cloud.points) if tree is None else tree
+    distances, index = tree.query(mesh.vertices, k=neighbours, workers=workers)
     weights = 1.0 / np.maximum(distances, 1e-6)
     return np.einsum("vk,vkc->vc", weights, cloud.colors[index]) / weights.sum(axis=1, keepdims=True)

@@ -18,6 +18,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -26,7 +27,7 @@ from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.progress import Progress, StageClock
 from turntable.capture import Capture, FrameError, FramePaths, load_capture, read_color, read_depth
 from turntable.fusion import Cylinder, MergedCloud, ObjectPixels, VoxelAccumulator, object_pixels, pixel_points
-from turntable.meshing import object_mesh
+from turntable.meshing import object_surface, vertex_colors
 from turntable.outputs import write_reconstruction
 from turntable.orbit import TableAxis, table_axis
 from turntable.real_frames import (
@@ -41,6 +42,7 @@ from turntable.tag_search import TagSearch, capture_search, frame_pose, predicte
 from turntable.tags import prepare_detectors
 from turntable.turntable_model import fit_turntable
 
+A, B = TypeVar("A"), TypeVar("B")
 STAGES = ("poses", "axis", "merge", "mesh", "texture", "export")
 _MISREGISTRATION_FRAMES = 8
 _REGION_MARGIN_M = 0.03  # kept pixels reach this far beyond the object's cylinder, wherever the axis is
@@ -56,6 +58,24 @@ def _mapper(workers: int) -> Iterator[Callable]:
         return
     with ThreadPoolExecutor(max_workers=workers) as pool:
         yield pool.map
+
+
+def _beside(letting_go: Callable[[], A], holding: Callable[[], B]) -> tuple[A, B]:
+    """(`letting_go()`, `holding()`): the first, a call that soon lets go of the GIL for most of
+    its time (a k-d tree's query), on a thread of its own; the second, one that holds it
+    throughout (fast-simplification), here once the first has started. Started the other way
+    round, the first could not even begin before the second ended."""
+    started = threading.Event()
+
+    def first() -> A:
+        started.set()
+        return letting_go()
+
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        result = pool.submit(first)
+        started.wait()
+        held = holding()
+        return result.result(), held
 
 
 def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable) -> None:
@@ -386,7 +406,9 @@ def reconstruct_capture(
 
 
 def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
-    from turntable.texture import bake_vertex_colors, decimated
+    from scipy.spatial import cKDTree
+
+    from turntable.texture import bake_vertex_colors, carrier
 
     clock = StageClock(progress)
     clock.start("poses")
@@ -411,14 +433,22 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
     cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames)
 
     clock.start("mesh", 1)
-    mesh, colors, figures = object_mesh(cloud, cylinder, options.voxel_size_m, options.meshing)
+    mesh, kept, figures = object_surface(cloud, cylinder, options.voxel_size_m, options.meshing)
 
     textured = uv = texture = None
     if options.texture_size_px > 0:
         clock.start("texture", 1)
-        textured, uv, texture = bake_vertex_colors(
-            *decimated(mesh, colors, options.texture_max_triangles), size_px=options.texture_size_px
+        # The vertex colours' neighbour query on the other core, beside the carrier's quadric
+        # collapse (which holds the GIL throughout): their tree built first, here, so that the
+        # other thread goes straight into the query, which lets go of the GIL.
+        tree = cKDTree(kept.points)
+        colors, (small, nearest) = _beside(
+            lambda: vertex_colors(mesh, kept, tree=tree, workers=1),
+            lambda: carrier(mesh, options.texture_max_triangles),
         )
+        textured, uv, texture = bake_vertex_colors(small, colors[nearest], size_px=options.texture_size_px)
+    else:
+        colors = vertex_colors(mesh, kept)
     clock.stop()
     return Reconstruction(
         mesh=mesh,
