@@ -60,6 +60,12 @@ def _observed(furniture: ViewSimulator, prior_map: Path, folder: Path, map_from_
     return observe(prior_map, folder), json.loads((folder / "truth.json").read_text())
 
 
+def _visible_fractions(truth: dict, object_id: str) -> dict[str, float]:
+    """{joint: the visible fraction of the largest link it moves (a door, not its handle)}."""
+    parts = sorted((p for p in truth["parts"] if p["object"] == object_id and p["joint"]), key=lambda p: p["pixels"])
+    return {p["joint"]: p["visible_fraction"] for p in parts}
+
+
 # The issue's targets, on every view (the occluded cupboard's right door: 3.5 deg before its
 # drawer, 0.47 visible, was refined with the pose; 1.1 deg since).
 DOOR_DEG, DRAWER_MM = 2.0, 5.0
@@ -83,9 +89,7 @@ def test_joints_of_unseen_furniture_within_the_targets(
                           noise=SensorNoise(seed=21))
     map_from_camera = furniture.camera_looking_at(object_id, distance_m=distance_m, height_m=1.4, bearing_deg=15.0)
     result, truth = _observed(furniture, prior_map, tmp_path / "obs", map_from_camera, options)
-    # A joint's part: the largest link it moves (a door, not its handle).
-    parts = sorted((p for p in truth["parts"] if p["object"] == object_id and p["joint"]), key=lambda p: p["pixels"])
-    visible = {p["joint"]: p["visible_fraction"] for p in parts}
+    visible = _visible_fractions(truth, object_id)
     obj = next(o for o in result.report.objects if o.id == object_id)
     checked = 0
     for joint in obj.joints:
@@ -224,4 +228,22 @@ def test_a_sliver_of_a_neighbour_turned_far_off_is_not_written(other_room: Path,
     (before, after), (turn_before, turn_after) = zip(
         *((np.linalg.norm(e[:2, 3]), abs(np.degrees(np.arctan2(e[1, 0], e[0, 0])))) for e in errors))
     assert after <= before + 0.002 and turn_after <= turn_before + 0.5, (wardrobe.pose_note, after, turn_after)
+
+
+def test_a_chest_of_drawers_seen_from_the_front(other_room: Path, tmp_path: Path) -> None:
+    """Straight in front of the chest at 2.5 m its front is all drawers and its body too
+    little seen to pin its depth, the map's 12 mm behind the truth: every drawer at least
+    half visible within 5 mm all the same (each came out 9-11 mm, the shut one too)."""
+    furniture = ViewSimulator(unlike_their_models(HomeScene.load(other_room), off_m=OFF_M, seed=11))
+    prior = write_prior_map(other_room, PRIOR_OFF, tmp_path / "prior.xml")
+    options = ViewOptions(joint_positions={"chest_1": {"drawer_0_slide": 0.1, "drawer_2_slide": 0.25}},
+                          noise=SensorNoise(seed=21))
+    map_from_camera = furniture.camera_looking_at("chest_1", distance_m=2.5, height_m=1.4, bearing_deg=0.0)
+    result, truth = _observed(furniture, prior, tmp_path / "obs", map_from_camera, options)
+    visible = _visible_fractions(truth, "chest_1")
+    chest = next(o for o in result.report.objects if o.id == "chest_1")
+    errors = {j.name: (j.status, (j.position - truth["joints"]["chest_1"][j.name]) * 1000)
+              for j in chest.joints if visible.get(j.name, 0.0) >= 0.5}
+    assert len(errors) >= 3, visible
+    assert all(status == "fitted" and abs(error) <= DRAWER_MM for status, error in errors.values()), errors
 

@@ -28,7 +28,7 @@ from homemodel.core.progress import Progress, StageClock
 from homemodel.geometry.camera import Camera
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, LargeObject, ObjectJoint
-from tracking.find_small_objects import SmallObjectSearch, find_small_objects
+from tracking.find_small_objects import POSE_DOUBT_M, SmallObjectSearch, find_small_objects
 from tracking.fit_joints import JointSearch, fit_joint
 from tracking.fit_pose import refine_pose
 from tracking.fit_state import FitState
@@ -281,6 +281,7 @@ def _fit_large_object(
         # Seen through its doors alone, the body may turn about a hinge as the door turns
         # back: the pose is not pinned down (a fridge seen from the front wandered 4-35 mm).
         verdict = PoseVerdict(accepted=False, note="its fixed body too little seen")
+        _common_slide_to_body(state, object_id, [j for j in joints if results[j][0] in ("fitted", "partly seen")])
     if not verdict.accepted:
         # The joints keep the angles fitted at the refined pose: relative to the body the
         # parts were seen at, they are the better estimate even where the pose is in doubt.
@@ -328,6 +329,32 @@ def _settled(state: FitState, object_id: str, map_from_object: np.ndarray, joint
         for name, value in joints.items()
     ]
     return bool(np.linalg.norm(change[:3, 3]) < SETTLED_M and turned < SETTLED_RAD and max(moved, default=0.0) < 1.0)
+
+
+def _common_slide_to_body(state: FitState, object_id: str, fitted: list[str]) -> None:
+    """Seen through its drawers alone (a chest of drawers from the front), the body's depth
+    trades with every slide at once: where two or more drawers along one axis all come out,
+    the least by no more than the map's doubt about the body's place, that common slide is
+    the body's error, not every drawer ajar by the same (each 9-11 mm out, one of them
+    shut): it goes from the slides to the body."""
+    node = state.scene.object(object_id).node
+    slides: dict[str, tuple[np.ndarray, float]] = {}
+    for name in fitted:
+        joint = node.joint(name)
+        if joint.type == "prismatic" and joint.limits is not None:
+            direction = joint.object_from_joint.matrix()[:3, :3] @ np.asarray(joint.axis, dtype=float)
+            slides[name] = (direction, state.joint_positions[object_id][name] - joint.limits[0])
+    if len(slides) < 2:
+        return
+    directions = np.array([d for d, _ in slides.values()])
+    common = min(s for _, s in slides.values())
+    if np.any(directions @ directions[0] < np.cos(np.radians(5.0))) or not 0.0 < common <= POSE_DOUBT_M:
+        return
+    shift = np.eye(4)
+    shift[:3, 3] = directions[0] * common
+    state.map_from_objects[object_id] = state.map_from_objects[object_id] @ shift
+    for name in slides:
+        state.joint_positions[object_id][name] -= common
 
 
 def _slides(state: FitState, object_id: str, part: int) -> bool:
