@@ -14,6 +14,7 @@ from homemodel.core.transforms import transform_from_xyz_rpy
 from homemodel.geometry.camera import Camera
 from prior_maps import write_prior_map
 from tracking.fit_state import FitState
+from tracking import fit_together
 from tracking.fit_together import GRID_KEPT, _grid_starts, _keep_in_place, _PoseMotion, refine_pose_and_joints
 from tracking.fit_view import FitView
 from tracking.observe import ObserveOptions
@@ -91,12 +92,17 @@ def test_a_worse_result_is_not_kept(kitchen_map: Path, simulator: ViewSimulator,
     assert abs(state.joint_positions["fridge_1"]["drawer_0_slide"] - truth["joints"]["fridge_1"]["drawer_0_slide"]) < 0.003
 
 
+@pytest.mark.parametrize("thinned", [False, True])
 def test_a_body_off_across_the_view_with_its_doors_making_up_for_it(
-    kitchen_map: Path, simulator: ViewSimulator, tmp_path: Path
+    kitchen_map: Path, simulator: ViewSimulator, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, thinned: bool
 ) -> None:
     """The bench's cupboard at 1.6 m (`--seed 1`): its body 17 mm and 4.8 degrees off, the doors
     turned back by about as much (their fronts nearly in place) and the drawer 9 mm out. The
-    compass searches from there end with the body 24 mm off and both doors 3.4 degrees off."""
+    compass searches from there end with the body 24 mm off and both doors 3.4 degrees off.
+    `thinned`: the searches on a quarter of the pixels (as for an object filling a third of
+    the view) choose starts that lead to the truth as well."""
+    if thinned:
+        monkeypatch.setattr(fit_together, "THIN_SEARCH_SHARE", 0.0)
     true_joints = {"door_0_hinge": 0.726, "door_1_hinge": 0.645, "drawer_0_slide": 0.0787}
     map_from_camera = simulator.camera_looking_at("cupboard_1", distance_m=1.6, height_m=1.4, bearing_deg=14.4)
     options = ViewOptions(joint_positions={"cupboard_1": true_joints}, noise=SensorNoise(seed=2))
@@ -154,3 +160,26 @@ def test_parts_not_refined_stay_where_they_were_seen_as_the_body_moves(kitchen_m
         assert abs((parts_after[i][:3, 3] - parts_before[i][:3, 3]) @ front) < 1e-4
     for i in door:  # its turn kept (its hinge moves with the body)
         assert np.allclose(parts_after[i][:3, :3], parts_before[i][:3, :3], atol=1e-9)
+
+
+@pytest.mark.parametrize("distortion", [None, (0.1, -0.05, 0.001, -0.002, 0.01)])
+def test_a_strided_view_keeps_its_pixels_rays_and_readings(distortion: tuple | None) -> None:
+    """Every other pixel of a view each way: each kept pixel's ray, reading and tolerance are
+    the full view's, and `points_map_at` gives `points_map`'s points for several depths at once."""
+    camera = Camera(width=160, height=120, fx=131.25, fy=131.0, cx=79.375, cy=59.6, distortion=distortion)
+    rng = np.random.default_rng(3)
+    depth = np.where(rng.random((120, 160)) < 0.1, 0.0, rng.uniform(0.5, 3.0, (120, 160)))
+    view = FitView.from_depth(camera, transform_from_xyz_rpy((1.0, 2.0, 1.4), (-1.7, 0.1, 0.4)), depth, factor=1,
+                              min_tolerance_m=0.01, tolerance_sigmas=3.0)
+    strided = view.strided(2)
+    assert (strided.camera.width, strided.camera.height) == (80, 60)
+    v, u = np.mgrid[0:60, 0:80].reshape(2, -1)
+    assert np.allclose(strided.camera.rays(np.column_stack([u, v])), camera.rays(np.column_stack([2 * u, 2 * v])),
+                       atol=1e-9)
+    assert np.array_equal(strided.depth_m, view.depth_m[::2, ::2], equal_nan=True)
+    assert np.array_equal(strided.tolerance_m, view.tolerance_m[::2, ::2])
+    mask = view.valid & (rng.random(depth.shape) < 0.5)
+    nearer = view.depth_m - 0.1
+    both = view.points_map_at(mask, view.depth_m, nearer)
+    assert np.array_equal(both[0], view.points_map(view.depth_m, mask)) and len(both[0]) == mask.sum()
+    assert np.array_equal(both[1], view.points_map(nearer, mask))
