@@ -9,12 +9,6 @@ from homemodel.geometry.chart_atlas import chart_atlas
 from homemodel.geometry.uv_atlas import atlas_texels
 
 
-def decimated(mesh: trimesh.Trimesh, colors: np.ndarray, max_triangles: int) -> tuple[trimesh.Trimesh, np.ndarray]:
-    """`carrier`, with the colours carried over from the nearest original vertex."""
-    small, nearest = carrier(mesh, max_triangles)
-    return small, np.asarray(colors)[nearest]
-
-
 def carrier(mesh: trimesh.Trimesh, max_triangles: int) -> tuple[trimesh.Trimesh, np.ndarray]:
     """The mesh simplified to at most `max_triangles`, and each of its vertices' nearest vertex of
     `mesh` (its colour's source). The texture's carrier only (its colours come from the vertices,
