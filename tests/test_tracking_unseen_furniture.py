@@ -25,6 +25,7 @@ from prior_maps import write_prior_map
 from tracking import observe
 from tracking.fit_state import FitState
 from tracking.pose_gate import PoseGate, _corner_move_m
+from tracking.report import ObjectReport
 from tracking.scene import HomeScene
 from tracking.sensor_noise import SensorNoise
 from tracking.simulate_view import SmallObjectMove, ViewOptions, ViewSimulator, unlike_their_models, write_view
@@ -192,56 +193,65 @@ def other_room(catalogue_dir: Path, tmp_path_factory: pytest.TempPathFactory) ->
     return out / "map.xml"
 
 
-def test_a_neighbour_seen_by_its_side_at_the_edge_keeps_the_maps_origin(other_room: Path, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def other_furniture(other_room: Path) -> ViewSimulator:
+    """The room's real pieces: not its map's models."""
+    return ViewSimulator(unlike_their_models(HomeScene.load(other_room), off_m=OFF_M, seed=11))
+
+
+def _chest_seen(furniture: ViewSimulator, distance_m: float, bearing_deg: float) -> tuple[np.ndarray, ViewOptions]:
+    """A view of the chest, two of its drawers out: (the camera's pose, the view's options)."""
+    options = ViewOptions(joint_positions={"chest_1": {"drawer_0_slide": 0.1, "drawer_2_slide": 0.25}},
+                          noise=SensorNoise(seed=21))
+    return furniture.camera_looking_at("chest_1", distance_m=distance_m, height_m=1.4, bearing_deg=bearing_deg), options
+
+
+def _pose_errors(obj: ObjectReport, true_pose: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((the map's, the written) origin error in m, (the map's, the written) turn error in deg)."""
+    errors = [np.linalg.inv(true_pose) @ p for p in (obj.previous_map_from_object, obj.map_from_object)]
+    shifts = tuple(float(np.linalg.norm(e[:2, 3])) for e in errors)
+    turns = tuple(abs(float(np.degrees(np.arctan2(e[1, 0], e[0, 0])))) for e in errors)
+    return shifts, turns
+
+
+def test_a_neighbour_seen_by_its_side_at_the_edge_keeps_the_maps_origin(
+    other_room: Path, other_furniture: ViewSimulator, tmp_path: Path
+) -> None:
     """The camera 2.3 m in front of the chest sees the wardrobe's side at the image's left
     edge, and a sliver of its front: the side pins its turn and its place across the side,
     not its slide along it; what the view leaves free stays where the map has the origin."""
-    furniture = ViewSimulator(unlike_their_models(HomeScene.load(other_room), off_m=OFF_M, seed=11))
     prior = write_prior_map(other_room, ROOM_PRIOR_OFF, tmp_path / "prior.xml")
-    options = ViewOptions(joint_positions={"chest_1": {"drawer_0_slide": 0.1, "drawer_2_slide": 0.25}},
-                          noise=SensorNoise(seed=21))
-    map_from_camera = furniture.camera_looking_at("chest_1", distance_m=2.3, height_m=1.4, bearing_deg=-5.0)
-    result, truth = _observed(furniture, prior, tmp_path / "obs", map_from_camera, options)
+    result, truth = _observed(other_furniture, prior, tmp_path / "obs", *_chest_seen(other_furniture, 2.3, -5.0))
     wardrobe = next(o for o in result.report.objects if o.id == "wardrobe_1")
     assert wardrobe.pose_refined and "cut by the image's edge" in wardrobe.pose_note  # the case looked at
-    true_pose = np.array(truth["objects"]["wardrobe_1"]["map_from_object"])
-    before, after = (np.linalg.norm(p[:2, 3] - true_pose[:2, 3])
-                     for p in (wardrobe.previous_map_from_object, wardrobe.map_from_object))
+    (before, after), (_, turn) = _pose_errors(wardrobe, np.array(truth["objects"]["wardrobe_1"]["map_from_object"]))
     assert after <= before + 0.002, (wardrobe.pose_note, before, after)
-    turn = np.degrees(np.arctan2(*(np.linalg.inv(true_pose) @ wardrobe.map_from_object)[[1, 0], 0]))
-    assert abs(turn) <= 0.5, turn  # put right (the map's 2 deg)
+    assert turn <= 0.5, turn  # put right (the map's 2 deg)
 
 
-def test_a_sliver_of_a_neighbour_turned_far_off_is_not_written(other_room: Path, tmp_path: Path) -> None:
+def test_a_sliver_of_a_neighbour_turned_far_off_is_not_written(
+    other_room: Path, other_furniture: ViewSimulator, tmp_path: Path
+) -> None:
     """Straight in front of the chest at 2 m, the wardrobe shows the image's left edge a
     sliver of its side, edge-on: fitted, it turned 11 deg and its origin went 133 mm off (the
     map's 20 mm, 2 deg). No pose that moves the object so much more than the map's error is
     written."""
-    furniture = ViewSimulator(unlike_their_models(HomeScene.load(other_room), off_m=OFF_M, seed=11))
     prior = write_prior_map(other_room, PRIOR_OFF, tmp_path / "prior.xml")
-    options = ViewOptions(joint_positions={"chest_1": {"drawer_0_slide": 0.1, "drawer_2_slide": 0.25}},
-                          noise=SensorNoise(seed=21))
-    map_from_camera = furniture.camera_looking_at("chest_1", distance_m=2.0, height_m=1.4, bearing_deg=0.0)
-    view = furniture.render(CAMERA, map_from_camera, options)
+    map_from_camera, options = _chest_seen(other_furniture, 2.0, 0.0)
+    view = other_furniture.render(CAMERA, map_from_camera, options)
     result = observe(prior, view.observation)  # in memory: read from its files, it is not fitted at all
     wardrobe = next(o for o in result.report.objects if o.id == "wardrobe_1")
-    true_pose = np.array(view.observation.truth["objects"]["wardrobe_1"]["map_from_object"])
-    errors = [np.linalg.inv(true_pose) @ p for p in (wardrobe.previous_map_from_object, wardrobe.map_from_object)]
-    (before, after), (turn_before, turn_after) = zip(
-        *((np.linalg.norm(e[:2, 3]), abs(np.degrees(np.arctan2(e[1, 0], e[0, 0])))) for e in errors))
+    (before, after), (turn_before, turn_after) = _pose_errors(
+        wardrobe, np.array(view.observation.truth["objects"]["wardrobe_1"]["map_from_object"]))
     assert after <= before + 0.002 and turn_after <= turn_before + 0.5, (wardrobe.pose_note, after, turn_after)
 
 
-def test_a_chest_of_drawers_seen_from_the_front(other_room: Path, tmp_path: Path) -> None:
+def test_a_chest_of_drawers_seen_from_the_front(other_room: Path, other_furniture: ViewSimulator, tmp_path: Path) -> None:
     """Straight in front of the chest at 2.5 m its front is all drawers and its body too
     little seen to pin its depth, the map's 12 mm behind the truth: every drawer at least
     half visible within 5 mm all the same (each came out 9-11 mm, the shut one too)."""
-    furniture = ViewSimulator(unlike_their_models(HomeScene.load(other_room), off_m=OFF_M, seed=11))
     prior = write_prior_map(other_room, PRIOR_OFF, tmp_path / "prior.xml")
-    options = ViewOptions(joint_positions={"chest_1": {"drawer_0_slide": 0.1, "drawer_2_slide": 0.25}},
-                          noise=SensorNoise(seed=21))
-    map_from_camera = furniture.camera_looking_at("chest_1", distance_m=2.5, height_m=1.4, bearing_deg=0.0)
-    result, truth = _observed(furniture, prior, tmp_path / "obs", map_from_camera, options)
+    result, truth = _observed(other_furniture, prior, tmp_path / "obs", *_chest_seen(other_furniture, 2.5, 0.0))
     visible = _visible_fractions(truth, "chest_1")
     chest = next(o for o in result.report.objects if o.id == "chest_1")
     errors = {j.name: (j.status, (j.position - truth["joints"]["chest_1"][j.name]) * 1000)
