@@ -227,9 +227,9 @@ def _search_ends(
 # (compass searches, grid of starts) on every other pixel of it each way, a quarter of them:
 # the searches only choose Gauss-Newton's starts, which then run on the fine view. At 1.2 m
 # the bench's cupboard fills a third of the image, and its compass searches, crawling all
-# their rounds, took 0.7 of its 2.2 CPU-s. Counted on the pixels with a reading: the fridge
-# at 2.1 m behind a box (`--seed 1`) covers 0.30 of the view, 0.26 with one, and searched
-# thinned it wrote its door 2.5 deg off instead of 2.2 (its body unseen, both misses).
+# their rounds, took 0.7 of observe's 2.2 CPU-s there. Counted on the pixels with a reading:
+# the fridge at 2.1 m behind a box (`--seed 1`) covers 0.30 of the view, 0.26 with one, and
+# searched thinned it wrote its door 2.5 deg off instead of 2.2 (its body unseen, both misses).
 THIN_SEARCH_SHARE = 0.3
 
 
