@@ -10,7 +10,7 @@ import trimesh
 
 from homemodel.evaluation import mean_surface_distance_m
 from turntable.fusion import Cylinder, MergedCloud
-from turntable.meshing import MeshingOptions, distance_surface, object_mesh
+from turntable.meshing import MeshingOptions, _marched_on_table_top, distance_surface, object_mesh
 
 VOXEL_M = 0.0015
 
@@ -114,3 +114,20 @@ def test_a_box_on_the_table_keeps_its_footprint_despite_stray_points_at_its_corn
     assert np.abs(mesh.bounds - box.bounds).max() < 1.0e-3  # 3.3-4.3 mm with the skirt
     assert mean_surface_distance_m(mesh, box, n_samples=20_000) < 0.13e-3  # 0.16 mm with it
     assert mesh.volume == pytest.approx(box.volume, rel=0.01)
+
+
+def test_marching_cubes_largest_piece_is_kept_and_closed_only_when_wound_one_way() -> None:
+    """`object_mesh` keeps marching cubes' largest piece (islands from stray points) and trusts
+    it closed only when each directed edge appears once and its reverse once: a hole, or a face
+    wound against the others (which trimesh's `is_watertight` lets pass), sends it to the repair."""
+    big = trimesh.creation.icosphere(subdivisions=3, radius=0.04).apply_translation([0, 0, 0.05])
+    island = trimesh.creation.icosphere(subdivisions=1, radius=0.005).apply_translation([0.08, 0, 0.01])
+    kept, closed = _marched_on_table_top(trimesh.util.concatenate([island, big]))
+    assert closed and len(kept.faces) == len(big.faces) and np.allclose(kept.vertices, big.vertices)
+    assert np.array_equal(kept.faces, big.faces)
+    holed = trimesh.Trimesh(big.vertices, big.faces[1:], process=False)
+    assert not _marched_on_table_top(holed)[1]
+    flipped = big.faces.copy()
+    flipped[0] = flipped[0, ::-1]
+    assert trimesh.Trimesh(big.vertices, flipped, process=False).is_watertight
+    assert not _marched_on_table_top(trimesh.Trimesh(big.vertices, flipped, process=False))[1]

@@ -141,7 +141,7 @@ def object_surface(
         base = footprint_points(cloud.points, cylinder.z_min_m, spacing_m, inset_cells=inset_cells)
         return np.concatenate([cloud.points, base]), np.concatenate([normals, np.tile([0.0, 0.0, -1.0], (len(base), 1))])
 
-    mesh = None
+    mesh, closed = None, False
     if options.surface == "distance":
         # The footprint held back from the walls by the reach: its tangent plane would carry
         # the inside out past them (a skirt round the base). The table top closes the rest.
@@ -155,7 +155,6 @@ def object_surface(
             smoothing_voxels=options.smoothing_voxels,
             table_top=options.close_bottom,
         )
-        closed = False
         if len(mesh.faces):
             mesh, closed = _marched_on_table_top(mesh)
             if not closed:
