@@ -95,6 +95,9 @@ def test_ctrl_c_while_a_flush_is_handed_over_closes_its_descriptor_once(tmp_path
         return future
 
     monkeypatch.setattr(atomic.ThreadPoolExecutor, "submit", submit)
+    # Set before the SIGINT, so that the teardown puts back the flag as it was (False), not as the
+    # handler left it: a flag left set stops the worker's next atomic write (xdist: node down).
+    monkeypatch.setattr(interrupts, "_interrupted", False)
     previous = signal.getsignal(signal.SIGINT)
     interrupts.remember_interrupts()
     try:
@@ -102,6 +105,5 @@ def test_ctrl_c_while_a_flush_is_handed_over_closes_its_descriptor_once(tmp_path
             write_bytes_atomic(tmp / "model.urdf", b"<robot/>")
     finally:
         signal.signal(signal.SIGINT, previous)
-        monkeypatch.setattr(interrupts, "_interrupted", False)
     assert len(closed) == len(set(closed))
     assert list(tmp_path.iterdir()) == []
