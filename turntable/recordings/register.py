@@ -17,33 +17,45 @@ _EDGE_RELATIVE_JUMP = 0.03  # a triangle whose depths differ more than this (x d
 
 
 def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> list[np.ndarray]:
-    """Per triangle of each 2x2 block of (H, W) colour-pixel coordinates x, y and depth z
-    (NaN: none): its bounding box's first pixel and size (0 for a triangle not drawn: a corner
-    without depth, across a depth jump, too large, or degenerate), and s, t, 1/z as affine
-    functions of the pixel (x, y) (the barycentric coordinates; 1/z interpolates linearly).
-    Computed on the blocks' corner views, without gathering."""
-    columns = []
+    """Per drawn triangle of each 2x2 block of (H, W) colour-pixel coordinates x, y and depth z
+    (NaN: none): its bounding box's first pixel and size (0 for a degenerate one), and s, t, 1/z
+    as affine functions of the pixel (x, y) (the barycentric coordinates; 1/z interpolates
+    linearly). A triangle with a corner without depth, across a depth jump or too large is left
+    out: those tests run on the blocks' corner views, the rest only on the triangles they pass."""
     a, b, c, d = (np.s_[:-1, :-1], np.s_[:-1, 1:], np.s_[1:, :-1], np.s_[1:, 1:])
-    for corners in ((a, b, c), (b, d, c)):  # the block's two triangles
-        (x0, y0, z0), (x1, y1, z1), (x2, y2, z2) = ((x[k], y[k], z[k]) for k in corners)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            low, high = np.fmin(np.fmin(z0, z1), z2), np.fmax(np.fmax(z0, z1), z2)
-            ok = np.isfinite(z0 + z1 + z2) & ((high - low) <= _EDGE_RELATIVE_JUMP * low)
-            first_x = np.ceil(np.minimum(np.minimum(x0, x1), x2))
-            first_y = np.ceil(np.minimum(np.minimum(y0, y1), y2))
-            size_x = np.floor(np.maximum(np.maximum(x0, x1), x2)) - first_x + 1
-            size_y = np.floor(np.maximum(np.maximum(y0, y1), y2)) - first_y + 1
-            e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x0, y2 - y0
-            det = e1x * e2y - e1y * e2x
-            ok &= (size_x <= _MAX_TRIANGLE_PX) & (size_y <= _MAX_TRIANGLE_PX) & (size_x > 0) & (size_y > 0)
-            ok &= np.abs(det) > 1e-12
-            s_x, s_y, t_x, t_y = e2y / det, -e2x / det, -e1y / det, e1x / det
-            s_c, t_c = -(s_x * x0 + s_y * y0), -(t_x * x0 + t_y * y0)
-            w0, w1, w2 = 1.0 / z0, 1.0 / z1 - 1.0 / z0, 1.0 / z2 - 1.0 / z0
-            w_x, w_y, w_c = w1 * s_x + w2 * t_x, w1 * s_y + w2 * t_y, w0 + w1 * s_c + w2 * t_c
-        bounds = [np.where(ok, v, 0).astype(np.int64) for v in (first_x, first_y, size_x, size_y)]
-        columns.append([v.ravel() for v in (*bounds, s_x, s_y, s_c, t_x, t_y, t_c, w_x, w_y, w_c)])
-    return [np.concatenate(pair) for pair in zip(*columns)]
+    width = x.shape[1]
+    # Both triangles, (a, b, c) and (b, d, c), share the diagonal b-c: its extremes once
+    # (minimum and maximum are exact in any order).
+    low_x, high_x = np.minimum(x[b], x[c]), np.maximum(x[b], x[c])
+    low_y, high_y = np.minimum(y[b], y[c]), np.maximum(y[b], y[c])
+    low_z, high_z = np.fmin(z[b], z[c]), np.fmax(z[b], z[c])
+    corner_index = []
+    for apex, corner_offsets in ((a, (0, 1, width)), (d, (1, width + 1, width))):
+        with np.errstate(invalid="ignore"):
+            low, high = np.fmin(low_z, z[apex]), np.fmax(high_z, z[apex])
+            ok = (high - low) <= _EDGE_RELATIVE_JUMP * low  # False with a NaN corner
+            for low_v, high_v, v in ((low_x, high_x, x), (low_y, high_y, y)):
+                size = np.floor(np.maximum(high_v, v[apex])) - np.ceil(np.minimum(low_v, v[apex])) + 1
+                ok &= (size <= _MAX_TRIANGLE_PX) & (size > 0)
+        rows, cols = np.nonzero(ok)
+        anchor = rows * width + cols
+        corner_index.append([anchor + offset for offset in corner_offsets])
+    (x0, y0, z0), (x1, y1, z1), (x2, y2, z2) = (
+        tuple(v.ravel()[np.concatenate(pair)] for v in (x, y, z)) for pair in zip(*corner_index)
+    )
+    first_x, first_y = np.ceil(np.minimum(np.minimum(x0, x1), x2)), np.ceil(np.minimum(np.minimum(y0, y1), y2))
+    size_x = np.floor(np.maximum(np.maximum(x0, x1), x2)) - first_x + 1
+    size_y = np.floor(np.maximum(np.maximum(y0, y1), y2)) - first_y + 1
+    e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x0, y2 - y0
+    det = e1x * e2y - e1y * e2x
+    size_x[np.abs(det) <= 1e-12] = 0
+    with np.errstate(divide="ignore", invalid="ignore"):  # the degenerate ones: not drawn
+        s_x, s_y, t_x, t_y = e2y / det, -e2x / det, -e1y / det, e1x / det
+        s_c, t_c = -(s_x * x0 + s_y * y0), -(t_x * x0 + t_y * y0)
+        w0, w1, w2 = 1.0 / z0, 1.0 / z1 - 1.0 / z0, 1.0 / z2 - 1.0 / z0
+        w_x, w_y, w_c = w1 * s_x + w2 * t_x, w1 * s_y + w2 * t_y, w0 + w1 * s_c + w2 * t_c
+    bounds = [v.astype(np.int64) for v in (first_x, first_y, size_x, size_y)]
+    return [*bounds, s_x, s_y, s_c, t_x, t_y, t_c, w_x, w_y, w_c]
 
 
 def register_depth(
@@ -74,15 +86,21 @@ def register_depth(
     first_x, first_y, size_x, size_y, *coefficients = _triangle_columns(
         pixels[:, 0].reshape(height, width), pixels[:, 1].reshape(height, width), z
     )
-    # Triangles grouped by their bounding box's size: each group's passes over its boxes'
-    # pixels run on contiguous arrays (most triangles cover 1-3 pixels a side; size 0: none).
-    drawn = np.flatnonzero(size_x > 0)
-    drawn = drawn[np.lexsort((size_x[drawn], size_y[drawn]))]
-    columns = [v[drawn] for v in (first_x, first_y, *coefficients)]
+    # Boxes clipped to the colour image: the passes then visit only its pixels.
+    last_x, last_y = np.minimum(first_x + size_x, color_camera.width), np.minimum(first_y + size_y, color_camera.height)
+    first_x, first_y = np.maximum(first_x, 0), np.maximum(first_y, 0)
+    size_x, size_y = last_x - first_x, last_y - first_y
+    # Triangles grouped by their clipped box's size: each group's passes over its boxes'
+    # pixels run on contiguous arrays (most triangles cover 1-3 pixels a side).
+    drawn = np.flatnonzero((size_x > 0) & (size_y > 0))
+    size_key = (size_y[drawn] * (_MAX_TRIANGLE_PX + 1) + size_x[drawn]).astype(np.uint8)
+    drawn = drawn[np.argsort(size_key, kind="stable")]  # a radix sort on the small key
+    first_index = (first_y * color_camera.width + first_x)[drawn]
+    columns = [v[drawn] for v in (first_x.astype(np.float64), first_y.astype(np.float64), *coefficients)]
     size = np.column_stack([size_x[drawn], size_y[drawn]])
-    cuts = np.flatnonzero(np.any(np.diff(size, axis=0) != 0, axis=1)) + 1
+    starts = np.flatnonzero(np.any(np.diff(size, axis=0, prepend=-1) != 0, axis=1))  # none if none drawn
     out = np.full(color_camera.height * color_camera.width, np.inf)
-    for start, end in zip(np.r_[0, cuts], np.r_[cuts, len(size)]):
+    for start, end in zip(starts, np.r_[starts[1:], len(size)]):
         fx, fy, sx, sy, sc, tx, ty, tc, wx, wy, wc = (v[start:end] for v in columns)
         for dy in range(size[start, 1]):
             y = fy + dy
@@ -91,7 +109,7 @@ def register_depth(
                 x = fx + dx
                 s, t = sx * x + s_row, tx * x + t_row
                 inside = (s >= -1e-9) & (t >= -1e-9) & (s + t <= 1 + 1e-9)
-                inside &= (x >= 0) & (x < color_camera.width) & (y >= 0) & (y < color_camera.height)
-                np.minimum.at(out, (y * color_camera.width + x)[inside], 1.0 / (wx * x + w_row)[inside])
+                index = first_index[start:end][inside] + (dy * color_camera.width + dx)
+                np.minimum.at(out, index, 1.0 / (wx[inside] * x[inside] + w_row[inside]))
     out[~np.isfinite(out)] = np.nan
     return out.reshape(color_camera.height, color_camera.width).astype(np.float32)
