@@ -16,12 +16,13 @@ _MAX_TRIANGLE_PX = 8  # a triangle's projection larger than this a side: skipped
 _EDGE_RELATIVE_JUMP = 0.03  # a triangle whose depths differ more than this (x depth) spans an edge
 
 
-def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> list[np.ndarray]:
+def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray, image_size: tuple[int, int]) -> list[np.ndarray]:
     """Per drawn triangle of each 2x2 block of (H, W) colour-pixel coordinates x, y and depth z
-    (NaN: none): its bounding box's first pixel and size (0 for a degenerate one), and s, t, 1/z
-    as affine functions of the pixel (x, y) (the barycentric coordinates; 1/z interpolates
-    linearly). A triangle with a corner without depth, across a depth jump or too large is left
-    out: those tests run on the blocks' corner views, the rest only on the triangles they pass."""
+    (NaN: none): its bounding box clipped to the (width, height) `image_size` as first pixel
+    and size (size 0 for a degenerate one), and s, t, 1/z as affine functions of the pixel
+    (x, y) (the barycentric coordinates; 1/z interpolates linearly). A triangle with a corner
+    without depth, across a depth jump, too large or off the image is left out: those tests run
+    on the blocks' corner views, the rest only on the triangles they pass."""
     a, b, c, d = (np.s_[:-1, :-1], np.s_[:-1, 1:], np.s_[1:, :-1], np.s_[1:, 1:])
     width = x.shape[1]
     # Both triangles, (a, b, c) and (b, d, c), share the diagonal b-c: its extremes once
@@ -34,18 +35,23 @@ def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> list[np.nd
         with np.errstate(invalid="ignore"):
             low, high = np.fmin(low_z, z[apex]), np.fmax(high_z, z[apex])
             ok = (high - low) <= _EDGE_RELATIVE_JUMP * low  # False with a NaN corner
-            for low_v, high_v, v in ((low_x, high_x, x), (low_y, high_y, y)):
-                size = np.floor(np.maximum(high_v, v[apex])) - np.ceil(np.minimum(low_v, v[apex])) + 1
-                ok &= (size <= _MAX_TRIANGLE_PX) & (size > 0)
+            for low_v, high_v, v, limit in ((low_x, high_x, x, image_size[0]), (low_y, high_y, y, image_size[1])):
+                first, last = np.ceil(np.minimum(low_v, v[apex])), np.floor(np.maximum(high_v, v[apex]))
+                size = last - first + 1
+                ok &= (size <= _MAX_TRIANGLE_PX) & (size > 0) & (last >= 0) & (first < limit)
         rows, cols = np.nonzero(ok)
         anchor = rows * width + cols
         corner_index.append([anchor + offset for offset in corner_offsets])
+    flat = [v.ravel() for v in (x, y, z)]
     (x0, y0, z0), (x1, y1, z1), (x2, y2, z2) = (
-        tuple(v.ravel()[np.concatenate(pair)] for v in (x, y, z)) for pair in zip(*corner_index)
+        tuple(v[index] for v in flat) for index in map(np.concatenate, zip(*corner_index))
     )
-    first_x, first_y = np.ceil(np.minimum(np.minimum(x0, x1), x2)), np.ceil(np.minimum(np.minimum(y0, y1), y2))
-    size_x = np.floor(np.maximum(np.maximum(x0, x1), x2)) - first_x + 1
-    size_y = np.floor(np.maximum(np.maximum(y0, y1), y2)) - first_y + 1
+    bounds = []
+    for v0, v1, v2, limit in ((x0, x1, x2, image_size[0]), (y0, y1, y2, image_size[1])):
+        first = np.maximum(np.ceil(np.minimum(np.minimum(v0, v1), v2)), 0).astype(np.int64)
+        end = np.minimum(np.floor(np.maximum(np.maximum(v0, v1), v2)) + 1, limit).astype(np.int64)
+        bounds.append((first, end - first))
+    (first_x, size_x), (first_y, size_y) = bounds
     e1x, e1y, e2x, e2y = x1 - x0, y1 - y0, x2 - x0, y2 - y0
     det = e1x * e2y - e1y * e2x
     size_x[np.abs(det) <= 1e-12] = 0
@@ -54,8 +60,7 @@ def _triangle_columns(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> list[np.nd
         s_c, t_c = -(s_x * x0 + s_y * y0), -(t_x * x0 + t_y * y0)
         w0, w1, w2 = 1.0 / z0, 1.0 / z1 - 1.0 / z0, 1.0 / z2 - 1.0 / z0
         w_x, w_y, w_c = w1 * s_x + w2 * t_x, w1 * s_y + w2 * t_y, w0 + w1 * s_c + w2 * t_c
-    bounds = [v.astype(np.int64) for v in (first_x, first_y, size_x, size_y)]
-    return [*bounds, s_x, s_y, s_c, t_x, t_y, t_c, w_x, w_y, w_c]
+    return [first_x, first_y, size_x, size_y, s_x, s_y, s_c, t_x, t_y, t_c, w_x, w_y, w_c]
 
 
 def register_depth(
@@ -80,19 +85,15 @@ def register_depth(
     points = rays * np.where(valid, depth, 1.0).reshape(-1, 1)
     points = points @ color_from_depth[:3, :3].T + color_from_depth[:3, 3]
     front = valid.ravel() & (points[:, 2] > 1e-6)
-    pixels = np.full((height * width, 2), np.nan)
-    pixels[front] = color_camera.project(points[front])
-    z = np.where(front, points[:, 2], np.nan).reshape(height, width)
+    pixel_x, pixel_y = np.full((2, height * width), np.nan)  # each contiguous, for the views' passes
+    pixel_x[front], pixel_y[front] = color_camera.project(points[front]).T
+    z = np.where(front, points[:, 2], np.nan)
     first_x, first_y, size_x, size_y, *coefficients = _triangle_columns(
-        pixels[:, 0].reshape(height, width), pixels[:, 1].reshape(height, width), z
+        *(v.reshape(height, width) for v in (pixel_x, pixel_y, z)), (color_camera.width, color_camera.height)
     )
-    # Boxes clipped to the colour image: the passes then visit only its pixels.
-    last_x, last_y = np.minimum(first_x + size_x, color_camera.width), np.minimum(first_y + size_y, color_camera.height)
-    first_x, first_y = np.maximum(first_x, 0), np.maximum(first_y, 0)
-    size_x, size_y = last_x - first_x, last_y - first_y
-    # Triangles grouped by their clipped box's size: each group's passes over its boxes'
-    # pixels run on contiguous arrays (most triangles cover 1-3 pixels a side).
-    drawn = np.flatnonzero((size_x > 0) & (size_y > 0))
+    # Triangles grouped by their box's size: each group's passes over its boxes' pixels run on
+    # contiguous arrays (most triangles cover 1-3 pixels a side).
+    drawn = np.flatnonzero(size_x > 0)
     size_key = (size_y[drawn] * (_MAX_TRIANGLE_PX + 1) + size_x[drawn]).astype(np.uint8)
     drawn = drawn[np.argsort(size_key, kind="stable")]  # a radix sort on the small key
     first_index = (first_y * color_camera.width + first_x)[drawn]
