@@ -146,6 +146,30 @@ def test_a_box_covering_thirty_percent_leaves_the_visible_door_within_two_degree
             assert status == "fitted" and abs(error) <= (5.0 if "slide" in name else 2.0), (name, error)
 
 
+def test_a_flap_whose_model_explains_none_of_its_points_is_doubtful_and_not_written(
+    kitchen_map: Path, prior_map: Path, tmp_path: Path
+) -> None:
+    # The oven's flap taken off: no angle of the flap's model explains the oven's open front,
+    # yet its search still ends somewhere (the old code wrote it open at 49 deg, as it wrote a
+    # shut dishwasher flap open at 59 deg). A wrong value written is worse than "not seen".
+    scene = HomeScene.load(kitchen_map)
+    flap = {j.child for j in scene.object("oven_1").model.joints if j.name == "door_0_hinge"}
+    scene.parts = [dataclasses.replace(p, vertices_link=p.vertices_link * 1e-3) if p.object_id == "oven_1" and p.link in flap
+                   else p for p in scene.parts]
+    no_flap = ViewSimulator(scene)
+    obs = _view(no_flap, tmp_path / "obs", _in_front(no_flap, "oven_1", 1.8), ViewOptions(noise=SensorNoise(seed=3)))
+    result = observe(prior_map, obs)
+    oven = next(o for o in result.report.objects if o.id == "oven_1")
+    flap_report = next(j for j in oven.joints if j.name == "door_0_hinge")
+    assert flap_report.status == "doubtful" and flap_report.unexplained > 0.99, flap_report
+    written = flap_report.to_json()
+    assert written["position"] is None and written["kept"] == pytest.approx(flap_report.previous)
+    assert written["estimate"] is not None and written["residual_m"] > 0.01
+    assert result.smap.node("oven_1").joint("door_0_hinge").position == flap_report.previous
+    # The pose fitted with the flap where it is not is not written either.
+    assert not oven.pose_refined and np.array_equal(oven.map_from_object, oven.previous_map_from_object)
+
+
 def test_small_objects_found_and_a_moved_cup_reparented(simulator: ViewSimulator, kitchen_map: Path, tmp_path: Path) -> None:
     # The table and the cupboard, whose left door is open: the red cup now stands on the cupboard.
     map_from_camera = world_from_camera_looking_at(np.array([2.7, 3.3, 1.6]), np.array([1.1, 2.3, 0.7]))

@@ -40,6 +40,7 @@ class JointFit:
     position: float
     visible_fraction: float  # of the moving part's pixels (past the image's edges too), those nothing nearer covers
     residual_m: float  # RMS of the truncated residual over the part's observed pixels
+    unexplained: float  # their mean truncated squared residual over the tolerance: 0 all explained, 1 none
     pixels: int  # the part's observed pixels (in the fine view)
     contrast: float  # how much worse (share of pixels) the best position far from this one scores; NaN for a refit
 
@@ -195,5 +196,6 @@ def _support(
         # (grazing incidence), yet nothing hides it.
         "visible_fraction": float((front & ~covered).sum() / whole) if whole else 0.0,
         "residual_m": float(np.sqrt(truncated.mean())) if seen.any() else float("nan"),
+        "unexplained": float(np.minimum(residual[seen] ** 2, 1.0).mean()) if seen.any() else float("nan"),
         "pixels": int(seen.sum()),
     }

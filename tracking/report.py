@@ -27,12 +27,14 @@ class JointReport:
 
     name: str
     type: str
-    status: Literal["fitted", "partly seen", "not seen", "ambiguous"]
+    # "doubtful": fitted, but the model at the estimate explains none of the part's points
+    status: Literal["fitted", "partly seen", "doubtful", "not seen", "ambiguous"]
     position: float  # the map's new position (the old one unless fitted), rad or m
     previous: float
     estimate: float = float("nan")  # the fit's position, also when it did not go into the map
     visible_fraction: float = 0.0
     residual_m: float = float("nan")
+    unexplained: float = float("nan")  # the part's mean truncated squared residual over the tolerance: 0 to 1
     pixels: int = 0
 
     def to_json(self) -> dict:
@@ -41,11 +43,12 @@ class JointReport:
             out |= {"position": _number(self.position), "previous": _number(self.previous)}
         else:
             out |= {"position": None, "kept": _number(self.previous)}
-            if self.status == "partly seen":
+            if self.status in ("partly seen", "doubtful"):
                 out["estimate"] = _number(self.estimate)
         return out | {
             "visible_fraction": _number(self.visible_fraction, 3),
             "residual_m": _number(self.residual_m),
+            "unexplained": _number(self.unexplained, 3),
             "pixels": self.pixels,
         }
 
