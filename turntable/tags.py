@@ -253,27 +253,26 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     above = level >= 0
     rising = ~above[..., :-1] & above[..., 1:]
     usable = (np.count_nonzero(rising, axis=-1) == 1) & (contrast >= 0.05)  # (T, 4, N)
-    i = np.argmax(rising, axis=-1)
-    before = np.take_along_axis(level, i[..., None], axis=-1)[..., 0]
-    after = np.take_along_axis(level, i[..., None] + 1, axis=-1)[..., 0]
+    # Each profile's sample before its crossing, as a flat index into the (T, 4, N, M) arrays:
+    # one index for the six gathers (take_along_axis built its own index arrays for each).
+    at = np.argmax(rising, axis=-1).ravel() + np.arange(0, level.size, steps)
+
+    def sample(values: np.ndarray, after: int = 0) -> np.ndarray:  # (T, 4, N)
+        return values.reshape(-1)[at + after].reshape(usable.shape)
+
+    before, after = sample(level), sample(level, 1)
     fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
-    points = np.stack(
-        [
-            (1 - fraction) * np.take_along_axis(c, i[..., None], axis=-1)[..., 0]
-            + fraction * np.take_along_axis(c, i[..., None] + 1, axis=-1)[..., 0]
-            for c in (x, y)
-        ],
-        axis=-1,
-    )  # (T, 4, N, 2)
+    points = np.stack([(1 - fraction) * sample(c) + fraction * sample(c, 1) for c in (x, y)], axis=-1)  # (T, 4, N, 2)
     # Each side's line through its usable crossing points (total least squares).
     weight = usable.astype(np.float64)
     count = weight.sum(axis=-1)
     valid = (count >= _MIN_ROWS) & (half_width >= 1.0)
     centre = np.sum(points * weight[..., None], axis=2) / np.maximum(count, 1)[..., None]
-    spread = (points - centre[:, :, None, :]) * weight[..., None]
-    scatter = np.einsum("tsni,tsnj->tsij", spread, points - centre[:, :, None, :])
-    _, vectors = np.linalg.eigh(scatter)
-    line_direction = vectors[..., :, 1]  # the largest eigenvalue's vector
+    dx, dy = np.moveaxis(points - centre[:, :, None, :], -1, 0)
+    xx, xy, yy = np.sum(weight * dx * dx, axis=-1), np.sum(weight * dx * dy, axis=-1), np.sum(weight * dy * dy, axis=-1)
+    # The 2 x 2 scatter's larger eigenvalue's vector, in closed form (NumPy's batched eigh cost more).
+    angle = 0.5 * np.arctan2(2 * xy, xx - yy)
+    line_direction = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
     # Corner i joins side i - 1 (ending there) and side i (starting there).
     p1, d1, ok1 = np.roll(centre, 1, axis=1), np.roll(line_direction, 1, axis=1), np.roll(valid, 1, axis=1)
     p2, d2 = centre, line_direction
