@@ -285,7 +285,7 @@ def _fit_large_object(
                                    kept_in_place=in_place)
     doubtful = _doubtful(state, object_id, results, previous_joints, options.max_unexplained)
     if doubtful:
-        verdict = PoseVerdict(accepted=False, note=f"{doubtful[0]} fitted where its model explains too little of its "
+        verdict = PoseVerdict(accepted=False, note=f"{doubtful[0]} fitted where its model explains none of its "
                                                    f"points: the pose it moved is not written")
     elif not joints or _share_seen(state, fine, object_id, fixed, background) >= options.min_fixed_share:
         verdict = judge_pose(state, fine, object_id, previous_pose, fit.inlier_fraction if fit else None, background,
