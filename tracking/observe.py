@@ -294,7 +294,7 @@ def _fit_large_object(
         # Seen through its doors alone, the body may turn about a hinge as the door turns
         # back: the pose is not pinned down (a fridge seen from the front wandered 4-35 mm).
         verdict = PoseVerdict(accepted=False, note="its fixed body too little seen")
-        _common_slide_to_body(state, object_id, [j for j in joints if results[j][0] in ("fitted", "partly seen")])
+        _common_slide_off_the_drawers(state, object_id, [j for j in joints if results[j][0] in ("fitted", "partly seen")])
     if not verdict.accepted:
         # The joints keep the angles fitted at the refined pose: relative to the body the
         # parts were seen at, they are the better estimate even where the pose is in doubt.
@@ -357,12 +357,13 @@ def _settled(state: FitState, object_id: str, map_from_object: np.ndarray, joint
     return bool(np.linalg.norm(change[:3, 3]) < SETTLED_M and turned < SETTLED_RAD and max(moved, default=0.0) < 1.0)
 
 
-def _common_slide_to_body(state: FitState, object_id: str, fitted: list[str]) -> None:
+def _common_slide_off_the_drawers(state: FitState, object_id: str, fitted: list[str]) -> None:
     """Seen through its drawers alone (a chest of drawers from the front), the body's depth
     trades with every slide at once: where two or more drawers along one axis all come out,
     the least by no more than the map's doubt about the body's place, that common slide is
     the body's error, not every drawer ajar by the same (each 9-11 mm out, one of them
-    shut): it goes from the slides to the body."""
+    shut): it is taken off the slides. The body's pose, which this view does not pin, stays
+    the map's (the caller writes no pose for it)."""
     node = state.scene.object(object_id).node
     slides: dict[str, tuple[np.ndarray, float]] = {}
     for name in fitted:
@@ -376,9 +377,6 @@ def _common_slide_to_body(state: FitState, object_id: str, fitted: list[str]) ->
     common = min(s for _, s in slides.values())
     if np.any(directions @ directions[0] < np.cos(np.radians(5.0))) or not 0.0 < common <= POSE_DOUBT_M:
         return
-    shift = np.eye(4)
-    shift[:3, 3] = directions[0] * common
-    state.map_from_objects[object_id] = state.map_from_objects[object_id] @ shift
     for name in slides:
         state.joint_positions[object_id][name] -= common
 
