@@ -35,9 +35,10 @@ class ReconstructOptions:
     turntable_refinement: bool = True  # refine all poses together under the turntable's motion
     # 0: no texture (vertex colours in the PLY only). The texture carries the carrier's 6,000
     # vertex colours, linear over each triangle: on the bench mug's 40 frames (20,000 surface
-    # points against the full mesh's colours) 384 px differ by 3.91 of 255 on average, 512 px by
-    # 3.82, 1024 px by 3.80, 256 px by 4.77; 384 px bake in 16 CPU-ms less than 512.
-    texture_size_px: int = 384
+    # points against the full mesh's colours) 512 px differ by 3.82 of 255 on average, 1024 px by
+    # 3.80, 384 px by 3.91 (16 CPU-ms less, but not a power of two: WebGL 1 viewers cannot
+    # mipmap it), 256 px by 4.77.
+    texture_size_px: int = 512
     texture_max_triangles: int = 12_000  # the texture's carrier is decimated to this
     workers: int = 2  # threads reading images and detecting tags
     # Predict each frame's tags from the two before it (the table turns evenly) and search
