@@ -273,3 +273,24 @@ def test_per_part_rendering_is_one_mesh_cast_whole(simulator: ViewSimulator, dis
     parts = simulator.renderer.render(map_from_parts, camera, map_from_camera).depth_m
     assert np.isfinite(whole).all() and (parts > 0).all()
     assert np.abs(parts - whole).max() < 1e-4
+
+
+@pytest.mark.parametrize("distortion", [None, (0.12, -0.05, 0.001, -0.002, 0.0)])
+def test_a_stack_of_poses_has_each_poses_rendered_depth(simulator: ViewSimulator, distortion) -> None:
+    """`depth_stack` (the fitters' batched, cached depth of many poses) is, pose by pose, the
+    depth `render` draws of the same parts: exactly, with the walls behind the camera crossing
+    its near plane, a pose asked twice in one stack, and the stack asked again from the cache."""
+    camera = Camera(**{**CAMERA.model_dump(), "distortion": distortion})
+    scene = simulator.scene
+    renderer = Renderer(scene.parts)
+    map_from_camera = simulator.camera_looking_at("cupboard_1", distance_m=1.6, height_m=1.2, bearing_deg=25)
+    poses = [scene.pose({"cupboard_1": {"door_1_hinge": angle, "drawer_0_slide": 0.1}}) for angle in (0.0, 0.6, 1.2, 0.6)]
+    # The cupboard's parts first (what the fitters move), then the floor and walls.
+    only = scene.part_indices("cupboard_1") + [i for i, p in enumerate(scene.parts) if p.object_id is None]
+    for _ in range(2):
+        stack = renderer.depth_stack(poses, camera, map_from_camera, only)
+        for depth, map_from_parts in zip(stack, poses, strict=True):
+            rendering = renderer.render(map_from_parts, camera, map_from_camera, only=only)
+            assert rendering.hit.mean() > 0.9
+            assert np.array_equal(depth, np.where(rendering.hit, rendering.depth_m, np.inf))
+    assert not np.array_equal(stack[0], stack[2])

@@ -290,6 +290,32 @@ class Rendering:
         return self.part_index >= 0
 
 
+@dataclass(frozen=True, eq=False)
+class _PixelTable:
+    """What the renderer needs of a camera, worked out once: its pixels' rays, each pixel's
+    flat index on the image grid, and its numbers as plain floats (a fitter asks for the
+    pixels of a part's box thousands of times; the pydantic `Camera`'s properties and hash
+    cost more than the arithmetic)."""
+
+    key: tuple  # the camera's numbers: a cheap key for the depth cache
+    rays: np.ndarray  # (H * W, 3) rays with z = 1, row by row
+    flat: np.ndarray  # (H, W) int64 flat index of each pixel
+    grid_rays: np.ndarray  # (H, W, 3) `rays` on the image grid
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    distorted: bool
+
+    @classmethod
+    def of(cls, camera: Camera) -> _PixelTable:
+        rays = camera.pixel_rays()
+        return cls(key=tuple(camera.model_dump().values()), rays=rays,
+                   flat=np.arange(camera.width * camera.height).reshape(camera.height, camera.width),
+                   grid_rays=rays.reshape(camera.height, camera.width, 3),
+                   fx=camera.fx, fy=camera.fy, cx=camera.cx, cy=camera.cy, distorted=camera.has_distortion)
+
+
 class Renderer:
     """Parts ready to be ray-cast at any poses: one acceleration structure per part, built once."""
 
@@ -297,18 +323,21 @@ class Renderer:
         self.parts = list(parts)
         self._casters = [RayCaster(trimesh.Trimesh(p.vertices_link, p.faces, process=False)) for p in self.parts]
         self._corners = [box_corners(p.vertices_link) for p in self.parts]
-        self._rays: dict[Camera, np.ndarray] = {}
+        self._tables: dict[Camera, _PixelTable] = {}
         self._depths: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
         self._depth_pixels = 0
 
+    def _table(self, camera: Camera) -> _PixelTable:
+        # Kept for the few cameras of one observation: its views and crops.
+        if camera not in self._tables:
+            if len(self._tables) >= 16:
+                self._tables.clear()
+            self._tables[camera] = _PixelTable.of(camera)
+        return self._tables[camera]
+
     def pixel_rays(self, camera: Camera) -> np.ndarray:
-        """(H * W, 3) rays with z = 1 through every pixel of `camera`, row by row (kept for
-        the few cameras of one observation: its views and crops)."""
-        if camera not in self._rays:
-            if len(self._rays) >= 16:
-                self._rays.clear()
-            self._rays[camera] = camera.pixel_rays()
-        return self._rays[camera]
+        """(H * W, 3) rays with z = 1 through every pixel of `camera`, row by row."""
+        return self._table(camera).rays
 
     def render(
         self,
@@ -376,25 +405,30 @@ class Renderer:
         n = camera.width * camera.height
         stack = np.full(len(map_from_parts) * n, np.inf)
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
-        for i in only:
+        table = self._table(camera)
+        for order, i in enumerate(only):
             # A part at a pose cast before (the body, as a joint moves; the search's current
             # estimate, round after round) is cast once.
+            camera_from_parts = camera_from_map @ np.array([poses[i] for poses in map_from_parts], dtype=np.float64)
             casts: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
             keys, missing = [], {}
-            for poses in map_from_parts:
-                camera_from_part = camera_from_map @ as_transform(poses[i])
-                keys.append((i, camera, camera_from_part.tobytes()))
-                if keys[-1] in self._depths:
-                    self._depths.move_to_end(keys[-1])
-                    casts[keys[-1]] = self._depths[keys[-1]]
-                elif keys[-1] not in casts:
-                    missing[keys[-1]] = camera_from_part
+            for camera_from_part in camera_from_parts:
+                key = (i, table.key, camera_from_part.tobytes())
+                keys.append(key)
+                cast = self._depths.get(key)
+                if cast is not None:
+                    self._depths.move_to_end(key)
+                    casts[key] = cast
+                elif key not in casts:
+                    missing[key] = camera_from_part
             if missing:
-                for key, cast in zip(missing, self._cast_depths(i, camera, list(missing.values()))):
+                for key, cast in zip(missing, self._cast_depths(i, table, np.array(list(missing.values())))):
                     casts[key] = cast
                     self._remember(key, *cast)
             cells = np.concatenate([k * n + casts[key][0] for k, key in enumerate(keys)])
-            stack[cells] = np.minimum(stack[cells], np.concatenate([casts[key][1] for key in keys]))
+            depths = np.concatenate([casts[key][1] for key in keys])
+            # The first part's cells (each once) are all inf yet: min(inf, t) is t.
+            stack[cells] = depths if order == 0 else np.minimum(stack[cells], depths)
         return stack.reshape(len(map_from_parts), camera.height, camera.width)
 
     def pixels_whole(
@@ -418,25 +452,24 @@ class Renderer:
             self._depth_pixels -= len(dropped)
 
     def _cast_depths(
-        self, index: int, camera: Camera, camera_from_parts: Sequence[np.ndarray]
+        self, index: int, table: _PixelTable, camera_from_parts: np.ndarray
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """(flat pixel indices, float64 depth there, inf where missed or nearer than
-        `NEAR_M`) of part `index` at each pose, all the poses' rays in one cast."""
-        rays = self.pixel_rays(camera)
-        empty = np.empty(0, dtype=np.int64)
-        pixel_sets = [_pixels_in_view(camera, rays, m, self._corners[index]) for m in camera_from_parts]
-        pixel_sets = [empty if p is None else p for p in pixel_sets]
+        `NEAR_M`) of part `index` at each pose ((K, 4, 4) `camera_from_parts`), all the
+        poses' rays in one cast."""
+        empty = (np.empty(0, dtype=np.int64), np.empty((0, 3)))
+        windows = [_pixels_in_view(table, m, self._corners[index]) or empty for m in camera_from_parts]
+        pixel_sets = [pixels for pixels, _ in windows]
         ends = np.cumsum([len(p) for p in pixel_sets])
         if not ends[-1]:
             return [(p, np.empty(0)) for p in pixel_sets]
-        # Every pose's rays in one float32 buffer, origins then directions, as the caster takes them.
-        origins = np.empty((ends[-1], 3))
+        # Every pose's rays in one buffer, origins then directions, as the caster takes them.
+        parts_from_camera = np.linalg.inv(camera_from_parts)
+        origins = np.repeat(parts_from_camera[:, :3, 3], [len(p) for p in pixel_sets], axis=0)
         directions = np.empty((ends[-1], 3))
-        for pixels, camera_from_part, end in zip(pixel_sets, camera_from_parts, ends):
+        for (pixels, rays), part_from_camera, end in zip(windows, parts_from_camera, ends):
             if len(pixels):
-                part_from_camera = np.linalg.inv(camera_from_part)
-                origins[end - len(pixels):end] = part_from_camera[:3, 3]
-                np.matmul(rays[pixels], part_from_camera[:3, :3].T, out=directions[end - len(pixels):end])
+                np.matmul(rays, part_from_camera[:3, :3].T, out=directions[end - len(pixels):end])
         t = self._casters[index].hit_distances(origins, directions).astype(np.float64)
         t[t < NEAR_M] = np.inf
         return list(zip(pixel_sets, np.split(t, ends[:-1])))
@@ -448,7 +481,7 @@ class Renderer:
         scene; `whole`: counted on an image grown past `camera`'s edges to hold all of it (a
         part the image's edge cuts is partly unseen, like one something covers)."""
         camera_from_part = np.linalg.inv(as_transform(map_from_camera)) @ as_transform(map_from_part)
-        if _pixels_in_view(camera, self.pixel_rays(camera), camera_from_part, self._corners[index]) is None:
+        if _pixels_in_view(self._table(camera), camera_from_part, self._corners[index]) is None:
             return 0
         if whole:
             camera = widened(camera, self._corners[index] @ camera_from_part[:3, :3].T + camera_from_part[:3, 3])
@@ -457,12 +490,12 @@ class Renderer:
 
     def _cast(self, index: int, camera: Camera, camera_from_part: np.ndarray) -> tuple[np.ndarray, Hits] | None:
         """(flat pixel indices, their hits) of the rays that may reach part `index`, or None."""
-        rays = self.pixel_rays(camera)
-        pixels = _pixels_in_view(camera, rays, camera_from_part, self._corners[index])
-        if pixels is None:
+        window = _pixels_in_view(self._table(camera), camera_from_part, self._corners[index])
+        if window is None:
             return None
+        pixels, rays = window
         part_from_camera = np.linalg.inv(camera_from_part)
-        rays = rays[pixels] @ part_from_camera[:3, :3].T
+        rays = rays @ part_from_camera[:3, :3].T
         return pixels, self._casters[index].first_hits(part_from_camera[:3, 3], rays)
 
 
@@ -494,11 +527,11 @@ def widened(camera: Camera, points_camera: np.ndarray) -> Camera:
 
 
 def _pixels_in_view(
-    camera: Camera, rays: np.ndarray, camera_from_part: np.ndarray, corners_part: np.ndarray
-) -> np.ndarray | None:
-    """Flat indices of the pixels whose rays (`rays`, z = 1) may hit the part in front of the
-    near plane (inside the projection of its bounding box clipped there), or None when there
-    are none."""
+    table: _PixelTable, camera_from_part: np.ndarray, corners_part: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Flat indices and (N, 3) rays (z = 1) of the pixels of `table`'s camera whose rays may
+    hit the part in front of the near plane (inside the projection of its bounding box
+    clipped there), or None when there are none."""
     corners = corners_part @ camera_from_part[:3, :3].T + camera_from_part[:3, 3]
     z = corners[:, 2]
     if (z < NEAR_M).all():
@@ -512,17 +545,21 @@ def _pixels_in_view(
         crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
         s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
         points = np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
-    if camera.has_distortion:
+    if table.distorted:
         # A lens bends the box's outline in the image, not on the plane z = 1 the rays cross.
         xy = points[:, :2] / points[:, 2:]
         (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+        rays = table.rays
         inside = (rays[:, 0] >= x0) & (rays[:, 0] <= x1) & (rays[:, 1] >= y0) & (rays[:, 1] <= y1)
-        return np.flatnonzero(inside) if inside.any() else None
-    uv = camera.project(points)
-    u0, v0 = np.floor(uv.min(axis=0)).astype(int) - 1
-    u1, v1 = np.ceil(uv.max(axis=0)).astype(int) + 1
-    u0, v0 = max(u0, 0), max(v0, 0)
-    u1, v1 = min(u1, camera.width - 1), min(v1, camera.height - 1)
+        pixels = np.flatnonzero(inside)
+        return (pixels, rays[pixels]) if len(pixels) else None
+    # Camera.project's pinhole arithmetic, on the plain floats.
+    u = table.fx * (points[:, 0] / points[:, 2]) + table.cx
+    v = table.fy * (points[:, 1] / points[:, 2]) + table.cy
+    height, width = table.flat.shape
+    u0, v0 = max(int(np.floor(u.min())) - 1, 0), max(int(np.floor(v.min())) - 1, 0)
+    u1, v1 = min(int(np.ceil(u.max())) + 1, width - 1), min(int(np.ceil(v.max())) + 1, height - 1)
     if u0 > u1 or v0 > v1:
         return None
-    return (np.arange(v0, v1 + 1)[:, None] * camera.width + np.arange(u0, u1 + 1)).ravel()
+    # A window of the image: slicing the tables costs a third of gathering its pixels' rays.
+    return table.flat[v0:v1 + 1, u0:u1 + 1].flatten(), table.grid_rays[v0:v1 + 1, u0:u1 + 1].reshape(-1, 3)
