@@ -232,7 +232,6 @@ def test_registration_of_a_640x480_depth_into_a_1280x720_colour() -> None:
     assert np.median(error) < 1e-4 and np.mean(error < 0.001) > 0.99, (np.median(error), np.mean(error < 0.001))
 
 
-
 def test_registration_of_a_depth_frame_without_depth_is_empty() -> None:
     """A frame with no valid depth (lens covered, a dropped frame's zeros) registers to an empty
     image: it used to raise an IndexError in the rasteriser and stop the whole import."""
@@ -241,6 +240,7 @@ def test_registration_of_a_depth_frame_without_depth_is_empty() -> None:
     for empty in (np.full((120, 160), np.nan), np.zeros((120, 160))):
         registered = register_depth(empty, depth_camera, color, rsim.baseline())
         assert registered.shape == (180, 320) and np.isnan(registered).all()
+
 
 def test_association_pairs_nearest_frames_once() -> None:
     rng = np.random.default_rng(3)
