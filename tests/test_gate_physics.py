@@ -9,7 +9,7 @@ from pathlib import Path
 
 from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.model_folder.gate.physics import MAX_DRIFT_M, physics_check, physics_problems
-from homemodel.model_folder.gate.validate import PYBULLET_MAX_JOINTS, validate_path
+from homemodel.model_folder.gate.validate import PYBULLET_MAX_JOINTS, ValidationReport, validate_path
 
 INERTIAL = '<inertial><origin xyz="{com}"/><mass value="{kg}"/><inertia ixx="{i}" ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/></inertial>'
 
@@ -120,7 +120,7 @@ def _chain(path: Path, joints: int) -> Path:
     return path
 
 
-def _validate_timed(urdf: Path):
+def _validate_timed(urdf: Path) -> tuple[ValidationReport, float]:
     start = time.perf_counter()
     report = validate_path(urdf)
     return report, time.perf_counter() - start
@@ -139,7 +139,7 @@ def test_a_500_joint_chain_validates_in_seconds(tmp_path: Path) -> None:
     assert seconds < 15, f"{seconds:.1f} s"
 
 
-def _validate_cpu(urdf: Path):
+def _validate_cpu(urdf: Path) -> tuple[ValidationReport, float]:
     """The gate's report and its CPU seconds, its checkers' (processes it waited for) included:
     CPU, not wall, so that a loaded machine does not make a linear cost look steep."""
     def cpu() -> float:
