@@ -241,7 +241,7 @@ def face_the_cameras(mesh: trimesh.Trimesh, centres: np.ndarray) -> trimesh.Trim
     object have most of them behind any one face (Buddha's lowest band, open at the crown, came
     out with 0 % of the first hits facing the cameras). A closed mesh is already wound outward
     and is returned as it is."""
-    if mesh.is_watertight:
+    if mesh.is_watertight or not mesh.area > 0:  # closed; or nothing to see (area 0: no face to aim at)
         return mesh
     rng = np.random.default_rng(0)  # the same mesh is faced the same way every run
     caster = RayCaster(mesh)

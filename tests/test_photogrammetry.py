@@ -346,6 +346,8 @@ def test_an_open_surface_is_wound_to_face_the_cameras_and_a_closed_one_is_left_o
     assert np.allclose(facing.face_normals[:, 2], 1.0)
     box = trimesh.creation.box()
     assert face_the_cameras(box, np.zeros((1, 3))) is box  # closed: outward, wherever the cameras are
+    flat = trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [2, 0, 0]], faces=[[0, 1, 2]], process=False)
+    assert face_the_cameras(flat, above) is flat  # no area: nothing to aim a ray at (was a bare ValueError)
 
 
 def test_an_open_tube_seen_from_all_round_is_wound_outward() -> None:
