@@ -1,6 +1,7 @@
 """Lens models a recording may carry that the one Camera does not (RealSense's inverse
 Brown-Conrady, ROS's rational polynomial with k4-k6), refitted as OpenCV's forward
-Brown-Conrady (k1 k2 p1 p2 k3) over the whole image."""
+Brown-Conrady (k1 k2 p1 p2 k3) over the whole image, or followed as each pixel's ray
+(`opencv_pixel_rays`: a ROS depth lens with k4-k6)."""
 
 from __future__ import annotations
 
