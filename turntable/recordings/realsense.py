@@ -5,8 +5,7 @@ reader of the pairs with both streams' intrinsics and the recorded extrinsics
 over a block of colour pixels, later pixels over earlier ones: a receding plane seen by a
 D435-like pair came out 1.4 mm short (median), and on a mug at 0.5 m (848x480 depth into
 1280x720 colour) the table's edge stood above the cut and joined the mesh (8.2 mm from the
-truth against 0.73 mm). The
-colour intrinsics and distortion come from the stream."""
+truth against 0.73 mm). The colour intrinsics and distortion come from the stream."""
 
 from __future__ import annotations
 
