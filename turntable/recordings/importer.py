@@ -120,7 +120,7 @@ def registered_depth_m(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
             )
         return depth
     extrinsic = np.eye(4) if setup.color_from_depth is None else setup.color_from_depth
-    return register_depth(depth, setup.depth_camera, setup.color_camera, extrinsic, setup.depth_rays)
+    return register_depth(depth, setup.depth_camera, setup.color_camera, extrinsic, setup.depth_pixel_rays())
 
 
 def import_recording(
