@@ -55,16 +55,15 @@ def _matrix(m: np.ndarray | None) -> list[list[float]] | None:
 
 
 def completion_summary(
-    completion: Completion, support: SupportPlane | None = None, *, object_mesh: trimesh.Trimesh | None = None
+    completion: Completion, object_mesh: trimesh.Trimesh, support: SupportPlane | None = None
 ) -> dict:
     """The completion's own figures in summary.json (under `completion`), in the written
-    mesh's frame; the size, triangles and times are the summary's common ones. `object_mesh`:
-    `completion.object_mesh` when the caller made it already (its watertightness then comes
-    from the inertial's test, not from a second copy)."""
+    mesh's frame; the size, triangles and times are the summary's common ones. `object_mesh` is
+    the export's `completion.object_mesh` (a copy made per call: its watertightness is then the
+    one the inertial's test already cached)."""
     fit = completion.fit
     frame = completion.frame or object_frame(completion.mesh, map_from_camera=None, support=None, axis=None)
     object_from_camera = np.linalg.inv(frame.camera_from_object)
-    mesh = completion.object_mesh if object_mesh is None else object_mesh
     axis = None if fit.axis is None else fit.axis.transformed(object_from_camera)
     return {
         "class": completion.class_name,
@@ -77,7 +76,7 @@ def completion_summary(
         "revolution_axis": None
         if axis is None
         else {"point_m": axis.point.tolist(), "direction": axis.direction.tolist()},
-        "watertight": bool(mesh.is_watertight),
+        "watertight": bool(object_mesh.is_watertight),
         "frame": frame.description,
         "up_from": frame.up_from,
         "camera_from_object": _matrix(frame.camera_from_object),
@@ -172,7 +171,7 @@ def _complete(
         out_dir,
         PipelineSummary(
             source="completion",
-            figures=completion_summary(completion, query.support, object_mesh=object_mesh),
+            figures=completion_summary(completion, object_mesh, query.support),
             times_s=completion.times_s,  # gains the export's and the gate's
             inputs={**model_inputs, "depth": depth_png, "camera": camera_path, **mask_input},
             meshes=meshes.figures,
