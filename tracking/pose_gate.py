@@ -17,6 +17,7 @@ from homemodel.core.checks import require_between
 from tracking.fit_pose import free_motions
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
+from tracking.scene import box_corners
 
 
 # The map's doubt about a large object's pose, as the issue gives it: 2 cm, 2 deg.
@@ -122,18 +123,14 @@ def _corner_move_m(state: FitState, object_id: str, map_from_before: np.ndarray)
     pose."""
     links = state.object_from_links(object_id)
     parts = [state.scene.parts[i] for i in state.object_parts(object_id)]
-    corners = _box(np.concatenate([_box(p.vertices_link) @ links[p.link].T for p in parts])[:, :3])
+    corners = box_corners(np.concatenate([box_corners(p.vertices_link) @ links[p.link][:3, :3].T + links[p.link][:3, 3]
+                                          for p in parts]))
+    corners = np.column_stack([corners, np.ones(len(corners))])
     doubts = DOUBT_M + DOUBT_RAD * np.linalg.norm(corners[:, :2], axis=1)
     box = corners @ map_from_before.T
     moved = np.linalg.norm(box @ (state.map_from_objects[object_id] @ np.linalg.inv(map_from_before)).T - box, axis=1)
     worst = int(np.argmax(moved / doubts))
     return float(moved[worst]), float(doubts[worst])
-
-
-def _box(points: np.ndarray) -> np.ndarray:
-    """The 8 corners (homogeneous, (8, 4)) of the axis-aligned box around `points`."""
-    low, high = points.min(axis=0), points.max(axis=0)
-    return np.array([[x, y, z, 1.0] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
 
 
 def _seen_surface(state: FitState, view: FitView, object_id: str, background_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
