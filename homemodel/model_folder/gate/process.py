@@ -50,7 +50,7 @@ class BoundedRun:
     def __exit__(self, *exc: object) -> None:
         with self._proc:  # closes its pipes and reaps it, whether its result was taken or not
             if self._proc.poll() is None:  # not taken: the caller stopped early
-                os.killpg(self._proc.pid, signal.SIGKILL)
+                self._kill()
 
 
 def last_lines(text: str, count: int = 3) -> str:
