@@ -125,10 +125,9 @@ def _corner_move_m(state: FitState, object_id: str, map_from_before: np.ndarray)
     parts = [state.scene.parts[i] for i in state.object_parts(object_id)]
     corners = box_corners(np.concatenate([box_corners(p.vertices_link) @ links[p.link][:3, :3].T + links[p.link][:3, 3]
                                           for p in parts]))
-    corners = np.column_stack([corners, np.ones(len(corners))])
     doubts = DOUBT_M + DOUBT_RAD * np.linalg.norm(corners[:, :2], axis=1)
-    box = corners @ map_from_before.T
-    moved = np.linalg.norm(box @ (state.map_from_objects[object_id] @ np.linalg.inv(map_from_before)).T - box, axis=1)
+    change = state.map_from_objects[object_id] - map_from_before  # each corner's move: change @ corner
+    moved = np.linalg.norm(corners @ change[:3, :3].T + change[:3, 3], axis=1)
     worst = int(np.argmax(moved / doubts))
     return float(moved[worst]), float(doubts[worst])
 
