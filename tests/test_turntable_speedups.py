@@ -168,18 +168,21 @@ def test_one_detector_serves_each_decimation_as_a_new_one_would(monkeypatch: pyt
     coarse, fine = DetectionOptions(decimate=2.0, edge_refinement=False), DetectionOptions(decimate=1.0, edge_refinement=False)
     found = {}
     for options in (coarse, fine):  # each by a detector of its own
-        monkeypatch.setattr(tags, "_idle_detectors", [])
+        monkeypatch.setattr(tags, "_idle_detectors", {})
         found[options.decimate] = detect_tags(image, options)
     assert set(found[1.0]) == {4, 5, 6, 7} and set(found[2.0]) < set(found[1.0])  # the decimation matters here
-    monkeypatch.setattr(tags, "_idle_detectors", [])
-    monkeypatch.setattr(tags, "_detectors_built", 0)
+    monkeypatch.setattr(tags, "_idle_detectors", {})
+    monkeypatch.setattr(tags, "_detectors_built", {})
     for options in (fine, coarse, fine, coarse):  # one detector, turned from one to the other
         reused = detect_tags(image, options)
         assert reused.keys() == found[options.decimate].keys()
         assert all(np.array_equal(reused[i], found[options.decimate][i]) for i in reused)
-    assert len(tags._idle_detectors) == 1 and tags._detectors_built == 1
+    assert len(tags._idle_detectors[1]) == 1 and tags._detectors_built == {1: 1}
     # Built ahead up to a count: the searches then build none.
     prepare_detectors(fine, 2)
-    assert len(tags._idle_detectors) == 2 and tags._detectors_built == 2
+    assert len(tags._idle_detectors[1]) == 2 and tags._detectors_built == {1: 2}
     prepare_detectors(fine, 2)
-    assert len(tags._idle_detectors) == 2
+    assert len(tags._idle_detectors[1]) == 2
+    # Another table (for 2 bit errors) is a detector of its own.
+    detect_tags(image, DetectionOptions(max_hamming=2))
+    assert len(tags._idle_detectors[1]) == 2 and len(tags._idle_detectors[2]) == 1

@@ -64,75 +64,102 @@ class PixelWindow:
         )
 
 
-_idle_detectors: list = []  # the detectors no thread is using
-_detectors_built = 0  # or being built
+# pupil-apriltags builds tag36h11's decoding table for up to 2 bit errors: 18-21 ms of CPU a
+# detector, where the table for the 1 a detection keeps by default (`max_hamming`) takes 0.7.
+_LIBRARY_BITS = 2
+_idle_detectors: dict[int, list] = {}  # per table's bit errors, the detectors no thread is using
+_detectors_built: dict[int, int] = {}  # per table's bit errors, built or being built
 _idle_lock = threading.Lock()
 
 
+def _table_bits(options: DetectionOptions) -> int:
+    """The bit errors the detector's decoding table needs: a tag36h11 code is 11 bits or more
+    from every other code turned any way, so a table for fewer errors only leaves out the
+    detections with more, which `max_hamming` drops anyway (the library's own table holds 2)."""
+    return min(options.max_hamming, _LIBRARY_BITS)
+
+
 @contextmanager
-def _apriltag_detector(decimate: float) -> Iterator:
-    """A detector set to `decimate` for this thread's use (one is not safe to share between
-    threads): an idle one if any, else a new one. Building one, its tag family's decoding
-    table, costs 35 ms of CPU; a capture needs only as many as its threads search at once,
-    whatever their decimations (a detector's is a field set before each search)."""
-    global _detectors_built
+def _apriltag_detector(options: DetectionOptions) -> Iterator:
+    """A detector for `options` (its decimation, the table for their bit errors) for this
+    thread's use (one is not safe to share between threads): an idle one if any, else a new
+    one. A capture needs only as many as its threads search at once, whatever their
+    decimations (a detector's is a field set before each search)."""
+    bits = _table_bits(options)
     with _idle_lock:
-        detector = _idle_detectors.pop() if _idle_detectors else None
+        idle = _idle_detectors.setdefault(bits, [])
+        detector = idle.pop() if idle else None
         if detector is None:
-            _detectors_built += 1
+            _detectors_built[bits] = _detectors_built.get(bits, 0) + 1
     if detector is None:
-        detector = _new_detector()
-    detector.tag_detector_ptr.contents.quad_decimate = float(decimate)
+        detector = _new_detector(bits)
+    detector.tag_detector_ptr.contents.quad_decimate = float(options.decimate or 1.0)
     try:
         yield detector
     finally:
         with _idle_lock:
-            _idle_detectors.append(detector)
+            _idle_detectors[bits].append(detector)
 
 
-def _new_detector():  # noqa: ANN202
+def _new_detector(bits: int):  # noqa: ANN202
+    """A tag36h11 detector whose decoding table corrects `bits` bit errors. The library's
+    constructor takes a family name and builds its 2-bit table: it is made for tag16h5 (30
+    codes: 0.1 ms), whose family goes again before tag36h11's is added. Kept for the process's
+    life and freed at exit by `_release` (the library's own teardown reads a freed family)."""
+    import ctypes
+
     from pupil_apriltags import Detector
+    from pupil_apriltags.bindings import _ApriltagFamily
 
-    detector = Detector(families="tag36h11", nthreads=1, quad_sigma=0.0, refine_edges=1)
+    detector = Detector(families="tag16h5", nthreads=1, quad_sigma=0.0, refine_edges=1)
     atexit.register(_release, detector)
+    libc = detector.libc
+    libc.apriltag_detector_clear_families.restype = None
+    libc.apriltag_detector_clear_families(detector.tag_detector_ptr)  # frees tag16h5's table
+    libc.tag16h5_destroy.restype = None
+    libc.tag16h5_destroy(detector.tag_families.pop("tag16h5"))
+    libc.tag36h11_create.restype = ctypes.POINTER(_ApriltagFamily)
+    family = detector.tag_families["tag36h11"] = libc.tag36h11_create()  # a family per detector: it holds the table
+    libc.apriltag_detector_add_family_bits(detector.tag_detector_ptr, family, bits)
     return detector
 
 
 def prepare_detectors(options: DetectionOptions, count: int) -> None:
-    """Build detectors until `count` exist: a capture's runs each search their first frames at
-    once, and building theirs while the first frame is searched, on the core that search
-    leaves idle, takes their 35 ms each off the runs' start."""
-    global _detectors_built
+    """Build detectors for `options` until `count` exist: a capture's runs each search their
+    first frames at once, and building theirs while the first frame is searched, on the core
+    that search leaves idle, takes that off the runs' start."""
     if options.detector != "apriltag":
         return
+    bits = _table_bits(options)
     with _idle_lock:
-        missing = max(count - _detectors_built, 0)
-        _detectors_built += missing
+        missing = max(count - _detectors_built.get(bits, 0), 0)
+        _detectors_built[bits] = _detectors_built.get(bits, 0) + missing
     for _ in range(missing):
-        detector = _new_detector()
+        detector = _new_detector(bits)
         with _idle_lock:
-            _idle_detectors.append(detector)
+            _idle_detectors.setdefault(bits, []).append(detector)
 
 
 def _release(detector) -> None:  # noqa: ANN001
-    """Free a pupil-apriltags detector safely.
+    """Free a pupil-apriltags detector (ours or the library's own) safely.
 
-    Its own `__del__` frees the tag family before the detector, whose destructor then reads
-    the freed family: an intermittent segfault at exit. Destroy the detector first instead.
+    The library's own `__del__` frees the tag family before the detector, whose destructor then
+    reads the freed family: an intermittent segfault at exit. Destroy the detector first instead.
     """
     if detector.tag_detector_ptr is None:
         return
     detector.libc.apriltag_detector_destroy.restype = None
     detector.libc.apriltag_detector_destroy(detector.tag_detector_ptr)
-    for family in detector.tag_families.values():
-        detector.libc.tag36h11_destroy.restype = None
-        detector.libc.tag36h11_destroy(family)
+    for name, family in detector.tag_families.items():
+        destroy = getattr(detector.libc, f"{name}_destroy")
+        destroy.restype = None
+        destroy(family)
     detector.tag_detector_ptr = None
 
 
 def _detect_apriltag(gray: np.ndarray, options: DetectionOptions) -> dict[int, np.ndarray]:
     found: dict[int, np.ndarray] = {}
-    with _apriltag_detector(options.decimate or 1.0) as detector:
+    with _apriltag_detector(options) as detector:
         detections = detector.detect(np.ascontiguousarray(gray))
     for detection in detections:
         if detection.hamming > options.max_hamming:
