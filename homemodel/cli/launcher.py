@@ -11,6 +11,7 @@ the usual SystemExit instead.
 from __future__ import annotations
 
 import atexit
+import ctypes
 import gc
 import os
 import sys
@@ -24,9 +25,30 @@ from typing import NoReturn
 # collections, the full ones going through every module's objects), at 7,000 0.06 (28, none full).
 GC_FIRST_GENERATION = 7000
 
+# glibc's malloc hands a freed block over 128 KiB back to the kernel (unmapped, or the heap's
+# top trimmed), so the next array of that size faults in fresh zeroed pages. Its threshold grows
+# with the blocks freed, but a command's arrays keep growing past it. With blocks up to 16 MiB
+# kept on the heap and up to 32 MiB of free top kept, a completion query takes 61,000 page faults
+# instead of 90,000 and 2.11 CPU-s instead of 2.25 (sys 0.25 -> 0.19), its peak memory the same.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # mallopt's parameters (malloc.h)
+MMAP_THRESHOLD_BYTES = 16 << 20
+TRIM_THRESHOLD_BYTES = 32 << 20
+
+
+def keep_freed_memory() -> None:
+    """Let glibc's malloc reuse large freed blocks instead of returning them to the kernel at
+    once (not glibc: nothing to do)."""
+    try:
+        mallopt = ctypes.CDLL("libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return
+    mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
+    mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)
+
 
 def main() -> None:
     gc.set_threshold(GC_FIRST_GENERATION, *gc.get_threshold()[1:])
+    keep_freed_memory()
     try:
         from homemodel.core.deferred_imports import defer_networkx
         from homemodel.core.interrupts import raise_if_interrupted, remember_interrupts
