@@ -62,9 +62,9 @@ def _mapper(workers: int) -> Iterator[Callable]:
 
 def _beside(letting_go: Callable[[], A], holding: Callable[[], B]) -> tuple[A, B]:
     """(`letting_go()`, `holding()`): the first, a call that soon lets go of the GIL for most of
-    its time (a k-d tree's query), on a thread of its own; the second, one that holds it
-    throughout (fast-simplification), here once the first has started. Started the other way
-    round, the first could not even begin before the second ended."""
+    its time (a k-d tree's query), on a thread of its own; the second, one that holds it most of
+    its time (fast-simplification, the chart atlas), here once the first has started. Started
+    the other way round, the first could not even begin before the second ended."""
     started = threading.Event()
 
     def first() -> A:
@@ -408,7 +408,7 @@ def reconstruct_capture(
 def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
     from scipy.spatial import cKDTree
 
-    from turntable.texture import bake_vertex_colors, carrier
+    from turntable.texture import TextureLayout, bake_vertex_colors, carrier, texture_layout
 
     clock = StageClock(progress)
     clock.start("poses")
@@ -439,14 +439,17 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
     if options.texture_size_px > 0:
         clock.start("texture", 1)
         # The vertex colours' neighbour query on the other core, beside the carrier's quadric
-        # collapse (which holds the GIL throughout): their tree built first, here, so that the
-        # other thread goes straight into the query, which lets go of the GIL.
+        # collapse and its texture's layout, which need no colour and hold the GIL most of
+        # their time: the tree built first, here, so that the other thread goes straight into
+        # the query, which lets go of it.
         tree = cKDTree(kept.points)
-        colors, (small, nearest) = _beside(
-            lambda: vertex_colors(mesh, kept, tree=tree, workers=1),
-            lambda: carrier(mesh, options.texture_max_triangles),
-        )
-        textured, uv, texture = bake_vertex_colors(small, colors[nearest], size_px=options.texture_size_px)
+
+        def laid_out_carrier() -> tuple[np.ndarray, TextureLayout]:
+            small, nearest = carrier(mesh, options.texture_max_triangles)
+            return nearest, texture_layout(small, size_px=options.texture_size_px)
+
+        colors, (nearest, layout) = _beside(lambda: vertex_colors(mesh, kept, tree=tree, workers=1), laid_out_carrier)
+        textured, uv, texture = bake_vertex_colors(layout, colors[nearest])
     else:
         colors = vertex_colors(mesh, kept)
     clock.stop()
