@@ -12,45 +12,17 @@ from typing import TYPE_CHECKING
 import typer
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.option_fields import field_option, from_options, old_spellings
+from homemodel.cli.map_flags import echo_registration
+from homemodel.cli.option_fields import field_option, from_options
 
 if TYPE_CHECKING:
-    from homemodel.model_folder.map_entry import MapEntry, Registration
     from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
 
 map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
 
 MAP_ARGUMENT = typer.Argument(..., metavar="MAP.xml", help="semantic map file")
-# A reconstruction command's flags for `map_entry_from_flags`.
-MAP_OPTION = typer.Option(None, "--map", metavar="MAP.xml", help="register the model into this semantic map")
-PARENT_OPTION = old_spellings(
-    typer.Option(None, "--parent", help="with --map: a room, or the large object the model stands on"), "--room"
-)
-ID_OPTION = typer.Option(None, "--id", help="with --map: the object's id (default: the model's name)")
-XYZ_OPTION = typer.Option((0.0, 0.0, 0.0), "--xyz", help="with --map: position in the parent's frame (m)")
 IMPORT = "homemodel.model_folder.asset_import:ImportOptions"  # `map add`'s import of a raw asset
 REPAIR = "homemodel.model_folder.repair:RepairOptions"
-
-
-def map_entry_from_flags(
-    map_path: Path | None, parent_id: str | None, object_id: str, xyz: tuple[float, float, float]
-) -> MapEntry | None:
-    """Where a reconstruction command's `--map --parent --id --xyz` register its model, or None
-    without `--map`."""
-    from homemodel.core.errors import InputError
-    from homemodel.core.transforms import transform_from_xyz_rpy
-    from homemodel.model_folder.map_entry import MapEntry
-
-    if (map_path is None) != (parent_id is None):
-        raise InputError("--map and --parent go together (the parent: the room, or large object, the object belongs to)")
-    if map_path is None:
-        return None
-    return MapEntry(
-        map_path=map_path,
-        object_id=object_id,
-        parent_id=parent_id,
-        parent_from_object=transform_from_xyz_rpy(xyz, (0.0, 0.0, 0.0)),
-    )
 
 
 def key_values(items: list[str], option: str) -> dict[str, str]:
@@ -241,12 +213,6 @@ def add(
         typer.echo(f"imported into {registration.model_dir}:")
         for said in registration.repairs:
             typer.echo(f"  {said}")
-
-
-def echo_registration(registration: Registration) -> None:
-    """The line `map add`, and the pipelines given --map, print for a model added to a map."""
-    node = registration.node
-    typer.echo(f"added {node.id} ({node.type}) at {' > '.join(registration.path)} to {registration.map_path}")
 
 
 @map_app.command()

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import typer
 
 from homemodel.cli.errors import exit_on_error
-from homemodel.cli.map_commands import (
+from homemodel.cli.map_flags import (
     ID_OPTION,
     MAP_OPTION,
     PARENT_OPTION,
