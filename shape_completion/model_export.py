@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
@@ -25,10 +26,12 @@ from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.checks import check_nested, require_positive
 from homemodel.core.progress import Progress, StageClock
 from homemodel.model_folder.gate.gltf import start_khronos_validator
-from homemodel.model_folder.map_entry import MapEntry
 from shape_completion.pipeline import Completion, ShapeCompleter
 from shape_completion.support import SupportPlane
 from shape_completion.upright import object_frame
+
+if TYPE_CHECKING:  # a map entry comes made: its modules are imported only to register a model
+    from homemodel.model_folder.map_entry import MapEntry
 
 GREY = (0.7, 0.7, 0.75, 1.0)  # a completed shape has no colour
 

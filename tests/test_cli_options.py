@@ -259,7 +259,8 @@ def test_every_entry_keeps_one_result_contract(package: str, entry: str) -> None
     def field_hint(cls: type, name: str) -> Any:
         """The field's annotation; names imported only for type checkers are the real classes."""
         annotation = next(f.type for f in dataclasses.fields(cls) if f.name == name)
-        namespace = {**vars(sys.modules[cls.__module__]), "ModelSummary": ModelSummary, "Registration": Registration}
+        namespace = {**vars(sys.modules[cls.__module__]), "ModelSummary": ModelSummary, "Registration": Registration,
+                     "MapEntry": MapEntry}  # fmt: skip
         return _hint(annotation, namespace)
 
     assert ModelSummary in (field_hint(result_class, "summary"), *typing.get_args(field_hint(result_class, "summary")))

@@ -30,13 +30,14 @@ def map_entry_from_flags(
     """Where a reconstruction command's `--map --parent --id --xyz` register its model, or None
     without `--map`."""
     from homemodel.core.errors import InputError
-    from homemodel.core.transforms import transform_from_xyz_rpy
-    from homemodel.model_folder.map_entry import MapEntry
 
     if (map_path is None) != (parent_id is None):
         raise InputError("--map and --parent go together (the parent: the room, or large object, the object belongs to)")
     if map_path is None:
         return None
+    from homemodel.core.transforms import transform_from_xyz_rpy
+    from homemodel.model_folder.map_entry import MapEntry
+
     return MapEntry(
         map_path=map_path,
         object_id=object_id,

