@@ -28,8 +28,9 @@ GC_FIRST_GENERATION = 7000
 # glibc's malloc hands a freed block over 128 KiB back to the kernel (unmapped, or the heap's
 # top trimmed), so the next array of that size faults in fresh zeroed pages. Its threshold grows
 # with the blocks freed, but a command's arrays keep growing past it. With blocks up to 16 MiB
-# kept on the heap and up to 32 MiB of free top kept, a completion query takes 61,000 page faults
-# instead of 90,000 and 2.11 CPU-s instead of 2.25 (sys 0.25 -> 0.19), its peak memory the same.
+# kept on the heap and up to 32 MiB of free top kept, a completion query takes 60,000 page faults
+# instead of 90,000 and about 0.05 CPU-s less (system time 0.26-0.29 -> 0.19-0.24 s; 16
+# alternating runs at load 9-11), its peak memory the same.
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # mallopt's parameters (malloc.h)
 MMAP_THRESHOLD_BYTES = 16 << 20
 TRIM_THRESHOLD_BYTES = 32 << 20
@@ -56,7 +57,7 @@ def main() -> None:
 
         remember_interrupts()
         defer_networkx()  # trimesh's import without networkx's 0.08 CPU-s, for what never uses it
-        skip_scipy_doc_notes()  # SciPy's import without parsing 147 docstrings (0.07 CPU-s) nobody reads
+        skip_scipy_doc_notes()  # SciPy's import without parsing 147 docstrings nobody reads
         from homemodel.cli.commands import main as run_command_line
 
         raise_if_interrupted()
