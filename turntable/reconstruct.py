@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import queue
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -78,7 +78,7 @@ def _beside(letting_go: Callable[[], A], holding: Callable[[], B]) -> tuple[A, B
         return result.result(), held
 
 
-def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable) -> None:
+def _read_runs(runs: list[Iterable[FramePaths]], read_run: Callable, keep: Callable) -> None:
     """`read_run(k, run, hand_over)` on each run, a thread each when there are several (no run
     waits for another's frame: stepping the runs together had left a core idle whenever one
     frame of a step took longer); what they hand over is kept here, on this thread, as it comes."""
@@ -123,6 +123,30 @@ def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable)
 
 class _Stopped(Exception):
     """A run's thread told to end early."""
+
+
+class _Meeting:
+    """Consecutive frames read by two runs, one from each end, until they meet: each takes the
+    next frame at its own end, so both end within a frame of each other however their frames'
+    costs differ (a run's first two frames are searched, not tracked; split in halves, the
+    second run had ended 20 ms after the first). The table turns as evenly backwards: the
+    backward run's last two poses predict its next frame as well."""
+
+    def __init__(self, frames: list[FramePaths]) -> None:
+        self._frames, self._first, self._last = frames, 0, len(frames) - 1  # the frames not yet taken
+        self._lock = threading.Lock()
+
+    def taken(self, *, backward: bool) -> Iterator[FramePaths]:
+        """The frames as this end takes them."""
+        while True:
+            with self._lock:
+                if self._first > self._last:
+                    return
+                if backward:
+                    frame, self._last = self._frames[self._last], self._last - 1
+                else:
+                    frame, self._first = self._frames[self._first], self._first + 1
+            yield frame
 
 
 @dataclass(kw_only=True)
@@ -233,12 +257,16 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     search = search or whole
     # The rest in `workers` runs of consecutive frames, each run read by a thread of its own,
     # frame after frame: a run's last two poses predict its next frame's tags (see
-    # `tag_search.tracked_pose`). The first run goes on from the frames read above.
+    # `tag_search.tracked_pose`). Two runs read each stretch of frames, from either end, until
+    # they meet (`_Meeting`). The first run goes on from the frames read above.
     n = options.workers
-    runs = [run for i in range(n) if (run := frames[len(frames) * i // n : len(frames) * (i + 1) // n])]
+    runs: list[Iterable[FramePaths]] = []
+    for i in range(0, n, 2):
+        meeting = _Meeting(frames[len(frames) * i // n : len(frames) * min(i + 2, n) // n])
+        runs += [meeting.taken(backward=False)] + ([meeting.taken(backward=True)] if i + 1 < n else [])
     befores = [list(readings.values())[-2:]] + [[] for _ in runs[1:]]
 
-    def read_run(k: int, run: list[FramePaths], hand_over: Callable[[FrameReading], None]) -> None:
+    def read_run(k: int, run: Iterable[FramePaths], hand_over: Callable[[FrameReading], None]) -> None:
         before = befores[k]
         for frame in run:
             posed = len(before) == 2 and all(isinstance(r.pose, FramePose) for r in before)
