@@ -151,33 +151,6 @@ def test_runs_read_apart_hand_over_every_reading_in_order_and_a_failing_run_stop
     assert [f for f in kept if f[0] == "a"] == ["a0", "a1"] and [f for f in kept if f[0] == "b"] == ["b0", "b1", "b2"]
 
 
-def test_two_runs_meeting_take_every_frame_once_each_from_its_end() -> None:
-    """A stretch of frames read from both ends (`_Meeting`): every frame is taken once, the
-    forward run's in order and the backward run's in reverse, and a run held up takes fewer (a
-    split in halves would have left it 20 to read after the other had ended)."""
-    import threading
-
-    from turntable.reconstruct import _Meeting, _read_runs
-
-    meeting, thirty = _Meeting(list(range(40))), threading.Event()
-    taken: dict[int, list[int]] = {0: [], 1: []}
-
-    def read_run(k: int, run, hand_over) -> None:  # noqa: ANN001
-        for frame in run:
-            taken[k].append(frame)
-            if k == 0 and len(taken[0]) == 30:
-                thirty.set()
-            if k == 1:
-                assert thirty.wait(10)  # its first frame's search, say, takes as long as 30 of the other's
-            hand_over(frame)
-
-    _read_runs([meeting.taken(backward=False), meeting.taken(backward=True)], read_run, lambda frame: None)
-    forward, backward = taken[0], taken[1]
-    assert len(forward) >= 30 and forward == list(range(len(forward)))
-    assert backward == list(range(39, len(forward) - 1, -1))
-    assert list(_Meeting([7]).taken(backward=True)) == [7] and list(_Meeting([]).taken(backward=False)) == []
-
-
 def _tags_image() -> np.ndarray:
     """Tags 4 to 7 on white, 60, 40, 14 and 12 px wide (AprilTag's 2x decimation misses the small ones)."""
     image = np.full((120, 320), 255, np.uint8)

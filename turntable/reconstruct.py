@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import queue
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -78,7 +78,7 @@ def _beside(letting_go: Callable[[], A], holding: Callable[[], B]) -> tuple[A, B
         return result.result(), held
 
 
-def _read_runs(runs: list[Iterable[FramePaths]], read_run: Callable, keep: Callable) -> None:
+def _read_runs(runs: list[list[FramePaths]], read_run: Callable, keep: Callable) -> None:
     """`read_run(k, run, hand_over)` on each run, a thread each when there are several (no run
     waits for another's frame: stepping the runs together had left a core idle whenever one
     frame of a step took longer); what they hand over is kept here, on this thread, as it comes."""
@@ -125,30 +125,6 @@ class _Stopped(Exception):
     """A run's thread told to end early."""
 
 
-class _Meeting:
-    """Consecutive frames read by two runs, one from each end, until they meet: each takes the
-    next frame at its own end, so both end within a frame of each other however their frames'
-    costs differ (a run's first two frames are searched, not tracked; split in halves, the
-    second run had ended 20 ms after the first). The table turns as evenly backwards: the
-    backward run's last two poses predict its next frame as well."""
-
-    def __init__(self, frames: list[FramePaths]) -> None:
-        self._frames, self._first, self._last = frames, 0, len(frames) - 1  # the frames not yet taken
-        self._lock = threading.Lock()
-
-    def taken(self, *, backward: bool) -> Iterator[FramePaths]:
-        """The frames as this end takes them."""
-        while True:
-            with self._lock:
-                if self._first > self._last:
-                    return
-                if backward:
-                    frame, self._last = self._frames[self._last], self._last - 1
-                else:
-                    frame, self._first = self._frames[self._first], self._first + 1
-            yield frame
-
-
 @dataclass(kw_only=True)
 class FrameReading:
     """What one reading of a frame's colour and depth gives; the images themselves are not kept."""
@@ -188,9 +164,9 @@ def read_frames(capture: Capture, options: ReconstructOptions, report: Progress)
     with a reason."""
     camera = capture.camera
     # While the first frame is searched alone, on the other core: the pixel rays (float32 halves
-    # the per-pixel arithmetic; 0.1 um at 1 m), which its pixels need next (15 ms of NumPy at
+    # the per-pixel arithmetic; 0.1 um at 1 m), which the frames' pixels need (15 ms of NumPy at
     # 640 x 480; 0.23 s undistorting a 1280 x 720 lens's), then the tag detectors the runs'
-    # first searches need (35 ms each) beside the one the first frame's search builds.
+    # first searches need beside the one the first frame's search builds.
     with ThreadPoolExecutor(max_workers=1) as pool:
         rays = pool.submit(lambda: camera.pixel_rays().astype(np.float32))
         pool.submit(prepare_detectors, options.detection, options.workers)
@@ -207,34 +183,44 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     step = max(1, len(capture.frames) // _MISREGISTRATION_FRAMES)
     probes = {f.stem for f in capture.frames[step // 2 :: step]}
 
-    def one(frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None) -> FrameReading:
+    def posed(
+        frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None
+    ) -> tuple[FrameReading, tuple[np.ndarray, np.ndarray] | None]:
+        """The frame's reading as far as its pose, and its colour and grey images if it has one."""
         try:
             rgb = read_color(frame.color, camera)
         except FrameError as exc:
-            return FrameReading(stem=frame.stem, pose=f"image: {exc}", sharpness=np.nan)
+            return FrameReading(stem=frame.stem, pose=f"image: {exc}", sharpness=np.nan), None
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         sharp = sharpness(gray)
         try:
             pose = frame_pose(gray, search, capture.board, camera, options.pose, predicted)
         except PoseSkip as exc:
-            return FrameReading(stem=frame.stem, pose=f"pose: {exc}", sharpness=sharp)
+            return FrameReading(stem=frame.stem, pose=f"pose: {exc}", sharpness=sharp), None
+        return FrameReading(stem=frame.stem, pose=pose, sharpness=sharp), (rgb, gray)
+
+    def measured(frame: FramePaths, reading: FrameReading, rgb: np.ndarray, gray: np.ndarray) -> FrameReading:
+        """A posed frame's reading with its depth: the object's pixels and the figures."""
+        assert isinstance(reading.pose, FramePose)
         try:
             depth = read_depth(frame.depth, camera)
         except FrameError as exc:
-            return FrameReading(stem=frame.stem, pose=f"image: {exc}", sharpness=sharp)
-        table_from_camera = np.linalg.inv(pose.camera_from_table)
+            return replace(reading, pose=f"image: {exc}")
+        table_from_camera = np.linalg.inv(reading.pose.camera_from_table)
         pixels, flying = object_pixels(
             depth, rgb, rays.result(), table_from_camera, region, drop_flying=options.drop_flying_pixels
         )
-        return FrameReading(
-            stem=frame.stem,
-            pose=pose,
-            sharpness=sharp,
+        return replace(
+            reading,
             pixels=pixels,
             flying=flying,
             valid=int(np.count_nonzero(np.isfinite(depth))),
             offset_px=depth_color_offset_px(depth, gray) if frame.stem in probes else None,
         )
+
+    def one(frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None) -> FrameReading:
+        reading, images = posed(frame, search, predicted)
+        return reading if images is None else measured(frame, reading, *images)
 
     readings: dict[str, FrameReading] = {}
 
@@ -247,30 +233,34 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     # mug's first frame: 6 CPU-ms, 44 tags, against 14 ms and 48 at full), then at full
     # resolution if that gives no pose (`frame_pose`).
     whole = TagSearch(detection=replace(options.detection, decimate=options.detection.decimate or _FIRST_DECIMATION))
-    search, frames = None, list(capture.frames)
+    # The runs start as soon as that frame has its pose: the first run reads its depth.
+    search, frames, first = None, list(capture.frames), None
     while frames and search is None and len(readings) < _SEARCH_TRIES:
-        keep(reading := one(frames.pop(0), whole))
-        if isinstance(reading.pose, FramePose):
+        frame = frames.pop(0)
+        reading, images = posed(frame, whole)
+        keep(reading)
+        if images is not None:
+            first = (frame, reading, *images)
             search = capture_search(
                 capture.board, camera, reading.pose.camera_from_table, options.detection, predict=options.predict_tags
             )
     search = search or whole
     # The rest in `workers` runs of consecutive frames, each run read by a thread of its own,
     # frame after frame: a run's last two poses predict its next frame's tags (see
-    # `tag_search.tracked_pose`). Two runs read each stretch of frames, from either end, until
-    # they meet (`_Meeting`). The first run goes on from the frames read above.
+    # `tag_search.tracked_pose`). The first run goes on from the frames read above. (Runs that
+    # met wherever they got to, one from each end, ended closer together, but a frame's pose
+    # then depended on the direction it was tracked in, and that on the threads' timing.)
     n = options.workers
-    runs: list[Iterable[FramePaths]] = []
-    for i in range(0, n, 2):
-        meeting = _Meeting(frames[len(frames) * i // n : len(frames) * min(i + 2, n) // n])
-        runs += [meeting.taken(backward=False)] + ([meeting.taken(backward=True)] if i + 1 < n else [])
+    runs = [run for i in range(n) if (run := frames[len(frames) * i // n : len(frames) * (i + 1) // n])] or [[]]
     befores = [list(readings.values())[-2:]] + [[] for _ in runs[1:]]
 
-    def read_run(k: int, run: Iterable[FramePaths], hand_over: Callable[[FrameReading], None]) -> None:
+    def read_run(k: int, run: list[FramePaths], hand_over: Callable[[FrameReading], None]) -> None:
         before = befores[k]
+        if k == 0 and first is not None:
+            hand_over(measured(*first))
         for frame in run:
-            posed = len(before) == 2 and all(isinstance(r.pose, FramePose) for r in before)
-            reading = one(frame, search, predicted_pose(*(r.pose.camera_from_table for r in before)) if posed else None)
+            tracking = len(before) == 2 and all(isinstance(r.pose, FramePose) for r in before)
+            reading = one(frame, search, predicted_pose(*(r.pose.camera_from_table for r in before)) if tracking else None)
             before = [*before[-1:], reading]
             hand_over(reading)
 
