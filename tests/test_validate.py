@@ -115,6 +115,17 @@ def test_good_model_passes_every_check(tmp_path: Path) -> None:
     assert "3 movable joints moved as declared" in by_name(report)["pybullet"].detail
 
 
+def test_pybullet_refuses_a_missing_visual_mesh_without_building_visuals(tmp_path: Path) -> None:
+    """pybullet loads without building visual shapes (`URDF_IGNORE_VISUAL_SHAPES`), yet still
+    parses every visual element: a visual mesh that is not there fails its load."""
+    present = gate_clients.pybullet_check(write_cupboard(tmp_path / "present"), None)
+    assert present.detail.startswith("loaded")  # its joints not compared: no reading given
+    urdf = write_cupboard(tmp_path / "missing")  # another path: pybullet keeps the meshes it read by path
+    (tmp_path / "missing" / "meshes" / "knob.obj").unlink()
+    missing = gate_clients.pybullet_check(urdf, None)
+    assert not missing.passed and "Could not parse visual element for Link: knob" in missing.detail
+
+
 def test_a_models_report_is_the_same_in_a_fresh_process_and_after_other_models(tmp_path: Path) -> None:
     """pybullet's client is kept per thread and emptied between uses: nothing of one model (its
     bodies, gravity, its joints' motors) reaches the next."""
