@@ -5,9 +5,9 @@ As SciPy 1.16's modules are imported, its decorators (`_apply_over_batch` on mos
 arguments) parse each decorated function's whole docstring with `FunctionDoc`, add a note and
 write it back: 147 docstrings in a completion query, about 0.07 of its 0.69 CPU-s of imports
 (5 alternating import runs; in the whole command, 0.01-0.05 in alternating runs at load 9-14,
-within their noise). A command reads none of them. `skip_scipy_doc_notes()` makes the first import of SciPy's
-`_docscrape` leave `FunctionDoc` unparsed for those decorators: each function keeps the
-docstring it was written with, and its code is untouched.
+within their noise). A command reads none of them. `skip_scipy_doc_notes()` makes the first
+import of SciPy's `_docscrape` leave `FunctionDoc` unparsed for those decorators: each function
+keeps the docstring it was written with, and its code is untouched.
 """
 
 from __future__ import annotations
