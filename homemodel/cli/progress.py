@@ -55,6 +55,7 @@ def progress_bar(console: Console, verb: str) -> Iterator[Progress]:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # piped, the bar would only leave a blank line behind
     ) as bar:
         task = bar.add_task("starting", total=None)
         yield _also_to_file(lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total))
@@ -71,6 +72,7 @@ def stage_bars(console: Console) -> Iterator[Progress]:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # piped, the bar would only leave a blank line behind
     ) as bar:
         tasks: dict[str, TaskID] = {}
 
