@@ -8,13 +8,15 @@ that stands clear of the large objects' sides (it has moved: the cup from the ta
 worktop). A candidate is its own model placed
 on the cluster's surface, tried at several yaws, each refined by ICP in x, y and yaw; it is
 accepted only if the model explains most of its visible pixels and of the cluster's points.
+Its yaw is written only when the view pins it (the cup's handle seen); otherwise the map's
+is kept, or the nearest the view allows, and the report says "yaw not seen".
 Otherwise the object is "not found" (its map place is in view and empty) or "not seen" (that
 place is out of view or covered), never guessed.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import trimesh
@@ -46,6 +48,9 @@ class SmallObjectSearch:
     min_explained: float = 0.6  # of the model's visible pixels, observed where it renders them
     min_cluster_explained: float = 0.5  # of the cluster's points, within the tolerance of the model
     gates_m: tuple[float, ...] = (0.05, 0.03, 0.015)
+    yaw_checks: int = 24  # yaws the found object is judged at, to tell whether the view pins its yaw
+    min_yaw_turn: float = np.radians(20)
+    yaw_margin: float = 0.015  # of the cluster's points: a misfit this close to the least is as good
 
     def check(self) -> None:
         for name in ("search_radius_m", "yaw_candidates", "cluster_gap_m", "min_cluster_points"):
@@ -73,6 +78,9 @@ class _Candidate:
     explained: float
     cluster_explained: float
     rmse_m: float
+    misfit: int  # model pixels seen empty plus cluster points the model leaves unexplained
+    kernel_m: float  # the tolerance it was judged with
+    yaw_seen: bool = True
 
     @property
     def score(self) -> float:
@@ -122,7 +130,7 @@ def find_small_objects(
                     id=obj.id, status="found", parent=cluster.owner, previous_parent=obj.node.parent,
                     relation=cluster.relation if cluster.owner != obj.node.parent else obj.node.relation,
                     map_from_object=candidate.map_from_object, parent_from_object=parent_from_object,
-                    inlier_fraction=candidate.explained, rmse_m=candidate.rmse_m,
+                    inlier_fraction=candidate.explained, rmse_m=candidate.rmse_m, yaw_seen=candidate.yaw_seen,
                 )
                 break
     for obj in smalls:
@@ -300,7 +308,54 @@ def _fit_on_cluster(
             break
     if best is None or best.explained < search.min_explained or best.cluster_explained < search.min_cluster_explained:
         return None
-    return best
+    return _yaw_as_seen(state, view, scene_depth, object_id, best, cluster, search)
+
+
+def _yaw(pose: np.ndarray) -> float:
+    return float(np.arctan2(pose[1, 0], pose[0, 0]))
+
+
+def _yaw_as_seen(
+    state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, best: _Candidate, cluster: _Cluster,
+    search: SmallObjectSearch,
+) -> _Candidate:
+    """The found object at the yaw the view pins, or, when it pins none, at the yaw nearest
+    the map's among those that explain the view as well, marked not seen.
+
+    The ICP from a few starting yaws settles on the body and may leave the handle anywhere
+    (the README's view: 164 deg off). So the found object is turned about its own axis to
+    `yaw_checks` yaws and each judged as it stands; the fit decides, not the object's kind:
+    when the yaws within `yaw_margin` of the least misfit all lie within `min_yaw_turn` of it,
+    the view pins the yaw (the handle seen), which ICP then refines; when they spread wider,
+    it does not (the handle behind the cup or a few pixels, a body of revolution)."""
+    map_yaw = _yaw(state.map_from_objects[object_id])
+    # The map's own yaw is judged too: kept exactly when the view cannot tell it apart.
+    turns = [*np.linspace(0, 2 * np.pi, search.yaw_checks, endpoint=False), map_yaw - _yaw(best.map_from_object)]
+    turned = [_evaluate(state, view, scene_depth, object_id, best.map_from_object @ _planar_pose(0, 0, 0, turn),
+                        cluster, best.kernel_m, search) for turn in turns]
+    judged = [candidate for candidate in turned if candidate is not None]
+    if not judged:
+        return best
+    least = min(judged, key=lambda candidate: candidate.misfit)
+    margin = search.yaw_margin * len(cluster.points)
+    alike = [candidate for candidate in judged if candidate.misfit <= least.misfit + margin]
+    if max(abs(_turn_between(least.map_from_object, c.map_from_object)) for c in alike) < search.min_yaw_turn:
+        chosen, yaw_seen = least, True
+    else:
+        chosen, yaw_seen = min(alike, key=lambda c: abs(_turn_between(c.map_from_object, map_yaw))), False
+        if abs(_turn_between(chosen.map_from_object, map_yaw)) < 1e-9:
+            return replace(chosen, yaw_seen=False)
+    # On the scan's grid: ICP settles the yaw within what the view allows (a box's yaw
+    # modulo its symmetry, exact again).
+    refined = _refine(state, view, scene_depth, object_id, chosen.map_from_object, cluster, search)
+    if refined is not None and refined.misfit <= least.misfit + margin:
+        chosen = refined
+    return replace(chosen, yaw_seen=yaw_seen)
+
+
+def _turn_between(a: np.ndarray, b: np.ndarray | float) -> float:
+    """The yaw from pose `a` to pose (or yaw) `b`, in (-pi, pi]."""
+    return float(np.angle(np.exp(1j * ((b if isinstance(b, float) else _yaw(b)) - _yaw(a)))))
 
 
 def _refine(
@@ -328,6 +383,16 @@ def _refine(
             return None
         pose = np.linalg.inv(correction) @ pose
         pose[2, 3] = cluster.height_m
+    return _evaluate(state, view, scene_depth, object_id, pose, cluster, kernel, search)
+
+
+def _evaluate(
+    state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, pose: np.ndarray, cluster: _Cluster,
+    kernel_m: float, search: SmallObjectSearch,
+) -> _Candidate | None:
+    """How well the object at `pose` explains the view, or None when it cannot be judged or
+    its colour is not the one seen."""
+    rotation = view.map_from_camera[:3, :3]
     rendering = _render_object(state, view, object_id, pose)
     visible = rendering.hit & (rendering.depth_m < scene_depth)
     if not visible.any():
@@ -350,13 +415,15 @@ def _refine(
                 return None
     target = view.points_map(rendering.depth_m, visible)
     normals = rendering.normals_camera[visible] @ rotation.T
-    quality = fit_quality(cluster.points, target, normals, np.eye(4), kernel)
+    quality = fit_quality(cluster.points, target, normals, np.eye(4), kernel_m)
     residual = (observed - model)[judged & explained]
     return _Candidate(
         map_from_object=pose,
         explained=float(explained[judged].mean()),
         cluster_explained=quality.inlier_fraction,
         rmse_m=float(np.sqrt(np.mean(residual**2))) if residual.size else float("nan"),
+        misfit=int((~explained[judged]).sum()) + round((1.0 - quality.inlier_fraction) * len(cluster.points)),
+        kernel_m=kernel_m,
     )
 
 

@@ -67,6 +67,7 @@ class SmallObjectReport:
     parent_from_object: np.ndarray | None = None
     inlier_fraction: float = 0.0
     rmse_m: float = float("nan")
+    yaw_seen: bool = True  # False: the view did not pin the yaw, the map's (or the nearest it allows) kept
 
     def to_json(self) -> dict:
         out: dict = {"id": self.id, "status": self.status, "parent": self.parent, "relation": self.relation}
@@ -78,6 +79,7 @@ class SmallObjectReport:
                 "parent_from_object": pose_json(self.parent_from_object),
                 "inlier_fraction": _number(self.inlier_fraction, 3),
                 "rmse_m": _number(self.rmse_m),
+                "yaw": "seen" if self.yaw_seen else "not seen",
             }
         return out
 
@@ -162,7 +164,7 @@ class ObservationReport:
                 where = small.status
                 if small.status == "found":
                     x, y, z = small.map_from_object[:3, 3]
-                    where = f"found at ({x:.2f}, {y:.2f}, {z:.2f}) m"
+                    where = f"found at ({x:.2f}, {y:.2f}, {z:.2f}) m" + ("" if small.yaw_seen else ", yaw not seen")
                     if small.parent != small.previous_parent:
                         where += f", moved from {small.previous_parent}"
                 rows.append((obj.id, small.id, where, ""))
