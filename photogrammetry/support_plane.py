@@ -334,14 +334,16 @@ def find_support_plane(
         near &= hypotheses @ hypotheses[best] >= np.cos(np.radians(PARALLEL_DEG))
         under_focus = np.where(near, hypotheses @ focus + offsets, np.inf)
         best = int(np.argmax(np.where(under_focus <= under_focus.min() + threshold, score, -np.inf)))
-        normal, offset = hypotheses[best], offsets[best]
+        # Refitted once more, on its own inliers: the plane its surface gives, not the seed's tilt.
+        refit = _refined(hypotheses[best : best + 1], offsets[best : best + 1], points, normals, up, threshold)
+        normal, offset = refit[0][0], refit[1][0]
         on_plane = np.abs(points @ normal + offset) <= threshold
         on_plane &= np.abs(normals @ normal) >= np.cos(np.radians(SURFACE_AGREEMENT_DEG))
         spread = points[on_plane] @ normal + offset
         return Plane(
             normal=normal,
             offset=float(offset),
-            inlier_share=float(inliers[best]),
+            inlier_share=float(on_plane.mean()),
             tilt_deg=float(np.degrees(np.arccos(np.clip(normal @ up, -1, 1)))),
             noise=float(1.4826 * np.median(np.abs(spread - np.median(spread)))),
         )
