@@ -89,10 +89,9 @@ def judge_pose(
         seen = _seen_surface(state, view, object_id, background_m)
         state.map_from_objects[object_id] = _pinned(along, map_from_object_before, *seen)
         after = object_depth(state, view, object_id)
-    moved_m, doubt_m = _corner_move_m(state, object_id, map_from_object_before)
-    if moved_m > gate.max_corner_doubts * doubt_m:
-        return PoseVerdict(accepted=False, note=f"a corner moved {moved_m * 100:.0f} cm, the map's doubt there "
-                                                f"{doubt_m * 100:.0f} cm: not the map's error put right")
+    gone_wrong = past_the_doubt(state, object_id, map_from_object_before, gate)
+    if gone_wrong:
+        return PoseVerdict(accepted=False, note=f"{gone_wrong}: not the map's error put right")
     considered = (after < background_m) | (before < background_m)
     scene_depths = [np.minimum(d, background_m) for d in (before, after)]
     cost_before, cost_after = depth_costs(view, scene_depths, considered)
@@ -105,6 +104,22 @@ def judge_pose(
         return verdict
     verdict.accepted, verdict.note = True, costs
     return verdict
+
+
+def past_the_doubt(state: FitState, object_id: str, map_from_before: np.ndarray, gate: PoseGate) -> str | None:
+    """Why the object's current pose, from `map_from_before`, is a fit gone wrong rather than
+    the map's error put right: a corner of its box moved more than `max_corner_doubts` times
+    the map's doubt there, or it turned more than that many times the map's doubt about its
+    turn (a small object's corners are near its origin: a microwave's pose turned 6.3 deg the
+    wrong way, 8.3 deg off, passed the corners' bound). None when neither."""
+    moved_m, doubt_m = _corner_move_m(state, object_id, map_from_before)
+    if moved_m > gate.max_corner_doubts * doubt_m:
+        return f"a corner moved {moved_m * 100:.0f} cm, the map's doubt there {doubt_m * 100:.0f} cm"
+    change = np.linalg.inv(map_from_before) @ state.map_from_objects[object_id]
+    turned = abs(float(np.arctan2(change[1, 0], change[0, 0])))
+    if turned > gate.max_corner_doubts * DOUBT_RAD + 1e-9:
+        return f"turned {np.degrees(turned):.1f} deg, the map's doubt {np.degrees(DOUBT_RAD):.0f} deg"
+    return None
 
 
 def _along_view(map_from_refined: np.ndarray, map_from_before: np.ndarray, map_from_camera: np.ndarray) -> np.ndarray:
