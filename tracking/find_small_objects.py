@@ -48,7 +48,7 @@ class SmallObjectSearch:
     min_explained: float = 0.6  # of the model's visible pixels, observed where it renders them
     min_cluster_explained: float = 0.5  # of the cluster's points, within the tolerance of the model
     gates_m: tuple[float, ...] = (0.05, 0.03, 0.015)
-    yaw_checks: int = 72  # yaws the found object is judged at, to tell whether the view pins its yaw
+    yaw_checks: int = 48  # yaws the found object is judged at, to tell whether the view pins its yaw
     min_yaw_turn: float = np.radians(20)
     yaw_margin: float = 0.015  # of the cluster's points: a misfit this close to the least is as good
 
