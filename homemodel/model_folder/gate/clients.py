@@ -26,7 +26,7 @@ from articulation.joint_types import MOVABLE_JOINT_TYPES
 from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.core.transforms import axis_angle_transform, translation_transform
 from homemodel.model_folder.gate.process import BoundedRun, last_lines
-from homemodel.model_folder.gate.pybullet_world import empty_pybullet_client
+from homemodel.model_folder.gate.pybullet_world import declared_inertia_no_visuals, empty_pybullet_client
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
 
 CHECK_URDF_TIMEOUT_S = 30.0
@@ -218,13 +218,8 @@ def kinematics_problems(pb: Any, client: int, body: int, declared: Any) -> list[
 
 
 def pybullet_check(urdf: Path, declared: Any) -> Check:
-    """Load in this thread's DIRECT client with a fixed base and the file's inertias; move every joint.
-
-    The visual shapes are not built (`URDF_IGNORE_VISUAL_SHAPES`, as the collisions and physics
-    checks load it): pybullet still parses every visual element and refuses a missing mesh file
-    or an unknown mesh type either way, and it builds any mesh file it can open (a corrupt OBJ,
-    an empty STL) without a word. Building them only fed its software renderer: a completion's
-    first load took 0.064-0.069 CPU-s with its 50,000-face visual built, 0.009-0.010 without."""
+    """Load in this thread's DIRECT client with a fixed base and the file's inertias, its visual
+    shapes not built (as the physics check loads it); move every joint."""
     error: str | None = None
     problems: list[str] = []
     # A zero axis makes yourdfpy's kinematics divide by zero; the NaN pose fails below.
@@ -235,10 +230,7 @@ def pybullet_check(urdf: Path, declared: Any) -> Check:
         client = empty_pybullet_client()
         try:
             body = pb.loadURDF(
-                str(urdf),
-                useFixedBase=True,
-                flags=pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_IGNORE_VISUAL_SHAPES,
-                physicsClientId=client,
+                str(urdf), useFixedBase=True, flags=declared_inertia_no_visuals(pb), physicsClientId=client
             )
             if declared is not None:
                 problems = kinematics_problems(pb, client, body, declared)

@@ -29,7 +29,7 @@ import numpy as np
 from articulation.joint_loads import STANDARD_GRAVITY_M_S2
 from homemodel.core.c_stdio_capture import captured_c_output
 from homemodel.model_folder.gate.clients import pybullet_errors
-from homemodel.model_folder.gate.pybullet_world import empty_pybullet_client
+from homemodel.model_folder.gate.pybullet_world import declared_inertia_no_visuals, empty_pybullet_client
 from homemodel.model_folder.gate.report import Check, check_from_problems, count
 
 CHECK_NAME = "physics"
@@ -92,12 +92,6 @@ def _start_position(pb: Any, client: int, body: int, info: tuple) -> float:
     return (lower + upper) / 2
 
 
-def _physics_flags(pb: Any) -> int:
-    """The declared inertia, and no visual meshes: the simulation never sees them, and pybullet
-    parses each one (a completed cup's 79,000-triangle visual: 0.1-0.2 of 0.2 CPU-s a load)."""
-    return pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_IGNORE_VISUAL_SHAPES
-
-
 def _simulate(pb: Any, client: int) -> None:
     pb.setGravity(0, 0, -STANDARD_GRAVITY_M_S2, physicsClientId=client)
     pb.setTimeStep(STEP_S, physicsClientId=client)
@@ -107,7 +101,7 @@ def _simulate(pb: Any, client: int) -> None:
 
 def joint_drifts(pb: Any, client: int, urdf: Path) -> list[JointDrift]:
     """Each movable joint's drift in `SIMULATED_S`, all started together, the base fixed."""
-    body = pb.loadURDF(str(urdf), useFixedBase=True, flags=_physics_flags(pb), physicsClientId=client)
+    body = pb.loadURDF(str(urdf), useFixedBase=True, flags=declared_inertia_no_visuals(pb), physicsClientId=client)
     joints = _movable(pb, client, body)
     if not joints:
         return []
@@ -145,7 +139,7 @@ def _mass_kg(pb: Any, client: int, body: int) -> float:
 def resting_drift_m(pb: Any, client: int, urdf: Path) -> float | None:
     """How far a small object set free on a floor under it moves in `SIMULATED_S`; None
     when the model is not a small object standing on z = 0."""
-    body = pb.loadURDF(str(urdf), useFixedBase=False, flags=_physics_flags(pb), physicsClientId=client)
+    body = pb.loadURDF(str(urdf), useFixedBase=False, flags=declared_inertia_no_visuals(pb), physicsClientId=client)
     bounds = _bounds(pb, client, body)
     if _mass_kg(pb, client, body) > SMALL_MAX_KG or (bounds[1] - bounds[0]).max() > SMALL_MAX_EXTENT_M:
         pb.removeBody(body, physicsClientId=client)
