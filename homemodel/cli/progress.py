@@ -44,19 +44,25 @@ def make_console() -> Console:
     return Console(width=None if sys.stdout.isatty() else 120)
 
 
-@contextlib.contextmanager
-def progress_bar(console: Console, verb: str) -> Iterator[Progress]:
-    """One bar, labelled `verb` and the current stage, and the `progress(stage, done, total)`
-    callback the library calls to drive it (total None: not known yet)."""
-    with Bars(
-        TextColumn(f"[bold]{verb}[/] " + "{task.description:<24}"),
+def _bars(console: Console, label: str) -> Bars:
+    """Bars labelled by `label` (a rich format of the task), gone once done, shown only on a
+    terminal: piped, rich would leave a blank line behind each."""
+    return Bars(
+        TextColumn(label),
         BarColumn(),
         MofNCompleteColumn(),
         TimeElapsedColumn(),
         console=console,
         transient=True,
-        disable=not console.is_terminal,  # piped, the bar would only leave a blank line behind
-    ) as bar:
+        disable=not console.is_terminal,
+    )
+
+
+@contextlib.contextmanager
+def progress_bar(console: Console, verb: str) -> Iterator[Progress]:
+    """One bar, labelled `verb` and the current stage, and the `progress(stage, done, total)`
+    callback the library calls to drive it (total None: not known yet)."""
+    with _bars(console, f"[bold]{verb}[/] " + "{task.description:<24}") as bar:
         task = bar.add_task("starting", total=None)
         yield _also_to_file(lambda stage, done, total: bar.update(task, description=stage, completed=done, total=total))
 
@@ -65,15 +71,7 @@ def progress_bar(console: Console, verb: str) -> Iterator[Progress]:
 def stage_bars(console: Console) -> Iterator[Progress]:
     """A bar per stage of a pipeline, each finished when the next one starts, and the
     `progress(stage, done, total)` callback that drives them."""
-    with Bars(
-        TextColumn("[bold]{task.description:<14}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,  # piped, the bar would only leave a blank line behind
-    ) as bar:
+    with _bars(console, "[bold]{task.description:<14}") as bar:
         tasks: dict[str, TaskID] = {}
 
         def progress(stage: str, done: int, total: int | None) -> None:
