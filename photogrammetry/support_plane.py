@@ -3,6 +3,7 @@ object in the dense points (RANSAC with the normal held near up)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -182,20 +183,43 @@ def _plane_hypotheses(
     return hypotheses, -np.sum(hypotheses * points[seeds], axis=1)
 
 
+def _blocks(planes: int) -> Iterator[slice]:
+    """The planes in blocks of 128, each block against every point at once."""
+    return (slice(start, start + 128) for start in range(0, planes, 128))
+
+
+def _inliers(
+    hypotheses: np.ndarray, offsets: np.ndarray, points: np.ndarray, normals: np.ndarray, threshold: float
+) -> np.ndarray:
+    """(points, planes): which `points` lie within `threshold` of each plane with their own
+    surface facing the same way (a slab through upright surfaces, books or a toy's legs, cuts
+    many points but faces none)."""
+    near = np.abs(points @ hypotheses.T + offsets) <= threshold
+    near &= np.abs(normals @ hypotheses.T) >= np.cos(np.radians(SURFACE_AGREEMENT_DEG))
+    return near
+
+
+def _inlier_shares(
+    hypotheses: np.ndarray, offsets: np.ndarray, points: np.ndarray, normals: np.ndarray, threshold: float
+) -> np.ndarray:
+    """Per plane, the share of `points` that are its `_inliers`."""
+    shares = np.zeros(len(hypotheses))
+    for block in _blocks(len(hypotheses)):
+        shares[block] = _inliers(hypotheses[block], offsets[block], points, normals, threshold).mean(axis=0)
+    return shares
+
+
 def _refined(
     hypotheses: np.ndarray, offsets: np.ndarray, points: np.ndarray, normals: np.ndarray, up: np.ndarray,
     threshold: float,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """The planes (REFINE_ROUNDS times) fitted by least squares to their inliers (points within
-    `threshold` whose own surface faces the same way); one with fewer than 3 stays."""
-    min_cos = np.cos(np.radians(SURFACE_AGREEMENT_DEG))
+    """The planes (REFINE_ROUNDS times) fitted by least squares to their `_inliers`; one with
+    fewer than 3 stays."""
     moments = (points[:, :, None] * points[:, None, :]).reshape(-1, 9)
     hypotheses, offsets = hypotheses.copy(), offsets.copy()
     for _ in range(REFINE_ROUNDS):
-        for start in range(0, len(hypotheses), 128):  # blocks of planes against every point
-            block = slice(start, start + 128)
-            near = np.abs(points @ hypotheses[block].T + offsets[block]) <= threshold
-            near &= np.abs(normals @ hypotheses[block].T) >= min_cos
+        for block in _blocks(len(hypotheses)):
+            near = _inliers(hypotheses[block], offsets[block], points, normals, threshold)
             count = near.sum(axis=0)
             weights = near / np.maximum(count, 1)
             centroids = weights.T @ points
@@ -212,16 +236,11 @@ def _score_planes(
     hypotheses: np.ndarray, offsets: np.ndarray, points: np.ndarray, normals: np.ndarray,
     object_points: np.ndarray, threshold: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """Per plane, the share of `points` within `threshold` whose own surface faces the same way
-    (a slab through upright surfaces, books or a toy's legs, cuts many points but faces none),
-    and the shares of `object_points` more than `threshold` below it and above it."""
-    min_cos = np.cos(np.radians(SURFACE_AGREEMENT_DEG))
-    inliers, below, above = np.zeros(len(hypotheses)), np.zeros(len(hypotheses)), np.zeros(len(hypotheses))
-    for start in range(0, len(hypotheses), 128):  # blocks of planes against every point
-        block = slice(start, start + 128)
-        near = np.abs(points @ hypotheses[block].T + offsets[block]) <= threshold
-        near &= np.abs(normals @ hypotheses[block].T) >= min_cos
-        inliers[block] = near.mean(axis=0)
+    """Per plane, its `_inlier_shares` of `points`, and the shares of `object_points` more than
+    `threshold` below it and above it."""
+    inliers = _inlier_shares(hypotheses, offsets, points, normals, threshold)
+    below, above = np.zeros(len(hypotheses)), np.zeros(len(hypotheses))
+    for block in _blocks(len(hypotheses)):
         heights = object_points @ hypotheses[block].T + offsets[block]
         below[block] = np.mean(heights < -threshold, axis=0)
         above[block] = np.mean(heights > threshold, axis=0)
@@ -322,7 +341,7 @@ def find_support_plane(
         hypotheses, offsets = _plane_hypotheses(points, normals, up, max_tilt, rng)
         if not len(hypotheses):
             continue
-        hopeful = _score_planes(hypotheses, offsets, points, normals, object_points, threshold)[0] >= REFIT_MIN_SHARE
+        hopeful = _inlier_shares(hypotheses, offsets, points, normals, threshold) >= REFIT_MIN_SHARE
         if not hopeful.any():
             continue
         hypotheses, offsets = _refined(hypotheses[hopeful], offsets[hopeful], points, normals, up, threshold)
@@ -343,8 +362,7 @@ def find_support_plane(
         # Refitted once more, on its own inliers: the plane its surface gives, not the seed's tilt.
         refit = _refined(hypotheses[best : best + 1], offsets[best : best + 1], points, normals, up, threshold)
         normal, offset = refit[0][0], refit[1][0]
-        on_plane = np.abs(points @ normal + offset) <= threshold
-        on_plane &= np.abs(normals @ normal) >= np.cos(np.radians(SURFACE_AGREEMENT_DEG))
+        on_plane = _inliers(normal[None], offset[None], points, normals, threshold)[:, 0]
         spread = points[on_plane] @ normal + offset
         return Plane(
             normal=normal,
