@@ -326,6 +326,7 @@ class Renderer:
         self._tables: dict[Camera, _PixelTable] = {}
         self._depths: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
         self._depth_pixels = 0
+        self._last_rendering: tuple[tuple, Rendering] | None = None
 
     def _table(self, camera: Camera) -> _PixelTable:
         # Kept for the few cameras of one observation: its views and crops.
@@ -348,31 +349,51 @@ class Renderer:
         only: Sequence[int] | None = None,
     ) -> Rendering:
         """Depth, part index, normal and colour at every pixel of `camera` at `map_from_camera`,
-        the parts at `map_from_parts` (one per part); `only` renders a subset of part indices."""
+        the parts at `map_from_parts` (one per part); `only` renders a subset of part indices.
+        Its arrays are read-only: the last rendering is given again when asked again (a fitter
+        whose step left the pose where it was renders it anew)."""
         if len(map_from_parts) != len(self.parts):
             raise ValueError(f"{len(map_from_parts)=} but expected {len(self.parts)} (one pose per part)")
-        rays = self.pixel_rays(camera)
+        parts = range(len(self.parts)) if only is None else only
+        key = (self._table(camera).key, as_transform(map_from_camera).tobytes(), tuple(parts),
+               *(as_transform(map_from_parts[i]).tobytes() for i in parts))
+        if self._last_rendering is not None and self._last_rendering[0] == key:
+            return self._last_rendering[1]
+        rendering = self._render(map_from_parts, camera, map_from_camera, parts)
+        for array in (rendering.depth_m, rendering.part_index, rendering.normals_camera, rendering.rgb):
+            array.flags.writeable = False
+        self._last_rendering = (key, rendering)
+        return rendering
+
+    def _render(
+        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, parts: Sequence[int]
+    ) -> Rendering:
         n = camera.width * camera.height
         depth = np.full(n, np.inf)
         index = np.full(n, -1, dtype=np.int64)
-        normals = np.zeros((n, 3))
-        rgb = np.zeros((n, 3))
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
-        for i in range(len(self.parts)) if only is None else only:
+        casts = []
+        for i in parts:
             camera_from_part = camera_from_map @ as_transform(map_from_parts[i])
             cast = self._cast(i, camera, camera_from_part)
             if cast is None:
                 continue
-            pixels, hits = cast
+            pixels, _, hits = cast
             t = hits.t.astype(np.float64)
             closer = hits.hit & (t >= NEAR_M) & (t < depth[pixels])
-            chosen = pixels[closer]
-            depth[chosen] = t[closer]
-            index[chosen] = i
-            normal = hits.normals[closer].astype(np.float64) @ camera_from_part[:3, :3].T
-            facing = np.sign(np.einsum("ij,ij->i", normal, rays[chosen]))
+            depth[pixels[closer]] = t[closer]
+            index[pixels[closer]] = i
+            casts.append((i, camera_from_part, cast, int(closer.sum())))
+        # Normals and colours only where each part is the surface seen, not where a later part covers it.
+        normals = np.zeros((n, 3))
+        rgb = np.zeros((n, 3))
+        for i, camera_from_part, (pixels, rays, hits), closer_count in casts:
+            seen = index[pixels] == i
+            chosen = pixels[seen]
+            normal = _rotated(hits.normals[seen], camera_from_part[:3, :3], closer_count)
+            facing = np.sign(np.einsum("ij,ij->i", normal, rays[seen]))
             normals[chosen] = -normal * np.where(facing == 0, 1.0, facing)[:, None]
-            rgb[chosen] = self.parts[i].face_rgb[hits.triangle[closer]]
+            rgb[chosen] = self.parts[i].face_rgb[hits.triangle[seen]]
         depth[index < 0] = 0.0
         shape = (camera.height, camera.width)
         return Rendering(
@@ -457,20 +478,19 @@ class Renderer:
         """(flat pixel indices, float64 depth there, inf where missed or nearer than
         `NEAR_M`) of part `index` at each pose ((K, 4, 4) `camera_from_parts`), all the
         poses' rays in one cast."""
-        empty = (np.empty(0, dtype=np.int64), np.empty((0, 3)))
-        windows = [_pixels_in_view(table, m, self._corners[index]) or empty for m in camera_from_parts]
+        windows = _windows(table, camera_from_parts, self._corners[index])
         pixel_sets = [pixels for pixels, _ in windows]
         ends = np.cumsum([len(p) for p in pixel_sets])
         if not ends[-1]:
             return [(p, np.empty(0)) for p in pixel_sets]
-        # Every pose's rays in one buffer, origins then directions, as the caster takes them.
+        # Every pose's rays in one buffer as the caster takes them (float32, origin then direction).
         parts_from_camera = np.linalg.inv(camera_from_parts)
-        origins = np.repeat(parts_from_camera[:, :3, 3], [len(p) for p in pixel_sets], axis=0)
-        directions = np.empty((ends[-1], 3))
+        buffer = np.empty((ends[-1], 6), dtype=np.float32)
         for (pixels, rays), part_from_camera, end in zip(windows, parts_from_camera, ends):
             if len(pixels):
-                np.matmul(rays, part_from_camera[:3, :3].T, out=directions[end - len(pixels):end])
-        t = self._casters[index].hit_distances(origins, directions).astype(np.float64)
+                buffer[end - len(pixels):end, :3] = part_from_camera[:3, 3]
+                buffer[end - len(pixels):end, 3:] = rays @ part_from_camera[:3, :3].T
+        t = self._casters[index].hit_distances_of(buffer).astype(np.float64)
         t[t < NEAR_M] = np.inf
         return list(zip(pixel_sets, np.split(t, ends[:-1])))
 
@@ -486,17 +506,28 @@ class Renderer:
         if whole:
             camera = widened(camera, self._corners[index] @ camera_from_part[:3, :3].T + camera_from_part[:3, 3])
         cast = self._cast(index, camera, camera_from_part)
-        return 0 if cast is None else int((cast[1].hit & (cast[1].t >= NEAR_M)).sum())
+        return 0 if cast is None else int((cast[2].hit & (cast[2].t >= NEAR_M)).sum())
 
-    def _cast(self, index: int, camera: Camera, camera_from_part: np.ndarray) -> tuple[np.ndarray, Hits] | None:
-        """(flat pixel indices, their hits) of the rays that may reach part `index`, or None."""
+    def _cast(
+        self, index: int, camera: Camera, camera_from_part: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, Hits] | None:
+        """(flat pixel indices, their (N, 3) rays in the camera frame, their hits) of the rays
+        that may reach part `index`, or None."""
         window = _pixels_in_view(self._table(camera), camera_from_part, self._corners[index])
         if window is None:
             return None
         pixels, rays = window
         part_from_camera = np.linalg.inv(camera_from_part)
-        rays = rays @ part_from_camera[:3, :3].T
-        return pixels, self._casters[index].first_hits(part_from_camera[:3, 3], rays)
+        return pixels, rays, self._casters[index].first_hits(part_from_camera[:3, 3], rays @ part_from_camera[:3, :3].T)
+
+
+def _rotated(vectors: np.ndarray, rotation: np.ndarray, rows_before: int) -> np.ndarray:
+    """float64 `vectors @ rotation.T`, each row's bits those of the product over the `rows_before`
+    rows it was picked from: numpy multiplies a single row another way, whose last bits differ."""
+    vectors = vectors.astype(np.float64)
+    if len(vectors) == 1 and rows_before > 1:
+        return (np.repeat(vectors, 2, axis=0) @ rotation.T)[:1]
+    return vectors @ rotation.T
 
 
 # Corner pairs of `_box_corners` that differ in one coordinate: the box's 12 edges.
@@ -526,6 +557,40 @@ def widened(camera: Camera, points_camera: np.ndarray) -> Camera:
                      "cx": camera.cx + left, "cy": camera.cy + top})
 
 
+def _windows(
+    table: _PixelTable, camera_from_parts: np.ndarray, corners_part: np.ndarray
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """`_pixels_in_view` of a part at each of (K, 4, 4) `camera_from_parts` (no pixels for
+    none), the usual case (an undistorted lens, every corner in front) worked out for all
+    poses at once. A window's edge may lie a pixel off `_pixels_in_view`'s by rounding, never
+    at a pixel whose ray reaches the box: either reaches a pixel past the box's image."""
+    corners = corners_part @ camera_from_parts[:, :3, :3].transpose(0, 2, 1) + camera_from_parts[:, None, :3, 3]
+    if table.distorted or (corners[..., 2] < NEAR_M).any():
+        return [_pixels_in_view(table, m, corners_part) or _NO_PIXELS for m in camera_from_parts]
+    return _image_windows(table, corners)
+
+
+_NO_PIXELS = (np.empty(0, dtype=np.int64), np.empty((0, 3)))
+
+
+def _image_windows(table: _PixelTable, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Flat indices and (N, 3) rays of the pixels of the image box of each of K sets of (K, M, 3)
+    camera-frame points in front of the near plane, a pixel wider each way (none for a box
+    off the image), for an undistorted lens: `Camera.project`'s pinhole arithmetic on plain floats."""
+    u = table.fx * (points[..., 0] / points[..., 2]) + table.cx
+    v = table.fy * (points[..., 1] / points[..., 2]) + table.cy
+    height, width = table.flat.shape
+    u0 = np.maximum(np.floor(u.min(axis=1)).astype(int) - 1, 0)
+    v0 = np.maximum(np.floor(v.min(axis=1)).astype(int) - 1, 0)
+    u1 = np.minimum(np.ceil(u.max(axis=1)).astype(int) + 1, width - 1)
+    v1 = np.minimum(np.ceil(v.max(axis=1)).astype(int) + 1, height - 1)
+    # Windows of the image: slicing the tables costs a third of gathering their pixels' rays.
+    windows = [(slice(top, bottom + 1), slice(left, right + 1))
+               for left, top, right, bottom in zip(u0.tolist(), v0.tolist(), u1.tolist(), v1.tolist())]
+    return [(table.flat[rows, columns].flatten(), table.grid_rays[rows, columns].reshape(-1, 3))
+            if rows.start < rows.stop and columns.start < columns.stop else _NO_PIXELS for rows, columns in windows]
+
+
 def _pixels_in_view(
     table: _PixelTable, camera_from_part: np.ndarray, corners_part: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray] | None:
@@ -553,13 +618,5 @@ def _pixels_in_view(
         inside = (rays[:, 0] >= x0) & (rays[:, 0] <= x1) & (rays[:, 1] >= y0) & (rays[:, 1] <= y1)
         pixels = np.flatnonzero(inside)
         return (pixels, rays[pixels]) if len(pixels) else None
-    # Camera.project's pinhole arithmetic, on the plain floats.
-    u = table.fx * (points[:, 0] / points[:, 2]) + table.cx
-    v = table.fy * (points[:, 1] / points[:, 2]) + table.cy
-    height, width = table.flat.shape
-    u0, v0 = max(int(np.floor(u.min())) - 1, 0), max(int(np.floor(v.min())) - 1, 0)
-    u1, v1 = min(int(np.ceil(u.max())) + 1, width - 1), min(int(np.ceil(v.max())) + 1, height - 1)
-    if u0 > u1 or v0 > v1:
-        return None
-    # A window of the image: slicing the tables costs a third of gathering its pixels' rays.
-    return table.flat[v0:v1 + 1, u0:u1 + 1].flatten(), table.grid_rays[v0:v1 + 1, u0:u1 + 1].reshape(-1, 3)
+    pixels, rays = _image_windows(table, points[None])[0]
+    return (pixels, rays) if len(pixels) else None

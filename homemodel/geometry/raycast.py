@@ -51,11 +51,7 @@ class RayCaster:
     def first_hits(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
         """What each ray `origin + t * direction` (t > 0) hits first: (N, 3) origins and
         directions, or one (3,) origin or direction for all the rays."""
-        origins, directions = np.broadcast_arrays(np.asarray(origins), np.asarray(directions))
-        if directions.ndim != 2 or directions.shape[1] != 3:
-            raise ValueError(f"{directions.shape=} but expected (N, 3)")
-        rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
-        result = self._scene.cast_rays(self._o3d.core.Tensor(rays))
+        result = self._scene.cast_rays(self._o3d.core.Tensor(_rays(origins, directions)))
         triangle = result["primitive_ids"].numpy().astype(np.int64)
         triangle[triangle == self._o3d.t.geometry.RaycastingScene.INVALID_ID] = -1
         return Hits(
@@ -69,12 +65,10 @@ class RayCaster:
         """(N,) float32 `t` of each ray's first hit (inf where it misses): `first_hits` without
         the triangles, barycentrics and normals, whose conversions cost more than the casting
         when only depth is wanted. (N, 3) or (3,) origins, (N, 3) directions."""
-        directions = np.asarray(directions)
-        if directions.ndim != 2 or directions.shape[1] != 3:
-            raise ValueError(f"{directions.shape=} but expected (N, 3)")
-        rays = np.empty((len(directions), 6), dtype=np.float32)
-        rays[:, :3] = origins
-        rays[:, 3:] = directions
+        return self.hit_distances_of(_rays(origins, directions))
+
+    def hit_distances_of(self, rays: np.ndarray) -> np.ndarray:
+        """`hit_distances` of rays ready as open3d takes them: (N, 6) float32, origin then direction."""
         return self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()
 
     def camera_hits(self, camera: Camera, camera_from_mesh: np.ndarray) -> tuple[np.ndarray, Hits]:
@@ -95,6 +89,18 @@ class RayCaster:
         """(N,) exact unsigned distance from each point to the nearest point of the triangles."""
         points = np.asarray(points, dtype=np.float32)
         return self._scene.compute_distance(self._o3d.core.Tensor(points)).numpy().astype(np.float64)
+
+
+def _rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """The (N, 6) float32 rays open3d casts: (N, 3) or (3,) origins, then the directions, each
+    rounded once from what it is given in (no float64 copy of the pair first)."""
+    origins, directions = np.broadcast_arrays(np.asarray(origins), np.asarray(directions))
+    if directions.ndim != 2 or directions.shape[1] != 3:
+        raise ValueError(f"{directions.shape=} but expected (N, 3)")
+    rays = np.empty((len(directions), 6), dtype=np.float32)
+    rays[:, :3] = origins
+    rays[:, 3:] = directions
+    return rays
 
 
 def subpixel_offsets(per_side: int) -> np.ndarray:
