@@ -24,7 +24,7 @@ import trimesh
 from homemodel.core.checks import require_between, require_positive
 from homemodel.geometry.open3d_loader import load_open3d
 from semantic_map.nodes import SmallObject
-from tracking.fit_pose import fit_quality, icp_correction
+from tracking.fit_pose import fit_quality, icp_correction, yaw_of
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView, chromaticity
 from tracking.report import SmallObjectReport
@@ -311,10 +311,6 @@ def _fit_on_cluster(
     return _yaw_as_seen(state, view, scene_depth, object_id, best, cluster, search)
 
 
-def _yaw(pose: np.ndarray) -> float:
-    return float(np.arctan2(pose[1, 0], pose[0, 0]))
-
-
 def _yaw_as_seen(
     state: FitState, view: FitView, scene_depth: np.ndarray, object_id: str, best: _Candidate, cluster: _Cluster,
     search: SmallObjectSearch,
@@ -328,9 +324,9 @@ def _yaw_as_seen(
     when the yaws within `yaw_margin` of the least misfit all lie within `min_yaw_turn` of it,
     the view pins the yaw (the handle seen), which ICP then refines; when they spread wider,
     it does not (the handle behind the cup or a few pixels, a body of revolution)."""
-    map_yaw = _yaw(state.map_from_objects[object_id])
+    map_yaw = yaw_of(state.map_from_objects[object_id])
     # The map's own yaw is judged too: kept exactly when the view cannot tell it apart.
-    turns = [*np.linspace(0, 2 * np.pi, search.yaw_checks, endpoint=False), map_yaw - _yaw(best.map_from_object)]
+    turns = [*np.linspace(0, 2 * np.pi, search.yaw_checks, endpoint=False), map_yaw - yaw_of(best.map_from_object)]
     turned = [_evaluate(state, view, scene_depth, object_id, best.map_from_object @ _planar_pose(0, 0, 0, turn),
                         cluster, best.kernel_m, search) for turn in turns]
     judged = [candidate for candidate in turned if candidate is not None]
@@ -355,7 +351,7 @@ def _yaw_as_seen(
 
 def _turn_between(a: np.ndarray, b: np.ndarray | float) -> float:
     """The yaw from pose `a` to pose (or yaw) `b`, in (-pi, pi]."""
-    return float(np.angle(np.exp(1j * ((b if isinstance(b, float) else _yaw(b)) - _yaw(a)))))
+    return float(np.angle(np.exp(1j * ((b if isinstance(b, float) else yaw_of(b)) - yaw_of(a)))))
 
 
 def _refine(

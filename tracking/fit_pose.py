@@ -166,6 +166,11 @@ def _motions(points: np.ndarray, normals: np.ndarray, min_constraint: float, *, 
     return vectors[:, (values >= min_constraint) == pinned]
 
 
+def yaw_of(transform: np.ndarray) -> float:
+    """The turn about z of a (4, 4) or (3, 3) transform's rotation, in (-pi, pi]."""
+    return float(np.arctan2(transform[1, 0], transform[0, 0]))
+
+
 def _planar_transform(x: float, y: float, yaw: float) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     m = np.eye(4)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracking.fit_pose import LEVER_M
+from tracking.fit_pose import LEVER_M, yaw_of
 from tracking.fit_joints import joint_range
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
@@ -137,7 +137,7 @@ def _keep_in_place(
     the joints at `positions_before`, as far as each joint moves them: a slide takes back the
     shift of its origin along its axis; a hinge about the vertical, the body's turn."""
     map_from_object, positions = state.map_from_objects[object_id], state.joint_positions[object_id]
-    turn = _yaw(map_from_object) - _yaw(map_from_before)
+    turn = yaw_of(map_from_object) - yaw_of(map_from_before)
     turn = float(np.arctan2(np.sin(turn), np.cos(turn)))
     for joint in joints:
         axis, origin, kind = joint_axis_map(state, object_id, joint)
@@ -150,10 +150,6 @@ def _keep_in_place(
             change = -turn * axis[2]
         low, high = joint_range(state, object_id, joint)
         positions[joint] = float(np.clip(positions[joint] + change, low, high))
-
-
-def _yaw(map_from_object: np.ndarray) -> float:
-    return float(np.arctan2(map_from_object[1, 0], map_from_object[0, 0]))
 
 
 def _gauss_newton(

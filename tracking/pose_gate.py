@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from homemodel.core.checks import require_between
-from tracking.fit_pose import free_motions
+from tracking.fit_pose import free_motions, yaw_of
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
 from tracking.scene import box_corners
@@ -116,7 +116,7 @@ def past_the_doubt(state: FitState, object_id: str, map_from_before: np.ndarray,
     if moved_m > gate.max_corner_doubts * doubt_m:
         return f"a corner moved {moved_m * 100:.0f} cm, the map's doubt there {doubt_m * 100:.0f} cm"
     change = np.linalg.inv(map_from_before) @ state.map_from_objects[object_id]
-    turned = abs(float(np.arctan2(change[1, 0], change[0, 0])))
+    turned = abs(yaw_of(change))
     if turned > gate.max_corner_doubts * DOUBT_RAD + 1e-9:
         return f"turned {np.degrees(turned):.1f} deg, the map's doubt {np.degrees(DOUBT_RAD):.0f} deg"
     return None
