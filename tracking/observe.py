@@ -428,11 +428,10 @@ def _joints_or_the_body(
         if joint.type != "prismatic":
             groups.append([name])
             continue
-        direction = joint.object_from_joint.matrix()[:3, :3] @ np.asarray(joint.axis, dtype=float)
+        direction = _slide_direction(joint)
         for group in groups:
             other = node.joint(group[0])
-            if other.type == "prismatic" and direction @ (other.object_from_joint.matrix()[:3, :3] @ np.asarray(
-                    other.axis, dtype=float)) > np.cos(np.radians(5.0)):
+            if other.type == "prismatic" and direction @ _slide_direction(other) > ONE_AXIS_COS:
                 group.append(name)
                 break
         else:
@@ -509,16 +508,24 @@ def _common_slide_off_the_drawers(state: FitState, object_id: str, fitted: list[
     for name in fitted:
         joint = node.joint(name)
         if joint.type == "prismatic" and joint.limits is not None:
-            direction = joint.object_from_joint.matrix()[:3, :3] @ np.asarray(joint.axis, dtype=float)
-            slides[name] = (direction, state.joint_positions[object_id][name] - joint.limits[0])
+            slides[name] = (_slide_direction(joint), state.joint_positions[object_id][name] - joint.limits[0])
     if len(slides) < 2:
         return
     directions = np.array([d for d, _ in slides.values()])
     common = min(s for _, s in slides.values())
-    if np.any(directions @ directions[0] < np.cos(np.radians(5.0))) or not 0.0 < common <= POSE_DOUBT_M:
+    if np.any(directions @ directions[0] < ONE_AXIS_COS) or not 0.0 < common <= POSE_DOUBT_M:
         return
     for name in slides:
         state.joint_positions[object_id][name] -= common
+
+
+# Slides within 5 deg of one another move along one axis: a move of the body takes up all of them.
+ONE_AXIS_COS = np.cos(np.radians(5.0))
+
+
+def _slide_direction(joint: ObjectJoint) -> np.ndarray:
+    """A prismatic joint's direction of travel in its object's frame."""
+    return joint.object_from_joint.matrix()[:3, :3] @ np.asarray(joint.axis, dtype=float)
 
 
 def _slides(state: FitState, object_id: str, part: int) -> bool:
