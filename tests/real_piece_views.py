@@ -20,8 +20,7 @@ import yaml
 from unseen_pieces import MAKERS, Mover, RealPiece
 
 from homemodel.core.transforms import transform_from_xyz_rpy
-from homemodel.exchange.map_xml import load_map, save_map
-from tracking.observe import rebase_model_refs
+from prior_maps import write_prior_map
 from tracking.scene import HomeScene, Part
 
 # (map id, maker, seed) left to right along the wall at x = 0, fronts facing +x.
@@ -140,13 +139,5 @@ class RealPieceScene(HomeScene):
 
 def write_prior(map_path: Path, offsets: dict[str, tuple[float, float, float]], out: Path) -> Path:
     """The map with the objects in `offsets` ({id: (x m, y m, yaw deg) in its own frame}) off."""
-    smap = load_map(map_path)
-    for room in smap.apartment.rooms:
-        for large in room.objects:
-            if large.id in offsets:
-                x, y, yaw = offsets[large.id]
-                off = transform_from_xyz_rpy((x, y, 0.0), (0.0, 0.0, np.radians(yaw)))
-                large.world_from_object = large.world_from_object.from_matrix(large.world_from_object.matrix() @ off)
-    rebase_model_refs(smap, map_path, out)
-    save_map(smap, out)
-    return out
+    return write_prior_map(map_path, {oid: transform_from_xyz_rpy((x, y, 0.0), (0.0, 0.0, np.radians(yaw)))
+                                      for oid, (x, y, yaw) in offsets.items()}, out)
