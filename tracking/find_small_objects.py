@@ -53,9 +53,10 @@ class SmallObjectSearch:
     yaw_margin: float = 0.015  # of the cluster's points: a misfit this close to the least is as good
 
     def check(self) -> None:
-        for name in ("search_radius_m", "yaw_candidates", "cluster_gap_m", "min_cluster_points"):
+        for name in ("search_radius_m", "yaw_candidates", "cluster_gap_m", "min_cluster_points", "yaw_checks",
+                     "min_yaw_turn"):
             require_positive(name, getattr(self, name))
-        for name in ("min_explained", "min_cluster_explained", "sure", "max_colour_difference"):
+        for name in ("min_explained", "min_cluster_explained", "sure", "max_colour_difference", "yaw_margin"):
             require_between(name, getattr(self, name), 0.0, 1.0)
 
 
