@@ -3,6 +3,7 @@ sizes, each freed before the next, fault in about the largest one's pages, not e
 
 from __future__ import annotations
 
+import os
 import platform
 import subprocess
 import sys
@@ -27,7 +28,11 @@ print(faults() - before)
 
 
 def _faults(mode: str) -> int:
-    done = subprocess.run([sys.executable, "-c", _PROBE, mode], capture_output=True, text=True, cwd=REPO, timeout=60)
+    # glibc's own settings from the environment (MALLOC_*_, GLIBC_TUNABLES) would set what is compared.
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("MALLOC_", "GLIBC_TUNABLES"))}
+    done = subprocess.run(
+        [sys.executable, "-c", _PROBE, mode], capture_output=True, text=True, cwd=REPO, timeout=60, env=env
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     return int(done.stdout.split()[-1])
 
@@ -37,4 +42,6 @@ def test_freed_blocks_are_reused_not_faulted_in_again() -> None:
     largest = 8 << 20 >> 12  # pages of the 8 MiB block
     kept, default = _faults("kept"), _faults("default")
     assert kept < 1.25 * largest, (kept, default)  # once the largest block's pages, and little more
-    assert default > 2 * largest, (kept, default)  # glibc's default gives them back (5,131 here)
+    # glibc's default gives them back: 5,131 here; where the kernel backs the heap with huge pages
+    # (transparent huge pages "always") both counts are far smaller, 2,320 against 4.
+    assert default > 2 * kept, (kept, default)
