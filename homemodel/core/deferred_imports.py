@@ -55,7 +55,8 @@ class _BeforeTrimesh(importlib.abc.MetaPathFinder):
         self, fullname: str, path: Sequence[str] | None, target: types.ModuleType | None = None
     ) -> importlib.machinery.ModuleSpec | None:
         if fullname == _IMPORTER:
-            sys.meta_path.remove(self)
+            # A new list, not the one removed from: another thread's import may be going through it.
+            sys.meta_path = [finder for finder in sys.meta_path if finder is not self]
             spec = importlib.util.find_spec(_DEFERRED)
             if spec is not None and _DEFERRED not in sys.modules:
                 stand_in = _LoadedOnFirstUse(_DEFERRED)

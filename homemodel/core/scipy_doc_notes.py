@@ -53,7 +53,8 @@ class _WhenDocscrapeLoads(importlib.abc.MetaPathFinder):
     ) -> importlib.machinery.ModuleSpec | None:
         if fullname != _DOCSCRAPE:
             return None
-        sys.meta_path.remove(self)
+        # A new list, not the one removed from: another thread's import may be going through it.
+        sys.meta_path = [finder for finder in sys.meta_path if finder is not self]
         spec = importlib.util.find_spec(fullname)
         if spec is None or spec.loader is None or not hasattr(spec.loader, "exec_module"):
             return spec
