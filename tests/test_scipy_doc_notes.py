@@ -1,5 +1,5 @@
 """SciPy imported without its decorators parsing docstrings (`skip_scipy_doc_notes`, 0.07 CPU-s of a
-completion query): no docstring is parsed for them, and the decorated functions work as before."""
+completion query's imports): no docstring is parsed for them, and the decorated functions work as before."""
 
 from __future__ import annotations
 
