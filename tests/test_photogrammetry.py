@@ -365,3 +365,20 @@ def test_an_open_tube_seen_from_all_round_is_wound_outward() -> None:
     inward.invert()
     outward = face_the_cameras(inward, around)
     assert np.all(np.einsum("ij,ij->i", outward.face_normals, outward.triangles_center * [1, 1, 0]) > 0)
+
+
+def test_an_unseen_bottom_is_closed_and_a_high_opening_left_open() -> None:
+    """`close_bottom_holes`: a tube standing on the plane, open at both ends: the hole whose border
+    stays below `top` (its bottom, no photo sees it) is closed by a fan, the one at its top is not."""
+    from photogrammetry.cleaning import close_bottom_holes
+
+    tube = trimesh.creation.cylinder(radius=0.05, height=0.2, sections=32)
+    tube.apply_translation([0.0, 0.0, 0.1])
+    height = tube.triangles_center[:, 2]
+    tube = trimesh.Trimesh(tube.vertices, tube.faces[(height > 1e-6) & (height < 0.2 - 1e-6)], process=False)
+    tube.remove_unreferenced_vertices()
+    closed = close_bottom_holes(tube, top=0.1)
+    edges, uses = np.unique(np.sort(closed.edges, axis=1), axis=0, return_counts=True)
+    border = edges[uses == 1]
+    assert len(border) == 32 and np.allclose(closed.vertices[border.ravel(), 2], 0.2)  # the top only
+    assert close_bottom_holes(tube, top=0.25).is_watertight  # both borders below: both closed
