@@ -250,17 +250,10 @@ def close_bottom_holes(mesh: trimesh.Trimesh, top: float) -> trimesh.Trimesh:
     there, and the cut meets that hole: 134 edges, beyond what the repair closes as a defect.
     A higher opening (the back of Kermit, seen from the front) is left open: a fan across it
     was most of the surface, a median 4.5 times further from the points."""
-    closed = close_holes(mesh, max_edges=len(mesh.vertices))
-    added = closed.faces[len(mesh.faces) :]
-    centre = added.max(axis=1)  # a fan's centre is the vertex added for it, after all of mesh's
-    fan_top = np.full(len(closed.vertices), -np.inf)
-    np.maximum.at(fan_top, centre, closed.vertices[added][:, :, 2].max(axis=1))
-    keep = (centre < len(mesh.vertices)) | (fan_top[centre] <= top)  # 3-edge holes: one face, no centre
-    if keep.all():
-        return closed
-    kept = trimesh.Trimesh(closed.vertices, np.vstack([mesh.faces, added[keep]]), process=False)
-    kept.remove_unreferenced_vertices()
-    return kept
+    # A 3-edge hole is a defect of the surface, not its bottom: one triangle, at any height.
+    return close_holes(
+        mesh, max_edges=len(mesh.vertices), closes=lambda ring: len(ring) == 3 or mesh.vertices[ring, 2].max() <= top
+    )
 
 
 # Rays cast from each camera towards its faces by `face_the_cameras`: Buddha's 67 views, 33,500

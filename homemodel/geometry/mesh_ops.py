@@ -23,6 +23,8 @@ the undecimated mesh if the decimated one stays open, so a closed mesh stays clo
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import trimesh
 
@@ -100,10 +102,15 @@ def decimate(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
     return from_open3d(to_open3d(mesh).simplify_quadric_decimation(target_number_of_triangles=max_faces))
 
 
-def close_holes(mesh: trimesh.Trimesh, max_edges: int = MAX_HOLE_EDGES) -> trimesh.Trimesh:
-    """Each hole bounded by at most `max_edges` edges closed: a triangle, or a fan around the
-    hole's centroid, wound like the faces around it. A hole that passes a vertex twice is
-    closed as two. Borders wound inconsistently (no loop) are left open."""
+def close_holes(
+    mesh: trimesh.Trimesh,
+    max_edges: int = MAX_HOLE_EDGES,
+    closes: Callable[[np.ndarray], bool] | None = None,
+) -> trimesh.Trimesh:
+    """Each hole bounded by at most `max_edges` edges (and, given `closes`, whose border's vertex
+    indices it accepts) closed: a triangle, or a fan around the hole's centroid, wound like the
+    faces around it. A hole that passes a vertex twice is closed as two. Borders wound
+    inconsistently (no loop) are left open."""
     edges = mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)  # directed, in each face's winding
     border = edges[trimesh.grouping.group_rows(np.sort(edges, axis=1), require_count=1)]
     outgoing: dict[int, list[int]] = {}
@@ -125,7 +132,7 @@ def close_holes(mesh: trimesh.Trimesh, max_edges: int = MAX_HOLE_EDGES) -> trime
                 walk.append(b)
     vertices, faces = [mesh.vertices], [mesh.faces]
     for loop in loops:
-        if len(loop) > max_edges:
+        if len(loop) > max_edges or (closes is not None and not closes(np.array(loop))):
             continue
         # A border edge a -> b is matched by a new face with b -> a.
         if len(loop) == 3:
