@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -117,7 +118,9 @@ def record(
     noise: bool = True,
     seed: int = 0,
     start_frame: int = 0,
+    turns: float = 1.0,
 ) -> Recorded:
+    """`turns`: how far the table turns while recording (1.5: the first half turn seen twice)."""
     import cv2
 
     clean_dir = Path(clean_dir)
@@ -126,15 +129,16 @@ def record(
     caster = RayCaster(scene)
     clean_camera = load_camera(clean_dir / "camera.yaml")
     poses = read_cameras(true_cameras_file(clean_dir)).poses
-    stems = sorted(poses)
-    stems = stems[start_frame:] + stems[:start_frame]  # a recording started mid-turn
-    n = len(stems)
+    turn = sorted(poses)
+    n = len(turn)
+    # Started mid-turn, and as many frames as the turns take, the views of a turn repeating.
+    stems = [turn[(start_frame + k) % n] for k in range(max(1, round(turns * n)))]
     map_x, map_y = rig.color_camera.remap_from(clean_camera)
     axis = np.array([*options.axis_offset_m, 0.0])
     turn_s = n * rig.period_s
     drops = max(1, round(drop_fraction * n)) if drop_fraction > 0 else 0
-    drop_color = set(rng.choice(n, drops, replace=False).tolist()) if drops else set()
-    drop_depth = set(rng.choice(sorted(set(range(n)) - drop_color), drops, replace=False).tolist()) if drops else set()
+    drop_color = set(rng.choice(len(stems), drops, replace=False).tolist()) if drops else set()
+    drop_depth = set(rng.choice(sorted(set(range(len(stems))) - drop_color), drops, replace=False).tolist()) if drops else set()
     depth_camera = rig.depth_camera or rig.color_camera
     depth_from_color = np.linalg.inv(rig.color_from_depth) if rig.depth_camera is not None else np.eye(4)
     colors, depths = [], []
@@ -321,42 +325,53 @@ def write_bag(
             writer.write(connections[topic], int((ros.origin_s + max(time_s, 0.0)) * 1e9), ros.serialize(message))
 
 
-def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float, str, object]]) -> None:
-    """A ROS 2 Humble bag as `ros2 bag record` writes it: metadata.yaml version 5 and a sqlite3
-    file of schema 3, without the message definitions that later rosbag2 versions keep."""
+def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float, str, object]], *, files: int = 1) -> None:
+    """A ROS 2 Humble bag as `ros2 bag record` writes it: metadata.yaml version 5 and sqlite3
+    files of schema 3, without the message definitions that later rosbag2 versions keep;
+    `files` > 1: split by time (`--max-bag-duration`), `{name}_0.db3`, `{name}_1.db3`..."""
     import sqlite3
 
     import yaml
 
     assert ros.ros_version == 2
     folder.mkdir(parents=True)
-    db = sqlite3.connect(folder / f"{folder.name}_0.db3")
-    db.executescript(
-        "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);"
-        "INSERT INTO schema VALUES (3, 'humble');"
-        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,"
-        " serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
-        "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL,"
-        " data BLOB NOT NULL);"
-    )
+    ordered = sorted(messages, key=lambda m: m[0])
+    start_s, end_s = ordered[0][0], ordered[-1][0]
+    span_s = (end_s - start_s) / files or 1.0
     topics: dict[str, tuple[int, str, int]] = {}
     stamps = []
-    for time_s, topic, message in sorted(messages, key=lambda m: m[0]):
+    names = [f"{folder.name}_{k}.db3" for k in range(files)]
+    databases = []
+    for name in names:
+        db = sqlite3.connect(folder / name)
+        db.executescript(
+            "CREATE TABLE schema(schema_version INTEGER PRIMARY KEY, ros_distro TEXT NOT NULL);"
+            "INSERT INTO schema VALUES (3, 'humble');"
+            "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,"
+            " serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);"
+            "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, timestamp INTEGER NOT NULL,"
+            " data BLOB NOT NULL);"
+        )
+        databases.append(db)
+    for time_s, topic, message in ordered:
         msgtype = type(message).__msgtype__
         if topic not in topics:
             topics[topic] = (len(topics) + 1, msgtype, 0)
-            db.execute("INSERT INTO topics VALUES (?, ?, ?, 'cdr', '')", (len(topics), topic, msgtype))
+            for db in databases:  # each split file lists every topic, as rosbag2 writes them
+                db.execute("INSERT INTO topics VALUES (?, ?, ?, 'cdr', '')", (len(topics), topic, msgtype))
         number, _, count = topics[topic]
         topics[topic] = (number, msgtype, count + 1)
         stamp = int((ros.origin_s + max(time_s, 0.0)) * 1e9)
         stamps.append(stamp)
+        db = databases[min(int((time_s - start_s) / span_s), files - 1)]
         db.execute("INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", (number, stamp, ros.serialize(message)))
-    db.commit()
-    db.close()
+    for db in databases:
+        db.commit()
+        db.close()
     info = {
         "version": 5,
         "storage_identifier": "sqlite3",
-        "relative_file_paths": [f"{folder.name}_0.db3"],
+        "relative_file_paths": names,
         "duration": {"nanoseconds": max(stamps) - min(stamps)},
         "starting_time": {"nanoseconds_since_epoch": min(stamps)},
         "message_count": len(stamps),
@@ -392,6 +407,9 @@ def write_rosbag(recorded: Recorded, path: Path, *, ros_version: int) -> None:
     write_bag(path, ros, messages)
 
 
+_DEVICE_UPTIME_S = 86400.25
+
+
 @dataclass(kw_only=True)
 class RealSenseLayout:
     """What a .bag's device holds, as the RealSense Viewer records each camera."""
@@ -406,6 +424,10 @@ class RealSenseLayout:
     frame_numbers: bool = True  # False: every frame numbered 0, as a writer that never sets them
     extrinsics: bool = True  # False: no depth-to-colour extrinsics registered
     motion: bool = False  # D435i/D455: the Motion Module's accel (100 Hz) and gyro (200 Hz) streams recorded too
+    # Streams stamped by the camera's own clock (hardware_clock: ms since it started, a day
+    # ago here), the others by the host's (system_time), as a sensor without frame metadata
+    # is. The frames are then written in real time: the recorder files each at its arrival.
+    device_clock: tuple[str, ...] = ()
 
 
 def write_realsense_streams(
@@ -488,8 +510,11 @@ def write_realsense_streams(
     sensor_of = {"depth": depth_sensor, "color": color_sensor, "infrared1": depth_sensor, "infrared2": depth_sensor}
     sensor_of |= dict.fromkeys(motion_rates, motion_sensor)
     numbers = dict.fromkeys(profile_of, 0)
+    started = time.monotonic()
     for t, kind, pixels in sorted(events, key=lambda e: e[0]):
         numbers[kind] += 1
+        if layout.device_clock:  # the recorder files each frame at its arrival: on one clock, the host's
+            time.sleep(max(0.0, started + t - time.monotonic()))
         if kind in motion_rates:
             motion = rs.software_motion_frame()
             motion.data = rs.vector()
@@ -502,8 +527,9 @@ def write_realsense_streams(
         frame.pixels = np.ascontiguousarray(pixels)
         frame.bpp = pixels.itemsize * (pixels.shape[2] if pixels.ndim == 3 else 1)
         frame.stride = pixels.shape[1] * frame.bpp
-        frame.timestamp = 1000.0 * (t + 1.0)
-        frame.domain = rs.timestamp_domain.system_time
+        on_device = kind in layout.device_clock
+        frame.timestamp = 1000.0 * (t + (_DEVICE_UPTIME_S if on_device else 1.0))
+        frame.domain = rs.timestamp_domain.hardware_clock if on_device else rs.timestamp_domain.system_time
         frame.frame_number = numbers[kind] if layout.frame_numbers else 0
         frame.profile = profile_of[kind].as_video_stream_profile()
         if kind == "depth":

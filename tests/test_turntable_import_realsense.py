@@ -93,3 +93,20 @@ def test_a_d435_s_depth_lands_on_colour_without_bias(board: Path, tmp_path: Path
     error_mm = 1000 * (depths[0] - truth)[depths[0] > 0]
     assert error_mm.size > 0.8 * truth.size
     assert abs(np.median(error_mm)) < 0.3 and np.percentile(np.abs(error_mm), 95) < 1.0, np.percentile(error_mm, [5, 50, 95])
+
+
+@pytest.mark.parametrize("on_camera_clock", ["depth", "color"])
+def test_streams_stamped_by_two_clocks_are_paired_as_they_arrived(on_camera_clock: str, board: Path, tmp_path: Path) -> None:
+    """One stream stamped by the camera's clock (a day since it started), the other by the
+    host's: their stamps never meet (before: no pair, the import refused), so the frames pair
+    by when the recorder filed them, each colour frame with its own depth."""
+    frames = rsim.tiny_frames(4, period_s=0.1)
+    rig = rsim.Rig(color_camera=frames.camera, depth_camera=frames.camera, period_s=0.1)
+    depths = [(t + 0.002, np.round(d / 0.001).astype(np.uint16)) for t, d in zip(frames.times_s, frames.depths_m)]
+    layout = rsim.RealSenseLayout(device_clock=(on_camera_clock,))
+    rsim.write_realsense_streams(tmp_path / "scan.bag", rig, list(zip(frames.times_s, frames.colors)), depths, layout)
+    report = import_recording(tmp_path / "scan.bag", board, tmp_path / "capture", ImportOptions())
+    assert report.frames_written == len(frames.times_s) and any("paired by the times the frames arrived" in n for n in report.notes)
+    colors, read_depths = rsim.read_back(tmp_path / "capture")
+    for k, (color, depth) in enumerate(zip(colors, read_depths, strict=True)):
+        assert np.array_equal(color, frames.colors[k]) and np.abs(depth - frames.depths_m[k]).max() < 1e-6, k

@@ -340,9 +340,41 @@ def image_proc_rectified(folder: Path) -> Path:
     return folder / "rectified.bag"
 
 
+def ros1_split(folder: Path) -> Path:
+    """`rosbag record --split`: parts `scan_0.bag`... following each other in time (CameraInfo
+    only in the first), given by its middle part; `scan_3.bag` beside them is another take,
+    a minute later, not a part."""
+    ros = rsim.RosMessages(1)
+    messages = sorted(_aligned(ros, depth_info="/camera/aligned_depth_to_color/camera_info"), key=lambda m: m[0])
+    cut = [FRAMES.times_s[2] - 0.01, FRAMES.times_s[4] - 0.01]
+    for k, (start, end) in enumerate(zip([-1.0, *cut], [*cut, 1e9])):
+        rsim.write_bag(folder / f"scan_{k}.bag", ros, [m for m in messages if start <= m[0] < end])
+    later = [(t + 60.0, topic, message) for t, topic, message in messages if t >= cut[1]]
+    rsim.write_bag(folder / "scan_3.bag", ros, later)
+    return folder / "scan_1.bag"
+
+
+def astra_own_frame_name(folder: Path) -> Path:
+    """The older ros2_astra_camera with depth_align: `depth/image_raw` registered to colour but
+    in a frame of its own name (`color_optical_frame`, colour's is `camera_color_optical_frame`),
+    its CameraInfo colour's intrinsics, no transform to colour's frame in /tf_static."""
+    ros = rsim.RosMessages(2)
+    registered_frame = "color_optical_frame"
+    messages = _streams(
+        ros, _raw_color(ros, "/camera/color/image_raw"), _raw_depth(ros, "/camera/depth/image_raw", frame=registered_frame),
+        color_info="/camera/color/camera_info",
+    )
+    messages.append((0.0, "/camera/depth/camera_info", ros.camera_info(0.0, FRAMES.camera, registered_frame)))
+    messages.append((0.0, "/tf_static", ros.tf_static([("camera_link", COLOR_FRAME, np.eye(4)), ("camera_link", DEPTH_FRAME, np.eye(4))])))
+    rsim.write_humble_bag(folder / "astra", ros, messages)
+    return folder / "astra"
+
+
 VARIANTS = {
     # name: (writer, format told, colour tolerance, depth tolerance m, expected colours)
     "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
+    "ros1-split-in-parts": (ros1_split, "ros1", 0, 0.0, FRAMES.colors),
+    "astra-registered-depth-in-a-frame-of-its-own-name": (astra_own_frame_name, "ros2", 0, 0.0, FRAMES.colors),
     "realsense-ros2-humble-no-definitions": (realsense_ros2_humble, "ros2", 0, 0.0, FRAMES.colors),
     "ros2-mcap-file-32FC1": (mcap_file, "ros2", 0, 0.0, FRAMES.colors),
     "ros2-zstd-file": (partial(ros2_sqlite, compression="file", file_alone=False), "ros2", 0, 0.0, FRAMES.colors),

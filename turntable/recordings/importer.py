@@ -173,7 +173,9 @@ def import_recording(
             written += 1
             report("import", written, None)
         if written == 0:
-            raise InputError(f"{recording}: no associated frame between {options.start_s} s and {options.end_s} s")
+            span = f" between {options.start_s} s and {options.end_s} s" if options.end_s is not None else ""
+            span = span or (f" after {options.start_s} s" if options.start_s else "")
+            raise InputError(f"{recording}: no colour frame paired with a depth frame{span}")
         save_camera(camera, tmp / "camera.yaml")
         save_board(board, tmp / "board.yaml")
         counts = source.counts

@@ -10,6 +10,7 @@ truth against 0.73 mm). The colour intrinsics and distortion come from the strea
 from __future__ import annotations
 
 import queue
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,6 +25,9 @@ from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
 _WAIT_S = 5.0  # a live camera without a frame this long has stalled
 _PLAYBACK_STALL_S = 60.0  # a playback ends by its status; this long without a frame, it hung
 _QUEUE_FRAMES = 8  # frames waiting for the reader (each held outside the SDK's pool)
+# Frames of one stream held until the other's first tells whether both stamp by one clock
+# (a stream starting up to a second later at 30 frames a second).
+_CLOCK_WAIT_FRAMES = 32
 
 
 def _depth_units_m(depth_sensor: object) -> tuple[float, list[str]]:
@@ -217,18 +221,22 @@ class RealSenseSource(FrameSource):
             self._playback.resume()
 
     def _deliver(self, frame: object) -> None:
-        """A sensor's callback (the SDK's thread): queue the frame, waiting while the queue is
-        full (a playback then waits too; a live camera drops frames, counted by their numbers)."""
+        """A sensor's callback (the SDK's thread): queue the frame with its arrival time, waiting
+        while the queue is full (a playback then waits too; a live camera drops frames, counted
+        by their numbers)."""
         frame.keep()  # held beyond the callback, outside the sensor's pool of 16
+        # When it reached the host, one clock for both streams: a playback's position (the
+        # recorder filed each frame as it arrived), or now.
+        arrival_s = self._playback.get_position() / 1e9 if self._playback is not None else time.monotonic()
         while not self._closing:
             try:
-                self._frames.put(frame, timeout=0.1)
+                self._frames.put((frame, arrival_s), timeout=0.1)
                 return
             except queue.Full:
                 continue
 
-    def _next_frame(self) -> object | None:
-        """The next frame of either stream; None at the end of a recording."""
+    def _next_frame(self) -> tuple[object, float] | None:
+        """The next frame of either stream and its arrival time; None at the end of a recording."""
         waited_s = 0.0
         while True:
             try:
@@ -270,14 +278,43 @@ class RealSenseSource(FrameSource):
         import pyrealsense2 as rs
 
         association = StreamAssociation(self.tolerance_s)
-        while (frame := self._next_frame()) is not None:
-            kind = "color" if frame.get_profile().stream_type() == rs.stream.color else "depth"
-            key = (frame.get_frame_number(), frame.get_timestamp())
-            if key in seen[kind]:
-                continue
-            seen[kind].add(key)
-            yield from association.add(kind, frame.get_timestamp() / 1000, frame)
+        waiting: list[tuple[str, object, float]] = []  # until both streams' clocks are known
+        domains: dict[str, object] = {}
+        by_arrival = None
+        ended = False
+        while not ended:
+            item = self._next_frame()
+            ended = item is None
+            if item is not None:
+                frame, arrival_s = item
+                kind = "color" if frame.get_profile().stream_type() == rs.stream.color else "depth"
+                key = (frame.get_frame_number(), frame.get_timestamp())
+                if key in seen[kind]:
+                    continue
+                seen[kind].add(key)
+                domains.setdefault(kind, frame.get_frame_timestamp_domain())
+                waiting.append((kind, frame, arrival_s))
+                if by_arrival is None and len(domains) < 2 and len(waiting) < _CLOCK_WAIT_FRAMES:
+                    continue
+            if by_arrival is None:
+                by_arrival = self._clocks_differ(domains)
+            for kind, frame, arrival_s in waiting:
+                yield from association.add(kind, arrival_s if by_arrival else frame.get_timestamp() / 1000, frame)
+            waiting = []
         yield from association.finish()
+
+    def _clocks_differ(self, domains: dict[str, object]) -> bool:
+        """Whether the two streams stamp their frames by different clocks (the camera's own and
+        the host's, as a sensor without frame metadata does): said, and then paired by arrival."""
+        if len(set(domains.values())) < 2:
+            return False
+        note = (
+            f"colour stamped by {domains['color'].name}, depth by {domains['depth'].name}: "
+            "paired by the times the frames arrived"
+        )
+        if note not in self.setup.notes:
+            self.setup.notes.append(note)
+        return True
 
     def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
         counts = self.counts

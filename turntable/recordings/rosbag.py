@@ -6,6 +6,8 @@ topic, or depth in colour's frame at its size, is)."""
 
 from __future__ import annotations
 
+import glob
+import re
 from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
@@ -28,6 +30,9 @@ IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 TF_TYPE = "tf2_msgs/msg/TFMessage"
 FLOAT_DEPTH_SCALE_M = 0.0001  # float depth (32FC1 metres) is written in 0.1 mm units
+_SPLIT_PART = re.compile(r"^(?P<prefix>.+)_(?P<index>\d+)$")
+# rosbag starts a part at the first message past the limit: the gap is one message interval.
+_SPLIT_GAP_S = 1.0
 
 
 def bag_path(path: Path) -> Path:
@@ -39,6 +44,40 @@ def bag_path(path: Path) -> Path:
     if path.is_file() and path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
         return path.parent
     return path
+
+
+def split_parts(path: Path) -> list[Path]:
+    """A ROS 1 bag `rosbag record --split` wrote in parts (`scan_0.bag`, `scan_1.bag`... or
+    `scan_<date>_0.bag`...): every part, in order, whichever was given. Parts follow each other
+    in time; a sibling that starts later than `_SPLIT_GAP_S` after the previous one's end is
+    another recording with a similar name (`take_1.bag`, `take_2.bag`), not a part."""
+    from rosbags.rosbag1 import Reader, ReaderError
+
+    match = _SPLIT_PART.match(path.stem)
+    if path.suffix != ".bag" or match is None:
+        return [path]
+    prefix = match["prefix"]
+    numbered = {}
+    for sibling in path.parent.glob(f"{glob.escape(prefix)}_*.bag"):
+        found = _SPLIT_PART.match(sibling.stem)
+        if found is not None and found["prefix"] == prefix:
+            numbered[int(found["index"])] = sibling
+    spans = {}
+    for index, part in numbered.items():
+        try:
+            with Reader(part) as reader:
+                spans[index] = (reader.start_time, reader.end_time)
+        except (ReaderError, OSError, ValueError, KeyError):
+            continue  # not a readable part: the given file's own error comes when it is opened
+    given = int(match["index"])
+    if given not in spans:
+        return [path]
+    first = last = given
+    while first - 1 in spans and 0 <= spans[first][0] - spans[first - 1][1] <= _SPLIT_GAP_S * 1e9:
+        first -= 1
+    while last + 1 in spans and 0 <= spans[last + 1][0] - spans[last][1] <= _SPLIT_GAP_S * 1e9:
+        last += 1
+    return [numbered[index] for index in range(first, last + 1)]
 
 
 def _field(message: object, *names: str) -> object:
@@ -163,11 +202,13 @@ class RosBagSource(TimedStreamsSource):
 
         try:
             # Bags before ROS 2 Iron keep no message definitions: read them as Humble's.
-            self._reader = AnyReader([bag_path(self.path)], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+            paths = split_parts(self.path) if self.ros_version == 1 else [bag_path(self.path)]
+            self._reader = AnyReader(paths, default_typestore=get_typestore(Stores.ROS2_HUMBLE))
             self._reader.open()
         except (AnyReaderError, OSError, ValueError, KeyError) as exc:
             raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {exc}") from None
         where = str(self.path)
+        split_note = [f"a bag split in {len(paths)} parts: {', '.join(p.name for p in paths)} read"] if len(paths) > 1 else []
         reader = self._reader
         images = {c.topic: c for c in reader.connections if c.msgtype in IMAGE_TYPES}
         self._depth_dtypes: dict[str, type] = {}
@@ -215,9 +256,14 @@ class RosBagSource(TimedStreamsSource):
         )
         depth_scale = 0.001 if self._depth_dtypes[self._depth.topic] == np.uint16 else FLOAT_DEPTH_SCALE_M
         color_camera = Camera(**{**color_camera.model_dump(), "depth_scale_m": depth_scale})
-        setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=notes)
+        setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=split_note + notes)
         if self._depth in registered and depth_info is None and not _named_registered(self._depth.topic):
             setup.notes.append(f"{self._depth.topic} has no CameraInfo and colour's size: taken as registered to colour")
+        elif self._depth in registered and depth_info.header.frame_id != color_info.header.frame_id:
+            setup.notes.append(
+                f"{self._depth.topic} in {depth_info.header.frame_id!r} has colour's intrinsics and no transform to "
+                f"{color_info.header.frame_id!r}: taken as registered to colour"
+            )
         if self._depth not in registered:
             if depth_info is None:
                 raise InputError(f"{where}: no intrinsics for the unregistered depth: no CameraInfo beside {self._depth.topic}")
@@ -230,21 +276,29 @@ class RosBagSource(TimedStreamsSource):
                 setup.depth_rays, lost = opencv_pixel_rays(setup.depth_camera, (d + [0.0] * 8)[:8])
                 depth_notes = [f"{where} {self._depth.topic}: rays from its rational_polynomial lens ({lost:.1%} of pixels past its reach)"]
             setup.notes += depth_notes
-            frames = (color_info.header.frame_id, depth_info.header.frame_id)
-            setup.color_from_depth = np.eye(4) if frames[0] == frames[1] else self._tf(*frames, "/tf_static")
-            for placed_by, find in (
-                ("/tf", lambda: self._tf(*frames, "/tf")),
-                (_EXTRINSICS_TOPIC, self._realsense_extrinsics),
-            ):
-                if setup.color_from_depth is None and (found := find()) is not None:
-                    setup.color_from_depth = found
-                    setup.notes.append(f"no /tf_static: the depth camera placed by {placed_by}")
+            setup.color_from_depth, placed_by = self._color_from_depth(color_info.header.frame_id, depth_info.header.frame_id)
+            if placed_by not in (None, "/tf_static"):
+                setup.notes.append(f"no /tf_static: the depth camera placed by {placed_by}")
             if setup.color_from_depth is None:
                 setup.notes.append(
                     f"no /tf_static from {depth_info.header.frame_id} to {color_info.header.frame_id}: "
                     "depth reprojected as if the two cameras sat at one point"
                 )
         return setup
+
+    def _color_from_depth(self, color_frame: str, depth_frame: str) -> tuple[np.ndarray | None, str | None]:
+        """The depth camera's pose in colour's and what gave it: one frame, /tf_static, else
+        /tf, else realsense-ros's extrinsics; (None, None) when nothing does."""
+        if color_frame == depth_frame:
+            return np.eye(4), None
+        for placed_by, find in (
+            ("/tf_static", lambda: self._tf(color_frame, depth_frame, "/tf_static")),
+            ("/tf", lambda: self._tf(color_frame, depth_frame, "/tf")),
+            (_EXTRINSICS_TOPIC, self._realsense_extrinsics),
+        ):
+            if (found := find()) is not None:
+                return found, placed_by
+        return None, None
 
     def _realsense_extrinsics(self) -> np.ndarray | None:
         """color_from_depth from realsense-ros's `.../extrinsics/depth_to_color` (a column-major
@@ -264,15 +318,28 @@ class RosBagSource(TimedStreamsSource):
         return matrix
 
     def _registered(self, depth: object, depth_info: object | None, color_info: object) -> bool:
-        """Depth in colour's pixels: said by its topic's name, or its CameraInfo is colour's, or
-        it has none and colour's size (a camera's single CameraInfo)."""
+        """Depth in colour's pixels: said by its topic's name, or its CameraInfo is colour's (its
+        frame, or its intrinsics with no transform between the frames), or it has none and
+        colour's size (a camera's single CameraInfo)."""
         if _named_registered(depth.topic):
             return True
         color_size = (int(color_info.width), int(color_info.height))
         if depth_info is None:
             return self._sizes[depth.topic] == color_size
         depth_size = (int(depth_info.width), int(depth_info.height))
-        return depth_info.header.frame_id == color_info.header.frame_id and depth_size == color_size
+        if depth_size != color_size:
+            return False
+        frames = (color_info.header.frame_id, depth_info.header.frame_id)
+        if frames[0] == frames[1]:
+            return True
+        # A frame of its own but colour's intrinsics and no transform to colour's frame (the
+        # older ros2_astra_camera names its registered depth's frame `color_optical_frame`
+        # beside colour's `camera_color_optical_frame`): reprojecting it would not move a pixel.
+        same_lens = True
+        for names in (("k", "K"), ("d", "D")):
+            a, b = (np.asarray(_field(info, *names), dtype=np.float64) for info in (depth_info, color_info))
+            same_lens &= a.shape == b.shape and np.allclose(a, b)
+        return same_lens and self._color_from_depth(*frames)[0] is None
 
     def close(self) -> None:
         if self._reader is not None:
