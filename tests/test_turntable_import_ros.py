@@ -580,3 +580,14 @@ def test_a_wide_rational_depth_lens_reprojects_along_its_own_rays(board: Path, t
     seen = depths[0] > 0
     assert seen.mean() > 0.9, seen.mean()
     assert np.abs(depths[0] - expected)[seen].max() < 0.0015, np.abs(depths[0] - expected)[seen].max()
+
+
+def test_a_split_bag_with_a_damaged_part_is_refused_in_one_line(board: Path, tmp_path: Path) -> None:
+    """Its other parts are not imported as if the recording were whole: the damaged part named."""
+    ros1_split(tmp_path)
+    damaged = tmp_path / "scan_1.bag"
+    damaged.write_bytes(damaged.read_bytes()[:200])
+    out = tmp_path / "o"
+    result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / "scan_0.bag"), "--board", str(board), "--out", str(out)])
+    assert result.exit_code == 2 and "scan_1.bag: a part of the split bag scan_0.bag is not readable" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not out.exists()

@@ -62,20 +62,27 @@ def split_parts(path: Path) -> list[Path]:
         found = _SPLIT_PART.match(sibling.stem)
         if found is not None and found["prefix"] == prefix:
             numbered[int(found["index"])] = sibling
-    spans = {}
+    spans, broken = {}, {}
     for index, part in numbered.items():
         try:
             with Reader(part) as reader:
                 spans[index] = (reader.start_time, reader.end_time)
-        except (ReaderError, OSError, ValueError, KeyError):
-            continue  # not a readable part: the given file's own error comes when it is opened
+        except (ReaderError, OSError, ValueError, KeyError) as exc:
+            broken[index] = exc
     given = int(match["index"])
     if given not in spans:
-        return [path]
+        return [path]  # its own error comes when it is opened
+
+    def joins(before: int, after: int) -> bool:
+        for index in (before, after):
+            if index in broken:  # a part missing from the middle of a recording: refused, not skipped
+                raise InputError(f"{numbered[index]}: a part of the split bag {path.name} is not readable: {broken[index]}")
+        return before in spans and after in spans and 0 <= spans[after][0] - spans[before][1] <= _SPLIT_GAP_S * 1e9
+
     first = last = given
-    while first - 1 in spans and 0 <= spans[first][0] - spans[first - 1][1] <= _SPLIT_GAP_S * 1e9:
+    while joins(first - 1, first):
         first -= 1
-    while last + 1 in spans and 0 <= spans[last + 1][0] - spans[last][1] <= _SPLIT_GAP_S * 1e9:
+    while joins(last, last + 1):
         last += 1
     return [numbered[index] for index in range(first, last + 1)]
 
