@@ -135,7 +135,9 @@ class FrameReading:
     pixels: ObjectPixels | None = None  # where the object may be (see `object_region`)
     flying: int = 0
     valid: int = 0  # pixels with a depth
-    offset_px: np.ndarray | None = None  # depth-to-colour misregistration, on a few frames
+    # A few frames' depth and grey images, for the depth-to-colour misregistration
+    # (`misregistration_offsets`, measured after the poses, beside the axis fit).
+    probe_images: tuple[np.ndarray, np.ndarray] | None = None
 
 
 @dataclass(kw_only=True)
@@ -215,7 +217,7 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
             pixels=pixels,
             flying=flying,
             valid=int(np.count_nonzero(np.isfinite(depth))),
-            offset_px=depth_color_offset_px(depth, gray) if frame.stem in probes else None,
+            probe_images=(depth, gray) if frame.stem in probes else None,
         )
 
     def one(frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None) -> FrameReading:
@@ -291,6 +293,11 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     return FrameReadings(poses=poses, skipped=skipped, readings=readings, rays=rays.result())
 
 
+def misregistration_offsets(readings: dict[str, FrameReading]) -> dict[str, np.ndarray | None]:
+    """The probed frames' depth-to-colour offsets (`depth_color_offset_px`), by frame."""
+    return {stem: depth_color_offset_px(*r.probe_images) for stem, r in readings.items() if r.probe_images is not None}
+
+
 def object_cylinder(capture: Capture, axis: TableAxis, options: ReconstructOptions) -> Cylinder:
     if options.cylinder_radius_m is not None:
         radius = options.cylinder_radius_m
@@ -311,9 +318,10 @@ def merge_frames(
     options: ReconstructOptions,
     report: Progress,
     figures: dict,
+    offsets: Future[dict[str, np.ndarray | None]],
 ) -> MergedCloud:
     """The frames' kept pixels in the table frame, voxel-averaged; fills `figures` with the
-    real-frame figures (flying pixels, holes, misregistration)."""
+    real-frame figures (flying pixels, holes, misregistration from the merged frames' `offsets`)."""
     skipped, readings = frames.skipped, frames.readings
     accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
     # A depth frame taken `depth_offset_s` after its colour frame sees the table turned on by
@@ -372,7 +380,7 @@ def merge_frames(
         return reading, pixel_points(reading.pixels, frames.rays, table_from_camera, cylinder)
 
     flying_total = valid_total = merged_total = 0
-    offsets = []
+    probed = []
     # The frames' points on the workers' threads (NumPy lets go of the GIL), summed in order here.
     with _mapper(options.workers) as mapper:
         done_frames = enumerate(zip(merged, mapper(points_of, merged)), start=1)
@@ -385,10 +393,11 @@ def merge_frames(
                 flying_total += reading.flying
                 valid_total += reading.valid
                 merged_total += 1
-                if reading.offset_px is not None:
-                    offsets.append(reading.offset_px)
+                if reading.probe_images is not None:
+                    probed.append(frame.stem)
             report("merge", done, len(merged))
-    offset_px = np.median(offsets, axis=0) if offsets else None
+    found = [offset for stem in probed if (offset := offsets.result()[stem]) is not None]
+    offset_px = np.median(found, axis=0) if found else None
     figures.update(
         {
             "flying_pixels_dropped": flying_total,  # around the object's pixels
@@ -396,7 +405,7 @@ def merge_frames(
             "holes_filled": 0,  # never: a hole is no measurement
             "depth_valid_fraction": valid_total / max(merged_total * capture.camera.width * capture.camera.height, 1),
             "depth_to_color_offset_px": None if offset_px is None else [round(float(v), 2) for v in offset_px],
-            "misregistration_frames": len(offsets),
+            "misregistration_frames": len(found),
             "turn_rate_deg_s": None if rate is None else math.degrees(rate),
             "depth_time_compensated_frames": len(timing) if rate is not None else 0,
             "frames_posed_by_turn_rate": len(camera_from_tables) - len(poses),
@@ -437,18 +446,23 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
         "blurred_frames": sum(r.startswith("blur:") or "(blurred:" in r for r in skipped.values()),
     }
 
-    clock.start("axis", 1)
-    axis = table_axis([p.camera_from_table for p in poses.values()])
-    fit = None
-    if options.turntable_refinement and len(poses) >= options.min_frames:
-        fit = fit_turntable(poses, axis.orbit, capture.camera)
-        if fit.accepted:
-            poses = {s: replace(p, camera_from_table=fit.camera_from_tables[s]) for s, p in poses.items()}
-            axis = table_axis([p.camera_from_table for p in poses.values()])
-    cylinder = object_cylinder(capture, axis, options)
+    # The misregistration probes on the other core, beside the axis fit, which holds the GIL
+    # most of its time (their OpenCV and whole-image NumPy steps let go of it): at 40 frames,
+    # 8 probes of 4 CPU-ms that the poses stage's two runs had waited for.
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        offsets = pool.submit(misregistration_offsets, frames.readings)
+        clock.start("axis", 1)
+        axis = table_axis([p.camera_from_table for p in poses.values()])
+        fit = None
+        if options.turntable_refinement and len(poses) >= options.min_frames:
+            fit = fit_turntable(poses, axis.orbit, capture.camera)
+            if fit.accepted:
+                poses = {s: replace(p, camera_from_table=fit.camera_from_tables[s]) for s, p in poses.items()}
+                axis = table_axis([p.camera_from_table for p in poses.values()])
+        cylinder = object_cylinder(capture, axis, options)
 
-    clock.start("merge")
-    cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames)
+        clock.start("merge")
+        cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames, offsets)
 
     clock.start("mesh", 1)
     mesh, kept, figures = object_surface(cloud, cylinder, options.voxel_size_m, options.meshing)
