@@ -328,7 +328,8 @@ def write_bag(
 def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float, str, object]], *, files: int = 1) -> None:
     """A ROS 2 Humble bag as `ros2 bag record` writes it: metadata.yaml version 5 and sqlite3
     files of schema 3, without the message definitions that later rosbag2 versions keep;
-    `files` > 1: split by time (`--max-bag-duration`), `{name}_0.db3`, `{name}_1.db3`..."""
+    `files` > 1: split as `--max-bag-size` does (here into as many messages a file),
+    `{name}_0.db3`, `{name}_1.db3`..."""
     import sqlite3
 
     import yaml
@@ -336,8 +337,6 @@ def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float,
     assert ros.ros_version == 2
     folder.mkdir(parents=True)
     ordered = sorted(messages, key=lambda m: m[0])
-    start_s, end_s = ordered[0][0], ordered[-1][0]
-    span_s = (end_s - start_s) / files or 1.0
     topics: dict[str, tuple[int, str, int]] = {}
     stamps = []
     names = [f"{folder.name}_{k}.db3" for k in range(files)]
@@ -353,7 +352,7 @@ def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float,
             " data BLOB NOT NULL);"
         )
         databases.append(db)
-    for time_s, topic, message in ordered:
+    for n, (time_s, topic, message) in enumerate(ordered):
         msgtype = type(message).__msgtype__
         if topic not in topics:
             topics[topic] = (len(topics) + 1, msgtype, 0)
@@ -363,7 +362,7 @@ def write_humble_bag(folder: Path, ros: RosMessages, messages: list[tuple[float,
         topics[topic] = (number, msgtype, count + 1)
         stamp = int((ros.origin_s + max(time_s, 0.0)) * 1e9)
         stamps.append(stamp)
-        db = databases[min(int((time_s - start_s) / span_s), files - 1)]
+        db = databases[n * files // len(ordered)]
         db.execute("INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)", (number, stamp, ros.serialize(message)))
     for db in databases:
         db.commit()

@@ -354,6 +354,14 @@ def ros1_split(folder: Path) -> Path:
     return folder / "scan_1.bag"
 
 
+def ros2_split(folder: Path) -> Path:
+    """`ros2 bag record --max-bag-duration`: one folder, its metadata.yaml listing three .db3
+    files (Humble's), the CameraInfo only in the first."""
+    ros = rsim.RosMessages(2)
+    rsim.write_humble_bag(folder / "split", ros, _aligned(ros, depth_info="/camera/aligned_depth_to_color/camera_info"), files=3)
+    return folder / "split"
+
+
 def astra_own_frame_name(folder: Path) -> Path:
     """The older ros2_astra_camera with depth_align: `depth/image_raw` registered to colour but
     in a frame of its own name (`color_optical_frame`, colour's is `camera_color_optical_frame`),
@@ -374,6 +382,7 @@ VARIANTS = {
     # name: (writer, format told, colour tolerance, depth tolerance m, expected colours)
     "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
     "ros1-split-in-parts": (ros1_split, "ros1", 0, 0.0, FRAMES.colors),
+    "ros2-split-in-files": (ros2_split, "ros2", 0, 0.0, FRAMES.colors),
     "astra-registered-depth-in-a-frame-of-its-own-name": (astra_own_frame_name, "ros2", 0, 0.0, FRAMES.colors),
     "realsense-ros2-humble-no-definitions": (realsense_ros2_humble, "ros2", 0, 0.0, FRAMES.colors),
     "ros2-mcap-file-32FC1": (mcap_file, "ros2", 0, 0.0, FRAMES.colors),
