@@ -169,7 +169,8 @@ def import_recording(
                 raise InputError(f"{recording}: {exc}") from None
             write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
             offsets.append(pair.depth_offset_s)
-            frames.append({"stem": stem, "time_s": pair.time_s, "depth_offset_s": pair.depth_offset_s})
+            times = (pair.time_s, pair.depth_offset_s) if setup.timed else (None, None)
+            frames.append({"stem": stem, "time_s": times[0], "depth_offset_s": times[1]})
             written += 1
             report("import", written, None)
         if written == 0:

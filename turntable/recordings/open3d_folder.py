@@ -8,8 +8,9 @@ colour, 1 mm unless `depth_scale` says otherwise. The recording may also be give
 reconstruction system's config JSON: its `path_dataset`, `path_intrinsic` and `depth_scale`.
 
 Frames are numbered files (`00000.jpg`, or `0.png`, `1.png`, ... in number order) paired by
-order, 1/30 s apart (the recorders' rate); Redwood's scans name each frame
-`NNNNNNN-TTTTTTTTTTTT` (its number, its time in microseconds), and those pair by time."""
+order, placed 1/30 s apart (the recorders' rate) for --start/--end but not timed: a recorder
+numbers the frames it kept, so a number is no time (`StreamSetup.timed`); Redwood's scans name
+each frame `NNNNNNN-TTTTTTTTTTTT` (its number, its time in microseconds), and those pair by time."""
 
 from __future__ import annotations
 
@@ -154,7 +155,8 @@ class Open3dSource(TimedStreamsSource):
                 stems = {p.stem for p in self._colors} & {p.stem for p in self._depths}
                 self._colors = [p for p in self._colors if p.stem in stems]
                 self._depths = [p for p in self._depths if p.stem in stems]
-        return StreamSetup(format="open3d", color_camera=camera, intrinsics_from=intrinsics_from, notes=notes)
+        timed = self._times is not None
+        return StreamSetup(format="open3d", color_camera=camera, intrinsics_from=intrinsics_from, notes=notes, timed=timed)
 
     def stream_times(self) -> tuple[np.ndarray, np.ndarray]:
         if self._times is not None:

@@ -28,6 +28,10 @@ class StreamSetup:
     # rational one); else `depth_pixel_rays` fills them from `depth_camera` at the first frame.
     depth_rays: np.ndarray | None = None
     intrinsics_from: str = "recording"  # or "--camera"
+    # False: the frames carry no times (numbered files paired by order; `RgbdPair.time_s` is
+    # only their place at 30 a second). None reach recording.json, so no turn rate is fitted
+    # to them: a gap in the numbering would put the frames it poses at wrong angles.
+    timed: bool = True
     notes: list[str] = field(default_factory=list)  # what the reader had to assume or approximate
 
     def depth_pixel_rays(self) -> np.ndarray:
