@@ -7,10 +7,14 @@ models differ from what the camera sees as real furniture differs from its measu
 
     scene = RealPieceScene.of(map_path, pieces)    # the map's scene, its objects' parts the real ones
     ViewSimulator(scene).render(camera, map_from_camera, ViewOptions(...))
+
+`fitted_out(pieces)` adds what an installer's spec leaves out: handles, rounded front edges,
+tapered knobs.
 """
 
 from __future__ import annotations
 
+import copy
 import shutil
 from pathlib import Path
 
@@ -37,6 +41,91 @@ BODY_RGB, FRONT_RGB = (0.85, 0.84, 0.8), (0.55, 0.42, 0.3)
 
 def real_pieces() -> dict[str, RealPiece]:
     return {oid: MAKERS[maker](seed) for oid, maker, seed, *_ in ROW + ABOVE}
+
+
+def fitted_out(pieces: dict[str, RealPiece], seed: int = 0) -> dict[str, RealPiece]:
+    """Copies of `pieces` as they stand in a kitchen, with what the installer's spec leaves
+    out (`handle: none`): every door and drawer front but a microwave's with a bar handle or
+    a mushroom knob near its free edge, its front edges rounded (4 mm), and the appliances'
+    knobs tapered to a rounded top instead of plain cylinders."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for object_id, piece in pieces.items():
+        piece = out[object_id] = copy.deepcopy(piece)
+        bar = bool(rng.random() < 0.6)
+        piece.body = [_tapered(mesh) if _is_knob(mesh) else mesh for mesh in piece.body]
+        for mover in piece.movers:
+            if mover.joint.startswith(("door", "drawer")):
+                front = mover.boxes[0].bounds
+                mover.boxes[0] = _rounded_slab(front, FRONT_EDGE_M)
+                if piece.spec["kind"] != "microwave":
+                    mover.boxes += _handle(front, mover.axis, bar)
+    return out
+
+
+FRONT_EDGE_M = 0.004  # the radius of a front's rounded edges
+
+
+def _rounded_slab(bounds: np.ndarray, radius: float) -> trimesh.Trimesh:
+    """A box whose four edges round its front face (+x) have the given radius."""
+    (x0, y0, z0), (x1, y1, z1) = bounds
+    turn = np.linspace(0.0, np.pi / 2, 5)
+    back, inset = radius * (1 - np.sin(turn)), radius * (1 - np.cos(turn))  # set back from x1, in from the sides
+    points = [(x0, y, z) for y in (y0, y1) for z in (z0, z1)]
+    points += [(x1 - b, y, z) for b, i in zip(back, inset) for y in (y0 + i, y1 - i) for z in (z0 + i, z1 - i)]
+    return trimesh.convex.convex_hull(np.array(points))
+
+
+def _round(x0: float, x1: float, radius: float, centre_yz, sections: int = 32) -> np.ndarray:
+    """Points of a circle about the x axis through `centre_yz` at x0 and at x1."""
+    angles = np.linspace(0.0, 2 * np.pi, sections, endpoint=False)
+    ring = np.stack([np.cos(angles), np.sin(angles)], 1) * radius + centre_yz
+    return np.concatenate([np.column_stack([np.full(sections, x), ring]) for x in (x0, x1)])
+
+
+def _solid(*rounds: np.ndarray) -> trimesh.Trimesh:
+    return trimesh.convex.convex_hull(np.concatenate(rounds))
+
+
+def _is_knob(mesh: trimesh.Trimesh) -> bool:
+    """An appliance's knob: a round body part (not a box) about an axis along x."""
+    extents = mesh.extents
+    return len(mesh.vertices) > 8 and abs(extents[1] - extents[2]) < 1e-3 and extents[0] < extents[1] * 1.5
+
+
+def _tapered(knob: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The knob's cylinder as a real knob: full width behind, tapering to 70 % at a rounded top."""
+    (x0, y0, z0), (x1, y1, z1) = knob.bounds
+    radius, centre, length = (y1 - y0) / 2, ((y0 + y1) / 2, (z0 + z1) / 2), x1 - x0
+    return _solid(_round(x0, x0 + 0.5 * length, radius, centre), _round(x1 - 0.12 * length, x1 - 0.12 * length, 0.85 * radius, centre),
+                  _round(x1, x1, 0.7 * radius, centre))
+
+
+def _handle(front: np.ndarray, axis, bar: bool) -> list[trimesh.Trimesh]:
+    """A bar handle (12 mm, 34 mm proud on two posts) or a mushroom knob (30 mm, 28 mm proud)
+    on a front: centred on a drawer, near the free edge of a door."""
+    (_, y0, z0), (x1, y1, z1) = front
+    centre, along_z = np.array([(y0 + y1) / 2, (z0 + z1) / 2]), False
+    if axis is not None:
+        point, direction = axis
+        if abs(direction[2]) > 0.5:  # a side hinge: near the far side, a third of the way down a tall door
+            far = y1 if abs(point[1] - y0) < abs(point[1] - y1) else y0
+            centre = np.array([far - np.sign(far - point[1]) * 0.05, z0 + 0.45 * (z1 - z0) if z1 - z0 > 1.0 else (z0 + z1) / 2])
+            along_z = True
+        else:  # a flap: near the edge far from the hinge line
+            far = z1 if abs(point[2] - z0) < abs(point[2] - z1) else z0
+            centre[1] = far - np.sign(far - point[2]) * 0.04
+    if not bar:
+        return [_solid(_round(x1, x1 + 0.02, 0.006, centre)), _solid(_round(x1 + 0.018, x1 + 0.028, 0.015, centre))]
+    length = min(0.3, 0.5 * (z1 - z0)) if along_z else min(0.4, 0.6 * (y1 - y0))
+    step = np.array([0.0, length / 2]) if along_z else np.array([length / 2, 0.0])
+    posts = [_solid(_round(x1, x1 + 0.022, 0.005, centre + s * 0.9 * step)) for s in (-1, 1)]
+    return posts + [_box_between(x1 + 0.022, x1 + 0.034, centre - step - 0.006, centre + step + 0.006)]
+
+
+def _box_between(x0: float, x1: float, low_yz: np.ndarray, high_yz: np.ndarray) -> trimesh.Trimesh:
+    low, high = np.array([x0, *low_yz]), np.array([x1, *high_yz])
+    return trimesh.creation.box(extents=high - low, transform=trimesh.transformations.translation_matrix((low + high) / 2))
 
 
 def write_room(folder: Path, pieces: dict[str, RealPiece]) -> Path:
