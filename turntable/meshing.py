@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 import trimesh
@@ -17,9 +17,6 @@ from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import decimate_closed, largest_piece, point_cloud, poisson_surface, repair_surface
 from homemodel.geometry.open3d_loader import load_open3d
 from turntable.fusion import Cylinder, MergedCloud
-
-if TYPE_CHECKING:
-    from scipy.spatial import cKDTree
 
 # Poisson's cube around the points, relative to their extent: room for the surface to close
 # below the footprint instead of being cut open by the cube's face.
@@ -483,15 +480,11 @@ def footprint_points(points: np.ndarray, z_min_m: float, spacing_m: float, *, in
     return np.column_stack([origin + (np.column_stack([ii, jj]) + 0.5) * spacing_m, np.zeros(len(ii))])
 
 
-def vertex_colors(
-    mesh: trimesh.Trimesh, cloud: MergedCloud, neighbours: int = 4, *, tree: cKDTree | None = None, workers: int = -1
-) -> np.ndarray:
+def vertex_colors(mesh: trimesh.Trimesh, cloud: MergedCloud, neighbours: int = 4, *, workers: int = -1) -> np.ndarray:
     """Colour of each vertex, (V, 3) in [0, 1]: inverse-distance mean of its nearest merged
-    points, found in `tree` (the cloud's points' k-d tree, built here if None) on `workers`
-    threads (-1: every core)."""
+    points, found on `workers` threads (-1: every core)."""
     from scipy.spatial import cKDTree
 
-    tree = cKDTree(cloud.points) if tree is None else tree
-    distances, index = tree.query(mesh.vertices, k=neighbours, workers=workers)
+    distances, index = cKDTree(cloud.points).query(mesh.vertices, k=neighbours, workers=workers)
     weights = 1.0 / np.maximum(distances, 1e-6)
     return np.einsum("vk,vkc->vc", weights, cloud.colors[index]) / weights.sum(axis=1, keepdims=True)

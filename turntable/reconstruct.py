@@ -433,8 +433,6 @@ def reconstruct_capture(
 
 
 def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
-    from scipy.spatial import cKDTree
-
     from turntable.texture import TextureLayout, bake_vertex_colors, carrier, texture_layout
 
     clock = StageClock(progress)
@@ -470,17 +468,15 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
     textured = uv = texture = None
     if options.texture_size_px > 0:
         clock.start("texture", 1)
-        # The vertex colours' neighbour query on the other core, beside the carrier's quadric
-        # collapse and its texture's layout, which need no colour and hold the GIL most of
-        # their time: the tree built first, here, so that the other thread goes straight into
-        # the query, which lets go of it.
-        tree = cKDTree(kept.points)
+        # The vertex colours' k-d tree and neighbour query on the other core (both let go of the
+        # GIL), beside the carrier's quadric collapse and its texture's layout, which need no
+        # colour and hold it most of their time: the tree's 4 CPU-ms no longer before the collapse.
 
         def laid_out_carrier() -> tuple[np.ndarray, TextureLayout]:
             small, nearest = carrier(mesh, options.texture_max_triangles)
             return nearest, texture_layout(small, size_px=options.texture_size_px)
 
-        colors, (nearest, layout) = _beside(lambda: vertex_colors(mesh, kept, tree=tree, workers=1), laid_out_carrier)
+        colors, (nearest, layout) = _beside(lambda: vertex_colors(mesh, kept, workers=1), laid_out_carrier)
         textured, uv, texture = bake_vertex_colors(layout, colors[nearest])
     else:
         colors = vertex_colors(mesh, kept)
