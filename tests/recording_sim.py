@@ -429,6 +429,9 @@ class RealSenseLayout:
     device_clock: tuple[str, ...] = ()
 
 
+_FILING_ATTEMPTS = 5
+
+
 def write_realsense_streams(
     path: Path,
     rig: Rig,
@@ -438,10 +441,43 @@ def write_realsense_streams(
 ) -> None:
     """A RealSense .bag written by pyrealsense2's software device and recorder (2.55.1 writes
     .bag), depth in the depth sensor's units with its own intrinsics and extrinsics to colour;
-    colour given as RGB, stored in the layout's format."""
+    colour given as RGB, stored in the layout's format. With `device_clock` the frames are
+    filed in real time, and written again when the scheduler filed one late (a loaded machine):
+    their filed times must keep the given spacing within min(period / 4, 15 ms)."""
+    layout = layout or RealSenseLayout()
+    for _ in range(_FILING_ATTEMPTS if layout.device_clock else 1):
+        _record_realsense(path, rig, colors, depths, layout)
+        if not layout.device_clock or _filed_on_time(path, colors, depths, min(0.25 * rig.period_s, 0.015)):
+            return
+    raise RuntimeError(f"{path}: the frames were not filed on time in {_FILING_ATTEMPTS} attempts")
+
+
+def _filed_on_time(path: Path, colors: list[tuple[float, np.ndarray]], depths: list[tuple[float, np.ndarray]], tolerance_s: float) -> bool:
+    """Whether the bag's colour and depth frames were filed at their times (each stream in
+    order; one common shift allowed) within `tolerance_s`."""
+    from rosbags.rosbag1 import Reader
+
+    filed: dict[str, list[float]] = {"Color": [], "Depth": []}
+    with Reader(path) as reader:
+        for connection, log_ns, _ in reader.messages():
+            kind = connection.topic.split("/")[3].split("_")[0] if connection.topic.endswith("/image/data") else None
+            if kind in filed:
+                filed[kind].append(1e-9 * log_ns)
+    if [len(filed["Color"]), len(filed["Depth"])] != [len(colors), len(depths)]:
+        return False
+    shifts = [f - t for kind, given in (("Color", colors), ("Depth", depths)) for f, (t, _) in zip(filed[kind], given)]
+    return max(shifts) - min(shifts) <= tolerance_s
+
+
+def _record_realsense(
+    path: Path,
+    rig: Rig,
+    colors: list[tuple[float, np.ndarray]],
+    depths: list[tuple[float, np.ndarray]],
+    layout: RealSenseLayout,
+) -> None:
     import pyrealsense2 as rs
 
-    layout = layout or RealSenseLayout()
     depth_camera = rig.depth_camera or rig.color_camera
 
     def intrinsics(camera: Camera, model: str) -> object:

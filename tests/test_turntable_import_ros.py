@@ -355,7 +355,7 @@ def ros1_split(folder: Path) -> Path:
 
 
 def ros2_split(folder: Path) -> Path:
-    """`ros2 bag record --max-bag-duration`: one folder, its metadata.yaml listing three .db3
+    """`ros2 bag record --max-bag-size`: one folder, its metadata.yaml listing three .db3
     files (Humble's), the CameraInfo only in the first."""
     ros = rsim.RosMessages(2)
     rsim.write_humble_bag(folder / "split", ros, _aligned(ros, depth_info="/camera/aligned_depth_to_color/camera_info"), files=3)
@@ -591,12 +591,17 @@ def test_a_wide_rational_depth_lens_reprojects_along_its_own_rays(board: Path, t
     assert np.abs(depths[0] - expected)[seen].max() < 0.0015, np.abs(depths[0] - expected)[seen].max()
 
 
-def test_a_split_bag_with_a_damaged_part_is_refused_in_one_line(board: Path, tmp_path: Path) -> None:
-    """Its other parts are not imported as if the recording were whole: the damaged part named."""
+@pytest.mark.parametrize("fault", ["damaged", "missing"])
+def test_a_split_bag_with_a_part_damaged_or_missing_is_refused_in_one_line(fault: str, board: Path, tmp_path: Path) -> None:
+    """Its other parts are not imported as if the recording were whole: the part named."""
     ros1_split(tmp_path)
-    damaged = tmp_path / "scan_1.bag"
-    damaged.write_bytes(damaged.read_bytes()[:200])
+    part = tmp_path / "scan_1.bag"
+    if fault == "damaged":
+        part.write_bytes(part.read_bytes()[:200])
+    else:
+        part.unlink()
     out = tmp_path / "o"
     result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / "scan_0.bag"), "--board", str(board), "--out", str(out)])
-    assert result.exit_code == 2 and "scan_1.bag: a part of the split bag scan_0.bag is not readable" in result.output
+    said = "is not readable" if fault == "damaged" else "is missing (scan_2.bag follows it)"
+    assert result.exit_code == 2 and f"scan_1.bag: a part of the split bag scan_0.bag {said}" in result.output, result.output
     assert len(result.output.strip().splitlines()) == 1 and not out.exists()

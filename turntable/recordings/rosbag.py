@@ -84,6 +84,18 @@ def split_parts(path: Path) -> list[Path]:
         first -= 1
     while joins(last, last + 1):
         last += 1
+    # A part missing from the numbering: the next part found starts no later than the missing
+    # ones could have lasted (as long as the longest part, each) after the run's end.
+    longest_ns = max(end - start for start, end in spans.values())
+    for edge, step in ((last, 1), (first, -1)):
+        beyond = [index for index in spans if (index - edge) * step > 1]
+        if edge + step in numbered or not beyond:
+            continue
+        nearest = min(beyond, key=lambda index: abs(index - edge))
+        gap_ns = spans[nearest][0] - spans[edge][1] if step > 0 else spans[edge][0] - spans[nearest][1]
+        if 0 <= gap_ns <= (abs(nearest - edge) - 1) * longest_ns + _SPLIT_GAP_S * 1e9:
+            missing = path.with_name(f"{prefix}_{edge + step}.bag")
+            raise InputError(f"{missing}: a part of the split bag {path.name} is missing ({numbered[nearest].name} follows it)")
     return [numbered[index] for index in range(first, last + 1)]
 
 
@@ -266,7 +278,12 @@ class RosBagSource(TimedStreamsSource):
         setup = StreamSetup(format=f"ros{self.ros_version}", color_camera=color_camera, notes=split_note + notes)
         if self._depth in registered and depth_info is None and not _named_registered(self._depth.topic):
             setup.notes.append(f"{self._depth.topic} has no CameraInfo and colour's size: taken as registered to colour")
-        elif self._depth in registered and depth_info.header.frame_id != color_info.header.frame_id:
+        elif (
+            self._depth in registered
+            and depth_info is not None
+            and not _named_registered(self._depth.topic)
+            and depth_info.header.frame_id != color_info.header.frame_id
+        ):
             setup.notes.append(
                 f"{self._depth.topic} in {depth_info.header.frame_id!r} has colour's intrinsics and no transform to "
                 f"{color_info.header.frame_id!r}: taken as registered to colour"
