@@ -18,7 +18,7 @@ from homemodel.cli.option_fields import field_option, from_options
 if TYPE_CHECKING:
     from semantic_map import MapObject, Node, ParkingPosition, SemanticMap
 
-map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map.")
+map_app = typer.Typer(no_args_is_help=True, help="Show, query, extend and validate a hierarchical semantic map; update it from a depth camera's view.")
 
 MAP_ARGUMENT = typer.Argument(..., metavar="MAP.xml", help="semantic map file")
 IMPORT = "homemodel.model_folder.asset_import:ImportOptions"  # `map add`'s import of a raw asset

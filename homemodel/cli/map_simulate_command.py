@@ -86,8 +86,10 @@ def simulate_view(
     bearing_deg: float = field_option(f"{LOOK_AT}.bearing_deg", help="with --look-at: turn the camera about the object, toward its +y"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
-    """Render what a depth camera at a known pose sees of the home: the map's models at its
-    joint states and poses (or those given), a floor and walls, with sensor noise."""
+    """Render a depth camera's view of the home, to test `map observe` without a robot.
+
+    What a camera at a known pose sees: the map's models at its joint states and poses (or
+    those given), a floor and walls, with sensor noise; truth.json holds the true states."""
     import time
 
     import numpy as np

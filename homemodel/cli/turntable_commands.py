@@ -155,6 +155,28 @@ def simulate(
     typer.echo(f"capture: {out}")
 
 
+def refuse_a_recording(capture_dir: Path) -> None:
+    """A recording, or another file, given where a capture folder goes (the import step
+    skipped) is refused in a line that says what to run first; the capture's own check said
+    `no such capture folder` of an existing file, or named a missing camera.yaml."""
+    from homemodel.core.errors import InputError
+    from turntable.recordings.detect import detect_format
+
+    if not capture_dir.exists() or (capture_dir / "camera.yaml").is_file():
+        return
+    try:
+        form = detect_format(capture_dir)
+    except InputError:
+        form = None
+    if form is not None:
+        raise InputError(
+            f"{capture_dir}: a {form} recording, not a capture folder: import it first "
+            f"(homemodel turntable import {capture_dir} --board board.yaml --out scan/), then reconstruct scan/"
+        )
+    if capture_dir.is_file():
+        raise InputError(f"{capture_dir}: a file, not a capture folder (camera.yaml, board.yaml, color/, depth/)")
+
+
 @turntable_app.command()
 @from_options
 def reconstruct(
@@ -187,6 +209,7 @@ def reconstruct(
 
     console = make_console()
     with exit_on_error():
+        refuse_a_recording(capture_dir)
         map_entry = map_entry_from_flags(map_path, parent_id, object_id or name, xyz)
         options = ReconstructOptions(
             detection=DetectionOptions(detector=detector, intensity="srgb" if srgb else "linear"),
