@@ -31,6 +31,7 @@ def observe_command(
         typer.echo(f"nothing seen: {obs_dir} holds no depth reading; {out} is the map unchanged")
         return
     columns = [Column("object", keep=True), Column("what", keep=True), Column("estimate"), Column("support", justify="right")]
-    title = f"{len(result.report.objects)} objects in view"
+    # Large objects: simulate-view counts the small ones too, and they are rows under their parent here.
+    title = f"{len(result.report.objects)} large objects in view"
     console.print(fitted_table(console, title, columns, result.report.table_rows(), drop=["support"]))
     typer.echo(f"map: {out}" + (f"\nreport: {report}" if report else ""))
