@@ -1,7 +1,8 @@
 """The turntable's faster paths against what they replace, on synthetic inputs (no rendering,
 a few seconds): the object's pixels kept from one reading give the points a whole-image
 back-projection gives; the tag search's decimation follows the tags' size in the image; the
-mesh snapped onto the merged points lands on the surface they sample; the texture carrier's
+mesh snapped onto the merged points lands on the surface they sample; the outlier filter drops
+strays and small clumps off a surface and keeps its rim; the texture carrier's
 decimation keeps a closed mesh closed and on the surface; the poses stage's runs of frames,
 read apart on threads, hand every reading over and stop together; one AprilTag detector serves
 every decimation, and detectors built ahead are the ones the searches take."""
@@ -16,8 +17,8 @@ from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
 from turntable import tags
 from turntable.board import grid_board, tag_bits
-from turntable.fusion import Cylinder, object_pixels, pixel_points
-from turntable.meshing import snap_to_points
+from turntable.fusion import Cylinder, MergedCloud, object_pixels, pixel_points
+from turntable.meshing import MeshingOptions, remove_outliers, snap_to_points
 from turntable.real_frames import drop_flying_pixels
 from turntable.tag_search import tag_decimation
 from turntable.tags import DetectionOptions, detect_tags, prepare_detectors
@@ -92,6 +93,38 @@ def test_snapping_moves_a_smoothed_surface_onto_the_points_and_leaves_unseen_par
     assert np.abs(error[upper]).mean() < 0.00005, f"{np.abs(error[upper]).mean() * 1000:.3f} mm"
     assert np.allclose(snapped.vertices[lower], sphere.vertices[lower])  # no points there: unchanged
     assert snapped.is_watertight
+
+
+def test_the_outlier_filter_drops_strays_and_clumps_off_a_cup_wall_and_keeps_its_rim() -> None:
+    """A cup's wall (radius 40 mm, 30 mm tall, open at the top) sampled about once a 1.5 mm
+    voxel, as the merge's centroids lie: every wall point stays, its top rim included (fewer
+    neighbours there); a lone point, a pair and a clump of four, 6 mm outside the wall, go. The
+    clump passes the strays' rule (each has three others within 2 voxels) and goes by the
+    clumps' (fewer than 5 within 3)."""
+    voxel = 0.0015
+    rng = np.random.default_rng(3)
+    angles = np.arange(0.0, 2 * np.pi, voxel / 0.04)
+    heights = np.arange(0.0, 0.03, voxel)
+    angle, height = (grid.ravel() for grid in np.meshgrid(angles, heights))
+    wall = np.column_stack([0.04 * np.cos(angle), 0.04 * np.sin(angle), height])
+    wall += rng.uniform(-0.2, 0.2, wall.shape) * voxel
+    rim = height == heights[-1]
+    off = np.array([0.046, 0.0, 0.015])  # 6 mm outside the wall
+    clump = off + np.array([[0.0, 0.0, 0.0], [0.0, 0.0012, 0.0], [0.0, 0.0, 0.0012], [0.0, 0.0012, 0.0012]])
+    pair = off + np.array([[0.0, 0.01, 0.0], [0.0, 0.0112, 0.0]])
+    lone = off + np.array([[0.0, -0.01, 0.0]])
+    points = np.concatenate([wall, clump, pair, lone])
+    cloud = MergedCloud(
+        points=points,
+        colors=np.column_stack([np.arange(len(points)), np.zeros((len(points), 2))]),  # which point each is
+        view_dirs=np.tile([1.0, 0.0, 0.0], (len(points), 1)),
+        counts=np.ones(len(points), dtype=np.int64),
+    )
+    kept = remove_outliers(cloud, MeshingOptions(), voxel).colors[:, 0].astype(int)
+    assert np.array_equal(kept, np.arange(len(wall)))  # the wall whole, rim included, nothing else
+    assert rim.sum() > 150 and np.all(np.isin(np.flatnonzero(rim), kept))
+    without_clumps = remove_outliers(cloud, MeshingOptions(clump_neighbours=0), voxel).colors[:, 0].astype(int)
+    assert np.array_equal(without_clumps, np.arange(len(wall) + len(clump)))  # the clump stays, the pair and lone go
 
 
 def test_the_texture_carrier_stays_closed_and_on_the_surface() -> None:
