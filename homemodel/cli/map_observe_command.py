@@ -32,6 +32,7 @@ def observe_command(
         return
     columns = [Column("object", keep=True), Column("what", keep=True), Column("estimate"), Column("support", justify="right")]
     # Large objects: simulate-view counts the small ones too, and they are rows under their parent here.
-    title = f"{len(result.report.objects)} large objects in view"
+    count = len(result.report.objects)
+    title = f"{count} large object{'' if count == 1 else 's'} in view"
     console.print(fitted_table(console, title, columns, result.report.table_rows(), drop=["support"]))
     typer.echo(f"map: {out}" + (f"\nreport: {report}" if report else ""))

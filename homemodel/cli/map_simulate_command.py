@@ -124,5 +124,6 @@ def simulate_view(
     objects = sorted({p["object"] for p in view.observation.truth["parts"] if p["pixels"] > 0})
     typer.echo(
         f"{out}: {camera.width}x{camera.height}, {int(np.count_nonzero(depth))} depth readings, "
-        f"{len(objects)} objects in view ({', '.join(objects) or 'none'}), {time.perf_counter() - start:.2f} s"
+        f"{len(objects)} object{'' if len(objects) == 1 else 's'} in view ({', '.join(objects) or 'none'}), "
+        f"{time.perf_counter() - start:.2f} s"
     )
