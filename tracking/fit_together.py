@@ -188,11 +188,12 @@ def _gauss_newton(
 
 # A start whose steps come this near (m, turns at LEVER_M) another start's settled end stops
 # there: most of the starts end together (the bench's cupboard, fridge and oven at 1.2-2.1 m:
-# every start's end within 0.1 mm and 0.01 deg of the first's), and the steps that remain,
-# under a millimetre, each cost a rendering of the object. An end whose steps ran out still
-# moving is no such place: with it known, the bench's fridge at 2.1 m (`--seed 3`, its body
-# unseen) stopped a start 2 mm from it that went on to the truth, its door written 2.2 deg off.
-# At 2 mm from settled ends, `--seed 1`'s fridge behind a box at 2.1 m went 2.18 -> 2.53 deg.
+# every start's end within 0.1 mm, 0.01 deg of yaw and 0.1 deg of door of the first's), and
+# the steps that remain, under a millimetre, each cost a rendering of the object. An end whose
+# steps ran out still moving is no such place: with it known, the bench's fridge at 2.1 m
+# (`--seed 3`, its body unseen) stopped a start 2 mm from it that went on to the truth, its
+# door written 2.2 deg off. At 2 mm from settled ends, `--seed 1`'s fridge behind a box at
+# 2.1 m went 2.18 -> 2.53 deg.
 SAME_END_M = 0.0005
 
 
