@@ -14,7 +14,7 @@ from homemodel.cli.map_commands import MAP_ARGUMENT, map_app
 @map_app.command("observe")
 def observe_command(
     map_path: Path = MAP_ARGUMENT,
-    obs_dir: Path = typer.Argument(..., metavar="OBS_DIR", help="observation folder: depth.png, camera.yaml (with map_from_camera), optional color.png"),
+    obs_dir: Path = typer.Argument(..., metavar="OBS_DIR", help="observation folder: depth.png (16-bit), camera.yaml (intrinsics and map_from_camera, the camera's 4x4 pose in the map), optional color.png"),
     out: Path = typer.Option(..., "--out", help="the updated map file (NEW_MAP.xml)"),
     report: Path | None = typer.Option(None, "--report", help="write what was seen, per object in view, as JSON here"),
 ) -> None:
