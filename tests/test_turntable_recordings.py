@@ -195,10 +195,11 @@ def test_capture_by_playback_stops_after_one_turn(clean: Path, baseline_mm: floa
     # and two blurred; 8 sectors of 45 degrees: each holds three frames (at sectors=12 a
     # 30-degree sector went empty when the SDK's syncer, no longer used, lost one more pair).
     options = LiveCaptureOptions(sectors=8)
-    result = capture_turn(
-        RealSenseSource(bag=path), load_board(clean / "board.yaml"), tmp_path / "capture", options, on_status=seen.append
-    )
+    source = RealSenseSource(bag=path)
+    result = capture_turn(source, load_board(clean / "board.yaml"), tmp_path / "capture", options, on_status=seen.append)
     assert result.complete and result.coverage == 1.0
+    record = json.loads((tmp_path / "capture" / "recording.json").read_text())
+    assert record["notes"] == source.setup.notes and record["live_capture"]["frames_kept"] == result.frames_kept
     assert 315 <= abs(result.turned_deg) <= 375  # every 45-degree sector seen: more than 315 turned
     assert result.warnings["blur"] >= 1  # the blurred frames were warned about, live
     assert any(s.warning and s.warning.startswith("blur") for s in seen)

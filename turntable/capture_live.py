@@ -151,6 +151,7 @@ def capture_turn(
             complete=bool(covered.all()),
             warnings=warnings,
         )
-        record = {"format": source.setup.format, "live_capture": result.__dict__, "frames": frames}
+        # What the source assumed (units, lens refits, two clocks...), as an import's recording.json says it.
+        record = {"format": source.setup.format, "notes": source.setup.notes, "live_capture": result.__dict__, "frames": frames}
         write_json(tmp / RECORDING_JSON, record)
     return result
