@@ -46,25 +46,31 @@ class Texels:
         """The (size, size, 3) uint8 texture with each texel's colour (N, 3), and every empty
         texel within `gutter_px` of a chart (None: every empty texel) the colour of the nearest
         painted one, so bilinear filtering and mip-maps do not bleed the background into the model."""
-        from scipy import ndimage
+        import cv2
 
         size = self.size_px
         texture = np.zeros((size, size, 3), np.uint8)
         texels = texture.reshape(-1, 3)  # flat views: one index per texel instead of two
         painted = self.rows * size + self.cols
         texels[painted] = colours
-        empty = np.ones(size * size, bool)
-        empty[painted] = False
-        if not empty.any():
+        empty = np.ones(size * size, np.uint8)
+        empty[painted] = 0
+        if not empty.any() or not len(painted):
             return texture
-        # Chessboard distance: the gutter reaches as far diagonally as along rows.
-        distance, (rows, cols) = ndimage.distance_transform_cdt(
-            empty.reshape(size, size), metric="chessboard", return_indices=True
+        # Chessboard distance (the gutter reaches as far diagonally as along rows), exact with
+        # the 3x3 mask. OpenCV's labels each painted texel and the empty ones nearest it: half
+        # SciPy's distance_transform_cdt's CPU (4.4 against 7.8 ms at 512 px), and it lets go of
+        # the GIL. Of texels at the same distance it may pick another than SciPy did.
+        distance, labels = cv2.distanceTransformWithLabels(
+            empty.reshape(size, size), cv2.DIST_C, 3, labelType=cv2.DIST_LABEL_PIXEL
         )
-        nearest = (rows * size + cols).ravel()
+        labels = labels.ravel()
+        texel_of_label = np.empty(int(labels.max()) + 1, np.int64)
+        texel_of_label[labels[painted]] = painted
+        nearest = texel_of_label[labels]
         if gutter_px is None:  # every texel its nearest painted one's colour: a painted texel is its own
             return texels[nearest].reshape(texture.shape)
-        fill = empty & (distance.ravel() <= gutter_px)
+        fill = empty.astype(bool) & (distance.ravel() <= gutter_px)
         texels[fill] = texels[nearest[fill]]
         return texture
 
