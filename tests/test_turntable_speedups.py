@@ -2,7 +2,8 @@
 a few seconds): the object's pixels kept from one reading give the points a whole-image
 back-projection gives; the tag search's decimation follows the tags' size in the image; the
 mesh snapped onto the merged points lands on the surface they sample; the outlier filter drops
-strays and small clumps off a surface and keeps its rim; the texture carrier's
+strays and small clumps off a surface and keeps its rim; the texture's gutter takes each empty
+texel's colour from a nearest painted texel (OpenCV's transform); the texture carrier's
 decimation keeps a closed mesh closed and on the surface; the poses stage's runs of frames,
 read apart on threads, hand every reading over and stop together; one AprilTag detector serves
 every decimation, and detectors built ahead are the ones the searches take."""
@@ -22,6 +23,7 @@ from turntable.meshing import MeshingOptions, remove_outliers, snap_to_points
 from turntable.real_frames import drop_flying_pixels
 from turntable.tag_search import tag_decimation
 from turntable.tags import DetectionOptions, detect_tags, prepare_detectors
+from homemodel.geometry.uv_atlas import Texels
 from turntable.texture import carrier
 
 CAMERA = Camera(width=320, height=240, fx=280.0, fy=280.0, cx=159.5, cy=119.5)
@@ -125,6 +127,31 @@ def test_the_outlier_filter_drops_strays_and_clumps_off_a_cup_wall_and_keeps_its
     assert rim.sum() > 150 and np.all(np.isin(np.flatnonzero(rim), kept))
     without_clumps = remove_outliers(cloud, MeshingOptions(clump_neighbours=0), voxel).colors[:, 0].astype(int)
     assert np.array_equal(without_clumps, np.arange(len(wall) + len(clump)))  # the clump stays, the pair and lone go
+
+
+def test_the_gutter_takes_each_empty_texels_colour_from_a_nearest_painted_texel() -> None:
+    """Every painted texel a colour of its own, so a texel's colour names its source: each empty
+    texel's lies at the least chessboard distance, and gutter_px stops the fill at that distance."""
+    size = 48
+    rng = np.random.default_rng(3)
+    flat = np.sort(rng.choice(size * size, 300, replace=False))  # scattered: distances up to several texels
+    rows, cols = np.divmod(flat, size)
+    texels = Texels(
+        size_px=size, rows=rows, cols=cols, corners=np.zeros((300, 3), int), weights=np.zeros((300, 3)), vertices=np.zeros((1, 3))
+    )
+    colours = np.stack([flat // 256 + 1, flat % 256, np.full(300, 7)], axis=1).astype(np.uint8)  # no painted texel is black
+    image = texels.paint(colours)
+    source = (image[..., 0].astype(int) - 1) * 256 + image[..., 1]  # the flat index each texel copied
+    assert np.isin(source, flat).all() and (image[..., 2] == 7).all()
+    grid_rows, grid_cols = np.divmod(np.arange(size * size), size)
+    to_all = np.maximum(np.abs(grid_rows[:, None] - rows), np.abs(grid_cols[:, None] - cols))  # (texels, painted)
+    source_rows, source_cols = np.divmod(source.ravel(), size)
+    chosen = np.maximum(np.abs(grid_rows - source_rows), np.abs(grid_cols - source_cols))
+    assert np.array_equal(chosen, to_all.min(axis=1)) and to_all.min(axis=1).max() >= 3
+    gutter = texels.paint(colours, gutter_px=1)
+    filled = (gutter != 0).any(axis=2).ravel()
+    assert np.array_equal(filled, to_all.min(axis=1) <= 1)
+    assert np.array_equal(gutter.reshape(-1, 3)[filled], image.reshape(-1, 3)[filled])
 
 
 def test_the_texture_carrier_stays_closed_and_on_the_surface() -> None:
