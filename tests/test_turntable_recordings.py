@@ -233,6 +233,43 @@ def test_registration_of_a_640x480_depth_into_a_1280x720_colour() -> None:
     assert np.median(error) < 1e-4 and np.mean(error < 0.001) > 0.99, (np.median(error), np.mean(error < 0.001))
 
 
+def _between_the_two_planes(registered: np.ndarray, color: Camera, color_from_depth: np.ndarray, near: float, far: float) -> int:
+    """Registered colour pixels whose point, in the depth camera's frame, lies more than 3 mm
+    from both frontal planes z = near and z = far: a surface drawn across the step."""
+    drawn = np.flatnonzero(np.isfinite(registered).ravel())
+    points = color.pixel_rays()[drawn] * registered.ravel()[drawn, None]
+    z = ((points - color_from_depth[:3, 3]) @ color_from_depth[:3, :3])[:, 2]
+    return int(np.sum((np.abs(z - near) > 0.003) & (np.abs(z - far) > 0.003)))
+
+
+def test_registration_draws_no_surface_across_a_step_or_its_flying_pixels() -> None:
+    """A depth camera of its own (320x240, f = 191 px, the D435-beside-colour case) sees a plane
+    0.60 m away in front of another: across a 13 mm step (2.2 % of depth, a bottle's silhouette
+    against the table near its base) and across a 32 mm step whose edge pixels read between
+    the two (flying pixels, splitting it into two 2.7 % jumps), the 3 % rule drew triangles
+    (a flared skirt round the bottle's base in the mesh); a plane seen up to 65 degrees off
+    its normal keeps its triangles."""
+    color = Camera(width=640, height=360, fx=465.6, fy=465.6, cx=319.5, cy=179.5)
+    depth_camera = rsim.depth_camera_for(color, width=320, height=240, hfov_deg=80.0)
+    color_from_depth = rsim.baseline()
+    near, in_front = 0.6, np.s_[60:180, 100:220]
+    for far, flying in ((0.613, None), (0.632, 0.616)):
+        depth = np.full((240, 320), far)
+        depth[in_front] = near
+        if flying is not None:  # the step's left and right edge pixels read between the two planes
+            depth[60:180, 99], depth[60:180, 220] = flying, flying
+        registered = register_depth(depth, depth_camera, color, color_from_depth)
+        assert _between_the_two_planes(registered, color, color_from_depth, near, far) == 0, (far, flying)
+        assert np.isfinite(registered).mean() > 0.9  # both planes drawn but for the step
+    # A plane turned 65 degrees about the vertical: z = 0.6 / (1 - tan(65) x) on the depth rays.
+    x = (np.arange(320) - depth_camera.cx) / depth_camera.fx
+    tilted = np.tile(0.6 / (1 - np.tan(np.radians(65.0)) * x), (240, 1))
+    tilted[:, x >= 0] = np.nan  # only where its rays meet it 65 degrees or less off its normal
+    registered = register_depth(tilted, depth_camera, color, color_from_depth)
+    seen = (color.pixel_rays()[:, 0] / color.pixel_rays()[:, 2]).reshape(360, 640) < -0.05
+    assert np.isfinite(registered[seen]).mean() > 0.99
+
+
 def test_registration_of_a_depth_frame_without_depth_is_empty() -> None:
     """A frame with no valid depth (lens covered, a dropped frame's zeros) registers to an empty
     image: it used to raise an IndexError in the rasteriser and stop the whole import."""
