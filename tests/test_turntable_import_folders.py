@@ -262,3 +262,19 @@ def test_numbered_frames_carry_no_times_and_redwood_s_keep_theirs(board: Path, t
             assert [frame["depth_offset_s"] for frame in frames] == pytest.approx([0.005] * len(kept), abs=1e-6)
         else:
             assert times == [None] * len(FRAMES.times_s) and all(frame["depth_offset_s"] is None for frame in frames)
+
+
+def test_a_depth_png_of_another_size_is_refused_naming_it(board: Path, tmp_path: Path) -> None:
+    """One depth image of a TUM folder cut to another size: the file named (the whole frame's
+    check named only the folder, and the user looked through 34 PNGs)."""
+    import cv2
+
+    recording = tum_benchmark(tmp_path / "scan")
+    odd = sorted((recording / "depth").iterdir())[2]
+    cv2.imwrite(str(odd), cv2.imread(str(odd), cv2.IMREAD_UNCHANGED)[:-2])
+    camera = tmp_path / "camera.yaml"
+    save_camera(FRAMES.camera, camera)
+    args = ["turntable", "import", str(recording), "--board", str(board), "--camera", str(camera), "--out", str(tmp_path / "o")]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and f"{odd}: depth" in result.output and "has another size" in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

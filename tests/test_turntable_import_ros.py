@@ -605,3 +605,14 @@ def test_a_split_bag_with_a_part_damaged_or_missing_is_refused_in_one_line(fault
     said = "is not readable" if fault == "damaged" else "is missing (scan_2.bag follows it)"
     assert result.exit_code == 2 and f"scan_1.bag: a part of the split bag scan_0.bag {said}" in result.output, result.output
     assert len(result.output.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_a_bag_cut_short_is_refused_in_words(board: Path, tmp_path: Path) -> None:
+    """A .bag copied or recorded only in part: rosbags' "Bag index looks damaged: ('Header could
+    not be read from file.',)" was printed as it came, a Python tuple."""
+    ros, bag = rsim.RosMessages(1), tmp_path / "scan.bag"
+    rsim.write_bag(bag, ros, sorted(_aligned(ros), key=lambda m: m[0]))
+    bag.write_bytes(bag.read_bytes()[: bag.stat().st_size // 2])
+    result = CliRunner().invoke(app, ["turntable", "import", str(bag), "--board", str(board), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "cut short or damaged: its index cannot be read" in result.output, result.output
+    assert "('" not in result.output and len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

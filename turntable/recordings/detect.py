@@ -7,6 +7,7 @@ from typing import Literal, get_args
 
 from homemodel.core.errors import InputError
 from turntable.recordings.open3d_folder import COLOR_FOLDERS, intrinsics_file, is_config
+from turntable.recordings.rosbag import unreadable_bag
 from turntable.recordings.tum import LISTS, associations_file
 
 RecordingFormat = Literal["realsense-bag", "ros1", "ros2", "tum", "open3d"]
@@ -21,7 +22,7 @@ def _is_realsense_bag(path: Path) -> bool:
         with Reader(path) as reader:
             return any(c.topic.startswith("/device_0/") for c in reader.connections)
     except (ReaderError, OSError, ValueError, KeyError) as exc:
-        raise InputError(f"{path}: not a readable .bag: {exc}") from None
+        raise InputError(f"{path}: not a readable .bag: {unreadable_bag(exc)}") from None
 
 
 def detect_format(path: Path) -> str:

@@ -43,12 +43,19 @@ def read_rgb(path: Path) -> np.ndarray:
     return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
 
 
-def read_depth_units(path: Path) -> np.ndarray:
+def read_depth_units(path: Path, color_size: tuple[int, int]) -> np.ndarray:
+    """A folder's depth PNG, registered to its (width, height) colour: refused naming the file
+    when it is not, as the importer's own check of the whole frame would name only the folder."""
     import cv2
 
     raw = read_image(path, cv2.IMREAD_UNCHANGED)
     if raw.ndim != 2 or raw.dtype != np.uint16:
         raise InputError(f"{path}: a depth image must be single-channel 16-bit, got {raw.dtype} with shape {raw.shape}")
+    if (raw.shape[1], raw.shape[0]) != color_size:
+        raise InputError(
+            f"{path}: depth {raw.shape[1]}x{raw.shape[0]} is said to be registered to the "
+            f"{color_size[0]}x{color_size[1]} colour but has another size"
+        )
     return raw
 
 

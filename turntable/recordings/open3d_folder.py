@@ -164,6 +164,7 @@ class Open3dSource(TimedStreamsSource):
         return np.arange(len(self._colors)) * FRAME_PERIOD_S, np.arange(len(self._depths)) * FRAME_PERIOD_S
 
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
+        camera = self.setup.color_camera
         for i, j in chosen:
             yield "color", i, read_rgb(self._colors[i])
-            yield "depth", j, read_depth_units(self._depths[j])
+            yield "depth", j, read_depth_units(self._depths[j], (camera.width, camera.height))

@@ -35,6 +35,13 @@ _SPLIT_PART = re.compile(r"^(?P<prefix>.+)_(?P<index>\d+)$")
 _SPLIT_GAP_S = 1.0
 
 
+def unreadable_bag(exc: Exception) -> str:
+    """Why a bag reader refused a file, in words: rosbags says a bag cut short (a copy or a
+    recording stopped mid-write) as "Bag index looks damaged: ('Header could not be read ...',)"."""
+    text = str(exc)
+    return "cut short or damaged: its index cannot be read" if "index looks damaged" in text.lower() else text
+
+
 def bag_path(path: Path) -> Path:
     """What rosbags opens: a ROS 1 .bag file, or a ROS 2 bag's folder (given as itself, its
     metadata.yaml, or one of its storage files)."""
@@ -76,7 +83,9 @@ def split_parts(path: Path) -> list[Path]:
     def joins(before: int, after: int) -> bool:
         for index in (before, after):
             if index in broken:  # a part missing from the middle of a recording: refused, not skipped
-                raise InputError(f"{numbered[index]}: a part of the split bag {path.name} is not readable: {broken[index]}")
+                raise InputError(
+                    f"{numbered[index]}: a part of the split bag {path.name} is not readable: {unreadable_bag(broken[index])}"
+                )
         return before in spans and after in spans and 0 <= spans[after][0] - spans[before][1] <= _SPLIT_GAP_S * 1e9
 
     first = last = given
@@ -225,7 +234,7 @@ class RosBagSource(TimedStreamsSource):
             self._reader = AnyReader(paths, default_typestore=get_typestore(Stores.ROS2_HUMBLE))
             self._reader.open()
         except (AnyReaderError, OSError, ValueError, KeyError) as exc:
-            raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {exc}") from None
+            raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {unreadable_bag(exc)}") from None
         where = str(self.path)
         split_note = [f"a bag split in {len(paths)} parts: {', '.join(p.name for p in paths)} read"] if len(paths) > 1 else []
         reader = self._reader

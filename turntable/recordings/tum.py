@@ -124,6 +124,7 @@ class TumSource(TimedStreamsSource):
         return self._color_t, self._depth_t
 
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
+        camera = self.setup.color_camera
         for i, j in chosen:
             yield "color", i, read_rgb(self._color_files[i])
-            yield "depth", j, read_depth_units(self._depth_files[j])
+            yield "depth", j, read_depth_units(self._depth_files[j], (camera.width, camera.height))
