@@ -110,3 +110,20 @@ def test_streams_stamped_by_two_clocks_are_paired_as_they_arrived(on_camera_cloc
     colors, read_depths = rsim.read_back(tmp_path / "capture")
     for k, (color, depth) in enumerate(zip(colors, read_depths, strict=True)):
         assert np.array_equal(color, frames.colors[k]) and np.abs(depth - frames.depths_m[k]).max() < 1e-6, k
+
+
+def test_capture_without_a_camera_says_what_to_do(board: Path, tmp_path: Path) -> None:
+    """An installer running the README's capture line with the camera unplugged (or on a USB 2
+    port, where it does not enumerate) is told to plug it in or to play a recording."""
+    import pyrealsense2 as rs
+    from typer.testing import CliRunner
+
+    from homemodel.cli import app
+
+    if len(rs.context().query_devices()):
+        pytest.skip("a RealSense camera is connected")
+    out = tmp_path / "scan"
+    args = ["turntable", "capture", "--device", "realsense", "--board", str(board), "--out", str(out)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and "USB 3 port" in result.output and "--playback FILE.bag" in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1 and not out.exists()

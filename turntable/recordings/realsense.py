@@ -140,7 +140,10 @@ class RealSenseSource(FrameSource):
             return device
         devices = {d.get_info(rs.camera_info.serial_number): d for d in context.query_devices()}
         if not devices:
-            raise InputError("no RealSense camera is connected (pyrealsense2 finds none)")
+            raise InputError(
+                "no RealSense camera is connected (pyrealsense2 finds none): plug it into a USB 3 port, "
+                "or play a recording with --playback FILE.bag"
+            )
         if self.serial is not None and self.serial not in devices:
             raise InputError(f"no RealSense camera with serial {self.serial} (connected: {', '.join(devices)})")
         return devices[self.serial] if self.serial is not None else next(iter(devices.values()))
