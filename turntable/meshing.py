@@ -362,10 +362,10 @@ def _plane_distances(
     # On two threads: NumPy lets go of the GIL in each step of a chunk; the entries come back in
     # the tasks' order, so the sums are the same whichever thread made them.
     with ThreadPoolExecutor(max_workers=_SPLAT_THREADS) as pool:
-        nodes, weights, weighted = zip(*pool.map(entries, tasks))
+        nodes, entry_weights, weighted = zip(*pool.map(entries, tasks))
     # One sum over all chunks (a whole-grid bin count per chunk had cost a fifth of the splat).
     nodes = np.concatenate(nodes)
-    weight_sums = np.bincount(nodes, np.concatenate(weights), minlength=size)
+    weight_sums = np.bincount(nodes, np.concatenate(entry_weights), minlength=size)
     value_sums = np.bincount(nodes, np.concatenate(weighted), minlength=size)
     known = weight_sums > 0
     field = np.zeros(size)
