@@ -16,6 +16,7 @@ import trimesh
 
 from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
+from homemodel.geometry.uv_atlas import Texels
 from turntable import tags
 from turntable.board import grid_board, tag_bits
 from turntable.fusion import Cylinder, MergedCloud, object_pixels, pixel_points
@@ -23,7 +24,6 @@ from turntable.meshing import MeshingOptions, remove_outliers, snap_to_points
 from turntable.real_frames import drop_flying_pixels
 from turntable.tag_search import tag_decimation
 from turntable.tags import DetectionOptions, detect_tags, prepare_detectors
-from homemodel.geometry.uv_atlas import Texels
 from turntable.texture import carrier
 
 CAMERA = Camera(width=320, height=240, fx=280.0, fy=280.0, cx=159.5, cy=119.5)
