@@ -33,8 +33,8 @@ def _ros1_bag(path: Path) -> Path:
 @pytest.mark.parametrize(
     ("make", "said"),
     [
-        (lambda tmp: _tum_folder(tmp / "tum_folder"), "a tum recording, not a capture folder: import it first"),
-        (lambda tmp: _ros1_bag(tmp / "recording.bag"), "a ros1 recording, not a capture folder: import it first"),
+        (lambda tmp: _tum_folder(tmp / "tum_folder"), "a recording (format tum), not a capture folder: import it first"),
+        (lambda tmp: _ros1_bag(tmp / "recording.bag"), "a recording (format ros1), not a capture folder: import it first"),
         (lambda tmp: tmp / "notes.txt", "a file, not a capture folder"),
     ],
     ids=["tum folder", "ros1 bag", "other file"],

@@ -170,7 +170,7 @@ def refuse_a_recording(capture_dir: Path) -> None:
         form = None
     if form is not None:
         raise InputError(
-            f"{capture_dir}: a {form} recording, not a capture folder: import it first "
+            f"{capture_dir}: a recording (format {form}), not a capture folder: import it first "
             f"(homemodel turntable import {capture_dir} --board board.yaml --out scan/), then reconstruct scan/"
         )
     if capture_dir.is_file():
