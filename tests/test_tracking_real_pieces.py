@@ -206,15 +206,13 @@ def test_a_door_a_box_hides_all_of_is_not_written(real_room: tuple[Path, Path], 
     assert _within_targets(errors), errors
 
 
-
 def test_a_cupboard_in_a_row_is_not_slid_along_its_front(real_room: tuple[Path, Path], fitted_furniture: ViewSimulator) -> None:
     """2.5 m from the dishwasher, a box over 30 % of it: the cupboard beside it, in a row,
-    shows its fronts and none of its sides, which pin nothing of a slide along them. The fit
-    slid it 33 mm along its front, where the model, with none of the real piece's handles and
-    rounded edges, explained the depth better (0.058 against 0.089 with the slide taken out),
-    and that pose was written. A slide its seen
-    surfaces leave free, past the map's doubt, is taken out: the pose is written put right
-    across its front (5 mm from the truth), not slid."""
+    shows its fronts, its sides hidden by its neighbours and its outline against them, not
+    against anything far behind: nothing pins a slide along its front. The fit slid it
+    33 mm along it, where the model explained the depth better (0.058 against 0.089 with
+    the slide taken out), and that pose was written. A free slide past the issue's 3 cm is
+    taken out: the pose is written put right across its front (5 mm from the truth)."""
     report, truth = _observed(fitted_furniture, real_room[1], (2.799653, 1.869691, 1.4), (-0.931158, 0.040379, -0.362374),
                               17, occlude={"dishwasher_3": 0.3})
     cupboard = next(o for o in report.objects if o.id == "cupboard_14")
