@@ -152,6 +152,23 @@ def test_noise_free_mesh_matches_the_truth(name: str, captures: dict[str, Path],
     assert iou >= 0.85, f"VoxelIOU {iou:.3f}"
 
 
+def test_a_full_turn_is_seen_and_a_part_turn_warned(captures: dict[str, Path], reconstructions: dict, tmp_path: Path) -> None:
+    step_deg = 360 / CAPTURE["frames"]
+    for result in reconstructions.values():  # a full turn: every frame merged, no gap
+        assert result.turn.largest_gap_deg == pytest.approx(step_deg, abs=1)
+        assert result.turn.seen_fraction == 1.0 and result.turn.warning() is None
+    # The box's first 0.8 of the turn (10 of 12 frames): the last 90 degrees were never seen.
+    kept = round(0.8 * CAPTURE["frames"])
+    part = Path(shutil.copytree(captures["box"], tmp_path / "part_turn"))
+    for frame in sorted((part / "color").glob("*.png"))[kept:]:
+        (part / "color" / frame.name).unlink()
+        (part / "depth" / frame.name).unlink()
+    turn = reconstruct_capture(load_capture(part), NO_TEXTURE).turn
+    assert turn.largest_gap_deg == pytest.approx(360 - (kept - 1) * step_deg, abs=1)
+    assert turn.seen_fraction == pytest.approx(kept / CAPTURE["frames"], abs=0.01)  # each frame stands for its step
+    assert turn.figures()["gap_warning"] and "record a full turn" in turn.warning()
+
+
 @pytest.mark.parametrize("name", OBJECTS)
 def test_noisy_depth_mesh_matches_the_truth(name: str, captures: dict[str, Path], noisy_reconstructions: dict) -> None:
     truth = trimesh.load(captures[name] / "ground_truth.ply", force="mesh")
@@ -284,6 +301,11 @@ def test_bad_frames_are_skipped_and_counted(captures: dict[str, Path], cli_run: 
     figures = json.loads((cli_run.out / "summary.json").read_text())["turntable"]
     assert (figures["frames_used"], figures["frames_skipped"]) == (CAPTURE["frames"] - 4, 4)
     assert figures["skip_reasons"] == {"image": 3, "pose": 1}
+    # Every third frame lost: 60 degrees without a frame (two frames' steps, one never seen), warned once.
+    turn = figures["turn"]
+    assert turn["gap_warning"] and turn["largest_gap_deg"] == pytest.approx(60, abs=1)
+    assert turn["seen_fraction"] == pytest.approx(1 - len(BAD_FRAMES) / CAPTURE["frames"], abs=0.01)
+    assert cli_run.result.stdout.count("record a full turn") == 1
     mesh = trimesh.load(cli_run.out / "mesh.ply", force="mesh")  # the table frame, as the truth
     truth = trimesh.load(captures["mug"] / "ground_truth.ply", force="mesh")
     assert mean_surface_distance_m(mesh, truth) <= 0.0015

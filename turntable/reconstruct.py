@@ -40,6 +40,7 @@ from turntable.pose import FramePose, PoseSkip
 from turntable.reconstruction import Reconstruction, ReconstructOptions
 from turntable.tag_search import TagSearch, capture_search, frame_pose, predicted_pose
 from turntable.tags import prepare_detectors
+from turntable.turn_coverage import TurnCoverage, turn_angles_rad, turn_coverage
 from turntable.turntable_model import fit_turntable
 
 A, B = TypeVar("A"), TypeVar("B")
@@ -319,9 +320,10 @@ def merge_frames(
     report: Progress,
     figures: dict,
     offsets: Future[dict[str, np.ndarray | None]],
-) -> MergedCloud:
-    """The frames' kept pixels in the table frame, voxel-averaged; fills `figures` with the
-    real-frame figures (flying pixels, holes, misregistration from the merged frames' `offsets`)."""
+) -> tuple[MergedCloud, TurnCoverage]:
+    """The frames' kept pixels in the table frame, voxel-averaged, and how much of the turn the
+    merged frames saw; fills `figures` with the real-frame figures (flying pixels, holes,
+    misregistration from the merged frames' `offsets`)."""
     skipped, readings = frames.skipped, frames.readings
     accumulator = VoxelAccumulator(voxel_size_m=options.voxel_size_m)
     # A depth frame taken `depth_offset_s` after its colour frame sees the table turned on by
@@ -380,7 +382,7 @@ def merge_frames(
         return reading, pixel_points(reading.pixels, frames.rays, table_from_camera, cylinder)
 
     flying_total = valid_total = merged_total = 0
-    probed = []
+    probed, merged_views = [], []
     # The frames' points on the workers' threads (NumPy lets go of the GIL), summed in order here.
     with _mapper(options.workers) as mapper:
         done_frames = enumerate(zip(merged, mapper(points_of, merged)), start=1)
@@ -390,6 +392,7 @@ def merge_frames(
                 poses.pop(frame.stem, None)
             else:
                 accumulator.add(*points)
+                merged_views.append(camera_from_tables[frame.stem])
                 flying_total += reading.flying
                 valid_total += reading.valid
                 merged_total += 1
@@ -416,7 +419,8 @@ def merge_frames(
     )
     if len(poses) < options.min_frames:
         raise ModelError(f"{capture.folder}: only {len(poses)} frames have readable depth, {options.min_frames} needed")
-    return accumulator.cloud()
+    # The frames posed by the turn rate count: their depth is merged.
+    return accumulator.cloud(), turn_coverage(turn_angles_rad(merged_views))
 
 
 def reconstruct_capture(
@@ -460,7 +464,7 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
         cylinder = object_cylinder(capture, axis, options)
 
         clock.start("merge")
-        cloud = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames, offsets)
+        cloud, coverage = merge_frames(capture, frames, poses, cylinder, options, clock.progress, real_frames, offsets)
 
     clock.start("mesh", 1)
     mesh, kept, figures = object_surface(cloud, cylinder, options.voxel_size_m, options.meshing)
@@ -492,6 +496,7 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
         skipped=skipped,
         axis=axis,
         turntable_fit=fit,
+        turn=coverage,
         cylinder=cylinder,
         cloud=cloud,
         meshing=figures,

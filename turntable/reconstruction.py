@@ -19,6 +19,7 @@ from turntable.meshing import MeshingFigures, MeshingOptions
 from turntable.orbit import TableAxis
 from turntable.pose import FramePose, PoseOptions
 from turntable.tags import DetectionOptions
+from turntable.turn_coverage import TurnCoverage
 from turntable.turntable_model import TurntableFit
 
 
@@ -87,6 +88,7 @@ class Reconstruction(ModelResult):
     skipped: dict[str, str]  # frame stem -> "image: ...", "pose: ..." or "unpaired: ..."
     axis: TableAxis
     turntable_fit: TurntableFit | None
+    turn: TurnCoverage  # the merged frames' share of the turn and largest gap
     cylinder: Cylinder
     cloud: MergedCloud
     meshing: MeshingFigures
@@ -124,6 +126,7 @@ class Reconstruction(ModelResult):
                 "rms_px": self.turntable_fit.rms_px,
                 "pnp_rms_px": self.turntable_fit.pnp_rms_px,
             },
+            "turn": self.turn.figures(),
             "cylinder": {"radius_m": self.cylinder.radius_m, "z_min_m": self.cylinder.z_min_m},
             "points_merged": self.meshing.points_in,
             "points_after_outlier_removal": self.meshing.points_after_outliers,

@@ -237,6 +237,7 @@ def reconstruct(
         verdict = "applied" if fit.accepted else "rejected (kept PnP poses)"
         rows.append(("turntable refinement", f"{verdict}: {fit.rms_px:.3f} px vs PnP {fit.pnp_rms_px:.3f} px"))
     rows += [
+        ("turn seen / largest gap", f"{summary.turn.seen_fraction:.0%} / {summary.turn.largest_gap_deg:.0f} deg"),
         ("points merged / after outliers", f"{summary.points_merged} / {summary.points_after_outlier_removal}"),
         ("triangles", f"{summary.triangles} (watertight: {'yes' if summary.watertight else 'no'})"),
         ("extent", " x ".join(f"{v * 1000:.1f}" for v in result.summary.extents_m) + " mm"),
@@ -245,6 +246,8 @@ def reconstruct(
     console.print(figures_table(f"homemodel turntable reconstruct {capture_dir}", rows))
     for stem, reason in list(result.skipped.items())[:5]:
         console.print(f"skipped {stem}: {reason}")
+    if (gap := result.turn.warning()) is not None:
+        console.print(f"warning: {gap}", soft_wrap=True)  # one line, however long
     typer.echo(f"model: {out}")
     if result.registration is not None:
         echo_registration(result.registration)

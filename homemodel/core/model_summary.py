@@ -143,6 +143,12 @@ class TurntableRefinement(_Strict):
     pnp_rms_px: float
 
 
+class Turn(_Strict):
+    seen_fraction: float = Field(ge=0, le=1, description="of the turn: all but the gaps wider than the merge bridges, each less one usual step")
+    largest_gap_deg: float = Field(ge=0, le=360, description="between consecutive merged frames' turn angles")
+    gap_warning: bool = Field(description="a gap wider than the merge bridges: part of the object never seen")
+
+
 class Cylinder(_Strict):
     radius_m: float
     z_min_m: float
@@ -157,6 +163,7 @@ class TurntableFigures(_Figures):
     reprojection_error_px: MeanMax | None = None
     orbit: Orbit | None = None
     turntable_refinement: TurntableRefinement | None = None
+    turn: Turn | None = None
     cylinder: Cylinder | None = None
     points_merged: int | None = Field(default=None, ge=0)
     points_after_outlier_removal: int | None = Field(default=None, ge=0)
