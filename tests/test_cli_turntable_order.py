@@ -31,19 +31,20 @@ def _ros1_bag(path: Path) -> Path:
 
 
 @pytest.mark.parametrize(
-    ("make", "said"),
+    ("make", "said", "also"),
     [
-        (lambda tmp: _tum_folder(tmp / "tum_folder"), "a recording (format tum), not a capture folder: import it first"),
-        (lambda tmp: _ros1_bag(tmp / "recording.bag"), "a recording (format ros1), not a capture folder: import it first"),
-        (lambda tmp: tmp / "notes.txt", "a file, not a capture folder"),
+        (lambda tmp: _tum_folder(tmp / "tum_folder"), "a recording (format tum), not a capture folder: import it first", "--camera camera.yaml"),
+        (lambda tmp: _ros1_bag(tmp / "recording.bag"), "a recording (format ros1), not a capture folder: import it first", "--board board.yaml --out scan/"),
+        (lambda tmp: tmp / "notes.txt", "a file, not a capture folder", "camera.yaml, board.yaml"),
     ],
     ids=["tum folder", "ros1 bag", "other file"],
 )
-def test_a_recording_given_to_reconstruct_says_import_it_first(tmp_path: Path, make, said: str) -> None:  # noqa: ANN001
+def test_a_recording_given_to_reconstruct_says_import_it_first(tmp_path: Path, make, said: str, also: str) -> None:  # noqa: ANN001
     (tmp_path / "notes.txt").write_text("not a capture\n")
     given, out = make(tmp_path), tmp_path / "model"
     result = runner.invoke(app, ["turntable", "reconstruct", str(given), "--out", str(out)])
     assert result.exit_code == 2, result.output
     assert result.stdout == ""
     assert result.stderr.startswith(f"error: {given}: {said}") and len(result.stderr.splitlines()) == 1, result.stderr
+    assert also in result.stderr, result.stderr
     assert not out.exists()

@@ -169,9 +169,10 @@ def refuse_a_recording(capture_dir: Path) -> None:
     except InputError:
         form = None
     if form is not None:
+        camera = " --camera camera.yaml" if form == "tum" else ""  # TUM carries no intrinsics
         raise InputError(
             f"{capture_dir}: a recording (format {form}), not a capture folder: import it first "
-            f"(homemodel turntable import {capture_dir} --board board.yaml --out scan/), then reconstruct scan/"
+            f"(homemodel turntable import {capture_dir} --board board.yaml{camera} --out scan/), then reconstruct scan/"
         )
     if capture_dir.is_file():
         raise InputError(f"{capture_dir}: a file, not a capture folder (camera.yaml, board.yaml, color/, depth/)")
