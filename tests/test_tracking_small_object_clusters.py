@@ -39,3 +39,37 @@ def test_a_cluster_against_a_large_objects_face_is_not_taken_for_a_moved_object(
     clear = _off_their_sides(faces, [back, side, on_table, beside])
     assert clear == [False, False, True, True]
     assert POSE_DOUBT_M >= 0.02  # the map's pose is 2-3 cm off
+
+
+def test_a_cluster_is_left_at_another_objects_colour_only_until_its_own_is_found(monkeypatch) -> None:  # noqa: ANN001
+    """`_fit_on_cluster`'s starts stop at a colour FAR_COLOUR times `max_colour_difference`
+    off (another object's cluster) only while no start has found the object's own colour: a
+    later start that slid onto a neighbour of another colour leaves the one found standing.
+    The starts' refinements are scripted (no rendering)."""
+    from types import SimpleNamespace
+
+    import tracking.find_small_objects as fso
+
+    search = fso.SmallObjectSearch()
+    far = 2 * fso.FAR_COLOUR * search.max_colour_difference
+
+    def candidate(x_m: float, colour: float) -> fso._Candidate:
+        pose = np.eye(4)
+        pose[0, 3] = x_m  # each its own place: no two ends together
+        return fso._Candidate(map_from_object=pose, explained=0.8, cluster_explained=0.8, rmse_m=0.001, misfit=10,
+                              kernel_m=0.01, colour_difference=colour)
+
+    view = SimpleNamespace(map_from_camera=np.eye(4))
+    view.around = lambda corners: (view,)
+    monkeypatch.setattr(fso, "_scene_depth", lambda state, view: None)
+    monkeypatch.setattr(fso, "_yaw_as_seen", lambda state, view, depth, object_id, best, cluster, search: best)
+    cluster = _Cluster(points=np.random.default_rng(0).uniform(-0.04, 0.04, (40, 3)) + [1.0, 0.0, 0.75],
+                       owner="table_1", height_m=0.75, relation="on")
+    bounds = np.array([[-0.04, -0.04, 0.0], [0.04, 0.04, 0.1]])
+    for script, found in (([candidate(0.0, 0.01), candidate(0.05, far)], 0.0), ([candidate(0.0, far)], None)):
+        calls = iter(script + [None] * 2 * search.yaw_candidates)
+        monkeypatch.setattr(fso, "_refine", lambda *args: next(calls))
+        best = fso._fit_on_cluster(None, view, "red_cup", bounds, cluster, search)
+        assert (best is None) if found is None else best.map_from_object[0, 3] == found
+        if found is None:
+            assert next(calls) is None and len(list(calls)) == 2 * search.yaw_candidates - 1  # stopped at the first start

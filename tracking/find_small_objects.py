@@ -321,10 +321,11 @@ def _fit_on_cluster(
     for start_xy, yaw in starts:
         pose = _planar_pose(*start_xy, cluster.height_m, yaw)
         candidate = _refine(state, view, scene_depth, object_id, pose, cluster, search)
-        if candidate is not None and candidate.colour_difference > FAR_COLOUR * search.max_colour_difference:
+        if best is None and candidate is not None and candidate.colour_difference > FAR_COLOUR * search.max_colour_difference:
             # Another object's colour: every start on the cluster sees it (the bench's red cup
             # on the blue cup's cluster differed by 0.9-1.7 at all 16, the right objects by
-            # 0.03 at most), and each costs three renders and ICPs.
+            # 0.03 at most), and each costs three renders and ICPs. Not once one start has
+            # found its colour: a later one may have slid onto a neighbour of another.
             return None
         if candidate is None or candidate.colour_difference > search.max_colour_difference:
             continue
