@@ -47,19 +47,18 @@ class TurnCoverage:
 
 
 def turn_coverage(angles_rad: Sequence[float]) -> TurnCoverage:
-    """The frames' table angles (any order, any number of turns) as a coverage: the turn is
+    """The frames' table angles (one or more, any order, any number of turns) as a coverage: the turn is
     seen between frames closer than `GAP_WARNING_DEG`; of a wider gap, all but one usual step."""
     angles = np.sort(np.mod(np.degrees(np.asarray(angles_rad, dtype=float)), 360.0))
-    if len(angles) == 0:
-        return TurnCoverage(seen_fraction=0.0, largest_gap_deg=360.0)
     gaps = np.diff(angles, append=angles[0] + 360.0)  # the last gap wraps round to the first frame
-    # A frame stands for the capture's usual step about it; what a wider gap holds beyond that is unseen.
+    # A frame stands for the capture's usual step about it (at most the bar, when every gap is
+    # wider); what a wider gap holds beyond that is unseen.
     bridged = gaps[gaps <= GAP_WARNING_DEG]
-    step = float(np.median(bridged)) if len(bridged) else 0.0
+    step = float(np.median(bridged)) if len(bridged) else GAP_WARNING_DEG
     unseen = float((gaps[gaps > GAP_WARNING_DEG] - step).sum())
     return TurnCoverage(seen_fraction=max(0.0, 1 - unseen / 360.0), largest_gap_deg=float(gaps.max()))
 
 
 def turn_angles_rad(camera_from_tables: Sequence[np.ndarray]) -> list[float]:
-    """Each pose's table angle from the first's (the camera is fixed, the table turns)."""
-    return [table_turn_rad(camera_from_tables[0], c) for c in camera_from_tables] if len(camera_from_tables) else []
+    """Each pose's table angle from the first's (the camera is fixed, the table turns); one pose or more."""
+    return [table_turn_rad(camera_from_tables[0], c) for c in camera_from_tables]
