@@ -189,7 +189,8 @@ def test_renderer_repose_is_cheap_and_consistent(kitchen_map: Path) -> None:
     [
         (["--joint", "no_such_thing/door=0.3"], "no object 'no_such_thing'"),
         (["--joint", "fridge_1/no_joint=0.3"], "has no joint 'no_joint'"),
-        (["--joint", "fridge_1/door_0_hinge=9"], "outside its limits"),
+        (["--joint", "fridge_1/door_0_hinge=9"], "object 'fridge_1': joint 'door_0_hinge': position 9"),
+        (["--joint", "fridge_1/door_0_hinge=wide"], "object 'fridge_1': joint 'door_0_hinge': 'wide' is neither a number"),
         (["--joint", "fridge_1=0.3"], "expected OBJECT/JOINT=VALUE"),
         (["--move", "fridge_1=0,0,0"], "not a small object"),
         (["--move", "red_cup=0,0"], "expected OBJECT=[PARENT:]x,y,yaw"),

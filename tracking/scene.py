@@ -185,7 +185,7 @@ class HomeScene:
                         value = _named_state(joint, value)
                     positions[object_id][name] = joint.check_position(value)
                 except MapError as exc:
-                    raise InputError(f"{self.map_path}: {exc}") from None
+                    raise InputError(f"{self.map_path}: object {object_id!r}: {exc}") from None
         return positions
 
     # Posing
