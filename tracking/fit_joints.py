@@ -76,16 +76,16 @@ def fit_joint(
     reach = 2 * search.fine_step
     if near is None:
         reach = search.coarse_step
-        coarse_values = _grid(low, high, search.coarse_step)
-        coarse_static = _static_depth(state, coarse, coarse_background, object_id, moving)
+        coarse_values = position_grid(low, high, search.coarse_step)
+        coarse_static = static_depth(state, coarse, coarse_background, object_id, moving)
         coarse_costs = _costs(state, coarse, coarse_static, object_id, joint, moving, coarse_values)
         if coarse_costs is None:
             return None
         near = float(coarse_values[int(np.argmin(coarse_costs))])
         far = np.abs(coarse_values - near) > 2 * search.coarse_step
         contrast = float(coarse_costs[far].min() - coarse_costs.min()) if far.any() else 0.0
-    fine_values = _grid(max(low, near - reach), min(high, near + reach), search.fine_step)
-    fine_static = _static_depth(state, fine, fine_background, object_id, moving)
+    fine_values = position_grid(max(low, near - reach), min(high, near + reach), search.fine_step)
+    fine_static = static_depth(state, fine, fine_background, object_id, moving)
     fine_costs = _costs(state, fine, fine_static, object_id, joint, moving, fine_values)
     if fine_costs is None:
         return None
@@ -99,7 +99,7 @@ def _fit_detents(
     state: FitState, view: FitView, background: np.ndarray, object_id: str, joint: str, moving: list[int],
     values: np.ndarray,
 ) -> JointFit | None:
-    static = _static_depth(state, view, background, object_id, moving)
+    static = static_depth(state, view, background, object_id, moving)
     costs = _costs(state, view, static, object_id, joint, moving, values)
     if costs is None:
         return None
@@ -110,7 +110,8 @@ def _fit_detents(
     return JointFit(position=position, contrast=contrast, **_support(state, view, static, object_id, joint, moving, position))
 
 
-def _grid(low: float, high: float, step: float) -> np.ndarray:
+def position_grid(low: float, high: float, step: float) -> np.ndarray:
+    """Positions from `low` to `high`, both included, at most `step` apart."""
     count = max(int(np.ceil((high - low) / step - 1e-9)), 1) + 1
     return np.linspace(low, high, count)
 
@@ -128,7 +129,7 @@ def _parabola_minimum(values: np.ndarray, costs: np.ndarray) -> float:
     return float(values[k] + 0.5 * step * (c0 - c2) / curvature)
 
 
-def _static_depth(state: FitState, view: FitView, background: np.ndarray, object_id: str, moving: list[int]) -> np.ndarray:
+def static_depth(state: FitState, view: FitView, background: np.ndarray, object_id: str, moving: list[int]) -> np.ndarray:
     """The scene's depth without the moving part."""
     others = [i for i in state.object_parts(object_id) if i not in set(moving)]
     if not others:
@@ -136,7 +137,7 @@ def _static_depth(state: FitState, view: FitView, background: np.ndarray, object
     return np.minimum(background, state.renderer.depth(state.map_from_parts(), view.camera, view.map_from_camera, others))
 
 
-def _moving_depths(
+def moving_depths(
     state: FitState, view: FitView, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray:
     """(len(values), H, W) depth of the moving part alone at each position; inf where it is not hit."""
@@ -161,7 +162,7 @@ def _costs(
     state: FitState, view: FitView, static: np.ndarray, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray | None:
     """The mean truncated squared residual (0 = every pixel explained, 1 = none) at each value."""
-    stack = _moving_depths(state, view, object_id, joint, moving, values)
+    stack = moving_depths(state, view, object_id, joint, moving, values)
     in_front = stack < static  # the moving part is what the camera would see there
     considered = in_front.any(axis=0)
     model = np.minimum(stack[:, considered], static[considered])
@@ -179,7 +180,7 @@ def _costs(
 def _support(
     state: FitState, view: FitView, static: np.ndarray, object_id: str, joint: str, moving: list[int], position: float
 ) -> dict:
-    own = _moving_depths(state, view, object_id, joint, moving, np.array([position]))[0]
+    own = moving_depths(state, view, object_id, joint, moving, np.array([position]))[0]
     # The part's whole image, past the view's edges too: a door the edge cuts in half is half seen.
     whole = state.renderer.pixels_whole(_map_from_parts_at(state, object_id, joint, moving, position), view.camera,
                                         view.map_from_camera, moving)

@@ -29,8 +29,7 @@ from homemodel.geometry.camera import Camera
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, LargeObject, ObjectJoint
 from tracking.find_small_objects import POSE_DOUBT_M, SmallObjectSearch, find_small_objects
-# Its candidate positions scored as the fitter scores them.
-from tracking.fit_joints import JointSearch, _grid, _moving_depths, _static_depth, fit_joint, joint_range
+from tracking.fit_joints import JointSearch, fit_joint, joint_range, moving_depths, position_grid, static_depth
 from tracking.fit_pose import refine_pose
 from tracking.fit_state import FitState
 from tracking.fit_together import refine_pose_and_joints
@@ -397,9 +396,9 @@ def _hidden_elsewhere(
         if status != "fitted" or search.detents or not support["unexplained"] > options.search_again_unexplained:
             continue
         moving = state.moving_parts(object_id, name)
-        static = _static_depth(state, view, background, object_id, moving)
-        values = _grid(*joint_range(state, object_id, name), search.coarse_step)
-        own = _moving_depths(state, view, object_id, name, moving, values)
+        static = static_depth(state, view, background, object_id, moving)
+        values = position_grid(*joint_range(state, object_id, name), search.coarse_step)
+        own = moving_depths(state, view, object_id, name, moving, values)
         with np.errstate(invalid="ignore"):
             in_sight = (own < static) & ~(np.isfinite(view.depth_m) & (view.depth_m < own - view.tolerance_m))
         # In the image but hidden: not one gone past the image's edge, which hides nothing.
