@@ -24,7 +24,7 @@ from tracking.fit_pose import LEVER_M, yaw_of
 from tracking.fit_joints import joint_range
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView
-from tracking.pose_gate import cut_by_edge, depth_costs, object_depth
+from tracking.pose_gate import cut_by_edge, object_depth, scene_costs
 
 # A step smaller than these (m, and rad at LEVER_M) ends a gate's iterations.
 STEP_DONE_M = 0.0002
@@ -126,8 +126,7 @@ def refine_pose_and_joints(
     # Judged like a refined pose (`judge_pose`): by the rendered depth, silhouettes included,
     # which the point-to-plane residuals of the object's own pixels do not see; every end on
     # the same pixels.
-    considered = np.logical_or.reduce([d < background_m for d in depths])
-    costs = depth_costs(view, [np.minimum(d, background_m) for d in depths], considered)
+    costs = scene_costs(view, depths, background_m)
     best = 1 + int(np.argmin(costs[1:]))
     if not costs[best] < costs[0]:
         state.map_from_objects[object_id], state.joint_positions[object_id] = start
@@ -367,8 +366,7 @@ def _costs(
             posed[i] = map_from_object @ links[state.scene.parts[i].link]
         poses.append(posed)
     stack = state.renderer.depth_stack(poses, view.camera, view.map_from_camera, parts)
-    considered = (stack < background_m).any(axis=0)
-    return depth_costs(view, list(np.minimum(stack, background_m)), considered)
+    return scene_costs(view, list(stack), background_m)
 
 
 def _moved(

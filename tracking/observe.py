@@ -34,7 +34,7 @@ from tracking.fit_pose import refine_pose
 from tracking.fit_state import FitState
 from tracking.fit_together import refine_pose_and_joints
 from tracking.fit_view import FitView
-from tracking.pose_gate import DOUBT_RAD, PoseGate, PoseVerdict, depth_costs, judge_pose, past_the_doubt
+from tracking.pose_gate import DOUBT_RAD, PoseGate, PoseVerdict, judge_pose, past_the_doubt, scene_costs
 from tracking.report import JointReport, ObjectReport, ObservationReport
 from tracking.scene import HomeScene
 
@@ -491,8 +491,7 @@ def _joints_or_the_body(
         body_moved = _object_depth(state, view, parts)
         state.map_from_objects[object_id] = pose
         positions.update(fitted)
-        considered = (as_fitted < background) | (body_moved < background)
-        fitted_cost, moved_cost = depth_costs(view, [np.minimum(d, background) for d in (as_fitted, body_moved)], considered)
+        fitted_cost, moved_cost = scene_costs(view, [as_fitted, body_moved], background)
         if moved_cost <= fitted_cost + options.min_contrast:
             for name in group:
                 if results[name][0] == "fitted":
@@ -537,8 +536,7 @@ def _all_shut_in_a_refitted_body(
     positions.update(fitted)
     if not within:
         return
-    considered = (as_fitted < background) | (all_shut < background)
-    fitted_cost, shut_cost = depth_costs(view, [np.minimum(d, background) for d in (as_fitted, all_shut)], considered)
+    fitted_cost, shut_cost = scene_costs(view, [as_fitted, all_shut], background)
     if shut_cost <= fitted_cost + options.min_contrast:
         for name in written_off:
             results[name] = ("ambiguous", results[name][1])

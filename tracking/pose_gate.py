@@ -9,7 +9,7 @@ depth residual: 0 = every pixel explained, 1 = none.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,9 +124,7 @@ def _judged(
     gone_wrong = past_the_doubt(state, object_id, map_from_object_before, gate)
     if gone_wrong:
         return PoseVerdict(accepted=False, note=f"{gone_wrong}: not the map's error put right")
-    considered = (after < background_m) | (before < background_m)
-    scene_depths = [np.minimum(d, background_m) for d in (before, after)]
-    cost_before, cost_after = depth_costs(view, scene_depths, considered)
+    cost_before, cost_after = scene_costs(view, [before, after], background_m)
     verdict = PoseVerdict(accepted=False, note="", cost_before=cost_before, cost_after=cost_after)
     costs = f"depth cost {cost_before:.3f} -> {cost_after:.3f}"
     if cut:
@@ -285,6 +283,13 @@ def cut_by_edge(silhouette: np.ndarray, margin_px: int) -> bool:
     """Whether the silhouette comes within `margin_px` of the image's left or right edge."""
     edge = max(margin_px, 1)
     return bool(silhouette[:, :edge].any() or silhouette[:, -edge:].any())
+
+
+def scene_costs(view: FitView, depths: Sequence[np.ndarray], background_m: np.ndarray) -> tuple[float, ...]:
+    """`depth_costs` of the object rendered at each of `depths` in front of the scene's
+    `background_m`, all on the pixels where any of them is in front."""
+    considered = np.logical_or.reduce([d < background_m for d in depths])
+    return depth_costs(view, [np.minimum(d, background_m) for d in depths], considered)
 
 
 def depth_costs(view: FitView, depths: list[np.ndarray], considered: np.ndarray) -> tuple[float, ...]:
