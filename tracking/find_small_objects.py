@@ -17,6 +17,7 @@ place is out of view or covered), never guessed.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TypeGuard
 
 import numpy as np
 import trimesh
@@ -295,6 +296,11 @@ def _acceptable(candidate: _Candidate, search: SmallObjectSearch) -> bool:
     return candidate.explained >= search.min_explained and candidate.cluster_explained >= search.min_cluster_explained
 
 
+def _of_its_colour(candidate: _Candidate | None, search: SmallObjectSearch) -> TypeGuard[_Candidate]:
+    """Whether `candidate` was judged and its colour is the one seen (within `max_colour_difference`)."""
+    return candidate is not None and candidate.colour_difference <= search.max_colour_difference
+
+
 def _fit_on_cluster(
     state: FitState, view: FitView, object_id: str, bounds: np.ndarray, cluster: _Cluster, search: SmallObjectSearch
 ) -> _Candidate | None:
@@ -327,7 +333,7 @@ def _fit_on_cluster(
             # 0.03 at most), and each costs three renders and ICPs. Not once one start has
             # found its colour: a later one may have slid onto a neighbour of another.
             return None
-        if candidate is None or candidate.colour_difference > search.max_colour_difference:
+        if not _of_its_colour(candidate, search):
             continue
         if best is not None and np.linalg.norm(candidate.map_from_object[:2, 3] - best.map_from_object[:2, 3]) < SAME_PLACE_M:
             repeats += 1
@@ -358,8 +364,7 @@ def _yaw_as_seen(
     turns = [*np.linspace(0, 2 * np.pi, search.yaw_checks, endpoint=False), map_yaw - yaw_of(best.map_from_object)]
     turned = [_evaluate(state, view, scene_depth, object_id, best.map_from_object @ _planar_pose(0, 0, 0, turn),
                         cluster, best.kernel_m, search) for turn in turns]
-    judged = [candidate for candidate in turned
-              if candidate is not None and candidate.colour_difference <= search.max_colour_difference]
+    judged = [candidate for candidate in turned if _of_its_colour(candidate, search)]
     if not judged:
         return best
     least = min(judged, key=lambda candidate: candidate.misfit)
@@ -374,8 +379,7 @@ def _yaw_as_seen(
     # On the scan's grid: ICP settles the yaw within what the view allows (a box's yaw
     # modulo its symmetry, exact again).
     refined = _refine(state, view, scene_depth, object_id, chosen.map_from_object, cluster, search)
-    if (refined is not None and refined.colour_difference <= search.max_colour_difference
-            and refined.misfit <= least.misfit + margin):
+    if _of_its_colour(refined, search) and refined.misfit <= least.misfit + margin:
         chosen = refined
     return replace(chosen, yaw_seen=yaw_seen)
 
