@@ -1,6 +1,7 @@
 """TUM and Open3D/Redwood folders as the datasets and tools ship them, imported (no
 reconstruction) and read back against the frames written: the TUM benchmark, TUM's
-associate.py output alone, ICL-NUIM (depth first, frame numbers), ETH3D (its calibration.txt);
+associate.py output alone, lists and associations a user wrote (Windows encodings, commas, files
+told apart by bit depth), ICL-NUIM (depth first, frame numbers), ETH3D (its calibration.txt);
 Open3D's RSBagReader.save_frames, its RealSense recorder and Redwood sample (intrinsics JSON
 written by Open3D itself), Redwood's object scans (times in the names, no intrinsics), frames
 numbered without padding, a reconstruction system config JSON given as the recording."""
@@ -76,6 +77,35 @@ def tum_associations_only(folder: Path) -> Path:
     """What ORB-SLAM's examples read: associate.py's "time rgb time depth" lines, no lists."""
     color, depth = _tum_files(folder)
     (folder / "associations.txt").write_text("\n".join(f"{c} {d}" for c, d in zip(color, depth)) + "\n")
+    return folder
+
+
+def tum_lists_written_on_windows(folder: Path) -> Path:
+    """rgb.txt and depth.txt made by a user's script on Windows: PowerShell's `>` (UTF-16 with
+    its byte-order mark, CRLF lines), "time,path" lines (TUM's associate.py reads a comma as a
+    space), a decimal comma in the depth times, paths with backslashes."""
+    color, depth = _tum_files(folder)
+    color = [line.replace(" ", ",").replace("/", "\\") for line in color]
+    depth = [line.replace(".", ",", 1) for line in depth]
+    for name, lines in (("rgb.txt", color), ("depth.txt", depth)):
+        (folder / name).write_bytes(("# timestamp filename\r\n" + "\r\n".join(lines) + "\r\n").encode("utf-16"))
+    return folder
+
+
+def tum_user_associations(folder: Path) -> Path:
+    """A user's associations.txt, both images of a frame in one folder told apart by their
+    names (`frames/<t>_color.png`, `frames/<t>_depth.png`: no depth/ folder), a UTF-8 BOM,
+    ", " between fields."""
+    color, depth = _tum_files(folder)
+    lines = []
+    for c, d in zip(color, depth):
+        (tc, pc), (td, pd) = c.split(), d.split()
+        named = (f"frames/{tc}_color.png", f"frames/{tc}_depth.png")
+        (folder / "frames").mkdir(exist_ok=True)
+        (folder / pc).rename(folder / named[0])
+        (folder / pd).rename(folder / named[1])
+        lines.append(f"{tc}, {named[0]}, {td}, {named[1]}")
+    (folder / "associations.txt").write_bytes(("\n".join(lines) + "\n").encode("utf-8-sig"))
     return folder
 
 
@@ -189,6 +219,8 @@ VARIANTS = {
     # name: (writer, format told, needs --camera, JPEG colour, frames missing)
     "tum-benchmark": (tum_benchmark, "tum", True, False, ()),
     "tum-associations-only": (tum_associations_only, "tum", True, False, ()),
+    "tum-lists-written-on-windows": (tum_lists_written_on_windows, "tum", True, False, ()),
+    "tum-user-associations-told-by-bit-depth": (tum_user_associations, "tum", True, False, ()),
     "icl-nuim-depth-first": (icl_nuim, "tum", True, False, ()),
     "eth3d-calibration": (eth3d, "tum", False, False, ()),
     "open3d-save-frames-d405": (open3d_save_frames_d405, "open3d", False, True, ()),
