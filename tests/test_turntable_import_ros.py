@@ -362,6 +362,20 @@ def ros2_split(folder: Path) -> Path:
     return folder / "split"
 
 
+def ros2_folder_without_metadata(folder: Path) -> Path:
+    """A Jazzy MCAP recording whose recorder was killed before it wrote metadata.yaml (rosbag2
+    writes it on closing; `ros2 bag reindex` remakes it): the folder holds only its split
+    files, `bag_0.mcap`... `bag_2.mcap` (the CameraInfo only in the first)."""
+    ros = rsim.RosMessages(2)
+    messages = sorted(_aligned(ros, depth_info="/camera/aligned_depth_to_color/camera_info"), key=lambda m: m[0])
+    cut = [FRAMES.times_s[2] - 0.01, FRAMES.times_s[4] - 0.01]
+    (folder / "bag").mkdir()
+    for k, (start, end) in enumerate(zip([-1.0, *cut], [*cut, 1e9])):
+        rsim.write_bag(folder / f"part{k}", ros, [m for m in messages if start <= m[0] < end], storage="mcap")
+        next((folder / f"part{k}").glob("*.mcap")).rename(folder / "bag" / f"bag_{k}.mcap")
+    return folder / "bag"
+
+
 def astra_own_frame_name(folder: Path) -> Path:
     """The older ros2_astra_camera with depth_align: `depth/image_raw` registered to colour but
     in a frame of its own name (`color_optical_frame`, colour's is `camera_color_optical_frame`),
@@ -383,6 +397,7 @@ VARIANTS = {
     "realsense-ros1-lz4": (realsense_ros1_lz4, "ros1", 0, 0.0, FRAMES.colors),
     "ros1-split-in-parts": (ros1_split, "ros1", 0, 0.0, FRAMES.colors),
     "ros2-split-in-files": (ros2_split, "ros2", 0, 0.0, FRAMES.colors),
+    "ros2-mcap-folder-without-metadata": (ros2_folder_without_metadata, "ros2", 0, 0.0, FRAMES.colors),
     "astra-registered-depth-in-a-frame-of-its-own-name": (astra_own_frame_name, "ros2", 0, 0.0, FRAMES.colors),
     "realsense-ros2-humble-no-definitions": (realsense_ros2_humble, "ros2", 0, 0.0, FRAMES.colors),
     "ros2-mcap-file-32FC1": (mcap_file, "ros2", 0, 0.0, FRAMES.colors),
@@ -607,12 +622,27 @@ def test_a_split_bag_with_a_part_damaged_or_missing_is_refused_in_one_line(fault
     assert len(result.output.strip().splitlines()) == 1 and not out.exists()
 
 
-def test_a_bag_cut_short_is_refused_in_words(board: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", ["ros1", "ros1-active", "mcap"])
+def test_a_bag_cut_short_is_refused_in_words(kind: str, board: Path, tmp_path: Path) -> None:
     """A .bag copied or recorded only in part: rosbags' "Bag index looks damaged: ('Header could
-    not be read from file.',)" was printed as it came, a Python tuple."""
-    ros, bag = rsim.RosMessages(1), tmp_path / "scan.bag"
-    rsim.write_bag(bag, ros, sorted(_aligned(ros), key=lambda m: m[0]))
-    bag.write_bytes(bag.read_bytes()[: bag.stat().st_size // 2])
-    result = CliRunner().invoke(app, ["turntable", "import", str(bag), "--board", str(board), "--out", str(tmp_path / "o")])
-    assert result.exit_code == 2 and "cut short or damaged: its index cannot be read" in result.output, result.output
+    not be read from file.',)" was printed as it came, a Python tuple. The file rosbag record
+    leaves when killed (`scan.bag.active`) was "cannot tell the recording's format"; an MCAP
+    file without its end (a ROS 2 recorder killed), rosbags' "File end magic is invalid"."""
+    ros = rsim.RosMessages(1 if kind.startswith("ros1") else 2)
+    messages = sorted(_aligned(ros), key=lambda m: m[0])
+    if kind == "mcap":
+        rsim.write_bag(tmp_path / "bag", ros, messages, storage="mcap")
+        recording = tmp_path / "bag"
+        cut = next(recording.glob("*.mcap"))
+    else:
+        recording = cut = tmp_path / ("scan.bag.active" if kind == "ros1-active" else "scan.bag")
+        rsim.write_bag(cut, ros, messages)
+    cut.write_bytes(cut.read_bytes()[: cut.stat().st_size // 2])
+    result = CliRunner().invoke(app, ["turntable", "import", str(recording), "--board", str(board), "--out", str(tmp_path / "o")])
+    said = {
+        "ros1": "cut short or damaged: its index cannot be read",
+        "ros1-active": "a ROS 1 bag whose recording was never closed: `rosbag reindex` it",
+        "mcap": "cut short: its MCAP file has no end",
+    }[kind]
+    assert result.exit_code == 2 and f"{recording}: " in result.output and said in result.output, result.output
     assert "('" not in result.output and len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

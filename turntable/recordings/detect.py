@@ -7,7 +7,7 @@ from typing import Literal, get_args
 
 from homemodel.core.errors import InputError
 from turntable.recordings.open3d_folder import COLOR_FOLDERS, intrinsics_file, is_config
-from turntable.recordings.rosbag import unreadable_bag
+from turntable.recordings.rosbag import storage_files, unreadable_bag
 from turntable.recordings.tum import LISTS, associations_file
 
 RecordingFormat = Literal["realsense-bag", "ros1", "ros2", "tum", "open3d"]
@@ -32,6 +32,10 @@ def detect_format(path: Path) -> str:
     if path.is_file():
         if is_config(path):
             return "open3d"
+        if path.name.endswith(".bag.active"):  # rosbag record's name for the file it writes
+            raise InputError(
+                f"{path}: a ROS 1 bag whose recording was never closed: `rosbag reindex` it and rename it to .bag"
+            )
         if path.suffix == ".bag":
             return "realsense-bag" if _is_realsense_bag(path) else "ros1"
         if path.suffix in (".db3", ".mcap") or path.name == "metadata.yaml":
@@ -45,6 +49,8 @@ def detect_format(path: Path) -> str:
         return "tum"
     if (path / "depth").is_dir() and (any((path / n).is_dir() for n in COLOR_FOLDERS) or intrinsics_file(path)):
         return "open3d"
+    if storage_files(path):  # a ROS 2 bag folder without its metadata.yaml
+        return "ros2"
     raise InputError(
         f"{path}: cannot tell the recording's format (no metadata.yaml, rgb.txt/depth.txt or associations.txt, "
         "or depth/ beside color/); give --format"

@@ -37,20 +37,38 @@ _SPLIT_GAP_S = 1.0
 
 def unreadable_bag(exc: Exception) -> str:
     """Why a bag reader refused a file, in words: rosbags says a bag cut short (a copy or a
-    recording stopped mid-write) as "Bag index looks damaged: ('Header could not be read ...',)"."""
+    recording stopped mid-write) as "Bag index looks damaged: ('Header could not be read ...',)",
+    and an MCAP file without its footer (a recorder killed before closing it) as "File end
+    magic is invalid"."""
     text = str(exc)
-    return "cut short or damaged: its index cannot be read" if "index looks damaged" in text.lower() else text
+    if "index looks damaged" in text.lower():
+        return "cut short or damaged: its index cannot be read"
+    if "end magic is invalid" in text.lower():
+        return "cut short: its MCAP file has no end (a recording killed before it closed the file); `mcap recover` rewrites it whole"
+    return text
 
 
-def bag_path(path: Path) -> Path:
-    """What rosbags opens: a ROS 1 .bag file, or a ROS 2 bag's folder (given as itself, its
-    metadata.yaml, or one of its storage files)."""
+ROS2_STORAGE = (".db3", ".mcap")
+
+
+def storage_files(folder: Path) -> list[Path]:
+    """A ROS 2 bag folder's storage files in their split order (`name_0.mcap`, `name_1.mcap`...)."""
+    found = [p for p in folder.iterdir() if p.suffix in ROS2_STORAGE and p.is_file() and not p.name.startswith(".")]
+    return sorted(found, key=lambda p: tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.stem)))
+
+
+def ros2_paths(path: Path) -> list[Path]:
+    """What rosbags opens of a ROS 2 bag: its folder (given as itself, its metadata.yaml, or one
+    of its storage files); a folder without metadata.yaml (a recorder killed before it wrote
+    one, or files copied without it): its storage files, each read on its own."""
     path = Path(path)
     if path.is_file() and path.name == "metadata.yaml":
-        return path.parent
-    if path.is_file() and path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
-        return path.parent
-    return path
+        return [path.parent]
+    if path.is_file() and path.suffix in ROS2_STORAGE and (path.parent / "metadata.yaml").is_file():
+        return [path.parent]
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        return storage_files(path) or [path]
+    return [path]
 
 
 def split_parts(path: Path) -> list[Path]:
@@ -230,13 +248,15 @@ class RosBagSource(TimedStreamsSource):
 
         try:
             # Bags before ROS 2 Iron keep no message definitions: read them as Humble's.
-            paths = split_parts(self.path) if self.ros_version == 1 else [bag_path(self.path)]
+            paths = split_parts(self.path) if self.ros_version == 1 else ros2_paths(self.path)
             self._reader = AnyReader(paths, default_typestore=get_typestore(Stores.ROS2_HUMBLE))
             self._reader.open()
         except (AnyReaderError, OSError, ValueError, KeyError) as exc:
             raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {unreadable_bag(exc)}") from None
         where = str(self.path)
         split_note = [f"a bag split in {len(paths)} parts: {', '.join(p.name for p in paths)} read"] if len(paths) > 1 else []
+        if self.ros_version == 2 and self.path.is_dir() and paths[0].is_file():
+            split_note = [f"no metadata.yaml: {', '.join(p.name for p in paths)} read on {'their' if len(paths) > 1 else 'its'} own"]
         reader = self._reader
         images = {c.topic: c for c in reader.connections if c.msgtype in IMAGE_TYPES}
         self._depth_dtypes: dict[str, type] = {}
