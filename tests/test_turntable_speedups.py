@@ -6,7 +6,8 @@ strays and small clumps off a surface and keeps its rim; the texture's gutter ta
 texel's colour from a nearest painted texel (OpenCV's transform); the texture carrier's
 decimation keeps a closed mesh closed and on the surface; the poses stage's runs of frames,
 read apart on threads, hand every reading over and stop together; one AprilTag detector serves
-every decimation, and detectors built ahead are the ones the searches take."""
+every decimation, and detectors built ahead are the ones the searches take; a reconstruction
+runs without NumPy's huge pages and gives the setting back."""
 
 from __future__ import annotations
 
@@ -246,3 +247,22 @@ def test_one_detector_serves_each_decimation_as_a_new_one_would(monkeypatch: pyt
     # Another table (for 2 bit errors) is a detector of its own.
     detect_tags(image, DetectionOptions(max_hamming=2))
     assert len(tags._idle_detectors[1]) == 2 and len(tags._idle_detectors[2]) == 1
+
+
+def test_a_reconstruction_runs_without_numpys_huge_pages_and_gives_the_setting_back() -> None:
+    """`_small_pages` turns NumPy's madvise(MADV_HUGEPAGE) off for the stages and restores the
+    caller's setting, whichever it was, also when a stage raises."""
+    from numpy._core.multiarray import _get_madvise_hugepage, _set_madvise_hugepage
+
+    from turntable.reconstruct import _small_pages
+
+    caller = _get_madvise_hugepage()
+    try:
+        for setting in (True, False):
+            _set_madvise_hugepage(setting)
+            with pytest.raises(RuntimeError, match="a stage failed"), _small_pages():
+                assert _get_madvise_hugepage() is False
+                raise RuntimeError("a stage failed")
+            assert _get_madvise_hugepage() is setting
+    finally:
+        _set_madvise_hugepage(caller)

@@ -432,8 +432,24 @@ def reconstruct_capture(
     # The stages' BLAS calls are small (points by 3 x 3 rotations, 4 x 4 inverses) and the
     # frames already run on `workers` threads: OpenBLAS's own threads only wait on each other
     # (a 4 x 4 inverse took 4 ms instead of 4 us on a busy 2-core machine).
-    with threadpool_limits(1, user_api="blas"):
+    with threadpool_limits(1, user_api="blas"), _small_pages():
         return _run_stages(capture, options or ReconstructOptions(), progress)
+
+
+@contextmanager
+def _small_pages() -> Iterator[None]:
+    """NumPy's arrays of 4 MB and more without its madvise(MADV_HUGEPAGE): the merge's sums, say,
+    are fresh arrays of 10-20 MB, filled once. Where a transparent huge page's first touch is
+    dear (a virtual machine's: 4-27 ms of kernel time each on the bench's host, against 1.6 us
+    a 4 kB page), the 40-frame merge had paid 0.01-0.24 CPU-s of it, at random; the TLB misses
+    the huge pages save do not show in these stages. NumPy's setting is restored after."""
+    from numpy._core.multiarray import _set_madvise_hugepage
+
+    before = _set_madvise_hugepage(False)
+    try:
+        yield
+    finally:
+        _set_madvise_hugepage(before)
 
 
 def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
