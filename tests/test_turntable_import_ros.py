@@ -622,6 +622,19 @@ def test_a_split_bag_with_a_part_damaged_or_missing_is_refused_in_one_line(fault
     assert len(result.output.strip().splitlines()) == 1 and not out.exists()
 
 
+def test_a_message_that_does_not_decode_is_refused_naming_its_topic(board: Path, tmp_path: Path) -> None:
+    """A ROS 2 MCAP folder recorded with `--compression-mode message`, its metadata.yaml (which
+    alone says the messages are compressed) lost with the recorder killed: the first message
+    read raised rosbags' AnyReaderError, a bug report and exit 1."""
+    ros = rsim.RosMessages(2)
+    rsim.write_bag(tmp_path / "bag", ros, sorted(_aligned(ros), key=lambda m: m[0]), storage="mcap", compression="message")
+    (tmp_path / "bag" / "metadata.yaml").unlink()
+    result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / "bag"), "--board", str(board), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and f"{tmp_path / 'bag'}: a /camera/" in result.output and "message does not decode" in result.output
+    assert "`ros2 bag reindex`" in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("kind", ["ros1", "ros1-active", "mcap"])
 def test_a_bag_cut_short_is_refused_in_words(kind: str, board: Path, tmp_path: Path) -> None:
     """A .bag copied or recorded only in part: rosbags' "Bag index looks damaged: ('Header could

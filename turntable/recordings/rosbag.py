@@ -241,6 +241,7 @@ class RosBagSource(TimedStreamsSource):
         super().__init__(path, **kwargs)
         self.ros_version = ros_version
         self._reader = None
+        self._without_metadata = False
 
     def open(self) -> StreamSetup:
         from rosbags.highlevel import AnyReader, AnyReaderError
@@ -255,7 +256,8 @@ class RosBagSource(TimedStreamsSource):
             raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {unreadable_bag(exc)}") from None
         where = str(self.path)
         split_note = [f"a bag split in {len(paths)} parts: {', '.join(p.name for p in paths)} read"] if len(paths) > 1 else []
-        if self.ros_version == 2 and self.path.is_dir() and paths[0].is_file():
+        self._without_metadata = self.ros_version == 2 and paths[0].is_file()
+        if self._without_metadata:
             split_note = [f"no metadata.yaml: {', '.join(p.name for p in paths)} read on {'their' if len(paths) > 1 else 'its'} own"]
         reader = self._reader
         images = {c.topic: c for c in reader.connections if c.msgtype in IMAGE_TYPES}
@@ -398,10 +400,23 @@ class RosBagSource(TimedStreamsSource):
         if self._reader is not None:
             self._reader.close()
 
+    def _decode(self, connection: object, raw: bytes) -> object:
+        """A message, or one line naming the topic when its bytes do not decode (a damaged
+        bag; or one read without metadata.yaml, which alone says its messages are compressed)."""
+        from rosbags.highlevel import AnyReaderError
+
+        try:
+            return self._reader.deserialize(raw, connection.msgtype)
+        except AnyReaderError as exc:
+            hint = ""
+            if self._without_metadata:
+                hint = "; read without metadata.yaml, which would say whether its messages are compressed: `ros2 bag reindex` remakes it"
+            raise InputError(f"{self.path}: a {connection.topic} message does not decode ({exc}){hint}") from None
+
     def _first(self, topic: str) -> object | None:
         connections = [c for c in self._reader.connections if c.topic == topic]
         for connection, _, raw in self._reader.messages(connections=connections):
-            return self._reader.deserialize(raw, connection.msgtype)
+            return self._decode(connection, raw)
         return None
 
     def _kind(self, connection: object) -> str | None:
@@ -448,7 +463,7 @@ class RosBagSource(TimedStreamsSource):
         connections = [c for c in self._reader.connections if c.msgtype == TF_TYPE and c.topic.rstrip("/").endswith(topic)]
         for connection, _, raw in self._reader.messages(connections=connections) if connections else ():
             added = False
-            for stamped in self._reader.deserialize(raw, connection.msgtype).transforms:
+            for stamped in self._decode(connection, raw).transforms:
                 edge = (stamped.header.frame_id, stamped.child_frame_id)
                 if edge not in seen:
                     seen.add(edge)
@@ -474,7 +489,7 @@ class RosBagSource(TimedStreamsSource):
         stamps: dict[str, list[float]] = {"color": [], "depth": []}
         logged: dict[str, list[float]] = {"color": [], "depth": []}
         for kind, _, (connection, raw), log_ns in self._messages():
-            stamps[kind].append(_stamp_s(self._reader.deserialize(raw, connection.msgtype)))
+            stamps[kind].append(_stamp_s(self._decode(connection, raw)))
             logged[kind].append(1e-9 * log_ns)
         # A driver (or writer) that leaves the header's stamp at zero, or at one value throughout.
         unstamped = [kind for kind in stamps if len(stamps[kind]) > 1 and len(set(stamps[kind])) == 1]
@@ -491,7 +506,7 @@ class RosBagSource(TimedStreamsSource):
         for kind, index, (connection, raw), _ in self._messages():
             if (kind, index) not in wanted:
                 continue
-            message = self._reader.deserialize(raw, connection.msgtype)
+            message = self._decode(connection, raw)
             where = f"{self.path} {connection.topic}"
             if connection.msgtype.endswith("CompressedImage"):
                 yield kind, index, decode_compressed_message(message, where)
