@@ -3,8 +3,9 @@ reconstruction) and read back against the frames written: the TUM benchmark, TUM
 associate.py output alone, lists and associations a user wrote (Windows encodings, commas, files
 told apart by bit depth), ICL-NUIM (depth first, frame numbers), ETH3D (its calibration.txt);
 Open3D's RSBagReader.save_frames, its RealSense recorder and Redwood sample (intrinsics JSON
-written by Open3D itself), Redwood's object scans (times in the names, no intrinsics), frames
-numbered without padding, a reconstruction system config JSON given as the recording."""
+written by Open3D itself, or its PinholeCameraParameters), Redwood's object scans (times in the
+names, no intrinsics), frames numbered without padding, a reconstruction system config JSON
+given as the recording."""
 
 from __future__ import annotations
 
@@ -191,6 +192,20 @@ def redwood_object_scan(folder: Path) -> Path:
     return folder
 
 
+def open3d_camera_parameters(folder: Path) -> Path:
+    """The camera saved with Open3D's write_pinhole_camera_parameters (its intrinsic_matrix
+    under `intrinsic`, beside an extrinsic), as a user keeps the camera a script used."""
+    import open3d as o3d
+
+    _numbered(folder, lambda k: (f"color/{k:06d}.png", f"depth/{k:06d}.png"), 1000)
+    camera = FRAMES.camera
+    parameters = o3d.camera.PinholeCameraParameters()
+    parameters.intrinsic = o3d.camera.PinholeCameraIntrinsic(camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
+    parameters.extrinsic = np.eye(4)
+    assert o3d.io.write_pinhole_camera_parameters(str(folder / "camera.json"), parameters)
+    return folder
+
+
 def hand_written_row_major(folder: Path) -> Path:
     """An intrinsic.json written by hand in reading order (row-major), not as Open3D writes it."""
     import json
@@ -230,6 +245,7 @@ VARIANTS = {
     "redwood-object-scan": (redwood_object_scan, "open3d", True, True, (6,)),
     "open3d-reconstruction-config": (open3d_config, "open3d", False, False, ()),
     "hand-written-row-major-intrinsics": (hand_written_row_major, "open3d", False, False, ()),
+    "open3d-camera-parameters-json": (open3d_camera_parameters, "open3d", False, False, ()),
 }
 SCALES = {"tum": 1 / 5000, "open3d-save-frames-d405": 1e-4, "open3d-reconstruction-config": 1 / 5000}
 

@@ -1,8 +1,9 @@
 """Open3D / Redwood RGB-D folders: `color/` (or `image/`, `rgb/`), `depth/` (16-bit PNG), and
 the intrinsics as Open3D's PinholeCameraIntrinsic JSON (width, height, a column-major
-`intrinsic_matrix`): `intrinsic.json` (Open3D's RSBagReader.save_frames, with `depth_scale`
-units a metre), `camera_intrinsic.json` (its RealSense recorder), `camera_primesense.json`
-(its Redwood sample), or any JSON in the folder holding an `intrinsic_matrix`. Without one,
+`intrinsic_matrix`; or PinholeCameraParameters, holding one under `intrinsic`):
+`intrinsic.json` (Open3D's RSBagReader.save_frames, with `depth_scale` units a metre),
+`camera_intrinsic.json` (its RealSense recorder), `camera_primesense.json` (its Redwood
+sample), or any JSON in the folder holding an `intrinsic_matrix`. Without one,
 the camera comes from `--camera` (Redwood's object scans ship none). Depth is registered to
 colour, 1 mm unless `depth_scale` says otherwise. The recording may also be given as the
 reconstruction system's config JSON: its `path_dataset`, `path_intrinsic` and `depth_scale`.
@@ -49,6 +50,8 @@ def read_intrinsics(path: Path) -> tuple[Camera, list[str]]:
     """The colour camera (depth_scale_m set) and notes on what was assumed."""
     try:
         data = json.loads(read_bounded(path, _MAX_JSON_BYTES))
+        if "intrinsic_matrix" not in data and isinstance(data.get("intrinsic"), dict):
+            data = data["intrinsic"]  # PinholeCameraParameters (write_pinhole_camera_parameters)
         matrix = np.asarray(data["intrinsic_matrix"], dtype=np.float64).reshape(3, 3).T  # column-major
         row_major = not np.allclose(matrix[2], [0, 0, 1]) and np.allclose(matrix[:, 2], [0, 0, 1])
         if row_major:  # written by hand in reading order: its last row would carry cx, cy
