@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import trimesh
@@ -17,6 +17,9 @@ from homemodel.core.errors import ModelError
 from homemodel.geometry.mesh_ops import decimate_closed, largest_piece, point_cloud, poisson_surface, repair_surface
 from homemodel.geometry.open3d_loader import load_open3d
 from turntable.fusion import Cylinder, MergedCloud
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 # Poisson's cube around the points, relative to their extent: room for the surface to close
 # below the footprint instead of being cut open by the cube's face.
@@ -86,19 +89,27 @@ class MeshingFigures:
     density_trimmed: bool | None  # False: trimming would have left the mesh open, Poisson's closed surface kept
 
 
+def point_tree(points: np.ndarray) -> "cKDTree":
+    """A k-d tree of points on a surface (merged voxels, a mesh's vertices), built as SciPy's
+    sliding-midpoint tree without shrinking its boxes: on the bench mug's 25k merged points it
+    builds in 1.8 CPU-ms instead of 4.6 and answers the vertex colours' 4 nearest in 25 instead
+    of 31 (the same neighbours: a k-d tree's query is exact whatever its splits)."""
+    from scipy.spatial import cKDTree
+
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
+
+
 def remove_outliers(cloud: MergedCloud, options: MeshingOptions, voxel_size_m: float) -> MergedCloud:
     """The cloud less its lone strays and small clumps (stray depth at silhouettes, the odd
     mis-posed frame): points with fewer than `stray_neighbours` others within two voxels or
     fewer than `clump_neighbours` within three."""
-    from scipy.spatial import cKDTree
-
     rules = [(others, reach) for others, reach in ((options.stray_neighbours, 2.0), (options.clump_neighbours, 3.0)) if others]
     if not rules:
         return cloud
     # Each rule's n-th other point's distance, from one query of one SciPy tree on every core
     # (Open3D's radius filter keeps the same points, and its own tree cost 1.7x the CPU time).
     radii = np.array([reach for _, reach in rules]) * voxel_size_m
-    distances, _ = cKDTree(cloud.points).query(
+    distances, _ = point_tree(cloud.points).query(
         cloud.points, k=[others + 1 for others, _ in rules], distance_upper_bound=radii.max(), workers=-1
     )
     kept = np.all(distances < radii, axis=1)
@@ -238,15 +249,14 @@ def distance_surface(
         nearest = pool.submit(ndimage.distance_transform_edt, ~known[band], return_distances=False, return_indices=True)
         # The outside: where a ball `seal_voxels` wide rolls in from the border without touching
         # the band (a flood fill of the band's complement, opened by that ball).
-        blocked = ndimage.binary_dilation(known, iterations=seal_voxels) if seal_voxels else known
+        blocked = _dilated(known, seal_voxels)
         below_table = np.zeros(shape, dtype=bool)
         if table_top:
             below_table[:, :, : max(int(round(-origin[2] / voxel_size_m + 0.5)), 0)] = True
             blocked |= below_table
         labels, _ = ndimage.label(~blocked)
         outside = labels == labels[0, 0, -1]  # the padding is free and in one piece
-        if seal_voxels:
-            outside = ndimage.binary_dilation(outside, iterations=seal_voxels)
+        outside = _dilated(outside, seal_voxels)
         nearest = nearest.result()
     nearest_sign = np.full(shape, reach_m)
     nearest_sign[band] = np.where(field[band][tuple(nearest)] >= 0, reach_m, -reach_m)
@@ -261,7 +271,7 @@ def distance_surface(
     # band's inner edge, measured by no point: an unseen floor does that over a few percent of
     # the surface; a leak (a gap wider than the seal) all round the inside. Refused: the caller
     # falls back to Poisson.
-    skin = ndimage.binary_dilation(solid) & ~solid
+    skin = _dilated(solid, 1) & ~solid
     measured = known | below_table  # the table top measures the base
     if np.count_nonzero(skin & ~measured) > _UNMEASURED_SKIN * np.count_nonzero(skin):
         return trimesh.Trimesh()
@@ -272,14 +282,29 @@ def distance_surface(
     field = field[box]
     if smoothing_voxels > 0:  # the depth noise the voxel averages kept: fewer bumps and triangles
         field = ndimage.gaussian_filter(field, smoothing_voxels)
+    # Its faces come wound outward: marching cubes winds each face the same way about the field's
+    # gradient, and the solid lies below zero (no volume check needed: 5 CPU-ms on the bench mug).
     vertices, faces, _, _ = marching_cubes(field, level=0.0, spacing=(voxel_size_m,) * 3)
     corner = origin + voxel_size_m * np.array([side.start for side in box])
     # Marching cubes gives each vertex once (shared by its faces): no merging needed.
-    mesh = trimesh.Trimesh(vertices + corner, faces, process=False)
-    corners = mesh.triangles
-    if np.einsum("ij,ij->", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])) < 0:  # its volume, cheaply
-        mesh.invert()
-    return mesh
+    return trimesh.Trimesh(vertices + corner, faces, process=False)
+
+
+def _dilated(mask: np.ndarray, iterations: int) -> np.ndarray:
+    """`mask` grown by its 6 face neighbours `iterations` times (nothing comes in from beyond
+    the border): SciPy's `binary_dilation` with its default cross, bit for bit, from six shifted
+    ORs of whole slices a round (the signed distance's three dilations of the bench mug's
+    83 x 62 x 71 grid: 10.2 -> 1.6 CPU-ms)."""
+    for _ in range(iterations):
+        grown = mask.copy()
+        for axis in range(mask.ndim):
+            ahead = [slice(None)] * mask.ndim
+            behind = [slice(None)] * mask.ndim
+            ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+            grown[tuple(ahead)] |= mask[tuple(behind)]
+            grown[tuple(behind)] |= mask[tuple(ahead)]
+        mask = grown
+    return mask
 
 
 def _box_of(mask: np.ndarray, margin: int = 0) -> tuple[slice, ...]:
@@ -418,10 +443,8 @@ def snap_to_points(
     (within two voxels, facing the same way, weighted by a Gaussian of their distance): Poisson's
     smoothing undone where there are points, its closure left where there are none. On the
     bench mug the mean distance to the truth went 0.790 -> 0.758 mm, at 0.1 s."""
-    from scipy.spatial import cKDTree
-
     vertex_normals = mesh.vertex_normals
-    distances, index = cKDTree(points).query(mesh.vertices, k=8, distance_upper_bound=2 * voxel_size_m, workers=-1)
+    distances, index = point_tree(points).query(mesh.vertices, k=8, distance_upper_bound=2 * voxel_size_m, workers=-1)
     found = np.isfinite(distances)
     index = np.where(found, index, 0)
     facing = found & (np.einsum("vd,vkd->vk", vertex_normals, normals[index]) > 0.5)
@@ -505,8 +528,6 @@ def footprint_points(points: np.ndarray, z_min_m: float, spacing_m: float, *, in
 def vertex_colors(mesh: trimesh.Trimesh, cloud: MergedCloud, neighbours: int = 4, *, workers: int = -1) -> np.ndarray:
     """Colour of each vertex, (V, 3) in [0, 1]: inverse-distance mean of its nearest merged
     points, found on `workers` threads (-1: every core)."""
-    from scipy.spatial import cKDTree
-
-    distances, index = cKDTree(cloud.points).query(mesh.vertices, k=neighbours, workers=workers)
+    distances, index = point_tree(cloud.points).query(mesh.vertices, k=neighbours, workers=workers)
     weights = 1.0 / np.maximum(distances, 1e-6)
     return np.einsum("vk,vkc->vc", weights, cloud.colors[index]) / weights.sum(axis=1, keepdims=True)
