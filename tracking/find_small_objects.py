@@ -225,8 +225,8 @@ def _clusters(
     state: FitState, full: FitView, surfaces: dict[str, tuple[np.ndarray, float]], search: SmallObjectSearch
 ) -> list[_Cluster]:
     """Clusters of unexplained points standing on an upward surface (`surfaces`: the
-    triangles and top height of each object in view). The scene is rendered only over the
-    image box of the points that stand on a surface: what the rest shows is no small object."""
+    triangles and top height of each object in view). The scene is rendered only at the
+    pixels of the points that stand on a surface: what the rest shows is no small object."""
     o3d = load_open3d()
 
     if not surfaces:
@@ -249,7 +249,10 @@ def _clusters(
         rows = slice(int(v[inside].min()), int(v[inside].max()) + 1)
         columns = slice(int(u[inside].min()), int(u[inside].max()) + 1)
         crop = view.crop(rows, columns)
-        scene_depth = _scene_depth(state, crop)[v[inside] - rows.start, u[inside] - columns.start]
+        # Cast at those points' pixels alone, not their whole window (the oven at 1.2 m: 45k of 136k).
+        pixels = (v[inside] - rows.start) * crop.camera.width + (u[inside] - columns.start)
+        scene_depth = state.renderer.depth_at(state.map_from_parts(), crop.camera, crop.map_from_camera,
+                                              state.context_parts, pixels)
         with np.errstate(invalid="ignore"):
             unexplained = view.depth_m[v[inside], u[inside]] < scene_depth - view.tolerance_m[v[inside], u[inside]]
         near, support = points[inside[unexplained]], support[unexplained]

@@ -452,6 +452,45 @@ class Renderer:
             stack[cells] = depths if order == 0 else np.minimum(stack[cells], depths)
         return stack.reshape(len(map_from_parts), camera.height, camera.width)
 
+    def depth_at(
+        self,
+        map_from_parts: Sequence[np.ndarray],
+        camera: Camera,
+        map_from_camera: np.ndarray,
+        only: Sequence[int],
+        pixels: np.ndarray,
+    ) -> np.ndarray:
+        """`depth(...)` at the flat pixel indices `pixels` alone, the same numbers: only their
+        rays are cast (scattered pixels, a third of their window), and nothing is kept."""
+        pixels = np.asarray(pixels, dtype=np.int64)
+        depth = np.full(len(pixels), np.inf)
+        camera_from_map = np.linalg.inv(as_transform(map_from_camera))
+        table = self._table(camera)
+        rows, columns = np.divmod(pixels, table.flat.shape[1])
+        for i in only:
+            # As `depth_stack` works out a part's one pose, for the same bits.
+            camera_from_parts = camera_from_map @ np.array([map_from_parts[i]], dtype=np.float64)
+            box = _window_boxes(table, camera_from_parts, self._corners[i])[0]
+            if box is None:
+                window = _pixels_in_view(table, camera_from_parts[0], self._corners[i])
+                in_window = 0 if window is None else len(window[0])
+                chosen = np.flatnonzero(np.isin(pixels, window[0])) if in_window else np.empty(0, np.int64)
+            else:
+                left, top, right, bottom = box
+                in_window = max(right - left + 1, 0) * max(bottom - top + 1, 0)
+                chosen = np.flatnonzero((columns >= left) & (columns <= right) & (rows >= top) & (rows <= bottom))
+            if not len(chosen):
+                continue
+            part_from_camera = np.linalg.inv(camera_from_parts)[0]
+            rays = np.empty((len(chosen), 6), dtype=np.float32)
+            rays[:, :3] = part_from_camera[:3, 3]
+            # `depth_stack` turns the window's rays in one product: a single row's bits differ.
+            rays[:, 3:] = _rotated(table.rays[pixels[chosen]], part_from_camera[:3, :3], in_window)
+            t = self._casters[i].hit_distances_of(rays).astype(np.float64)
+            t[t < NEAR_M] = np.inf
+            depth[chosen] = np.minimum(depth[chosen], t)
+        return depth
+
     def pixels_whole(
         self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int]
     ) -> int:
@@ -564,19 +603,32 @@ def _windows(
     none), the usual case (an undistorted lens, every corner in front) worked out for all
     poses at once. A window's edge may lie a pixel off `_pixels_in_view`'s by rounding, never
     at a pixel whose ray reaches the box: either reaches a pixel past the box's image."""
-    corners = corners_part @ camera_from_parts[:, :3, :3].transpose(0, 2, 1) + camera_from_parts[:, None, :3, 3]
-    if table.distorted or (corners[..., 2] < NEAR_M).any():
+    boxes = _window_boxes(table, camera_from_parts, corners_part)
+    if boxes[0] is None:
         return [_pixels_in_view(table, m, corners_part) or _NO_PIXELS for m in camera_from_parts]
-    return _image_windows(table, corners)
+    return [_box_pixels(table, box) for box in boxes]
 
 
 _NO_PIXELS = (np.empty(0, dtype=np.int64), np.empty((0, 3)))
 
 
-def _image_windows(table: _PixelTable, points: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Flat indices and (N, 3) rays of the pixels of the image box of each of K sets of (K, M, 3)
-    camera-frame points in front of the near plane, a pixel wider each way (none for a box
-    off the image), for an undistorted lens: `Camera.project`'s pinhole arithmetic on plain floats."""
+def _window_boxes(
+    table: _PixelTable, camera_from_parts: np.ndarray, corners_part: np.ndarray
+) -> list[tuple[int, int, int, int]] | list[None]:
+    """`_image_boxes` of a part's box corners at each of (K, 4, 4) `camera_from_parts`, or
+    None for each when the usual case does not hold (a distorted lens, a corner behind the
+    near plane): `_pixels_in_view` then finds the pixels."""
+    corners = corners_part @ camera_from_parts[:, :3, :3].transpose(0, 2, 1) + camera_from_parts[:, None, :3, 3]
+    if table.distorted or (corners[..., 2] < NEAR_M).any():
+        return [None] * len(camera_from_parts)
+    return _image_boxes(table, corners)
+
+
+def _image_boxes(table: _PixelTable, points: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """(left, top, right, bottom) pixels, inclusive, of the image box of each of K sets of
+    (K, M, 3) camera-frame points in front of the near plane, a pixel wider each way (empty,
+    right < left or bottom < top, for a box off the image), for an undistorted lens:
+    `Camera.project`'s pinhole arithmetic on plain floats."""
     u = table.fx * (points[..., 0] / points[..., 2]) + table.cx
     v = table.fy * (points[..., 1] / points[..., 2]) + table.cy
     height, width = table.flat.shape
@@ -584,11 +636,17 @@ def _image_windows(table: _PixelTable, points: np.ndarray) -> list[tuple[np.ndar
     v0 = np.maximum(np.floor(v.min(axis=1)).astype(int) - 1, 0)
     u1 = np.minimum(np.ceil(u.max(axis=1)).astype(int) + 1, width - 1)
     v1 = np.minimum(np.ceil(v.max(axis=1)).astype(int) + 1, height - 1)
+    return list(zip(u0.tolist(), v0.tolist(), u1.tolist(), v1.tolist()))
+
+
+def _box_pixels(table: _PixelTable, box: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Flat indices and (N, 3) rays of the pixels of an `_image_boxes` box."""
+    left, top, right, bottom = box
+    if right < left or bottom < top:
+        return _NO_PIXELS
     # Windows of the image: slicing the tables costs a third of gathering their pixels' rays.
-    windows = [(slice(top, bottom + 1), slice(left, right + 1))
-               for left, top, right, bottom in zip(u0.tolist(), v0.tolist(), u1.tolist(), v1.tolist())]
-    return [(table.flat[rows, columns].flatten(), table.grid_rays[rows, columns].reshape(-1, 3))
-            if rows.start < rows.stop and columns.start < columns.stop else _NO_PIXELS for rows, columns in windows]
+    rows, columns = slice(top, bottom + 1), slice(left, right + 1)
+    return table.flat[rows, columns].flatten(), table.grid_rays[rows, columns].reshape(-1, 3)
 
 
 def _pixels_in_view(
@@ -618,5 +676,5 @@ def _pixels_in_view(
         inside = (rays[:, 0] >= x0) & (rays[:, 0] <= x1) & (rays[:, 1] >= y0) & (rays[:, 1] <= y1)
         pixels = np.flatnonzero(inside)
         return (pixels, rays[pixels]) if len(pixels) else None
-    pixels, rays = _image_windows(table, points[None])[0]
+    pixels, rays = _box_pixels(table, _image_boxes(table, points[None])[0])
     return (pixels, rays) if len(pixels) else None
