@@ -92,7 +92,7 @@ def test_a_frame_s_tags_predicted_from_the_two_before_give_its_pose_and_hidden_t
     u, v = np.meshgrid(np.arange(CAMERA.width), np.arange(CAMERA.height))
     gray[np.hypot(u - 240, v - 170) < 45] = 128
     searched = frame_pose(gray, TagSearch(detection=detection), BOARD, CAMERA, options)
-    tracked = tracked_pose(gray, predicted, board_codes(BOARD), BOARD, CAMERA, detection, options)
+    tracked = tracked_pose(gray, predicted, board_codes(BOARD), CAMERA, detection, options)
     assert tracked is not None
     # The tags the disc hides (the search cannot decode them either) are refused by their codes.
     assert tracked.tags == searched.tags
@@ -105,7 +105,7 @@ def test_a_frame_s_tags_predicted_from_the_two_before_give_its_pose_and_hidden_t
     assert near.inlier_corners == searched.inlier_corners
     # A prediction off by a tenth of a turn (more than a tag) finds no tags: the frame is searched.
     wrong = predicted @ turned_table(np.zeros(2), 0.6)
-    assert tracked_pose(gray, wrong, board_codes(BOARD), BOARD, CAMERA, detection, options) is None
+    assert tracked_pose(gray, wrong, board_codes(BOARD), CAMERA, detection, options) is None
     fallback = frame_pose(gray, search, BOARD, CAMERA, options, predicted=wrong)
     assert fallback.tags == searched.tags
     assert np.abs(fallback.camera_from_table[:3, 3] - camera_from_table[:3, 3]).max() < 1e-4

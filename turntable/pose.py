@@ -53,15 +53,28 @@ def estimate_camera_from_table(
     """`camera_from_table` from detected corners (tag id -> (4, 2) pixels); raises PoseSkip.
     Given a camera_from_table `near` the answer (a predicted frame's), it is refined from there:
     no RANSAC and no global solve, so neither the flip ambiguity nor their time."""
-    import cv2
-
     options = options or PoseOptions()
     table_corners = board.corners_table()
     known = sorted(tag_id for tag_id in detections if tag_id in table_corners)
-    if len(known) < options.min_tags:
-        raise PoseSkip(f"{len(known)} board tags seen, {options.min_tags} needed")
-    object_points = np.concatenate([table_corners[i] for i in known])
-    image_points = np.concatenate([detections[i] for i in known])
+    object_points = np.array([table_corners[i] for i in known], dtype=np.float64).reshape(-1, 3)
+    image_points = np.array([detections[i] for i in known], dtype=np.float64).reshape(-1, 2)
+    return pose_from_corners(object_points, image_points, camera, options, near)
+
+
+def pose_from_corners(
+    object_points: np.ndarray,
+    image_points: np.ndarray,
+    camera: Camera,
+    options: PoseOptions,
+    near: np.ndarray | None = None,
+) -> FramePose:
+    """`estimate_camera_from_table` from its tags' corners already paired: (4 n, 3) on the
+    board, in tag order, and (4 n, 2) in the image (a tracked frame's tags come as arrays)."""
+    import cv2
+
+    tags = len(object_points) // 4
+    if tags < options.min_tags:
+        raise PoseSkip(f"{tags} board tags seen, {options.min_tags} needed")
     K, dist = camera.matrix, camera.distortion_coefficients
     seen = image_points  # OpenCV's PnP knows Brown-Conrady only: a fisheye's corners go in undistorted
     if camera.has_distortion and camera.distortion_model == "kannala_brandt":
@@ -70,7 +83,7 @@ def estimate_camera_from_table(
         rvec, tvec, inliers = _refined_near(object_points, image_points, K, dist, near, options.ransac_threshold_px)
         if len(inliers) < options.min_inlier_fraction * len(object_points):
             raise PoseSkip(f"only {len(inliers)} of {len(object_points)} corners agree on a pose")
-        return _frame_pose(rvec, tvec, object_points, image_points, seen, inliers, K, dist, len(known), options)
+        return _frame_pose(rvec, tvec, object_points, image_points, seen, inliers, K, dist, tags, options)
     # Minimal (P3P) samples: OpenCV's RANSAC with a non-minimal solver (SQPnP, EPnP) drew
     # samples from one small tag and kept 30 of 104 corners on a steep view where AP3P kept all.
     ok, rvec, tvec, inliers = cv2.solvePnPRansac(
@@ -113,7 +126,7 @@ def estimate_camera_from_table(
         if best is None or rms < best[0]:
             best = (rms, rvec, tvec)
     _, rvec, tvec = best
-    return _frame_pose(rvec, tvec, object_points, image_points, seen, inliers, K, dist, len(known), options)
+    return _frame_pose(rvec, tvec, object_points, image_points, seen, inliers, K, dist, tags, options)
 
 
 def _refined_near(

@@ -23,7 +23,7 @@ import numpy as np
 
 from homemodel.geometry.camera import Camera
 from turntable.board import TAG_CELLS, Board, tag_bits
-from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table
+from turntable.pose import FramePose, PoseOptions, PoseSkip, estimate_camera_from_table, pose_from_corners
 from turntable.tags import LINEAR_LEVELS, DetectionOptions, PixelWindow, bilinear_levels, detect_tags, refined_edges
 
 _COARSE_DECIMATION = 1.5
@@ -86,7 +86,6 @@ def tracked_pose(
     gray: np.ndarray,
     predicted: np.ndarray,
     codes: BoardCodes,
-    board: Board,
     camera: Camera,
     detection: DetectionOptions,
     options: PoseOptions,
@@ -120,9 +119,9 @@ def tracked_pose(
     for second in (False, True):
         refined, clear = refined_edges(gray, corners, LINEAR_LEVELS[detection.intensity])
         whole = np.all(clear, axis=1)
-        found = {int(codes.ids[t]): c for t, c in zip(tags[whole], refined[whole])}
         try:
-            pose = estimate_camera_from_table(found, board, camera, options, near=predicted)
+            table_points, image_points = codes.corners_m[tags[whole]].reshape(-1, 3), refined[whole].reshape(-1, 2)
+            pose = pose_from_corners(table_points, image_points, camera, options, near=predicted)
         except PoseSkip:
             return None
         # The refinement leans towards where it started (its profiles' ends are taken as the
@@ -203,7 +202,7 @@ def frame_pose(
     first, then over the whole image if the window gave no pose or cut off a tag the pose shows
     in the image, then at full resolution if the coarse search gave no pose; raises PoseSkip."""
     if predicted is not None and search.codes is not None:
-        pose = tracked_pose(gray, predicted, search.codes, board, camera, search.detection, options)
+        pose = tracked_pose(gray, predicted, search.codes, camera, search.detection, options)
         if pose is not None:
             return pose
     attempts = [search]

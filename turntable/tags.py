@@ -251,8 +251,10 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     The detectors' own corners sat 0.4 px (AprilTag) to 0.9 px (OpenCV) inside the tag on
     renders of known poses; these within 0.01 px on average. All sides of all tags at once.
     """
+    import cv2
+
     corners = np.asarray(corners, dtype=np.float64)
-    start, side = corners, np.roll(corners, -1, axis=1) - corners  # side i runs from corner i to i + 1
+    start, side = corners, corners[:, [1, 2, 3, 0]] - corners  # side i runs from corner i to i + 1
     length = np.linalg.norm(side, axis=-1)  # (T, 4)
     direction = side / np.maximum(length, 1e-9)[..., None]
     outward = np.stack([direction[..., 1], -direction[..., 0]], axis=-1)
@@ -263,33 +265,61 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     steps = int(np.clip(np.ceil(4 * half_width.max()) + 1, 17, 161))
     across = np.linspace(-1.0, 1.0, steps)
     offsets = half_width[..., None] * across  # (T, 4, M)
-    # x and y apart, each (T, 4, N, M): one (T, 4, N, M, 2) array's strided halves cost a fifth more.
     base = start[:, :, None, :] + _ALONG[None, None, :, None] * side[:, :, None, :]  # (T, 4, N, 2)
-    x = base[..., 0, None] + (offsets * outward[..., 0, None])[:, :, None, :]
-    y = base[..., 1, None] + (offsets * outward[..., 1, None])[:, :, None, :]
-    # On the grid where OpenCV's remap interpolates exactly (it rounds to it), each crossing
-    # placed between its samples where they lie: on the bench mug's frames the corners moved
-    # 0.003 px (median) and lie as close to the truth, for a third of NumPy's sampling time.
-    x, y = np.round(x * _REMAP_GRID) / _REMAP_GRID, np.round(y * _REMAP_GRID) / _REMAP_GRID
-    profiles = bilinear_levels(gray, linear, x, y)
+    # The samples on the grid where OpenCV's remap interpolates exactly (it rounds to it), each
+    # crossing placed between its samples where they lie: on the bench mug's frames the corners
+    # moved 0.003 px (median) and lie as close to the truth, for a third of NumPy's sampling time.
+    # In 1/32 px units (scaling by 32 is exact), rounded, then as remap's float32 maps in the
+    # frame of the pixels they reach (exact there too); x and y each (T, 4, N, M) through one
+    # scratch array (each fresh array of these had cost more than its arithmetic).
+    height, width = gray.shape
+    reach = half_width.max() + 1.0  # no sample lies farther than this beyond the corners' box
+    low, high = corners.min(axis=(0, 1)) - reach, corners.max(axis=(0, 1)) + reach
+    left, top = min(max(int(low[0]) - 1, 0), width - 2), min(max(int(low[1]) - 1, 0), height - 2)
+    right, bottom = max(min(int(high[0]) + 3, width), left + 2), max(min(int(high[1]) + 3, height), top + 2)
+    grid = np.empty((*half_width.shape, len(_ALONG), steps))
+    maps = np.empty((2, *grid.shape), np.float32)
+    for axis, origin in ((0, left), (1, top)):
+        across_px = offsets * (outward[..., axis, None] * _REMAP_GRID)  # (T, 4, M)
+        np.add((base[..., axis] * _REMAP_GRID)[..., None], across_px[:, :, None, :], out=grid)
+        np.rint(grid, out=grid)
+        grid -= origin * _REMAP_GRID
+        np.multiply(grid, 1.0 / _REMAP_GRID, out=maps[axis], casting="unsafe")
+    # A tag's profiles in one row of the maps: remap runs faster on long rows (and a board has
+    # far fewer tags than the rows remap allows).
+    levels = cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32))
+    rows = (len(corners), -1)
+    profiles = cv2.remap(levels, maps[0].reshape(rows), maps[1].reshape(rows), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    profiles = profiles.reshape(grid.shape)
     k = max(2, steps // 5)
-    dark = profiles[..., :k].mean(axis=-1)
-    bright = profiles[..., -k:].mean(axis=-1)
+    if k < 8:  # tag sides up to 95 px: np.mean on rows this short costs more than the rest of the
+        # profile's arithmetic; the k samples summed in order give its values bit for bit
+        # (from 8 on, it sums in pairs).
+        dark, bright = (sum(profiles[..., i] for i in range(start, start + k)) / np.float32(k) for start in (0, steps - k))
+    else:
+        dark, bright = profiles[..., :k].mean(axis=-1), profiles[..., -k:].mean(axis=-1)
     contrast = bright - dark
-    level = profiles - ((dark + bright) / 2)[..., None]  # the crossing and its fraction need no scaling
-    above = level >= 0
-    rising = ~above[..., :-1] & above[..., 1:]
-    usable = (np.count_nonzero(rising, axis=-1) == 1) & (contrast >= 0.05)  # (T, 4, N)
+    midway = (dark + bright) / 2
+    above = profiles >= midway[..., None]
+    rising = above[..., 1:] > above[..., :-1]
+    usable = (rising.view(np.uint8).sum(axis=-1, dtype=np.uint8) == 1) & (contrast >= 0.05)  # (T, 4, N)
     # Each profile's sample before its crossing, as a flat index into the (T, 4, N, M) arrays:
-    # one index for the six gathers (take_along_axis built its own index arrays for each).
-    at = np.argmax(rising, axis=-1).ravel() + np.arange(0, level.size, steps)
+    # one index for the gathers (take_along_axis built its own index arrays for each).
+    at = np.argmax(rising, axis=-1).ravel() + np.arange(0, profiles.size, steps)
 
     def sample(values: np.ndarray, after: int = 0) -> np.ndarray:  # (T, 4, N)
         return values.reshape(-1)[at + after].reshape(usable.shape)
 
-    before, after = sample(level), sample(level, 1)
+    before, after = sample(profiles) - midway, sample(profiles, 1) - midway  # the crossing needs no scaling
     fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
-    points = np.stack([(1 - fraction) * sample(c) + fraction * sample(c, 1) for c in (x, y)], axis=-1)  # (T, 4, N, 2)
+    points = np.stack(
+        [
+            (1 - fraction) * (sample(axis_map).astype(np.float64) + origin)
+            + fraction * (sample(axis_map, 1).astype(np.float64) + origin)
+            for axis_map, origin in ((maps[0], left), (maps[1], top))
+        ],
+        axis=-1,
+    )  # (T, 4, N, 2)
     # Each side's line through its usable crossing points (total least squares).
     weight = usable.astype(np.float64)
     count = weight.sum(axis=-1)
@@ -301,7 +331,8 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     angle = 0.5 * np.arctan2(2 * xy, xx - yy)
     line_direction = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
     # Corner i joins side i - 1 (ending there) and side i (starting there).
-    p1, d1, ok1 = np.roll(centre, 1, axis=1), np.roll(line_direction, 1, axis=1), np.roll(valid, 1, axis=1)
+    previous = [3, 0, 1, 2]  # np.roll's order, without its cost
+    p1, d1, ok1 = centre[:, previous], line_direction[:, previous], valid[:, previous]
     p2, d2 = centre, line_direction
     determinant = d1[..., 0] * (-d2[..., 1]) - (-d2[..., 0]) * d1[..., 1]
     good = ok1 & valid & (np.abs(determinant) > 1e-6)
