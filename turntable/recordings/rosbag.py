@@ -334,11 +334,8 @@ class RosBagSource(TimedStreamsSource):
             setup.color_from_depth, placed_by = self._color_from_depth(color_info.header.frame_id, depth_info.header.frame_id)
             if placed_by not in (None, "/tf_static"):
                 setup.notes.append(f"no /tf_static: the depth camera placed by {placed_by}")
-            if setup.color_from_depth is None:
-                setup.notes.append(
-                    f"no /tf_static from {depth_info.header.frame_id} to {color_info.header.frame_id}: "
-                    "depth reprojected as if the two cameras sat at one point"
-                )
+            if setup.color_from_depth is None:  # then placed by its edges (TimedStreamsSource)
+                setup.notes.append(f"no /tf_static from {depth_info.header.frame_id} to {color_info.header.frame_id}")
         return setup
 
     def _color_from_depth(self, color_frame: str, depth_frame: str) -> tuple[np.ndarray | None, str | None]:

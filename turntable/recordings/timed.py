@@ -29,6 +29,29 @@ class TimedStreamsSource(FrameSource):
         in any order (a file reader goes pair by pair, a bag in its own time order); colour RGB
         uint8, depth uint16 in the setup's units or float32 metres."""
 
+    def _place_depth_camera(self, chosen: list[tuple[int, int]], color_t: np.ndarray, depth_t: np.ndarray) -> None:
+        """An unregistered depth whose pose the recording does not give: placed by a few frames'
+        edges (`edge_placement`), else taken as seen from colour's own point, said either way."""
+        from turntable.recordings.edge_placement import SAMPLE_FRAMES, place_depth_camera
+
+        picked = sorted({chosen[round(k)] for k in np.linspace(0, len(chosen) - 1, min(SAMPLE_FRAMES, len(chosen)))})
+        images = {(kind, index): image for kind, index, image in self.stream_images(picked)}
+        samples = [
+            RgbdPair(time_s=0.0, color=images[("color", i)], depth=images[("depth", j)], depth_offset_s=0.0) for i, j in picked
+        ]
+        placement = place_depth_camera(samples, self.setup)
+        if placement is None:
+            self.setup.notes.append("depth reprojected as if the two cameras sat at one point (too few depth edges to place it)")
+            return
+        self.setup.color_from_depth = placement.color_from_depth
+        x_mm, y_mm = 1000 * placement.color_from_depth[:2, 3]
+        turn_deg = np.degrees(np.arccos(np.clip((np.trace(placement.color_from_depth[:3, :3]) - 1) / 2, -1.0, 1.0)))
+        self.setup.notes.append(
+            f"the depth camera placed at ({x_mm:+.1f}, {y_mm:+.1f}) mm from colour's, turned {turn_deg:.2f} deg, by where "
+            f"depth and colour edges fall in {placement.frames} frames (edges {placement.agreement:.1f}x as aligned as "
+            "at colour's own point)"
+        )
+
     def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
         color_t, depth_t = self.stream_times()
         tolerance = self.tolerance_s if self.tolerance_s is not None else default_tolerance_s(color_t, depth_t)
@@ -42,6 +65,8 @@ class TimedStreamsSource(FrameSource):
             (i, j) for i, j in matched if color_t[i] - origin >= start_s and (end_s is None or color_t[i] - origin <= end_s)
         ]
         chosen = in_span[:: self.every]
+        if self.setup.depth_camera is not None and self.setup.color_from_depth is None and chosen:
+            self._place_depth_camera(chosen, color_t, depth_t)
         depth_of = dict(chosen)
         color_of = {j: i for i, j in chosen}
         held: dict[tuple[str, int], np.ndarray] = {}
