@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from homemodel.core.srgb import srgb_encode
 from homemodel.geometry.camera import Camera, load_camera
 from homemodel.geometry.raycast import RayCaster
 from homemodel.exchange.cameras import read_cameras, true_cameras_file
@@ -32,6 +33,9 @@ class Rig:
     color_from_depth: np.ndarray = field(default_factory=lambda: np.eye(4))
     depth_scale_m: float = 0.001
     period_s: float = 1.0  # between colour frames
+    # The colour stream's transfer curve: the simulator renders linear light; a camera delivers
+    # it sRGB-encoded ("srgb": each 8-bit level encoded after the lens and the blur).
+    color_encoding: str = "linear"
 
 
 @dataclass(kw_only=True)
@@ -100,6 +104,14 @@ def _noisy(depth: np.ndarray, cosine: np.ndarray, rng: np.random.Generator, flyi
     return noisy
 
 
+_SRGB_OF_LEVEL = np.round(srgb_encode(np.arange(256) / 255.0) * 255).astype(np.uint8)
+
+
+def srgb_encoded(image: np.ndarray) -> np.ndarray:
+    """An 8-bit linear image's levels sRGB-encoded, as a camera delivers them."""
+    return _SRGB_OF_LEVEL[image]
+
+
 def _motion_blur(rgb: np.ndarray, length_px: int) -> np.ndarray:
     import cv2
 
@@ -147,7 +159,8 @@ def record(
         if k not in drop_color:
             bgr = cv2.imread(str(clean_dir / "color" / f"{stem}.png"))
             rgb = cv2.cvtColor(cv2.remap(bgr, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_BGR2RGB)
-            colors.append((t, _motion_blur(rgb, 9) if k in blurred else rgb))
+            rgb = _motion_blur(rgb, 9) if k in blurred else rgb
+            colors.append((t, srgb_encoded(rgb) if rig.color_encoding == "srgb" else rgb))
         if k not in drop_depth:
             delay = float(rng.uniform(-jitter_s, jitter_s))
             turned = 2 * math.pi * delay / turn_s  # the table's further turn while the depth waited

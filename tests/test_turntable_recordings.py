@@ -26,6 +26,7 @@ from homemodel.geometry.raycast import RayCaster
 from turntable.board import load_board
 from turntable.capture import load_capture
 from turntable.capture_live import LiveCaptureOptions, capture_turn
+from turntable.color_encoding import capture_encoding
 from turntable.recordings import import_recording, ImportOptions
 from turntable.recordings.associate import StreamAssociation, associate
 from turntable.recordings.realsense import RealSenseSource
@@ -33,6 +34,7 @@ from turntable.recordings.register import register_depth
 from turntable.reconstruct import reconstruct_capture
 from turntable.reconstruction import ReconstructOptions
 from turntable.simulate import SimulationOptions, render_depth, simulate_capture
+from turntable.tags import DetectionOptions
 
 CAPTURE = dict(
     frames=24, width_px=320, height_px=180, horizontal_fov_deg=69.0, renderer="raycast",
@@ -209,6 +211,30 @@ def test_capture_by_playback_stops_after_one_turn(clean: Path, baseline_mm: floa
         reconstruction.mesh, trimesh.load(clean / "ground_truth.ply", force="mesh")
     )
     assert distance_mm <= ACCURACY_RATIO * baseline_mm
+
+
+def test_the_colour_encoding_is_measured_from_the_tags(made: Path, clean: Path, baseline_mm: float, tmp_path: Path) -> None:
+    """A camera delivers sRGB-encoded colour, the simulator's recordings are linear: read with
+    the wrong curve, the tag edges are refined off the edge (the baseline read as sRGB: 0.30 mm
+    against 0.18; its sRGB copy read as linear, the old default: 0.22). `reconstruct` tells
+    the two apart by itself, from where the tags' inner cell edges lie, and reports it; a
+    given encoding wins."""
+    import cv2
+
+    encoded = shutil.copytree(made / "baseline", tmp_path / "srgb")
+    for path in (encoded / "color").iterdir():
+        cv2.imwrite(str(path), rsim.srgb_encoded(cv2.imread(str(path))))
+    linear = capture_encoding(load_capture(made / "baseline"), "auto", DetectionOptions())
+    assert linear.encoding == "linear" and linear.decided_by == "the tags' cell edges"
+    # Off by 0.01 px with the right curve, 0.1 px with the wrong one (either way round).
+    assert abs(linear.cell_edge_offset_px["linear"]) < 0.04 and linear.cell_edge_offset_px["srgb"] > 0.06
+    assert capture_encoding(load_capture(encoded), "linear", DetectionOptions()).encoding == "linear"
+    reconstruction = _reconstruct(encoded)
+    decided = reconstruction.figures()["color_encoding"]
+    assert decided["color_encoding"] == "srgb", decided
+    assert abs(decided["cell_edge_offset_px"]["srgb"]) < 0.04 and decided["cell_edge_offset_px"]["linear"] < -0.06
+    distance_mm = 1000 * mean_surface_distance_m(reconstruction.mesh, trimesh.load(clean / "ground_truth.ply", force="mesh"))
+    assert distance_mm <= 1.1 * baseline_mm, f"{distance_mm:.3f} mm against the linear capture's {baseline_mm:.3f} mm"
 
 
 def test_registration_of_a_640x480_depth_into_a_1280x720_colour() -> None:

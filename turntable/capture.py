@@ -35,6 +35,7 @@ class Capture:
     frames: list[FramePaths]
     unpaired: list[str]  # stems with only a colour or only a depth image
     recording: dict | None = None  # recording.json: what `turntable import` read, associated and dropped
+    simulated: bool = False  # written by `turntable simulate` (its simulation.json): linear renders
 
 
 class FrameError(InputError):
@@ -81,6 +82,7 @@ def load_capture(folder: Path) -> Capture:
         frames=[FramePaths(stem=s, color=colors[s], depth=depths[s]) for s in stems],
         unpaired=sorted(set(colors) ^ set(depths)),
         recording=recording,
+        simulated=(folder / "simulation.json").is_file(),  # turntable.simulate.SIMULATION_JSON, not imported for a name
     )
 
 

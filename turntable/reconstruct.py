@@ -26,6 +26,7 @@ from homemodel.core.atomic import prepare_out_dir
 from homemodel.core.errors import ModelError, errors_naming
 from homemodel.core.progress import Progress, StageClock
 from turntable.capture import Capture, FrameError, FramePaths, load_capture, read_color, read_depth
+from turntable.color_encoding import capture_encoding
 from turntable.fusion import Cylinder, MergedCloud, ObjectPixels, VoxelAccumulator, object_pixels, pixel_points
 from turntable.meshing import object_surface, vertex_colors
 from turntable.outputs import write_reconstruction
@@ -457,6 +458,8 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
 
     clock = StageClock(progress)
     clock.start("poses")
+    encoding = capture_encoding(capture, options.color_encoding, options.detection)
+    options = replace(options, detection=replace(options.detection, intensity=encoding.encoding))
     frames = read_frames(capture, options, clock.progress)
     poses, skipped = frames.poses, frames.skipped
     real_frames = {
@@ -518,6 +521,7 @@ def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progres
         meshing=figures,
         times_s=clock.times_s,
         frames_total=len(capture.frames) + len(capture.unpaired),
+        color_encoding=encoding,
         real_frames=real_frames,
         recording=capture.recording,
     )

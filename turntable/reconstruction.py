@@ -5,15 +5,17 @@ Their own module, so that the stages (`turntable.reconstruct`) and the export
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import trimesh
 
 from articulation.naming import check_model_name
-from homemodel.core.checks import check_nested, require_at_least, require_between, require_positive
+from homemodel.core.checks import check_nested, require_at_least, require_between, require_choice, require_positive
 from homemodel.geometry.camera import Camera
 from homemodel.model_folder.map_entry import MapEntry
 from homemodel.model_folder.result import ModelResult
+from turntable.color_encoding import EncodingDecision
 from turntable.fusion import Cylinder, MergedCloud
 from turntable.meshing import MeshingFigures, MeshingOptions
 from turntable.orbit import TableAxis
@@ -26,6 +28,11 @@ from turntable.turntable_model import TurntableFit
 @dataclass(kw_only=True)
 class ReconstructOptions:
     detection: DetectionOptions = field(default_factory=DetectionOptions)
+    # The colour images' transfer curve, which sets `detection.intensity`: "auto" takes the
+    # capture's (a simulated capture's renders are linear; any other capture's is measured from
+    # its tag edges, `turntable.color_encoding`: real cameras deliver sRGB, recordings written
+    # from simulated frames may be linear).
+    color_encoding: Literal["auto", "linear", "srgb"] = "auto"
     pose: PoseOptions = field(default_factory=PoseOptions)
     meshing: MeshingOptions = field(default_factory=MeshingOptions)
     voxel_size_m: float = 0.0015
@@ -57,6 +64,7 @@ class ReconstructOptions:
 
     def check(self) -> None:
         check_nested("detection", self.detection)
+        require_choice("color_encoding", self.color_encoding, ("auto", "linear", "srgb"))
         check_nested("pose", self.pose)
         check_nested("meshing", self.meshing)
         require_positive("voxel_size_m", self.voxel_size_m)
@@ -94,6 +102,7 @@ class Reconstruction(ModelResult):
     meshing: MeshingFigures
     times_s: dict[str, float]  # seconds per stage; `reconstruct` adds the export's
     frames_total: int
+    color_encoding: EncodingDecision  # the curve the tag edges were refined with, and how it was decided
     real_frames: dict = field(default_factory=dict)  # flying pixels, blur, misregistration (turntable.real_frames)
     recording: dict | None = None  # the capture's recording.json, when imported from a recording
 
@@ -127,6 +136,7 @@ class Reconstruction(ModelResult):
                 "pnp_rms_px": self.turntable_fit.pnp_rms_px,
             },
             "turn": self.turn.figures(),
+            "color_encoding": self.color_encoding.figures(),
             "cylinder": {"radius_m": self.cylinder.radius_m, "z_min_m": self.cylinder.z_min_m},
             "points_merged": self.meshing.points_in,
             "points_after_outlier_removal": self.meshing.points_after_outliers,

@@ -186,7 +186,12 @@ def reconstruct(
     name: str = field_option(f"{RECONSTRUCT}.name", help="model name"),
     voxel_size_m: float = field_option(f"{RECONSTRUCT}.voxel_size_m", help="merging voxel size"),
     detector: str = field_option(f"{RECONSTRUCT}.detection.detector", help="tag detector"),
-    srgb: bool = typer.Option(False, "--srgb", help="colour images are sRGB-encoded (most cameras), not linear"),
+    srgb: bool | None = typer.Option(
+        None,
+        "--srgb/--linear",
+        help="colour images are sRGB-encoded (most cameras) or linear; default: the capture's, measured from its tags (a simulated capture's: linear)",
+        show_default=False,
+    ),
     min_tags: int = field_option(f"{RECONSTRUCT}.pose.min_tags", help="frames seeing fewer board tags are skipped"),
     refine: bool = field_option(
         f"{RECONSTRUCT}.turntable_refinement",
@@ -213,7 +218,8 @@ def reconstruct(
         refuse_a_recording(capture_dir)
         map_entry = map_entry_from_flags(map_path, parent_id, object_id or name, xyz)
         options = ReconstructOptions(
-            detection=DetectionOptions(detector=detector, intensity="srgb" if srgb else "linear"),
+            detection=DetectionOptions(detector=detector),
+            color_encoding="auto" if srgb is None else "srgb" if srgb else "linear",
             pose=PoseOptions(min_tags=min_tags),
             voxel_size_m=voxel_size_m,
             turntable_refinement=refine,
@@ -237,7 +243,9 @@ def reconstruct(
         fit = summary.turntable_refinement
         verdict = "applied" if fit.accepted else "rejected (kept PnP poses)"
         rows.append(("turntable refinement", f"{verdict}: {fit.rms_px:.3f} px vs PnP {fit.pnp_rms_px:.3f} px"))
+    encoding = summary.color_encoding
     rows += [
+        ("colour encoding", f"{encoding.color_encoding} ({encoding.decided_by})"),
         ("turn seen / largest gap", f"{summary.turn.seen_fraction:.0%} / {summary.turn.largest_gap_deg:.0f} deg"),
         ("points merged / after outliers", f"{summary.points_merged} / {summary.points_after_outlier_removal}"),
         ("triangles", f"{summary.triangles} (watertight: {'yes' if summary.watertight else 'no'})"),

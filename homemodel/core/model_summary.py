@@ -149,6 +149,16 @@ class Turn(_Strict):
     gap_warning: bool = Field(description="a gap wider than the merge bridges: part of the object never seen")
 
 
+class ColorEncodingFigures(_Strict):
+    color_encoding: Literal["linear", "srgb"] = Field(description="the colour images' transfer curve the tag edges were refined with")
+    decided_by: str = Field(description="given (--srgb/--linear), a simulated capture's (linear), or measured from the tags' cell edges")
+    cell_edge_offset_px: dict[str, float] | None = Field(
+        default=None,
+        description="per curve, the median distance of the tags' inner cell edges towards their white cell from where the tags' refined sides put them; the curve nearer 0 is taken",
+    )
+    cell_edges: int = Field(ge=0, description="inner cell-edge profiles measured")
+
+
 class Cylinder(_Strict):
     radius_m: float
     z_min_m: float
@@ -164,6 +174,7 @@ class TurntableFigures(_Figures):
     orbit: Orbit | None = None
     turntable_refinement: TurntableRefinement | None = None
     turn: Turn | None = None
+    color_encoding: ColorEncodingFigures | None = None
     cylinder: Cylinder | None = None
     points_merged: int | None = Field(default=None, ge=0)
     points_after_outlier_removal: int | None = Field(default=None, ge=0)
