@@ -22,6 +22,7 @@ import recording_sim as rsim
 from homemodel.cli import app
 from homemodel.evaluation import mean_surface_distance_m
 from homemodel.geometry.camera import Camera, load_camera, save_camera
+from homemodel.core.transforms import world_from_camera_looking_at
 from homemodel.geometry.raycast import RayCaster
 from turntable.board import load_board
 from turntable.capture import load_capture
@@ -30,7 +31,7 @@ from turntable.color_encoding import capture_encoding
 from turntable.recordings import import_recording, ImportOptions
 from turntable.recordings.associate import StreamAssociation, associate
 from turntable.recordings.realsense import RealSenseSource
-from turntable.recordings.register import register_depth
+from turntable.recordings.register import expected_edge_offset_px, register_depth
 from turntable.reconstruct import reconstruct_capture
 from turntable.reconstruction import ReconstructOptions
 from turntable.simulate import SimulationOptions, render_depth, simulate_capture
@@ -183,6 +184,10 @@ def test_import_and_reconstruct_each_format(
     assert summary["real_frames"]["blurred_frames"] >= 1  # found, whether or not they also lost their tags
     assert summary["recording"]["format"] == name
     assert not summary["real_frames"]["misregistration_warning"], summary["real_frames"]
+    # A depth camera of its own: read from half a depth pixel along the cameras' offset.
+    assert summary["real_frames"]["registration_edge_offset_px"] == list(report["registration_edge_offset_px"])
+    separate_depth = FORMATS[name][1]
+    assert (report["registration_edge_offset_px"] != [0.0, 0.0]) is separate_depth
     distance_mm = 1000 * mean_surface_distance_m(
         reconstruction.mesh, trimesh.load(clean / "ground_truth.ply", force="mesh")
     )
@@ -466,6 +471,41 @@ def test_misregistration_is_measured_from_edges() -> None:
     gray_registered = np.full((120, 160), 40, np.uint8)
     gray_registered[40:80, 50:110] = 200
     assert np.hypot(*depth_color_offset_px(depth, gray_registered)) < 0.3
+
+
+def test_misregistration_is_read_against_what_an_exact_reprojection_shows() -> None:
+    """A depth camera of its own, reprojected: with an exact extrinsic the estimate reads half a
+    depth pixel along the cameras' offset (the registered silhouette ends at the depth pixels'
+    centres, and only its side towards the offset has depth on both sides of the jump): 1.39 px
+    here (readme_check's bottle recordings 1.4-1.8), against the warning's 1.5. Read from that,
+    an exact extrinsic is 0.40 px off and one told 2 px off 2.59; read from 0, the 2 px error
+    read 1.06 and went unwarned."""
+    import math
+
+    from turntable.real_frames import depth_color_offset_px
+
+    bottle = trimesh.creation.cylinder(radius=0.035, height=0.16)
+    bottle.apply_translation([0, 0, 0.08])
+    table = trimesh.creation.box((1.0, 1.0, 0.01), transform=trimesh.transformations.translation_matrix([0, 0, -0.005]))
+    f = 320 / math.tan(math.radians(34.5))
+    color = Camera(width=640, height=360, fx=f, fy=f, cx=319.5, cy=179.5)
+    camera_from_table = np.linalg.inv(world_from_camera_looking_at(np.array([0.0, -0.4, 0.55]), np.array([0, 0, 0.05])))
+    # Colour: the bottle bright on a dark table, one ray a pixel (4 x 4 read the same to 0.1 px).
+    caster = RayCaster(trimesh.util.concatenate([bottle, table]))
+    seen, _ = render_depth(caster, color, camera_from_table)
+    near, _ = render_depth(RayCaster(bottle), color, camera_from_table)
+    gray = np.where(np.isfinite(near) & (near <= seen + 1e-6), 230, 30).astype(np.uint8)
+    depth_camera = rsim.depth_camera_for(color, width=256, height=192, hfov_deg=80.0)
+    color_from_depth = rsim.baseline()  # 15 mm to colour's left
+    depth, _ = render_depth(caster, depth_camera, np.linalg.inv(color_from_depth) @ camera_from_table)
+    expected = expected_edge_offset_px(depth_camera, color, color_from_depth)
+    told = color_from_depth.copy()
+    told[0, 3] -= 2 * 0.68 / f  # 2 px at the bottle
+    warning_px = ReconstructOptions().misregistration_warning_px
+    exact = depth_color_offset_px(register_depth(depth, depth_camera, color, color_from_depth), gray)
+    off = depth_color_offset_px(register_depth(depth, depth_camera, color, told), gray)
+    assert np.hypot(*(exact - expected)) < warning_px / 2, (exact, expected)
+    assert np.hypot(*(off - expected)) > warning_px, (off, expected)
 
 
 def test_a_late_depth_frame_is_turned_back() -> None:

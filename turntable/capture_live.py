@@ -22,7 +22,7 @@ from homemodel.geometry.depth_io import write_depth
 from turntable.board import Board, save_board
 from turntable.pose import PoseOptions, PoseSkip, estimate_camera_from_table
 from turntable.real_frames import sharpness, table_turn_rad
-from turntable.recordings.importer import RECORDING_JSON, registered_depth_m
+from turntable.recordings.importer import RECORDING_JSON, registered_depth_m, registration_edge_offset_px
 from turntable.recordings.source import FrameSource
 from turntable.tags import DetectionOptions, detect_tags
 
@@ -152,6 +152,12 @@ def capture_turn(
             warnings=warnings,
         )
         # What the source assumed (units, lens refits, two clocks...), as an import's recording.json says it.
-        record = {"format": source.setup.format, "notes": source.setup.notes, "live_capture": result.__dict__, "frames": frames}
+        record = {
+            "format": source.setup.format,
+            "notes": source.setup.notes,
+            "registration_edge_offset_px": registration_edge_offset_px(source.setup),
+            "live_capture": result.__dict__,
+            "frames": frames,
+        }
         write_json(tmp / RECORDING_JSON, record)
     return result

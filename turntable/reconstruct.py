@@ -402,6 +402,9 @@ def merge_frames(
             report("merge", done, len(merged))
     found = [offset for stem in probed if (offset := offsets.result()[stem]) is not None]
     offset_px = np.median(found, axis=0) if found else None
+    # What the estimate reads on the import's own registration with an exact extrinsic (a depth
+    # camera of its own reprojected: `recordings.register.expected_edge_offset_px`).
+    expected_px = np.asarray((capture.recording or {}).get("registration_edge_offset_px") or (0.0, 0.0), dtype=float)
     figures.update(
         {
             "flying_pixels_dropped": flying_total,  # around the object's pixels
@@ -413,8 +416,9 @@ def merge_frames(
             "turn_rate_deg_s": None if rate is None else math.degrees(rate),
             "depth_time_compensated_frames": len(timing) if rate is not None else 0,
             "frames_posed_by_turn_rate": len(camera_from_tables) - len(poses),
+            "registration_edge_offset_px": expected_px.tolist(),
             "misregistration_warning": bool(
-                offset_px is not None and np.hypot(*offset_px) > options.misregistration_warning_px
+                offset_px is not None and np.hypot(*(offset_px - expected_px)) > options.misregistration_warning_px
             ),
         }
     )

@@ -18,7 +18,7 @@ from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from turntable.board import load_board, save_board
 from turntable.recordings.detect import FORMATS, RecordingFormat, detect_format
-from turntable.recordings.register import register_depth
+from turntable.recordings.register import expected_edge_offset_px, register_depth
 from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
 
 RECORDING_JSON = "recording.json"
@@ -56,6 +56,9 @@ class ImportReport:
     max_time_offset_ms: float
     mean_time_offset_ms: float  # of the written pairs, depth minus colour
     registration: str  # "recording" (already registered) or "reprojected"
+    # What the misregistration estimate reads on this registration with an exact extrinsic
+    # (`register.expected_edge_offset_px`): reconstruct measures the offset from it.
+    registration_edge_offset_px: tuple[float, float] = (0.0, 0.0)
     intrinsics_from: str
     intrinsics_disagreement: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
@@ -121,6 +124,15 @@ def registered_depth_m(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
         return depth
     extrinsic = np.eye(4) if setup.color_from_depth is None else setup.color_from_depth
     return register_depth(depth, setup.depth_camera, setup.color_camera, extrinsic, setup.depth_pixel_rays())
+
+
+def registration_edge_offset_px(setup: StreamSetup) -> tuple[float, float]:
+    """`ImportReport.registration_edge_offset_px` of the recording's registration, to 0.01 px."""
+    if setup.depth_camera is None:
+        return (0.0, 0.0)
+    extrinsic = np.eye(4) if setup.color_from_depth is None else setup.color_from_depth
+    dx, dy = expected_edge_offset_px(setup.depth_camera, setup.color_camera, extrinsic)
+    return (round(float(dx), 2), round(float(dy), 2))
 
 
 def import_recording(
@@ -190,6 +202,7 @@ def import_recording(
             max_time_offset_ms=1000 * counts.max_offset_s,
             mean_time_offset_ms=1000 * float(np.mean(offsets)),
             registration="reprojected" if setup.depth_camera is not None else "recording",
+            registration_edge_offset_px=registration_edge_offset_px(setup),
             intrinsics_from=setup.intrinsics_from,
             intrinsics_disagreement=disagreement,
             notes=setup.notes,
