@@ -40,7 +40,7 @@ from turntable.real_frames import (
 from turntable.pose import FramePose, PoseSkip
 from turntable.reconstruction import Reconstruction, ReconstructOptions
 from turntable.tag_search import TagSearch, capture_search, frame_pose, predicted_pose
-from turntable.tags import prepare_detectors
+from turntable.tags import PixelWindow, prepare_detectors
 from turntable.turn_coverage import TurnCoverage, turn_angles_rad, turn_coverage
 from turntable.turntable_model import fit_turntable
 
@@ -190,17 +190,17 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     def posed(
         frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None
     ) -> tuple[FrameReading, tuple[np.ndarray, np.ndarray] | None]:
-        """The frame's reading as far as its pose, and its colour and grey images if it has one."""
+        """The frame's reading as far as its pose, and its colour and grey images if they are readable."""
         try:
             rgb = read_color(frame.color, camera)
         except FrameError as exc:
             return FrameReading(stem=frame.stem, pose=f"image: {exc}", sharpness=np.nan), None
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        sharp = sharpness(gray)
+        sharp = sharpness(_window_of(gray, search.window))
         try:
-            pose = frame_pose(gray, search, capture.board, camera, options.pose, predicted)
+            pose: FramePose | str = frame_pose(gray, search, capture.board, camera, options.pose, predicted)
         except PoseSkip as exc:
-            return FrameReading(stem=frame.stem, pose=f"pose: {exc}", sharpness=sharp), None
+            pose = f"pose: {exc}"
         return FrameReading(stem=frame.stem, pose=pose, sharpness=sharp), (rgb, gray)
 
     def measured(frame: FramePaths, reading: FrameReading, rgb: np.ndarray, gray: np.ndarray) -> FrameReading:
@@ -224,7 +224,7 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
 
     def one(frame: FramePaths, search: TagSearch, predicted: np.ndarray | None = None) -> FrameReading:
         reading, images = posed(frame, search, predicted)
-        return reading if images is None else measured(frame, reading, *images)
+        return measured(frame, reading, *images) if images is not None and isinstance(reading.pose, FramePose) else reading
 
     readings: dict[str, FrameReading] = {}
 
@@ -238,17 +238,24 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
     # resolution if that gives no pose (`frame_pose`).
     whole = TagSearch(detection=replace(options.detection, decimate=options.detection.decimate or _FIRST_DECIMATION))
     # The runs start as soon as that frame has its pose: the first run reads its depth.
-    search, frames, first = None, list(capture.frames), None
+    search, frames, first, grays = None, list(capture.frames), None, {}
     while frames and search is None and len(readings) < _SEARCH_TRIES:
         frame = frames.pop(0)
         reading, images = posed(frame, whole)
         keep(reading)
         if images is not None:
+            grays[frame.stem] = images[1]
+        if isinstance(reading.pose, FramePose):
             first = (frame, reading, *images)
             search = capture_search(
                 capture.board, camera, reading.pose.camera_from_table, options.detection, predict=options.predict_tags
             )
     search = search or whole
+    if search.window is not None:  # the frames above were read before it: their sharpness on it too
+        for stem, gray in grays.items():
+            readings[stem] = replace(readings[stem], sharpness=sharpness(_window_of(gray, search.window)))
+        if first is not None:
+            first = (first[0], readings[first[0].stem], *first[2:])
     # The rest in `workers` runs of consecutive frames, each run read by a thread of its own,
     # frame after frame: a run's last two poses predict its next frame's tags (see
     # `tag_search.tracked_pose`). The first run goes on from the frames read above. (Runs that
@@ -293,6 +300,12 @@ def _read_frames(capture: Capture, options: ReconstructOptions, report: Progress
             f"{options.min_frames} needed ({examples})"
         )
     return FrameReadings(poses=poses, skipped=skipped, readings=readings, rays=rays.result())
+
+
+def _window_of(image: np.ndarray, window: PixelWindow | None) -> np.ndarray:
+    """The part of the image in the tag search's window, where the board and the object are (a
+    frame's sharpness is measured there: half the bench mug's image), or all of it."""
+    return image if window is None else image[window.top : window.bottom, window.left : window.right]
 
 
 def misregistration_offsets(readings: dict[str, FrameReading]) -> dict[str, np.ndarray | None]:
