@@ -252,7 +252,8 @@ def test_one_detector_serves_each_decimation_as_a_new_one_would(monkeypatch: pyt
 
 def test_a_reconstruction_runs_without_numpys_huge_pages_and_gives_the_setting_back() -> None:
     """`_small_pages` turns NumPy's madvise(MADV_HUGEPAGE) off for the stages and restores the
-    caller's setting, whichever it was, also when a stage raises."""
+    caller's setting, whichever it was, also when a stage raises; of reconstructions running at
+    once (overlapping on threads), the last to end restores it."""
     from numpy._core.multiarray import _get_madvise_hugepage, _set_madvise_hugepage
 
     from turntable.reconstruct import _small_pages
@@ -265,6 +266,14 @@ def test_a_reconstruction_runs_without_numpys_huge_pages_and_gives_the_setting_b
                 assert _get_madvise_hugepage() is False
                 raise RuntimeError("a stage failed")
             assert _get_madvise_hugepage() is setting
+        _set_madvise_hugepage(True)
+        first, second = _small_pages(), _small_pages()
+        first.__enter__()
+        second.__enter__()
+        first.__exit__(None, None, None)  # the first ends while the second still runs
+        assert _get_madvise_hugepage() is False
+        second.__exit__(None, None, None)
+        assert _get_madvise_hugepage() is True
     finally:
         _set_madvise_hugepage(caller)
 

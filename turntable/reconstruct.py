@@ -460,14 +460,27 @@ def _small_pages() -> Iterator[None]:
     are fresh arrays of 10-20 MB, filled once. Where a transparent huge page's first touch is
     dear (a virtual machine's: 4-27 ms of kernel time each on the bench's host, against 1.6 us
     a 4 kB page), the 40-frame merge had paid 0.01-0.24 CPU-s of it, at random; the TLB misses
-    the huge pages save do not show in these stages. NumPy's setting is restored after."""
+    the huge pages save do not show in these stages. NumPy's setting (one for the process) is
+    restored when the last of the reconstructions running at once ends."""
     from numpy._core.multiarray import _set_madvise_hugepage
 
-    before = _set_madvise_hugepage(False)
+    global _small_pages_runs, _huge_pages_before
+    with _small_pages_lock:
+        if _small_pages_runs == 0:
+            _huge_pages_before = _set_madvise_hugepage(False)
+        _small_pages_runs += 1
     try:
         yield
     finally:
-        _set_madvise_hugepage(before)
+        with _small_pages_lock:
+            _small_pages_runs -= 1
+            if _small_pages_runs == 0:
+                _set_madvise_hugepage(_huge_pages_before)
+
+
+_small_pages_lock = threading.Lock()
+_small_pages_runs = 0  # reconstructions inside `_small_pages` now
+_huge_pages_before = True  # NumPy's setting when the first of them began
 
 
 def _run_stages(capture: Capture, options: ReconstructOptions, progress: Progress | None) -> Reconstruction:
