@@ -1,0 +1,102 @@
+"""`map observe` on views of a home it has not seen (`unseen_home_views`, the independent check of
+issue 26): a wardrobe, a chest of drawers, a bedside table on legs, a washing machine under a
+worktop and a wall cupboard's flap, made apart from the project's makers, measured with a tape
+into specs, built by `homemodel build` into a map whose poses are 2-3 cm and 1.5-3 degrees off;
+depth and colour ray-cast from the real pieces with the issue's noise, in camera set-ups the
+project's own views do not use. Each test is one view of the check's set that the command gets
+right today, asserted against the truth it was rendered from; the whole set and its faults are
+the check's report (`python tests/unseen_home_views.py OUT`)."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from fixture_cache import cached_folder, content_key
+from typer.testing import CliRunner
+from unseen_home_views import DOOR_TOL_RAD, DRAWER_TOL_M, SMALL_TOL_M, Home, check_view, make_home, views_of, write_specs
+
+from homemodel.cli import app
+
+SEED = 0
+
+
+@pytest.fixture(scope="module")
+def unseen_home(tmp_path_factory: pytest.TempPathFactory) -> tuple[Home, Path]:
+    """The real home and the map `homemodel build` makes of its installer's specs (once per content)."""
+    home = make_home(SEED)
+    specs = write_specs(home, tmp_path_factory.mktemp("unseen_home") / "specs")
+
+    def build(folder: Path) -> None:
+        result = CliRunner().invoke(app, ["build", str(specs), "--out", str(folder / "out")])
+        assert result.exit_code == 0, result.output
+
+    key = content_key(inputs=[specs], packages=("homemodel", "modeller", "articulation", "semantic_map"))
+    out = tmp_path_factory.mktemp("unseen_home_built") / "built"
+    shutil.copytree(cached_folder("unseen_home", key, build) / "out", out)
+    return home, out / "map.xml"
+
+
+def _observe_in_process(map_path: Path, obs: Path, out: Path) -> subprocess.CompletedProcess:
+    """The issue's command line, run by the CLI in this process (the imports paid once)."""
+    args = ["map", "observe", str(map_path), str(obs), "--out", str(out / "new_map.xml"), "--report", str(out / "report.json")]
+    result = CliRunner().invoke(app, args)
+    return subprocess.CompletedProcess(args, result.exit_code, result.stdout, result.output)
+
+
+def _checked(unseen_home: tuple[Home, Path], index: int, tmp_path: Path) -> dict:
+    home, map_path = unseen_home
+    view = views_of(home, index + 1, SEED)[index]
+    return check_view(map_path, home, view, tmp_path / view.name, run=_observe_in_process, visibility=False)
+
+
+def _written_within_target(scored: dict, joints: list[str]) -> None:
+    rows = {row["joint"]: row for row in scored["joints"]}
+    for name in joints:
+        row = rows[name]
+        tol = DRAWER_TOL_M if name.endswith("_slide") else DOOR_TOL_RAD
+        assert row["class"] == "written right", row
+        assert abs(row["written"] - row["truth"]) <= tol, row
+
+
+def _nothing_wrong(scored: dict) -> None:
+    """No joint or small object written off its truth, no pose written worse than the map's."""
+    assert not [r for r in scored["joints"] if r["class"] == "WRITTEN WRONG"], scored["joints"]
+    assert not [p for p in scored["poses"] if p["class"] == "WORSE"], scored["poses"]
+    assert not [s for s in scored["small"] if s["class"] == "WRITTEN WRONG"], scored["small"]
+
+
+def test_a_round_door_and_a_detergent_drawer_behind_a_chair(unseen_home, tmp_path: Path) -> None:
+    """The washing machine under the worktop, 512x424, a chair in front: its round door (its
+    hinge off the rim, its glass seen through or not at all) and its detergent drawer written
+    within target; the washer's and the worktop's poses written better than the map's."""
+    scored = _checked(unseen_home, 3, tmp_path)
+    _nothing_wrong(scored)
+    _written_within_target(scored, ["washer/door_0_hinge", "washer/drawer_0_slide"])
+    assert {p["object"]: p["class"] for p in scored["poses"] if p["class"] != "kept"} == {
+        "washer": "better", "worktop": "better"}
+
+
+def test_a_mug_carried_from_the_bedside_table_to_the_chest(unseen_home, tmp_path: Path) -> None:
+    """The bedroom, a chair in front: the mug, moved from the bedside table onto the chest of
+    drawers, found there within 1 cm and re-parented; the bedside table's drawer written within
+    5 mm; no pose written worse than the map's."""
+    scored = _checked(unseen_home, 7, tmp_path)
+    _nothing_wrong(scored)
+    _written_within_target(scored, ["bedside/drawer_0_slide"])
+    mug = next(s for s in scored["small"] if s["object"] == "mug")
+    assert mug["class"] == "found right" and mug["parent"] == mug["true_parent"] == "chest", mug
+    assert mug["error_mm"] <= SMALL_TOL_M * 1000
+
+
+def test_a_plate_moved_on_the_worktop(unseen_home, tmp_path: Path) -> None:
+    """The utility corner, 640x480 with depth in quarter millimetres: the plate, moved on the
+    worktop, found within 1 cm; nothing written off its truth."""
+    scored = _checked(unseen_home, 16, tmp_path)
+    _nothing_wrong(scored)
+    plate = next(s for s in scored["small"] if s["object"] == "plate")
+    assert plate["class"] == "found right" and plate["parent"] == "worktop", plate
+    assert math.isfinite(plate["error_mm"]) and plate["error_mm"] <= SMALL_TOL_M * 1000
