@@ -326,3 +326,53 @@ def test_a_depth_png_of_another_size_is_refused_naming_it(board: Path, tmp_path:
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 2 and f"{odd}: depth" in result.output and "has another size" in result.output, result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def _board_seen_from_above(board_path: Path, camera: Camera, height_m: float) -> np.ndarray:
+    """RGB of the board's tags seen straight down from `height_m` (the table's +y up the image)."""
+    from turntable.board import TAG_CELLS, load_board, tag_bits
+
+    board = load_board(board_path)
+    v, u = np.mgrid[0 : camera.height, 0 : camera.width]
+    x, y = (u - camera.cx) * height_m / camera.fx, -(v - camera.cy) * height_m / camera.fy
+    white = np.ones(x.shape, dtype=bool)
+    half, cell = board.tag_size_m / 2, board.tag_size_m / TAG_CELLS
+    for tag in board.tags:
+        dx, dy = x - tag.center_m[0], y - tag.center_m[1]
+        inside = (np.abs(dx) < half) & (np.abs(dy) < half)
+        col, row = ((dx[inside] + half) // cell).astype(int), ((half - dy[inside]) // cell).astype(int)
+        white[inside] = tag_bits(tag.id)[np.clip(row, 0, TAG_CELLS - 1), np.clip(col, 0, TAG_CELLS - 1)]
+    return np.repeat(np.where(white, 230, 20).astype(np.uint8)[..., None], 3, axis=2)
+
+
+@pytest.mark.parametrize("per_metre", [5000, 1000])
+def test_depth_in_other_units_than_read_is_refused(per_metre: int, board: Path, tmp_path: Path) -> None:
+    """A TUM-layout folder whose depth PNGs are in mm (TUM's are 1/5000 m), as a user's own
+    script writes a RealSense's: read 5x too near, it reconstructed into a 0.5 m slab 95 mm
+    from the box's truth, said only in a note. The depth at the board's tag corners against
+    where the tags' pose puts them: refused naming the units that fit; right units pass."""
+    import cv2
+
+    camera = Camera(width=320, height=240, fx=300.0, fy=300.0, cx=159.5, cy=119.5)
+    rgb = _board_seen_from_above(board, camera, 0.5)
+    folder = tmp_path / "scan"
+    for name in ("rgb", "depth"):
+        (folder / name).mkdir(parents=True)
+    lines: dict[str, list[str]] = {"rgb": [], "depth": []}
+    for k in range(2):
+        t = f"{TUM_START_S + k / 30:.6f}"
+        cv2.imwrite(str(folder / f"rgb/{t}.png"), rgb[..., ::-1])
+        cv2.imwrite(str(folder / f"depth/{t}.png"), np.full((240, 320), round(0.5 * per_metre), np.uint16))
+        for name in lines:
+            lines[name].append(f"{t} {name}/{t}.png")
+    for name, listed in lines.items():
+        (folder / f"{name}.txt").write_text("\n".join(listed) + "\n")
+    save_camera(camera, tmp_path / "camera.yaml")
+    args = ["turntable", "import", str(folder), "--board", str(board), "--camera", str(tmp_path / "camera.yaml"), "--out", str(tmp_path / "o")]
+    result = CliRunner().invoke(app, args)
+    if per_metre == 5000:
+        assert result.exit_code == 0, result.output
+        return
+    assert result.exit_code == 2 and f"{folder}: the depth reads the board's tags 0.20x as far as they are" in result.output, result.output
+    assert "in 1 mm units it would fit" in result.output and len(result.output.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()

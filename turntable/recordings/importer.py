@@ -17,12 +17,14 @@ from homemodel.core.progress import Progress, no_progress
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from turntable.board import load_board, save_board
+from turntable.recordings.depth_units import check_depth_units, depth_to_tags_ratio
 from turntable.recordings.detect import FORMATS, RecordingFormat, detect_format
 from turntable.recordings.register import expected_edge_offset_px, register_depth
 from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
 
 RECORDING_JSON = "recording.json"
 _INTRINSICS_TOLERANCE_PX = 1.0
+_UNITS_CHECK_FRAMES = 3  # frames tried for the board's tags before the depth units go unchecked
 
 
 @dataclass(kw_only=True)
@@ -163,7 +165,7 @@ def import_recording(
             disagreement = intrinsics_disagreement(load_camera(options.camera_path), camera)
         (tmp / "color").mkdir()
         (tmp / "depth").mkdir()
-        written = 0
+        written = units_checked = 0
         offsets = []
         frames = []
         for pair in source.pairs(start_s=options.start_s, end_s=options.end_s):
@@ -179,6 +181,10 @@ def import_recording(
                 depth = registered_depth_m(pair, setup)
             except InputError as exc:
                 raise InputError(f"{recording}: {exc}") from None
+            if units_checked < _UNITS_CHECK_FRAMES:  # until a frame's tags say whether the depth units fit
+                ratio = depth_to_tags_ratio(pair.color, depth, board, camera)
+                check_depth_units(ratio, camera.depth_scale_m, str(recording))
+                units_checked = _UNITS_CHECK_FRAMES if ratio is not None else units_checked + 1
             write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
             offsets.append(pair.depth_offset_s)
             times = (pair.time_s, pair.depth_offset_s) if setup.timed else (None, None)
