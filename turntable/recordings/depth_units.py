@@ -14,8 +14,8 @@ from turntable.pose import PoseSkip, estimate_camera_from_table
 from turntable.tags import DetectionOptions, detect_tags
 
 TOLERANCE = 0.1  # the depth within 10 % of the tags' distance (sensor noise and a sensor's own bias are a few %)
-# Units recordings come in, for the hint: TUM's 1/5000 m, 1 mm, 0.1 mm (D405), 1/4000 m (Kinect v1's 0.25 mm raw).
-_UNITS_M = {1 / 5000: "1/5000 m", 0.001: "1 mm", 0.0001: "0.1 mm", 0.00025: "0.25 mm"}
+# Units recordings come in, for the hint: TUM's 1/5000 m, 1 mm, 0.1 mm (D405).
+_UNITS_M = {1 / 5000: "1/5000 m", 0.001: "1 mm", 0.0001: "0.1 mm"}
 _MIN_CORNERS = 12
 
 
@@ -41,12 +41,13 @@ def depth_to_tags_ratio(rgb: np.ndarray, depth_m: np.ndarray, board: Board, came
 
 def check_depth_units(ratio: float | None, depth_scale_m: float, where: str) -> None:
     """Refuses, in one line naming `where`, depth that reads the board `ratio` times as far as
-    its tags put it, past the tolerance; says which known units would fit."""
+    its tags put it, past the tolerance; says which known units would fit, else that the units
+    or the intrinsics are off."""
     if ratio is None or abs(ratio - 1.0) <= TOLERANCE:
         return
     fitting = [name for units, name in _UNITS_M.items() if abs(depth_scale_m / units / ratio - 1.0) <= TOLERANCE]
-    hint = f"; in {fitting[0]} units it would fit" if fitting else ""
-    raise InputError(
-        f"{where}: the depth reads the board's tags {ratio:.2f}x as far as they are: its units are not "
-        f"{depth_scale_m:g} m{hint}"
-    )
+    said = f"{where}: the depth reads the board's tags {ratio:.2f}x as far as they are"
+    if fitting:
+        raise InputError(f"{said}: its units are not {depth_scale_m:g} m; in {fitting[0]} units it would fit")
+    # The tags' distance goes with the focal length: a camera.yaml of another camera reads them off too.
+    raise InputError(f"{said}: its units ({depth_scale_m:g} m) or the colour camera's intrinsics are wrong")
