@@ -17,8 +17,8 @@ SAMPLE_FRAMES = 4  # spread over the recording
 _REACH_M = (0.08, 0.03)  # the offsets searched, sideways and up: past any RGB-D camera's baseline
 _EDGE_JUMP_M, _EDGE_JUMP_RELATIVE = 0.01, 0.02
 _NEAR_FACTOR = 1.5  # edges kept up to this times the nearest ones' distance (their 5th percentile)
-# A coarse search in steps of 2 px (at the edges' distance) on edges blurred as wide, then 0.25 px
-# steps within 3 px on the sharp edges.
+# A coarse search in steps of 2 px (at the edges' distance) on edges blurred as wide, through the
+# pinhole; then 0.25 px steps within 3 px on the sharp edges, through the lens.
 _COARSE_STEP_PX, _COARSE_BLUR_PX = 2.0, 2.0
 _FINE_STEP_PX, _FINE_REACH_PX, _FINE_BLUR_PX = 0.25, 3.0, 1.0
 _TURN_STEP_DEG, _MAX_TURN_DEG = 0.3, 3.0  # the refinement's first step and the largest turn it may find
@@ -86,6 +86,26 @@ def _best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarr
     return max(offsets, key=lambda offset: _agreement(frames, setup, offset, wide))
 
 
+def _coarse_best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """`_best` on the wide edges, seen through the pinhole without the lens's distortion (the
+    fine search after it projects through the lens): an offset moves each point's pixel by
+    f t / z, so a column of offsets is one gather, not a projection of every point each."""
+    camera = setup.color_camera
+    total = np.zeros((len(xs), len(ys)))
+    for frame in frames:
+        x, y, z = frame.points.T
+        rows = np.rint(camera.fy * (y[:, None] + ys[None, :]) / z[:, None] + camera.cy).astype(np.int64)
+        row_in = (rows >= 0) & (rows < camera.height)
+        rows = np.clip(rows, 0, camera.height - 1)
+        for i, offset in enumerate(xs):
+            columns = np.rint(camera.fx * (x + offset) / z + camera.cx).astype(np.int64)
+            column_in = (columns >= 0) & (columns < camera.width)
+            sampled = frame.wide[rows, np.clip(columns, 0, camera.width - 1)[:, None]]
+            total[i] += (sampled * (row_in & column_in[:, None])).sum(axis=0) / len(frame.points)
+    i, j = np.unravel_index(np.argmax(total), total.shape)
+    return np.array([xs[i], ys[j], 0.0])
+
+
 def _pose(x: np.ndarray) -> np.ndarray:
     """color_from_depth of (x, y offsets m, yaw and pitch degrees)."""
     from scipy.spatial.transform import Rotation
@@ -130,7 +150,7 @@ def place_depth_camera(pairs: list[RgbdPair], setup: StreamSetup) -> Placement |
     pixel_m = float(np.median(np.concatenate([frame.points[:, 2] for frame in frames]))) / setup.color_camera.fx
     coarse = _COARSE_STEP_PX * pixel_m
     xs, ys = (np.arange(-reach, reach + coarse / 2, coarse) for reach in _REACH_M)
-    found = _best(frames, setup, xs, ys, wide=True)
+    found = _coarse_best(frames, setup, xs, ys)
     fine = np.arange(-_FINE_REACH_PX, _FINE_REACH_PX + _FINE_STEP_PX / 2, _FINE_STEP_PX) * pixel_m
     found = _best(frames, setup, found[0] + fine, found[1] + fine, wide=False)
     color_from_depth = _refined(frames, setup, found, pixel_m)
