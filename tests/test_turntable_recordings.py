@@ -230,8 +230,8 @@ def test_the_colour_encoding_is_measured_from_the_tags(made: Path, clean: Path, 
     for path in (encoded / "color").iterdir():
         cv2.imwrite(str(path), rsim.srgb_encoded(cv2.imread(str(path))))
     linear = capture_encoding(load_capture(made / "baseline"), "auto", DetectionOptions())
-    assert linear.encoding == "linear" and linear.decided_by == "the tags' cell edges"
-    # Cells of 2 px here: off by 0.03-0.05 px with the right curve, 0.12-0.13 with the wrong one.
+    assert linear.encoding == "linear" and linear.decided_by == "measured: the tags' cell edges"
+    # Cells of 2 px here: off by 0.03-0.05 px with the right curve, 0.12-0.15 with the wrong one.
     assert abs(linear.cell_edge_offset_px["linear"]) < 0.06 < linear.cell_edge_offset_px["srgb"]
     assert capture_encoding(load_capture(encoded), "linear", DetectionOptions()).encoding == "linear"
     reconstruction = _reconstruct(encoded)

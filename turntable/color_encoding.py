@@ -9,8 +9,8 @@ comes out smaller or larger, and so do its black cells inside. The tag's cells a
 grid, so the square its refined sides make says where each inner edge between a black and a
 white cell lies: with the right curve the edges are found there, with the wrong one each lies
 a fraction of a pixel towards the white or the black. On readme_check's bottle recordings
-(640 x 360, 3 frames), linear and sRGB-encoded: 0.000-0.009 px off with the right curve,
-0.13-0.26 px with the wrong one; on s13's 1280 x 720 ones within 0.08 px against 0.12-1.1.
+(640 x 360), linear and sRGB-encoded: 0.000-0.005 px off with the right curve, 0.14-0.26 px
+with the wrong one. Real cameras' tone curves need not be either (below).
 """
 
 from __future__ import annotations
@@ -33,7 +33,15 @@ _ALONG = np.array([-0.2, 0.0, 0.2])  # profiles along each edge, in cells from i
 _LEVEL_SAMPLES = 4  # at either end of a profile, averaged for its black and white levels
 _MIN_CONTRAST = 0.02  # of full scale, between a profile's two levels
 _CLIPPED = 250  # 8-bit level: a profile reaching it is left out
-_MEASURED_FRAMES = 3  # spread over the capture: ~10,000 edge profiles at 640 x 360
+_MEASURED_FRAMES = 8  # spread over the capture: single real photos scatter widely (below)
+# Linear is taken only when the measure says so clearly: cameras deliver sRGB, and single real
+# photos (the swatbotics iPhone JPEGs, sRGB) read -0.45 to +0.02 px as linear and +0.03 to +0.39
+# as sRGB, some looking linear; 8 of them together read -0.06 to -0.22 as linear. The simulator's
+# linear recordings read within 0.032 px as linear and 0.12-0.26 px as sRGB (8 frames).
+_LINEAR_WITHIN_PX = 0.04  # the linear reading's offset at most this ...
+_SRGB_BEYOND_PX = 0.1  # ... and the sRGB reading's this far into the white (and sRGB's own
+# reading within this, the linear one this far into the black, for sRGB to count as measured)
+_MIN_EDGES = 200  # clear edge profiles a reading needs (a paper white clipped all over leaves few)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -108,8 +116,9 @@ def cell_edge_offsets_px(gray: np.ndarray, detections: dict[int, np.ndarray], en
 
 
 def measured_encoding(grays: list[np.ndarray], detection: DetectionOptions) -> EncodingDecision | None:
-    """The encoding with which the inner cell edges of the tags in `grays` lie nearer where the
-    tags' squares put them; None when no image shows a tag."""
+    """The encoding with which the inner cell edges of the tags in `grays` lie where the tags'
+    squares put them, when the two curves' readings say so clearly; else sRGB, assumed. None when
+    no image shows a tag."""
     offsets: dict[str, list[np.ndarray]] = {e: [] for e in ENCODINGS}
     for gray in grays:
         options = DetectionOptions(detector=detection.detector, max_hamming=detection.max_hamming, edge_refinement=False)
@@ -117,22 +126,32 @@ def measured_encoding(grays: list[np.ndarray], detection: DetectionOptions) -> E
         for encoding in ENCODINGS if found else ():
             offsets[encoding].append(cell_edge_offsets_px(gray, found, encoding))
     measured = {e: np.concatenate(o) if o else np.zeros(0) for e, o in offsets.items()}
-    if min(len(o) for o in measured.values()) == 0:
+    count = min(len(o) for o in measured.values())
+    if count == 0:
         return None
     medians = {e: float(np.median(o)) for e, o in measured.items()}
+    linear, srgb = medians["linear"], medians["srgb"]
+    if count < _MIN_EDGES:
+        encoding, decided_by = "srgb", f"assumed, as cameras deliver it: {count} clear cell edges, {_MIN_EDGES} needed"
+    elif abs(linear) <= _LINEAR_WITHIN_PX and srgb >= _SRGB_BEYOND_PX:
+        encoding, decided_by = "linear", "measured: the tags' cell edges"
+    elif abs(srgb) <= _SRGB_BEYOND_PX and linear <= -_SRGB_BEYOND_PX:
+        encoding, decided_by = "srgb", "measured: the tags' cell edges"
+    else:
+        encoding, decided_by = "srgb", "assumed, as cameras deliver it: the tags' cell edges unclear"
     return EncodingDecision(
-        encoding=min(ENCODINGS, key=lambda e: abs(medians[e])),
-        decided_by="the tags' cell edges",
+        encoding=encoding,
+        decided_by=decided_by,
         cell_edge_offset_px={e: round(v, 3) for e, v in medians.items()},
-        cell_edges=min(len(o) for o in measured.values()),
+        cell_edges=count,
     )
 
 
 def capture_encoding(capture: Capture, chosen: str, detection: DetectionOptions) -> EncodingDecision:
     """The encoding `chosen` ("linear" or "srgb"), or for "auto" the capture's: a simulated
     capture's renders are linear (not measured: the benchmarks' captures pay nothing); any
-    other's is measured on `_MEASURED_FRAMES` frames spread over it, and taken as sRGB, as
-    cameras deliver it, when they show no tag."""
+    other's is measured on `_MEASURED_FRAMES` frames spread over it (`measured_encoding`), and
+    taken as sRGB, as cameras deliver it, when they show no tag."""
     if chosen != "auto":
         return EncodingDecision(encoding=chosen, decided_by="given (--srgb/--linear)")  # type: ignore[arg-type]
     if capture.simulated:
@@ -147,5 +166,5 @@ def capture_encoding(capture: Capture, chosen: str, detection: DetectionOptions)
         except FrameError:
             continue  # the poses stage skips and reports it
     return measured_encoding(grays, detection) or EncodingDecision(
-        encoding="srgb", decided_by=f"no tag in {len(grays)} frames: sRGB, as cameras deliver"
+        encoding="srgb", decided_by=f"assumed, as cameras deliver it: no tag in {len(grays)} frames"
     )

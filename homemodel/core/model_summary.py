@@ -151,7 +151,7 @@ class Turn(_Strict):
 
 class ColorEncodingFigures(_Strict):
     color_encoding: Literal["linear", "srgb"] = Field(description="the colour images' transfer curve the tag edges were refined with")
-    decided_by: str = Field(description="given (--srgb/--linear), a simulated capture's (linear), or measured from the tags' cell edges")
+    decided_by: str = Field(description="given (--srgb/--linear), a simulated capture's (linear), measured from the tags' cell edges, or assumed sRGB (unclear)")
     cell_edge_offset_px: dict[str, float] | None = Field(
         default=None,
         description="per curve, the median distance of the tags' inner cell edges towards their white cell from where the tags' refined sides put them; the curve nearer 0 is taken",
