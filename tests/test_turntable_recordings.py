@@ -508,6 +508,18 @@ def test_misregistration_is_read_against_what_an_exact_reprojection_shows() -> N
     assert np.hypot(*(off - expected)) > warning_px, (off, expected)
 
 
+@pytest.mark.parametrize("value", [[-1.21, 0.12], "x", [1, 2, 3], [1.0, float("nan")], None])
+def test_the_registration_edge_offset_is_read_only_as_two_numbers(value: object, tmp_path: Path) -> None:
+    from turntable.board import grid_board
+    from turntable.capture import Capture
+
+    camera = Camera(width=64, height=48, fx=50, fy=50, cx=31.5, cy=23.5)
+    board = grid_board(table_diameter_m=0.3, tag_size_m=0.04)
+    capture = Capture(folder=tmp_path, camera=camera, board=board, frames=[], unpaired=[], recording={"registration_edge_offset_px": value})
+    expected = [-1.21, 0.12] if value == [-1.21, 0.12] else [0.0, 0.0]  # a hand-edited value is no offset
+    assert capture.registration_edge_offset_px().tolist() == expected
+
+
 def test_a_late_depth_frame_is_turned_back() -> None:
     """turned_table follows the turntable's motion: camera_from_table one step later is
     camera_from_table @ turned_table(axis, step); the turn rate comes from the poses."""

@@ -4,6 +4,7 @@ and depth frames paired by file stem."""
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +37,15 @@ class Capture:
     unpaired: list[str]  # stems with only a colour or only a depth image
     recording: dict | None = None  # recording.json: what `turntable import` read, associated and dropped
     simulated: bool = False  # written by `turntable simulate` (its simulation.json): linear renders
+
+    def registration_edge_offset_px(self) -> np.ndarray:
+        """(dx, dy): what the misregistration estimate reads on the import's own registration with
+        an exact extrinsic (recording.json's `registration_edge_offset_px`, see
+        `recordings.register.expected_edge_offset_px`); (0, 0) without two finite numbers there."""
+        value = (self.recording or {}).get("registration_edge_offset_px")
+        if isinstance(value, list) and len(value) == 2 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in value):
+            return np.array(value, dtype=float)
+        return np.zeros(2)
 
 
 class FrameError(InputError):

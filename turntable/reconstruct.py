@@ -417,7 +417,7 @@ def merge_frames(
     offset_px = np.median(found, axis=0) if found else None
     # What the estimate reads on the import's own registration with an exact extrinsic (a depth
     # camera of its own reprojected: `recordings.register.expected_edge_offset_px`).
-    expected_px = np.asarray((capture.recording or {}).get("registration_edge_offset_px") or (0.0, 0.0), dtype=float)
+    expected_px = capture.registration_edge_offset_px()
     figures.update(
         {
             "flying_pixels_dropped": flying_total,  # around the object's pixels
