@@ -2,7 +2,8 @@
 Blender, about a second): it holds every tag of the board however the table turns about an
 axis near the board's origin, a pose searched in it is the whole image's, and a window that
 cuts tags off falls back to the whole image; a frame's tags predicted from the two frames before
-give its true pose without the tags an object hides, and a wrong prediction falls back to the search."""
+give its true pose without the tags an object hides, and a wrong prediction falls back to the search;
+every frame's sharpness is measured in the window, the frames read before it was known too."""
 
 from __future__ import annotations
 
@@ -129,3 +130,36 @@ def test_the_edge_refinement_s_sampling_is_bilinear_interpolation() -> None:
         for (x, y), tolerance in ((on_grid, 1e-6), (off_grid, np.abs(np.diff(levels)).max() / 32)):
             expected = map_coordinates(levels, [y.ravel(), x.ravel()], order=1, mode="nearest").reshape(x.shape)
             assert np.abs(bilinear_levels(gray, linear, x, y) - expected).max() <= tolerance
+
+
+def test_every_frame_s_sharpness_is_measured_in_the_search_window_the_first_ones_too(tmp_path) -> None:
+    """The blur check compares each frame's sharpness with the median, so all are measured on
+    the same part of the image: the tag search's window, which the first posed frame sets. The
+    frames read before it (one without tags here, and that frame itself) are measured on it too."""
+    import cv2
+
+    from homemodel.geometry.camera import save_camera
+    from turntable.board import save_board
+    from turntable.capture import load_capture
+    from turntable.real_frames import sharpness
+    from turntable.reconstruct import read_frames
+    from turntable.reconstruction import ReconstructOptions
+
+    camera = CAMERA.model_copy(update={"depth_scale_m": 0.001})
+    save_camera(camera, tmp_path / "camera.yaml")
+    save_board(BOARD, tmp_path / "board.yaml")
+    (tmp_path / "color").mkdir()
+    (tmp_path / "depth").mkdir()
+    rng = np.random.default_rng(0)
+    grays = [rng.integers(100, 140, (CAMERA.height, CAMERA.width)).astype(np.uint8)]  # no tags: no pose
+    grays += [_view(BOARD, _camera_from_table(turn), samples=1) for turn in (0.0, 0.05, 0.1, 0.15)]
+    for k, gray in enumerate(grays):
+        cv2.imwrite(str(tmp_path / "color" / f"{k:06d}.png"), cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR))
+        cv2.imwrite(str(tmp_path / "depth" / f"{k:06d}.png"), np.full(gray.shape, 500, np.uint16))
+    frames = read_frames(load_capture(tmp_path), ReconstructOptions(detection=DetectionOptions(decimate=1.0)), lambda *a: None)
+    assert sorted(frames.poses) == ["000001", "000002", "000003", "000004"]
+    window = capture_search(BOARD, CAMERA, frames.poses["000001"].camera_from_table, DetectionOptions(decimate=1.0)).window
+    assert window is not None
+    for k, gray in enumerate(grays):
+        part = gray[window.top : window.bottom, window.left : window.right]
+        assert frames.readings[f"{k:06d}"].sharpness == sharpness(part), k
