@@ -473,6 +473,23 @@ def test_misregistration_is_measured_from_edges() -> None:
     assert np.hypot(*depth_color_offset_px(depth, gray_registered)) < 0.3
 
 
+def test_misregistration_is_measured_on_the_near_edges_only() -> None:
+    """A far floor's depth noise passes 1 cm between neighbours everywhere and has no colour edge:
+    s13's D455 box at 1.0 m had its estimate pinned at the 6-px reach by it (misregistration
+    warned with an exact extrinsic). Jumps whose near side is beyond 1.5x the nearest ones' are
+    left out."""
+    from turntable.real_frames import depth_color_offset_px
+
+    rng = np.random.default_rng(0)
+    depth = np.full((120, 160), 1.0, np.float32)
+    depth[:50] = 3.0 + rng.normal(0.0, 0.03, (50, 160))  # the far floor, 3 cm of noise
+    depth[60:100, 50:110] = 0.6
+    gray = np.full((120, 160), 40, np.uint8)
+    gray[:50] = rng.integers(20, 120, (50, 160))  # the floor's own texture
+    gray[62:102, 53:113] = 200  # the colour's square sits 3 px right and 2 px down
+    assert np.allclose(depth_color_offset_px(depth, gray), [3, 2], atol=0.3)
+
+
 def test_misregistration_is_read_against_what_an_exact_reprojection_shows() -> None:
     """A depth camera of its own, reprojected: with an exact extrinsic the estimate reads half a
     depth pixel along the cameras' offset (the registered silhouette ends at the depth pixels'
