@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from homemodel.core.errors import InputError
-from homemodel.exchange.obj import obj_text, read_obj
+from homemodel.exchange.obj import mtl_text, obj_text, read_obj
 from homemodel.exchange.urdf.read import read_mesh_parts
 from homemodel.geometry.mesh_io import read_mesh_file
 from homemodel.model_folder.gate.mesh_files import read_gate_mesh
@@ -39,6 +39,8 @@ def _writer_objs(folder: Path) -> list[Path]:
             path = folder / f"{name}_{k}.obj"
             path.write_text(obj_text(mesh, **kwargs))
             paths.append(path)
+        # `d 0.5`: trimesh's material ignores it (its diffuse stays opaque), and so must the reader.
+        (folder / f"m{k}.mtl").write_text(mtl_text("paint", (0.75, 0.05, 0.05, 0.5), None))
     return paths
 
 
@@ -47,6 +49,7 @@ HAND_WRITTEN = {
     "unreferenced_vertex": "v 9 9 9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 2 3 4\nf 2 3 5\n",
     "negative_after_all": "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf -4 -3 -2\nf -4 -3 -1\n",
     "one_material": "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nusemtl red\nf 1 2 3\nf 1 2 4\n",
+    "material_not_in_its_mtl": "mtllib m0.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl blue\nf 1 2 3",
     "interleaved": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 1\nf 1 2 4\n",
     "crlf_double_space": "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nv 0 0 1\r\nf 1 2 3\r\nf 1  2 4\r\n",
     "quads": "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n",
@@ -85,6 +88,30 @@ def test_the_urdf_reader_reads_every_obj_as_trimesh_did(objs: list[Path]) -> Non
         for (name, mesh), reference in zip(ours, theirs):
             assert np.array_equal(mesh.vertices, reference.vertices), path.name
             assert np.array_equal(mesh.faces, reference.faces), path.name
+            assert _visual_fields(mesh.visual) == _visual_fields(reference.visual), path.name
+
+
+def _visual_fields(visual) -> tuple:  # noqa: ANN001
+    """What the URDF reader takes from a mesh's visual: its kind, uv and material."""
+    material = getattr(visual, "material", None)
+    fields = ("name", "diffuse", "ambient", "specular", "glossiness", "kwargs")
+    uv = getattr(visual, "uv", None)
+    return (type(visual).__name__, None if uv is None else np.asarray(uv).tolist(),
+            None if material is None else tuple(repr(getattr(material, f, None)) for f in fields))
+
+
+def test_the_urdf_reader_reads_an_obj_of_one_colour_without_trimeshs_parser(objs: list[Path], monkeypatch) -> None:
+    """homemodel's visuals (one untextured material, its MTL beside): the strict reader, the
+    material from trimesh's MTL parser (the test above: the same as trimesh's loader gives)."""
+    def refused(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise AssertionError("trimesh's OBJ parser was used")
+
+    monkeypatch.setattr(trimesh, "load", refused)
+    coloured = [path for path in objs if path.name.startswith("coloured_")]
+    assert len(coloured) == 5
+    for path in coloured:
+        (_, mesh), = read_mesh_parts(path)
+        assert mesh.visual.material.name == "paint" and list(mesh.visual.material.diffuse) == [191, 13, 13, 255]
 
 
 def _triangle_soup(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -122,10 +122,43 @@ def read_mesh_parts(path: Path) -> list[tuple[str, trimesh.Trimesh]]:
 
 
 def _plain_obj_parts(data: bytes, path: Path) -> list[tuple[str, trimesh.Trimesh]] | None:
-    """A plain OBJ with no materials (a collision hull) read by the strict OBJ reader, which gives
-    what trimesh's parser does several times faster; None for any other file."""
-    obj = None if b"mtllib" in data else read_plain_obj(data, path)
-    return None if obj is None else [(path.stem, obj.trimesh(keep_unreferenced=True))]
+    """A plain OBJ (a collision hull, or a visual of one untextured material, as homemodel writes
+    them) read by the strict OBJ reader, which gives what trimesh's parser does several times
+    faster, its material made by trimesh's own MTL parser; None for any other file."""
+    obj = read_plain_obj(data, path)
+    if obj is None:
+        return None
+    mesh = obj.trimesh(keep_unreferenced=True)
+    if b"mtllib" in data:
+        material = _only_material(data, path, obj.materials)
+        if material is None:
+            return None
+        mesh.visual = trimesh.visual.TextureVisuals(material=material)
+    return [(path.stem, mesh)]
+
+
+def _only_material(data: bytes, path: Path, used: tuple[str, ...]) -> trimesh.visual.material.SimpleMaterial | None:
+    """The material trimesh's OBJ loader gives the faces of an OBJ that names one MTL file beside
+    it and uses one of its materials before its first face, when that MTL has no texture (whose
+    image trimesh would load); None otherwise."""
+    from trimesh.exchange.obj import parse_mtl
+
+    start = data.find(b"mtllib")
+    end = data.find(b"\n", start)
+    library = data[start + 6:end if end >= 0 else len(data)].decode("utf-8", "replace").strip()
+    face = data.find(b"\nf ")
+    if (len(used) != 1 or data.count(b"mtllib") != 1 or (start and data[start - 1:start] != b"\n")
+            or not library or any(c in library for c in "/\\") or not 0 <= data.find(b"\nusemtl ") < face):
+        return None
+    mtl = path.parent / library
+    if not mtl.is_file():
+        return None
+    text = mtl.read_bytes()
+    try:
+        materials = parse_mtl(text) if b"map_" not in text.lower() else {}
+    except Exception:  # trimesh's loader swallows it too, and then gives no material: it decides
+        return None
+    return trimesh.visual.material.SimpleMaterial(**materials[used[0]]) if used[0] in materials else None
 
 
 def _load_mesh_parts(ctx: _Context, element: etree._Element) -> list[tuple[str, trimesh.Trimesh]]:
