@@ -345,34 +345,73 @@ def _board_seen_from_above(board_path: Path, camera: Camera, height_m: float) ->
     return np.repeat(np.where(white, 230, 20).astype(np.uint8)[..., None], 3, axis=2)
 
 
+BOARD_VIEW = Camera(width=320, height=240, fx=300.0, fy=300.0, cx=159.5, cy=119.5)
+
+
+def _tum_over_the_board(board: Path, folder: Path, depths_m: list[float], per_metre: int) -> list[str]:
+    """A TUM folder of the board seen from 0.5 m above, its k-th depth image all `depths_m[k]`
+    in `per_metre` units; the import command's arguments before --out."""
+    import cv2
+
+    rgb = _board_seen_from_above(board, BOARD_VIEW, 0.5)
+    for name in ("rgb", "depth"):
+        (folder / name).mkdir(parents=True)
+    lines: dict[str, list[str]] = {"rgb": [], "depth": []}
+    for k, depth_m in enumerate(depths_m):
+        t = f"{TUM_START_S + k / 30:.6f}"
+        cv2.imwrite(str(folder / f"rgb/{t}.png"), rgb[..., ::-1])
+        cv2.imwrite(str(folder / f"depth/{t}.png"), np.full((240, 320), round(depth_m * per_metre), np.uint16))
+        for name in lines:
+            lines[name].append(f"{t} {name}/{t}.png")
+    for name, listed in lines.items():
+        (folder / f"{name}.txt").write_text("\n".join(listed) + "\n")
+    save_camera(BOARD_VIEW, folder.parent / "camera.yaml")
+    return ["turntable", "import", str(folder), "--board", str(board), "--camera", str(folder.parent / "camera.yaml")]
+
+
 @pytest.mark.parametrize("per_metre", [5000, 1000])
 def test_depth_in_other_units_than_read_is_refused(per_metre: int, board: Path, tmp_path: Path) -> None:
     """A TUM-layout folder whose depth PNGs are in mm (TUM's are 1/5000 m), as a user's own
     script writes a RealSense's: read 5x too near, it reconstructed into a 0.5 m slab 95 mm
     from the box's truth, said only in a note. The depth at the board's tag corners against
-    where the tags' pose puts them: refused naming the units that fit; right units pass."""
-    import cv2
-
-    camera = Camera(width=320, height=240, fx=300.0, fy=300.0, cx=159.5, cy=119.5)
-    rgb = _board_seen_from_above(board, camera, 0.5)
+    where the tags' pose puts them: refused naming the units that fit and the flag that says
+    them; right units pass; with the flag, the mm folder imports in mm."""
     folder = tmp_path / "scan"
-    for name in ("rgb", "depth"):
-        (folder / name).mkdir(parents=True)
-    lines: dict[str, list[str]] = {"rgb": [], "depth": []}
-    for k in range(2):
-        t = f"{TUM_START_S + k / 30:.6f}"
-        cv2.imwrite(str(folder / f"rgb/{t}.png"), rgb[..., ::-1])
-        cv2.imwrite(str(folder / f"depth/{t}.png"), np.full((240, 320), round(0.5 * per_metre), np.uint16))
-        for name in lines:
-            lines[name].append(f"{t} {name}/{t}.png")
-    for name, listed in lines.items():
-        (folder / f"{name}.txt").write_text("\n".join(listed) + "\n")
-    save_camera(camera, tmp_path / "camera.yaml")
-    args = ["turntable", "import", str(folder), "--board", str(board), "--camera", str(tmp_path / "camera.yaml"), "--out", str(tmp_path / "o")]
-    result = CliRunner().invoke(app, args)
+    args = _tum_over_the_board(board, folder, [0.5, 0.5], per_metre)
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "o")])
     if per_metre == 5000:
         assert result.exit_code == 0, result.output
         return
     assert result.exit_code == 2 and f"{folder}: the depth reads the board's tags 0.20x as far as they are" in result.output, result.output
-    assert "in 1 mm units it would fit" in result.output and len(result.output.strip().splitlines()) == 1
+    assert "in 1 mm units it would fit (--depth-units-m 0.001)" in result.output and len(result.output.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+    result = CliRunner().invoke(app, [*args, "--depth-units-m", "0.001", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0 and "--depth-units-m" in result.output, result.output
+    assert load_camera(tmp_path / "o" / "camera.yaml").depth_scale_m == pytest.approx(0.001)
+    _, depths = rsim.read_back(tmp_path / "o")
+    assert all(np.abs(depth - 0.5).max() < 1e-6 for depth in depths)
+
+
+def test_the_units_verdict_is_not_one_frame_s(board: Path, tmp_path: Path) -> None:
+    """A RealSense's first frames may read the board off (auto-exposure settling, the projector
+    warming): the verdict rested on the first posed frame alone and refused the recording; now
+    the median of three frames ten apart. The first frame 25 % far, the others right: imported;
+    two of three 25 % far: refused."""
+    for name, wrong in (("first", {0}), ("most", {0, 10})):
+        depths = [0.625 if k in wrong else 0.5 for k in range(21)]
+        args = _tum_over_the_board(board, tmp_path / name / "scan", depths, 5000)
+        result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / name / "o")])
+        if name == "first":
+            assert result.exit_code == 0, result.output
+        else:
+            assert result.exit_code == 2 and "the depth reads the board's tags 1.25x as far" in result.output, result.output
+
+
+@pytest.mark.parametrize("text", ["[1, 2]", '"abc"'])
+def test_an_intrinsic_json_that_is_no_object_is_refused_in_one_line(text: str, board: Path, tmp_path: Path) -> None:
+    recording = open3d_realsense_recorder(tmp_path / "scan")
+    (recording / "camera_intrinsic.json").write_text(text)
+    result = CliRunner().invoke(app, ["turntable", "import", str(recording), "--board", str(board), "--out", str(tmp_path / "o")])
+    said = f"{recording / 'camera_intrinsic.json'}: not an Open3D camera intrinsic file"
+    assert result.exit_code == 2 and said in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

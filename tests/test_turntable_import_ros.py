@@ -623,37 +623,81 @@ def _square_before_a_wall(camera: Camera, camera_from_scene: np.ndarray) -> tupl
     return depth.reshape(camera.height, camera.width), gray.reshape(camera.height, camera.width)
 
 
-def test_a_depth_camera_the_recording_does_not_place_is_placed_by_its_edges(board: Path, tmp_path: Path) -> None:
-    """A ROS bag of the image topics alone (no /tf_static, no extrinsics topic): the depth camera
-    15 mm beside colour and turned 0.6 degrees was taken to sit at colour's own point, and the
-    check's box came out 13 mm from its truth; now placed by where the depth's silhouette
-    edges land on colour's edges. A square before a wall: the registered square lands on the
-    colour square, all but a few of its outline's pixels."""
+UNPLACED_COLOR = Camera(width=160, height=120, fx=300.0, fy=300.0, cx=79.5, cy=59.5)
+UNPLACED_DEPTH = Camera(width=160, height=120, fx=280.0, fy=280.0, cx=80.2, cy=59.1)
+
+
+def _unplaced_bag(
+    folder: Path,
+    *,
+    gray: np.ndarray | None = None,
+    color_info: Camera = UNPLACED_COLOR,
+    depth_info: Camera = UNPLACED_DEPTH,
+) -> Path:
+    """A ROS 2 bag of the image and camera_info topics alone (no /tf_static, no extrinsics
+    topic): the square before a wall, the depth camera 15 mm beside colour and turned 0.6
+    degrees; `gray` in place of colour's view of it, `*_info` the CameraInfo written."""
     from scipy.spatial.transform import Rotation
 
-    color = Camera(width=160, height=120, fx=300.0, fy=300.0, cx=79.5, cy=59.5)
-    depth_camera = Camera(width=160, height=120, fx=280.0, fy=280.0, cx=80.2, cy=59.1)
     color_from_depth = np.eye(4)
     color_from_depth[:3, :3] = Rotation.from_euler("yx", [0.6, -0.3], degrees=True).as_matrix()
     color_from_depth[:3, 3] = [-0.015, 0.001, 0.0]
     ros = rsim.RosMessages(2)
     messages = [
-        (0.0, "/camera/color/camera_info", ros.camera_info(0.0, color, COLOR_FRAME)),
-        (0.0, "/camera/depth/camera_info", ros.camera_info(0.0, depth_camera, DEPTH_FRAME)),
+        (0.0, "/camera/color/camera_info", ros.camera_info(0.0, color_info, COLOR_FRAME)),
+        (0.0, "/camera/depth/camera_info", ros.camera_info(0.0, depth_info, DEPTH_FRAME)),
     ]
-    _, gray = _square_before_a_wall(color, np.eye(4))
-    depth_m, _ = _square_before_a_wall(depth_camera, np.linalg.inv(color_from_depth))
+    gray = _square_before_a_wall(UNPLACED_COLOR, np.eye(4))[1] if gray is None else gray
+    depth_m, _ = _square_before_a_wall(UNPLACED_DEPTH, np.linalg.inv(color_from_depth))
     for t in FRAMES.times_s:
         messages.append((t, "/camera/color/image_raw", ros.image(t, np.dstack([gray] * 3), "rgb8", COLOR_FRAME)))
         messages.append((t, "/camera/depth/image_rect_raw", ros.image(t, _mm(depth_m), "16UC1", DEPTH_FRAME)))
-    rsim.write_bag(tmp_path / "bag", ros, messages)
-    report = import_recording(tmp_path / "bag", board, tmp_path / "capture", ImportOptions())
+    rsim.write_bag(folder, ros, messages)
+    return folder
+
+
+def test_a_depth_camera_the_recording_does_not_place_is_placed_by_its_edges(board: Path, tmp_path: Path) -> None:
+    """The check's box came out 13 mm from its truth with the depth camera taken to sit at
+    colour's own point; now placed by where the depth's silhouette edges land on colour's
+    edges. The registered square lands on the colour square, all but a few of its outline's
+    pixels."""
+    report = import_recording(_unplaced_bag(tmp_path / "bag"), board, tmp_path / "capture", ImportOptions())
     _, depths = rsim.read_back(tmp_path / "capture")
-    square = gray == 200
+    square = _square_before_a_wall(UNPLACED_COLOR, np.eye(4))[1] == 200
     seen_square = (depths[0] > 0) & (depths[0] < 0.5)
     # Off by a pixel along the whole outline would be 6 %: 2.4 % now, 25 % before.
     assert np.count_nonzero(square ^ seen_square) < 0.04 * np.count_nonzero(square), np.count_nonzero(square ^ seen_square)
     assert any(note.startswith("the depth camera placed at") for note in report.notes), report.notes
+
+
+def test_a_placement_no_better_than_none_is_not_taken(board: Path, tmp_path: Path) -> None:
+    """Colour whose edges are not the depth's (a speckled view: no silhouette there): the best
+    of the searched offsets is chance's, and was taken, moving the depth up to 80 mm; now the
+    depth stays at colour's point, said."""
+    speckle = np.random.default_rng(7).integers(0, 256, (120, 160)).astype(np.uint8)
+    report = import_recording(_unplaced_bag(tmp_path / "bag", gray=speckle), board, tmp_path / "capture", ImportOptions())
+    assert any("as if the two cameras sat at one point" in note for note in report.notes), report.notes
+    assert not any(note.startswith("the depth camera placed at") for note in report.notes), report.notes
+
+
+@pytest.mark.parametrize("stream", ["color", "depth"])
+def test_camera_info_of_another_size_than_its_images_is_refused_in_one_line(stream: str, board: Path, tmp_path: Path) -> None:
+    """The placement read the images at the CameraInfo's size before the importer's check: an
+    IndexError, a bug report and exit 1 (the depth's was a ValueError before the placement)."""
+    wrong = {f"{stream}_info": Camera(**{**(UNPLACED_COLOR if stream == "color" else UNPLACED_DEPTH).model_dump(), "width": 200, "height": 150})}
+    bag = _unplaced_bag(tmp_path / "bag", **wrong)
+    result = CliRunner().invoke(app, ["turntable", "import", str(bag), "--board", str(board), "--out", str(tmp_path / "o")])
+    said = "a colour frame" if stream == "color" else "a depth frame"
+    assert result.exit_code == 2 and f"{bag}: {said} is 160x120, its intrinsics say 200x150" in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_depth_units_are_not_taken_for_a_float_depth(board: Path, tmp_path: Path) -> None:
+    """--depth-units-m says what a 16-bit depth's units are; a 32FC1 depth is in metres (REP
+    118), and the flag would be ignored without a word."""
+    with pytest.raises(InputError, match="--depth-units-m: its depth is in float metres, not in units"):
+        import_recording(mcap_file(tmp_path), board, tmp_path / "capture", ImportOptions(depth_units_m=0.001))
+    assert not (tmp_path / "capture").exists()
 
 
 @pytest.mark.parametrize("fault", ["damaged", "missing"])

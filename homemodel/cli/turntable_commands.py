@@ -277,6 +277,11 @@ def import_(
     every: int = field_option(f"{IMPORT}.every", help="keep every N-th associated frame"),
     start_s: float = field_option(f"{IMPORT}.start_s", "--start", help="seconds from the recording's start"),
     end_s: float | None = field_option(f"{IMPORT}.end_s", "--end", help="seconds from the recording's start"),
+    depth_units_m: float | None = field_option(
+        f"{IMPORT}.depth_units_m",
+        help="metres per unit of the 16-bit depth, when not the format's (a TUM-layout folder in mm: 0.001); "
+        "default: the recording's own",
+    ),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
     """Turn a real RGB-D camera's recording into a capture folder (depth registered to colour)."""
@@ -291,6 +296,7 @@ def import_(
             every=every,
             start_s=start_s,
             end_s=end_s,
+            depth_units_m=depth_units_m,
         )
         try:
             options.check()

@@ -1,7 +1,8 @@
 """Whether a recording's depth is in the units it was read in: the depth read at the board's tag
 corners against how far the tags' own pose puts them. A TUM-layout folder written in mm (the
 format says 1/5000 m), a wrong Open3D depth_scale or --camera depth_scale_m read every depth 5x
-or 10x off: reconstructed anyway, the check's box came out a 0.5 m slab 95 mm from its truth."""
+or 10x off: reconstructed anyway, the check's box came out a 0.5 m slab 95 mm from its truth.
+`--depth-units-m` says what they are, where the recording's own are wrong."""
 
 from __future__ import annotations
 
@@ -11,12 +12,27 @@ from homemodel.core.errors import InputError
 from homemodel.geometry.camera import Camera
 from turntable.board import Board
 from turntable.pose import PoseSkip, estimate_camera_from_table
+from turntable.recordings.source import StreamSetup
 from turntable.tags import DetectionOptions, detect_tags
 
 TOLERANCE = 0.1  # the depth within 10 % of the tags' distance (sensor noise and a sensor's own bias are a few %)
 # Units recordings come in, for the hint: TUM's 1/5000 m, 1 mm, 0.1 mm (D405).
 _UNITS_M = {1 / 5000: "1/5000 m", 0.001: "1 mm", 0.0001: "0.1 mm"}
 _MIN_CORNERS = 12
+# The verdict is the median of this many posed frames' ratios, taken this many frames apart: a
+# RealSense's first frames (auto-exposure settling, the projector warming) may read the board
+# off where later ones do not. Frames without a pose are tried one after another, up to a limit.
+_POSED_FRAMES, _SPACING, _UNPOSED_TRIES = 3, 10, 6
+FLAG = "--depth-units-m"
+
+
+def take_depth_units(setup: StreamSetup, units_m: float) -> None:
+    """`--depth-units-m`: the recording's 16-bit depth read in `units_m` metres a unit, not in
+    the recording's own; said in a note, in place of the reader's on the units it took."""
+    own = setup.color_camera.depth_scale_m
+    setup.color_camera = Camera(**{**setup.color_camera.model_dump(), "depth_scale_m": units_m})
+    setup.notes[:] = [note for note in setup.notes if not note.startswith("depth units")]
+    setup.notes.append(f"depth units {units_m:g} m ({FLAG}), not the recording's {own:g} m")
 
 
 def depth_to_tags_ratio(rgb: np.ndarray, depth_m: np.ndarray, board: Board, camera: Camera) -> float | None:
@@ -45,9 +61,48 @@ def check_depth_units(ratio: float | None, depth_scale_m: float, where: str) -> 
     or the intrinsics are off."""
     if ratio is None or abs(ratio - 1.0) <= TOLERANCE:
         return
-    fitting = [name for units, name in _UNITS_M.items() if abs(depth_scale_m / units / ratio - 1.0) <= TOLERANCE]
+    fitting = [units for units in _UNITS_M if abs(depth_scale_m / units / ratio - 1.0) <= TOLERANCE]
     said = f"{where}: the depth reads the board's tags {ratio:.2f}x as far as they are"
     if fitting:
-        raise InputError(f"{said}: its units are not {depth_scale_m:g} m; in {fitting[0]} units it would fit")
+        units = fitting[0]
+        raise InputError(
+            f"{said}: its units are not {depth_scale_m:g} m; in {_UNITS_M[units]} units it would fit ({FLAG} {units:g})"
+        )
     # The tags' distance goes with the focal length: a camera.yaml of another camera reads them off too.
-    raise InputError(f"{said}: its units ({depth_scale_m:g} m) or the colour camera's intrinsics are wrong")
+    raise InputError(
+        f"{said}: its units ({depth_scale_m:g} m) or the colour camera's intrinsics are wrong (units of "
+        f"{depth_scale_m / ratio:.3g} m would fit the tags: {FLAG})"
+    )
+
+
+class DepthUnitsCheck:
+    """`check_depth_units` on a recording's frames as they are imported: the median ratio of
+    the first few posed frames, spaced apart; `add` each frame, then `finish`."""
+
+    def __init__(self, board: Board, camera: Camera, where: str) -> None:
+        self.board, self.camera, self.where = board, camera, where
+        self.ratios: list[float] = []
+        self.next_frame = 0  # the next frame to read the tags of
+        self.unposed = 0
+        self.decided = False
+
+    def add(self, index: int, rgb: np.ndarray, depth_m: np.ndarray) -> None:
+        """Reads frame `index` (0, 1, ... in order) when due; refuses once enough frames say
+        the units are wrong."""
+        if self.decided or index < self.next_frame:
+            return
+        ratio = depth_to_tags_ratio(rgb, depth_m, self.board, self.camera)
+        if ratio is None:
+            self.unposed += 1
+            self.next_frame = index + 1
+        else:
+            self.ratios.append(ratio)
+            self.next_frame = index + _SPACING
+        if len(self.ratios) >= _POSED_FRAMES or self.unposed >= _UNPOSED_TRIES:
+            self.finish()
+
+    def finish(self) -> None:
+        """The verdict on the frames read so far, once (none posed: unchecked)."""
+        if not self.decided and self.ratios:
+            check_depth_units(float(np.median(self.ratios)), self.camera.depth_scale_m, self.where)
+        self.decided = True

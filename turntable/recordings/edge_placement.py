@@ -1,8 +1,10 @@
 """Where the depth camera sits beside the colour one, for a recording that does not say (a ROS
 bag of the image topics alone, without /tf_static): found from a few frames, as the sideways
-offset that lands the depth's silhouette edges on the colour image's edges. A stereo depth
-camera's offset is mostly such a baseline (15 mm on a D435, 50-59 mm on a D455, 32 mm on an
-Azure Kinect); taken for none, it put the check's box 13 mm from its truth."""
+offset that lands the depth's silhouette edges on the colour image's edges, with a turn of at
+most 3 degrees. A stereo depth camera's offset is mostly such a baseline (15 mm on a D435,
+50-59 mm on a D455); taken for none, it put the check's box 13 mm from its truth. (An Azure
+Kinect's depth camera is turned ~6 degrees: its recordings give the extrinsic, and a placement
+past 3 degrees keeps the offset alone.)"""
 
 from __future__ import annotations
 
@@ -14,6 +16,10 @@ from turntable.real_frames import drop_flying_pixels
 from turntable.recordings.source import RgbdPair, StreamSetup
 
 SAMPLE_FRAMES = 4  # spread over the recording
+# The placement is taken only when its edges agree this much better than at colour's own point:
+# the check's bags read 2.4-7.5x; colour whose edges are not the depth's (speckle) 1.06-1.1x at
+# the best of the offsets searched, chance's, up to 80 mm off.
+MIN_AGREEMENT = 1.5
 _REACH_M = (0.08, 0.03)  # the offsets searched, sideways and up: past any RGB-D camera's baseline
 _EDGE_JUMP_M, _EDGE_JUMP_RELATIVE = 0.01, 0.02
 _NEAR_FACTOR = 1.5  # edges kept up to this times the nearest ones' distance (their 5th percentile)
@@ -34,8 +40,8 @@ class Placement:
 @dataclass
 class _Edges:
     points: np.ndarray  # (n, 3) the foreground side of the depth's jumps, in the depth camera's frame
-    sharp: np.ndarray  # colour's gradient magnitude, blurred by _FINE_BLUR_PX
-    wide: np.ndarray  # and by _COARSE_BLUR_PX
+    sharp: np.ndarray  # colour's gradient magnitude, blurred by _FINE_BLUR_PX (the fine search)
+    wide: np.ndarray  # and by _COARSE_BLUR_PX (the coarse grid)
 
 
 def _edges(pair: RgbdPair, setup: StreamSetup) -> _Edges | None:
@@ -67,7 +73,7 @@ def _edges(pair: RgbdPair, setup: StreamSetup) -> _Edges | None:
     return _Edges(points, *blurred)
 
 
-def _agreement(frames: list[_Edges], setup: StreamSetup, offset: np.ndarray, wide: bool) -> float:
+def _agreement(frames: list[_Edges], setup: StreamSetup, offset: np.ndarray) -> float:
     """The colour edges' mean strength under the depth's edges seen from `offset` (3 m, or a
     4x4 color_from_depth)."""
     camera = setup.color_camera
@@ -76,18 +82,17 @@ def _agreement(frames: list[_Edges], setup: StreamSetup, offset: np.ndarray, wid
     for frame in frames:
         pixels = np.round(camera.project(frame.points @ pose[:3, :3].T + pose[:3, 3])).astype(np.int64)
         inside = (pixels[:, 0] >= 0) & (pixels[:, 0] < camera.width) & (pixels[:, 1] >= 0) & (pixels[:, 1] < camera.height)
-        magnitude = frame.wide if wide else frame.sharp
-        total += float(magnitude[pixels[inside, 1], pixels[inside, 0]].sum()) / len(frame.points)
+        total += float(frame.sharp[pixels[inside, 1], pixels[inside, 0]].sum()) / len(frame.points)
     return total / len(frames)
 
 
-def _best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarray, wide: bool) -> np.ndarray:
+def _best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     offsets = [np.array([x, y, 0.0]) for x in xs for y in ys]
-    return max(offsets, key=lambda offset: _agreement(frames, setup, offset, wide))
+    return max(offsets, key=lambda offset: _agreement(frames, setup, offset))
 
 
 def _coarse_best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """`_best` on the wide edges, seen through the pinhole without the lens's distortion (the
+    """The best offset on the wide edges, seen through the pinhole without the lens's distortion (the
     fine search after it projects through the lens): an offset moves each point's pixel by
     f t / z, so a column of offsets is one gather, not a projection of every point each."""
     camera = setup.color_camera
@@ -152,8 +157,8 @@ def place_depth_camera(pairs: list[RgbdPair], setup: StreamSetup) -> Placement |
     xs, ys = (np.arange(-reach, reach + coarse / 2, coarse) for reach in _REACH_M)
     found = _coarse_best(frames, setup, xs, ys)
     fine = np.arange(-_FINE_REACH_PX, _FINE_REACH_PX + _FINE_STEP_PX / 2, _FINE_STEP_PX) * pixel_m
-    found = _best(frames, setup, found[0] + fine, found[1] + fine, wide=False)
+    found = _best(frames, setup, found[0] + fine, found[1] + fine)
     color_from_depth = _refined(frames, setup, found, pixel_m)
-    at_none = _agreement(frames, setup, np.zeros(3), wide=False)
-    agreement = _agreement(frames, setup, color_from_depth, wide=False) / max(at_none, 1e-9)
+    at_none = _agreement(frames, setup, np.zeros(3))
+    agreement = _agreement(frames, setup, color_from_depth) / max(at_none, 1e-9)
     return Placement(color_from_depth=color_from_depth, agreement=agreement, frames=len(frames))

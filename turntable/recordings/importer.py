@@ -17,14 +17,14 @@ from homemodel.core.progress import Progress, no_progress
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from turntable.board import load_board, save_board
-from turntable.recordings.depth_units import check_depth_units, depth_to_tags_ratio
+from turntable.recordings.depth_units import FLAG as DEPTH_UNITS_FLAG
+from turntable.recordings.depth_units import DepthUnitsCheck, take_depth_units
 from turntable.recordings.detect import FORMATS, RecordingFormat, detect_format
 from turntable.recordings.register import expected_edge_offset_px, register_depth
-from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup
+from turntable.recordings.source import FrameSource, RgbdPair, StreamSetup, frame_size_problem
 
 RECORDING_JSON = "recording.json"
 _INTRINSICS_TOLERANCE_PX = 1.0
-_UNITS_CHECK_FRAMES = 3  # frames tried for the board's tags before the depth units go unchecked
 
 
 @dataclass(kw_only=True)
@@ -35,6 +35,9 @@ class ImportOptions:
     start_s: float = 0.0  # from the recording's first frame
     end_s: float | None = None
     tolerance_s: float | None = None  # colour-depth association; None: half a frame interval, at most 50 ms
+    # Metres per unit of the 16-bit depth images, for a recording not in its format's units (a
+    # TUM-layout folder in mm); None: the recording's own (TUM's 1/5000 m, a bag's, Open3D's).
+    depth_units_m: float | None = None
 
     def check(self) -> None:
         if self.format is not None:
@@ -45,6 +48,8 @@ class ImportOptions:
             raise InputError(f"end_s: {self.end_s} is before start_s ({self.start_s})")
         if self.tolerance_s is not None:
             require_positive("tolerance_s", self.tolerance_s)
+        if self.depth_units_m is not None:
+            require_positive("depth_units_m", self.depth_units_m)
 
 
 @dataclass(kw_only=True)
@@ -111,18 +116,16 @@ def intrinsics_disagreement(given: Camera, found: Camera) -> list[str]:
 
 
 def registered_depth_m(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
-    """The pair's depth in colour's pixels, in metres (NaN: none)."""
+    """The pair's depth in colour's pixels, in metres (NaN: none); refuses images of other sizes
+    than their cameras'."""
+    if (problem := frame_size_problem(pair, setup)) is not None:
+        raise InputError(problem)
     depth = pair.depth.astype(np.float64)
     if pair.depth.dtype == np.uint16:
         depth = np.where(pair.depth > 0, depth * setup.color_camera.depth_scale_m, np.nan)
     else:
         depth[~(np.isfinite(depth) & (depth > 0))] = np.nan
     if setup.depth_camera is None:
-        if depth.shape != (setup.color_camera.height, setup.color_camera.width):
-            raise InputError(
-                f"depth {depth.shape[1]}x{depth.shape[0]} is said to be registered to the "
-                f"{setup.color_camera.width}x{setup.color_camera.height} colour but has another size"
-            )
         return depth
     extrinsic = np.eye(4) if setup.color_from_depth is None else setup.color_from_depth
     return register_depth(depth, setup.depth_camera, setup.color_camera, extrinsic, setup.depth_pixel_rays())
@@ -159,21 +162,21 @@ def import_recording(
     source = open_recording(recording, options)
     with source, atomic_dir(Path(out_dir), force=force, inputs=[recording, Path(board_path)]) as tmp:
         setup = source.setup
+        if options.depth_units_m is not None:
+            take_depth_units(setup, options.depth_units_m)
         camera = setup.color_camera
         disagreement = []
         if options.camera_path is not None and setup.intrinsics_from == "recording":
             disagreement = intrinsics_disagreement(load_camera(options.camera_path), camera)
         (tmp / "color").mkdir()
         (tmp / "depth").mkdir()
-        written = units_checked = 0
+        written = 0
+        units = DepthUnitsCheck(board, camera, str(recording))
         offsets = []
         frames = []
         for pair in source.pairs(start_s=options.start_s, end_s=options.end_s):
-            if pair.color.shape[:2] != (camera.height, camera.width):
-                raise InputError(
-                    f"{recording}: a colour frame is {pair.color.shape[1]}x{pair.color.shape[0]}, "
-                    f"its intrinsics say {camera.width}x{camera.height}"
-                )
+            if options.depth_units_m is not None and pair.depth.dtype != np.uint16:
+                raise InputError(f"{recording}: {DEPTH_UNITS_FLAG}: its depth is in float metres, not in units")
             stem = f"{written:06d}"
             if not cv2.imwrite(str(tmp / "color" / f"{stem}.png"), cv2.cvtColor(pair.color, cv2.COLOR_RGB2BGR)):
                 raise InputError(f"{tmp}: cannot write a colour frame")
@@ -181,10 +184,7 @@ def import_recording(
                 depth = registered_depth_m(pair, setup)
             except InputError as exc:
                 raise InputError(f"{recording}: {exc}") from None
-            if units_checked < _UNITS_CHECK_FRAMES:  # until a frame's tags say whether the depth units fit
-                ratio = depth_to_tags_ratio(pair.color, depth, board, camera)
-                check_depth_units(ratio, camera.depth_scale_m, str(recording))
-                units_checked = _UNITS_CHECK_FRAMES if ratio is not None else units_checked + 1
+            units.add(written, pair.color, depth)
             write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
             offsets.append(pair.depth_offset_s)
             times = (pair.time_s, pair.depth_offset_s) if setup.timed else (None, None)
@@ -195,6 +195,7 @@ def import_recording(
             span = f" between {options.start_s} s and {options.end_s} s" if options.end_s is not None else ""
             span = span or (f" after {options.start_s} s" if options.start_s else "")
             raise InputError(f"{recording}: no colour frame paired with a depth frame{span}")
+        units.finish()
         save_camera(camera, tmp / "camera.yaml")
         save_board(board, tmp / "board.yaml")
         counts = source.counts

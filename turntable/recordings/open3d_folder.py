@@ -50,6 +50,8 @@ def read_intrinsics(path: Path) -> tuple[Camera, list[str]]:
     """The colour camera (depth_scale_m set) and notes on what was assumed."""
     try:
         data = json.loads(read_bounded(path, _MAX_JSON_BYTES))
+        if not isinstance(data, dict):
+            raise TypeError(f"a JSON {type(data).__name__}, not an object")
         if "intrinsic_matrix" not in data and isinstance(data.get("intrinsic"), dict):
             data = data["intrinsic"]  # PinholeCameraParameters (write_pinhole_camera_parameters)
         matrix = np.asarray(data["intrinsic_matrix"], dtype=np.float64).reshape(3, 3).T  # column-major

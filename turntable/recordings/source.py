@@ -53,6 +53,21 @@ class RgbdPair:
     depth_offset_s: float  # depth's time minus colour's
 
 
+def frame_size_problem(pair: RgbdPair, setup: StreamSetup) -> str | None:
+    """Why the pair's images do not fit the cameras `setup` gives them (their sizes), or None:
+    a reader's intrinsics of another size than its images misplace every pixel."""
+    color, depth = pair.color.shape[:2], pair.depth.shape[:2]
+    camera = setup.color_camera
+    if color != (camera.height, camera.width):
+        return f"a colour frame is {color[1]}x{color[0]}, its intrinsics say {camera.width}x{camera.height}"
+    if setup.depth_camera is None and depth != color:
+        return f"depth {depth[1]}x{depth[0]} is said to be registered to the {color[1]}x{color[0]} colour but has another size"
+    own = setup.depth_camera
+    if own is not None and depth != (own.height, own.width):
+        return f"a depth frame is {depth[1]}x{depth[0]}, its intrinsics say {own.width}x{own.height}"
+    return None
+
+
 @dataclass(kw_only=True)
 class StreamCounts:
     color_frames: int = 0

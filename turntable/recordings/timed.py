@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from homemodel.core.errors import InputError
 from turntable.recordings.associate import associate, default_tolerance_s
-from turntable.recordings.source import FrameSource, RgbdPair
+from turntable.recordings.source import FrameSource, RgbdPair, frame_size_problem
 
 
 class TimedStreamsSource(FrameSource):
@@ -29,19 +30,29 @@ class TimedStreamsSource(FrameSource):
         in any order (a file reader goes pair by pair, a bag in its own time order); colour RGB
         uint8, depth uint16 in the setup's units or float32 metres."""
 
-    def _place_depth_camera(self, chosen: list[tuple[int, int]], color_t: np.ndarray, depth_t: np.ndarray) -> None:
+    def _place_depth_camera(self, chosen: list[tuple[int, int]]) -> None:
         """An unregistered depth whose pose the recording does not give: placed by a few frames'
         edges (`edge_placement`), else taken as seen from colour's own point, said either way."""
-        from turntable.recordings.edge_placement import SAMPLE_FRAMES, place_depth_camera
+        from turntable.recordings.edge_placement import MIN_AGREEMENT, SAMPLE_FRAMES, place_depth_camera
 
         picked = sorted({chosen[round(k)] for k in np.linspace(0, len(chosen) - 1, min(SAMPLE_FRAMES, len(chosen)))})
         images = {(kind, index): image for kind, index, image in self.stream_images(picked)}
         samples = [
             RgbdPair(time_s=0.0, color=images[("color", i)], depth=images[("depth", j)], depth_offset_s=0.0) for i, j in picked
         ]
+        for sample in samples:  # before the edges are read at the intrinsics' sizes
+            if (problem := frame_size_problem(sample, self.setup)) is not None:
+                raise InputError(f"{self.path}: {problem}")
         placement = place_depth_camera(samples, self.setup)
+        at_one_point = "depth reprojected as if the two cameras sat at one point"
         if placement is None:
-            self.setup.notes.append("depth reprojected as if the two cameras sat at one point (too few depth edges to place it)")
+            self.setup.notes.append(f"{at_one_point} (too few depth edges to place it)")
+            return
+        if placement.agreement < MIN_AGREEMENT:
+            self.setup.notes.append(
+                f"{at_one_point} (placed by their edges, depth and colour edges agreed only {placement.agreement:.2f}x "
+                f"as well as there, under {MIN_AGREEMENT}x: chance's)"
+            )
             return
         self.setup.color_from_depth = placement.color_from_depth
         x_mm, y_mm = 1000 * placement.color_from_depth[:2, 3]
@@ -66,7 +77,7 @@ class TimedStreamsSource(FrameSource):
         ]
         chosen = in_span[:: self.every]
         if self.setup.depth_camera is not None and self.setup.color_from_depth is None and chosen:
-            self._place_depth_camera(chosen, color_t, depth_t)
+            self._place_depth_camera(chosen)
         depth_of = dict(chosen)
         color_of = {j: i for i, j in chosen}
         held: dict[tuple[str, int], np.ndarray] = {}
