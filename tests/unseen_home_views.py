@@ -10,8 +10,10 @@ A bedroom and a utility corner stand in one room. Real pieces, made here of trim
 - a bedside table on four legs (its spec says a plinth), a drawer over a right-hinged door;
 - a front-loading washing machine, its round door with a glass porthole (the sensor sees
   through it or not at all) on a hinge off the door's rim;
-- a worktop over it with a rounded front edge, and above it a wall cupboard whose lift-up flap
-  is hinged at the top, a cup and a plate.
+- a dishwasher beside it, its door hinged at the bottom (a flap);
+- a worktop over both with a rounded front edge, a microwave on it (a dark window: more
+  dropouts), and above it a wall cupboard whose lift-up flap is hinged at the top; a mug and
+  a plate.
 
 The installer's side: each piece measured with a tape (`mm`: a few millimetres off), the
 hinge lines read at the free corner as the README's guide says, written as specs and a
@@ -341,14 +343,65 @@ def washer(rng: np.random.Generator) -> Piece:
     return Piece("washer", spec, body, [door, drawer], top_z=h)
 
 
+def dishwasher(rng: np.random.Generator) -> Piece:
+    """The standard layout: a kick plate, the door hinged at the bottom above it (its axis
+    inside the door, 1 cm above its bottom edge), a bar handle along its top, two racks."""
+    w, d, h, kick = rng.uniform(0.595, 0.6), rng.uniform(0.56, 0.58), rng.uniform(0.84, 0.85), rng.uniform(0.09, 0.11)
+    steel, grey = (0.75, 0.76, 0.78), (0.35, 0.35, 0.37)
+    g, thick = 0.003, rng.uniform(0.02, 0.024)
+    body = _carcass(w, d, h, 0.02, 0.0, steel) + [Solid(box(d / 2 - 0.06, d / 2, -w / 2, w / 2, 0.0, kick), grey)]
+    body += [Solid(box(-d / 2 + 0.05, d / 2 - 0.06, -w / 2 + 0.04, w / 2 - 0.04, z, z + 0.01), grey)
+             for z in (kick + 0.08, kick + 0.42)]  # the racks' floors
+    z0, z1 = kick + g, h - g
+    face = d / 2 + g + thick
+    bar = cylinder(0.008, [face + 0.03, -0.15, z1 - 0.04], [face + 0.03, 0.15, z1 - 0.04], 16)
+    door = Mover("door_0", "door_0_hinge", [Solid(rounded_box(d / 2 + g, face, -w / 2 + g, w / 2 - g, z0, z1, 0.004), steel),
+                                           Solid(bar, grey)],
+                 np.array([face - thick / 2, 0.0, z0 + 0.01]), _axis_tilt(rng, (0, 1, 0)), True, np.radians(90))
+    spec = {"kind": "dishwasher", "width_m": _tape(rng, w), "depth_m": _tape(rng, d), "height_m": _tape(rng, h),
+            "kick_plate_height_m": _tape(rng, kick), "door_thickness_m": _tape(rng, thick), "colour": "silver",
+            "handle_colour": "grey",
+            "doors": [{"hinge": "bottom", "left_m": g, "width_m": _tape(rng, w - 2 * g), "bottom_m": _tape(rng, z0),
+                       "height_m": _tape(rng, z1 - z0), "opening_limit_deg": 90,
+                       "hinge_line": {"behind_face_m": _tape(rng, thick / 2), "in_from_edge_m": _tape(rng, 0.01)},
+                       "handle": {"length_m": 0.3, "from_free_edge_m": 0.04}}]}
+    return Piece("dishwasher", spec, body, [door], top_z=h)
+
+
+def microwave(rng: np.random.Generator) -> Piece:
+    """The standard layout: a control panel on the right with a knob, the left-hinged door over
+    the cavity with a dark window (more dropouts) and a bar handle, a plate inside."""
+    w, d, h, panel = rng.uniform(0.47, 0.5), rng.uniform(0.36, 0.39), rng.uniform(0.27, 0.3), rng.uniform(0.11, 0.13)
+    black, dark = (0.12, 0.12, 0.13), (0.05, 0.05, 0.06)
+    g, thick = 0.003, 0.03
+    body = _carcass(w, d, h, 0.012, 0.0, black)
+    body += [Solid(box(d / 2 - 0.02, d / 2, w / 2 - panel, w / 2 - 0.012, 0.012, h - 0.012), black),
+             Solid(cylinder(0.02, [d / 2, w / 2 - panel / 2, 0.6 * h], [d / 2 + 0.02, w / 2 - panel / 2, 0.6 * h]), (0.6, 0.6, 0.6)),
+             Solid(cylinder(0.13, [0.0, -panel / 2, 0.012], [0.0, -panel / 2, 0.017]), (0.8, 0.85, 0.85))]
+    y0, y1, z0, z1 = -w / 2 + g, w / 2 - panel - g, g, h - g
+    face = d / 2 + g + thick
+    slab = Solid(rounded_box(d / 2 + g, face, y0, y1, z0, z1, 0.004), black)
+    window = Solid(box(face - 0.002, face + 0.0005, y0 + 0.05, y1 - 0.05, z0 + 0.05, z1 - 0.05), dark, "dark")
+    handle = _bar(face, y1 - 0.03, z0 + 0.05, z1 - 0.05, 0.03)
+    door = Mover("door_0", "door_0_hinge", [slab, window, *handle], np.array([face - 0.012, y0 + 0.003, z0]),
+                 _axis_tilt(rng, (0, 0, -1)), True, np.radians(110))
+    corner = np.array([face, y1, z0])
+    spec = {"kind": "microwave", "width_m": _tape(rng, w), "depth_m": _tape(rng, d), "height_m": _tape(rng, h),
+            "panel_width_m": _tape(rng, panel), "colour": "black",
+            "doors": [{"hinge": "left", "left_m": g, "width_m": _tape(rng, y1 - y0), "bottom_m": g,
+                       "height_m": _tape(rng, z1 - z0), "opening_limit_deg": 110, "window": {"margin_m": 0.05},
+                       "handle": {"length_m": _tape(rng, z1 - z0 - 0.1), "standoff_m": 0.03, "from_free_edge_m": 0.03},
+                       "hinge_measured": {"free_corner": _free_corner(door, corner, d / 2, "left", -w / 2, rng)}}]}
+    return Piece("microwave", spec, body, [door], top_z=h)
+
+
 def worktop(rng: np.random.Generator) -> Piece:
-    w, d, thick, top = rng.uniform(1.18, 1.22), rng.uniform(0.6, 0.62), 0.038, rng.uniform(0.895, 0.905)
+    """A slab with a rounded front edge over the washing machine and the dishwasher."""
+    w, d, thick, top = rng.uniform(1.23, 1.27), rng.uniform(0.6, 0.62), 0.038, rng.uniform(0.895, 0.905)
     slab = rounded_box(-d / 2, d / 2, -w / 2, w / 2, top - thick, top, 0.012)
     spec = {"kind": "worktop", "width_m": _tape(rng, w), "depth_m": _tape(rng, d), "thickness_m": thick,
             "height_m": _tape(rng, top), "cutouts": [], "colour": "grey"}
-    legs = [Solid(box(-d / 2 + 0.02, -d / 2 + 0.05, y - 0.015, y + 0.015, 0.0, top - thick), (0.6, 0.6, 0.6))
-            for y in (-w / 2 + 0.02, w / 2 - 0.02)]  # a bracket at each end, on the wall
-    return Piece("worktop", spec, [Solid(slab, (0.55, 0.55, 0.5)), *legs], [], top_z=top)
+    return Piece("worktop", spec, [Solid(slab, (0.55, 0.55, 0.5))], [], top_z=top)
 
 
 def wall_cupboard(rng: np.random.Generator, mount: float) -> Piece:
@@ -421,18 +474,23 @@ def make_home(seed: int = 0) -> Home:
     pieces = {p.id: p for p in (wardrobe(rng), chest(rng), bedside(rng), washer(rng), worktop(rng))}
     pieces["wall_cupboard"] = wall_cupboard(rng, pieces["worktop"].top_z + rng.uniform(0.5, 0.56))
     pieces["mug"], pieces["plate"] = cup(rng), plate(rng)
+    later = np.random.default_rng([seed, 1])  # pieces added later: the first ones' draws kept
+    pieces["dishwasher"], pieces["microwave"] = dishwasher(later), microwave(later)
     truth = {  # the bedroom wall at x = 0 (fronts +x), the utility wall at y = 4 (fronts -y)
         "wardrobe": pose(0.31, 0.75, 0, rng.uniform(-0.3, 0.3)),  # each 1-3 cm off the wall
         "chest": pose(0.25, 1.95, 0, rng.uniform(-0.5, 0.5)),
         "bedside": pose(0.215, 2.75, 0, rng.uniform(-1, 1)),
         "washer": pose(2.25, ROOM_XY[1] - 0.3, 0, -90 + rng.uniform(-0.5, 0.5)),
-        "worktop": pose(2.5, ROOM_XY[1] - 0.305, 0, -90),
+        "worktop": pose(2.55, ROOM_XY[1] - 0.31, 0, -90),
         "wall_cupboard": pose(2.75, ROOM_XY[1] - 0.175, 0, -90),
+        "dishwasher": pose(2.86, ROOM_XY[1] - 0.3, 0, -90 + later.uniform(-0.5, 0.5)),
+        "microwave": pose(2.93, ROOM_XY[1] - 0.22, pieces["worktop"].top_z, -90 + later.uniform(-3, 3)),
     }
     installer = {}
     for pid, t in truth.items():
-        shift, turn = rng.uniform(0.02, 0.03), rng.uniform(1.5, 3.0) * rng.choice([-1, 1])
-        a = rng.uniform(0, 2 * np.pi)
+        draw = later if pid in ("dishwasher", "microwave") else rng
+        shift, turn = draw.uniform(0.02, 0.03), draw.uniform(1.5, 3.0) * draw.choice([-1, 1])
+        a = draw.uniform(0, 2 * np.pi)
         installer[pid] = t @ pose(shift * np.cos(a), shift * np.sin(a), 0.0, turn)
     small = {"mug": ("bedside", pose(0.02, 0.08, pieces["bedside"].top_z, 30)),
              "plate": ("worktop", pose(0.05, -0.25, pieces["worktop"].top_z, 0))}
@@ -530,9 +588,12 @@ def look_from(eye: np.ndarray, target: np.ndarray, roll_deg: float) -> np.ndarra
     return m
 
 
+LATER_PIECES = ("dishwasher", "microwave")  # their joints drawn apart, so the first pieces' views stay as they were
+
+
 def random_view(home: Home, index: int, rng: np.random.Generator) -> View:
     """A head camera 1.0-1.5 m up, 1.2-2.5 m from a piece, looking 10-30 degrees down."""
-    target_id = ["wardrobe", "chest", "bedside", "washer", "wall_cupboard", "chest"][index % 6]
+    target_id = ["wardrobe", "chest", "bedside", "washer", "wall_cupboard", "microwave"][index % 6]
     t = home.truth[target_id]
     piece = home.pieces[target_id]
     bounds = trimesh.util.concatenate([s.mesh for s in piece.body]).bounds
@@ -551,19 +612,23 @@ def random_view(home: Home, index: int, rng: np.random.Generator) -> View:
     setup = SETUPS[index % 2]
     states = {"shut": (0.0, 0.0), "ajar": (0.04, 0.08), "half": (0.4, 0.6), "full": (0.85, 1.0)}
     joints = {}
-    for pid, piece in home.pieces.items():
-        for mover in piece.movers:
-            name = ["shut", "ajar", "half", "full"][int(rng.integers(4))]
-            share = rng.uniform(*states[name])
-            joints[(pid, mover.joint)] = float(share * mover.limit)
+
+    def draw_states(pieces: list[str], draw: np.random.Generator) -> None:
+        for pid in pieces:
+            for mover in home.pieces[pid].movers:
+                name = ["shut", "ajar", "half", "full"][int(draw.integers(4))]
+                joints[(pid, mover.joint)] = float(draw.uniform(*states[name]) * mover.limit)
+
+    draw_states([pid for pid in home.pieces if pid not in LATER_PIECES], rng)
     small = dict(home.small)
     if index % 3 == 1:  # the mug carried to the chest, the plate moved on the worktop
         small["mug"] = ("chest", pose(rng.uniform(-0.2, 0.2), rng.uniform(-0.25, 0.25), home.pieces["chest"].top_z,
                                       rng.uniform(-180, 180)))
-        small["plate"] = ("worktop", pose(rng.uniform(-0.05, 0.1), rng.uniform(0.0, 0.3), home.pieces["worktop"].top_z, 0))
+        small["plate"] = ("worktop", pose(rng.uniform(-0.05, 0.1), rng.uniform(-0.3, 0.0), home.pieces["worktop"].top_z, 0))
     occluder = [None, "person", None, "chair"][index % 4]
-    return View(f"v{index:02d}", setup, look_from(eye, target, rng.uniform(-2, 2)), joints, small, occluder,
-                int(rng.integers(1 << 30)))
+    roll, seed = rng.uniform(-2, 2), int(rng.integers(1 << 30))
+    draw_states(list(LATER_PIECES), np.random.default_rng([seed, 1]))
+    return View(f"v{index:02d}", setup, look_from(eye, target, roll), joints, small, occluder, seed)
 
 
 def _occluder_solids(view: View, home: Home, target_id: str, rng) -> list[trimesh.Trimesh]:
