@@ -88,8 +88,8 @@ def simulate_view(
 ) -> None:
     """Render a depth camera's view of the home, to test `map observe` without a robot.
 
-    What a camera at a known pose sees: the map's models at its joint states and poses (or
-    those given), a floor and walls, with sensor noise; truth.json holds the true states."""
+    The map's models at its joint states and poses (or those given), a floor and walls, with sensor noise.
+    truth.json holds the true joint states and poses, and what each part shows."""
     import time
 
     import numpy as np

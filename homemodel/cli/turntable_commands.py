@@ -184,7 +184,7 @@ def reconstruct(
     capture_dir: Path = typer.Argument(..., help="capture folder: camera.yaml, board.yaml, color/, depth/"),
     out: Path = typer.Option(..., "--out", help="model folder to write"),
     name: str = field_option(f"{RECONSTRUCT}.name", help="model name"),
-    voxel_size_m: float = field_option(f"{RECONSTRUCT}.voxel_size_m", help="merging voxel size"),
+    voxel_size_m: float = field_option(f"{RECONSTRUCT}.voxel_size_m", help="merging voxel size (m): the finest detail the mesh keeps"),
     detector: str = field_option(f"{RECONSTRUCT}.detection.detector", help="tag detector"),
     srgb: bool | None = typer.Option(
         None,
@@ -274,9 +274,9 @@ def import_(
         help="camera.yaml for recordings without intrinsics (TUM); a file's own intrinsics win",
     ),
     form: str | None = field_option(f"{IMPORT}.format", "--format", help="default: told from the recording's layout"),
-    every: int = field_option(f"{IMPORT}.every", help="keep every N-th associated frame"),
-    start_s: float = field_option(f"{IMPORT}.start_s", "--start", help="seconds from the recording's start"),
-    end_s: float | None = field_option(f"{IMPORT}.end_s", "--end", help="seconds from the recording's start"),
+    every: int = field_option(f"{IMPORT}.every", help="keep one frame in N (thins a long recording: --every 6 keeps 150 of 900)"),
+    start_s: float = field_option(f"{IMPORT}.start_s", "--start", help="skip the recording's first S seconds"),
+    end_s: float | None = field_option(f"{IMPORT}.end_s", "--end", help="stop S seconds after the recording's start (cut it to one turn)"),
     depth_units_m: float | None = field_option(
         f"{IMPORT}.depth_units_m",
         help="metres per unit of the 16-bit depth, when not the format's (a TUM-layout folder in mm: 0.001); "
