@@ -753,3 +753,13 @@ def test_a_bag_cut_short_is_refused_in_words(kind: str, board: Path, tmp_path: P
     }[kind]
     assert result.exit_code == 2 and f"{recording}: " in result.output and said in result.output, result.output
     assert "('" not in result.output and len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("name", ["notes.bag", "scan.mcap"])
+def test_a_file_that_is_no_bag_is_said_to_be_none(name: str, board: Path, tmp_path: Path) -> None:
+    """readme_check's `echo notes > notes.bag`: rosbags' "File magic is invalid." was printed as it came."""
+    (tmp_path / name).write_text("notes\n")
+    result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / name), "--board", str(board), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and f"{tmp_path / name}: not a readable" in result.output, result.output
+    assert "it is no bag file (its first bytes are not a bag's)" in result.output and "magic" not in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()

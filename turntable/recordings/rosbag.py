@@ -39,13 +39,15 @@ def unreadable_bag(exc: Exception) -> str:
     """Why a bag reader refused a file, in words: rosbags says a bag cut short (a copy or a
     recording stopped mid-write) as "Bag index looks damaged: ('Header could not be read ...',)",
     and an MCAP file without its footer (a recorder killed before closing it) as "File end
-    magic is invalid"."""
-    text = str(exc)
-    if "index looks damaged" in text.lower():
+    magic is invalid"; a file that is no bag at all as "File magic is invalid"."""
+    text = str(exc).lower()
+    if "index looks damaged" in text:
         return "cut short or damaged: its index cannot be read"
-    if "end magic is invalid" in text.lower():
+    if "end magic is invalid" in text:
         return "cut short: its MCAP file has no end (a recording killed before it closed the file); `mcap recover` rewrites it whole"
-    return text
+    if "file magic is invalid" in text:
+        return "it is no bag file (its first bytes are not a bag's)"
+    return str(exc)
 
 
 ROS2_STORAGE = (".db3", ".mcap")
