@@ -287,3 +287,10 @@ def test_bad_input_is_one_line_and_exit_2(simulator: ViewSimulator, kitchen_map:
     result = _cli(lonely, obs, "--out", tmp_path / "lonely.xml")
     assert result.exit_code == 2 and "does not exist" in result.output and str(lonely) in result.output
     assert not (tmp_path / "lonely.xml").exists()
+    # A folder where a file is written: refused before the fit (a --report folder: the map was
+    # written, then the report's replace failed: a bug report, half the output left).
+    for flag in ("--report", "--out"):
+        files = {"--out": tmp_path / "folder.xml", "--report": tmp_path / "folder.json", flag: tmp_path}
+        result = _cli(kitchen_map, obs, *[item for pair in files.items() for item in pair])
+        assert result.exit_code == 2 and f"{flag} {tmp_path}: a folder" in result.output, result.output
+        assert not (tmp_path / "folder.xml").exists() and not (tmp_path / "folder.json").exists()

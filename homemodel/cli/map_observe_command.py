@@ -24,6 +24,7 @@ def observe_command(
 
     console = make_console()
     with exit_on_error():
+        _check_not_folders({"--out": (out, "kitchen_now.xml"), "--report": (report, "seen.json")})
         with stage_bars(console) as progress:
             result = observe(map_path, obs_dir, progress=progress)
         write_observed(result, map_path, out, report)
@@ -36,3 +37,13 @@ def observe_command(
     title = f"{count} large object{'' if count == 1 else 's'} in view"
     console.print(fitted_table(console, title, columns, result.report.table_rows(), drop=["support"]))
     typer.echo(f"map: {out}" + (f"\nreport: {report}" if report else ""))
+
+
+def _check_not_folders(files: dict[str, tuple[Path | None, str]]) -> None:
+    """Refuse a folder given where a file is written ({flag: (path, an example name)}), before the
+    fit: the map would be written and the report's replace fail, half the output left."""
+    from homemodel.core.errors import InputError
+
+    for flag, (path, example) in files.items():
+        if path is not None and path.is_dir():
+            raise InputError(f"{flag} {path}: a folder; give the file to write, e.g. {path / example}")
