@@ -12,6 +12,9 @@ import numpy as np
 
 FLYING_RELATIVE_JUMP = 0.02  # a pixel this far (x its depth) from a neighbour on both sides flies
 FLYING_MIN_JUMP_M = 0.005
+# The table turned less than this from the first (or last) frame has not started (or has
+# stopped): above the poses' noise (~0.05 deg), below a slow turn's step at 30 fps (0.4 deg).
+STILL_TURN_RAD = math.radians(0.5)
 _NEAR_FACTOR = 1.5  # misregistration: depth jumps kept whose near side is within this times the nearest depths
 
 
@@ -112,11 +115,23 @@ def table_turn_rad(first_camera_from_table: np.ndarray, camera_from_table: np.nd
 
 def turn_rate_rad_s(camera_from_tables: list[np.ndarray], times_s: list[float]) -> float | None:
     """The table's angular speed: the least-squares slope of its unwrapped angle over time
-    (frames in time order, each less than half a turn from the last); None below 3 frames."""
+    (frames in time order, each less than half a turn from the last); None below 3 frames. A
+    still start or end (two frames or more within STILL_TURN_RAD of the first or the last) is
+    left out: 8 s of a still table before a turn at 20 deg/s read 15.05 deg/s."""
     if len(times_s) < 3:
         return None
     angles = np.unwrap([table_turn_rad(camera_from_tables[0], c) for c in camera_from_tables])
-    return float(np.polyfit(np.asarray(times_s), angles, 1)[0])
+    start, end = _still_frames(angles), len(angles) - _still_frames(angles[::-1])
+    kept = slice(start, end) if end - start >= 3 else slice(None)
+    return float(np.polyfit(np.asarray(times_s)[kept], angles[kept], 1)[0])
+
+
+def _still_frames(angles: np.ndarray) -> int:
+    """How many of the first angles are a still table's: those within STILL_TURN_RAD of the
+    first, when they are two or more (one is the first of a turning table)."""
+    moved = np.abs(angles - angles[0]) > STILL_TURN_RAD
+    still = int(np.argmax(moved)) if moved.any() else len(angles)
+    return still if still >= 2 else 0
 
 
 def turned_table(axis_xy_m: np.ndarray, angle_rad: float) -> np.ndarray:
