@@ -20,8 +20,9 @@ def export(
     free: bool = typer.Option(False, "--free", help="a free body standing on a floor (a cup, a jar), not fixed to the world"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
-    """Export one model for a simulator at the origin with its joints at zero: fixed to the
-    world, or with --free a body standing on a floor."""
+    """Export one model for a simulator, at the origin with its joints at zero.
+
+    Fixed to the world, or with --free a body standing on a floor."""
     from homemodel.exchange.simulator import export_model_for
     from homemodel.exchange.simulator_read import SCENE_FILE_SUFFIXES, read_model
     from homemodel.exchange.urdf.read import find_urdf, load_urdf

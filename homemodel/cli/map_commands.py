@@ -175,9 +175,10 @@ def add(
     up_axis: str = field_option(f"{IMPORT}.up_axis", help="with an import: a mesh file's up axis (auto: y for glTF, z otherwise)"),
     density_kg_m3: float = field_option(f"{REPAIR}.density_kg_m3", min=1e-3, help="with an import: the mass of a link without one, from its closed volume at this density"),
 ) -> None:
-    """Register the model MODEL under PARENT_ID and save the map atomically. A raw asset (a
-    downloaded glb or OBJ, a ROS package's URDF with --import) is imported first, as
-    `add_asset` says, and the repairs are printed."""
+    """Register the model MODEL under PARENT_ID and save the map atomically.
+
+    A raw asset (a downloaded glb or OBJ, or a ROS package's URDF with --import) is imported first, as `add_asset` says.
+    The repairs made are printed."""
     from homemodel.app.database.queries import resolve_model_ref
     from homemodel.core.transforms import transform_from_xyz_rpy
     from homemodel.exchange.urdf.read import MESH_FILE_SUFFIXES
@@ -235,8 +236,9 @@ def export_(
     room: str | None = typer.Option(None, "--room", help="export only this room (its id), e.g. kitchen"),
     force: bool = typer.Option(False, "--force", help="replace a non-empty output folder"),
 ) -> None:
-    """The whole home (or one room) as one simulator scene: every object at its map pose and
-    joint state, small objects free, a floor, and walls on rooms with an outline."""
+    """The whole home (or one room) as one simulator scene.
+
+    Every object at its map pose and joint state, small objects free, a floor, and walls on rooms with an outline."""
     from homemodel.exchange.home_scene import export_home
 
     with exit_on_error():
