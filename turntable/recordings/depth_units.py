@@ -11,7 +11,7 @@ import numpy as np
 from homemodel.core.errors import InputError
 from homemodel.geometry.camera import Camera
 from turntable.board import Board
-from turntable.pose import PoseSkip, estimate_camera_from_table
+from turntable.pose import FramePose, PoseSkip, estimate_camera_from_table
 from turntable.recordings.source import StreamSetup
 from turntable.tags import DetectionOptions, detect_tags
 
@@ -35,14 +35,21 @@ def take_depth_units(setup: StreamSetup, units_m: float) -> None:
     setup.notes.append(f"depth units {units_m:g} m ({FLAG}), not the recording's {own:g} m")
 
 
-def depth_to_tags_ratio(rgb: np.ndarray, depth_m: np.ndarray, board: Board, camera: Camera) -> float | None:
-    """The median of depth read / depth the tags' pose gives, at the tag corners with depth; None
-    when the frame has no pose or too few such corners to say."""
+def board_pose(rgb: np.ndarray, board: Board, camera: Camera) -> FramePose | None:
+    """The colour camera's pose of the board by its tags in `rgb`; None when they give none."""
     import cv2
 
     try:
-        pose = estimate_camera_from_table(detect_tags(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), DetectionOptions()), board, camera)
+        return estimate_camera_from_table(detect_tags(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), DetectionOptions()), board, camera)
     except PoseSkip:
+        return None
+
+
+def depth_to_tags_ratio(rgb: np.ndarray, depth_m: np.ndarray, board: Board, camera: Camera) -> float | None:
+    """The median of depth read / depth the tags' pose gives, at the tag corners with depth; None
+    when the frame has no pose or too few such corners to say."""
+    pose = board_pose(rgb, board, camera)
+    if pose is None:
         return None
     expected = (pose.table_points @ pose.camera_from_table[:3, :3].T + pose.camera_from_table[:3, 3])[:, 2]
     pixels = np.round(pose.image_points).astype(np.int64)

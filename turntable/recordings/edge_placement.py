@@ -12,7 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from turntable.board import Board
 from turntable.real_frames import drop_flying_pixels
+from turntable.recordings.depth_units import board_pose
 from turntable.recordings.source import RgbdPair, StreamSetup
 
 SAMPLE_FRAMES = 4  # spread over the recording
@@ -20,6 +22,12 @@ SAMPLE_FRAMES = 4  # spread over the recording
 # the check's bags read 2.4-7.5x; colour whose edges are not the depth's (speckle) 1.06-1.1x at
 # the best of the offsets searched, chance's, up to 80 mm off.
 MIN_AGREEMENT = 1.5
+# The depth's table, placed, within this of the plane the board's tags give. readme_check's
+# bottle (320x240 depth at 1 m): placed 21 mm up and turned 2.2 deg, its table tilted 1.4-1.6
+# deg, a table slab; the check's placed bags 0.35-0.6 (the tags' own pose ~0.5 at 1 m), the
+# recorded pose 0.03-0.15.
+MAX_TABLE_TILT_DEG = 1.0
+_TABLE_BAND_M = 0.01  # depth points this near the board's plane are the table's
 _REACH_M = (0.08, 0.03)  # the offsets searched, sideways and up: past any RGB-D camera's baseline
 _EDGE_JUMP_M, _EDGE_JUMP_RELATIVE = 0.01, 0.02
 _NEAR_FACTOR = 1.5  # edges kept up to this times the nearest ones' distance (their 5th percentile)
@@ -162,3 +170,28 @@ def place_depth_camera(pairs: list[RgbdPair], setup: StreamSetup) -> Placement |
     at_none = _agreement(frames, setup, np.zeros(3))
     agreement = _agreement(frames, setup, color_from_depth) / max(at_none, 1e-9)
     return Placement(color_from_depth=color_from_depth, agreement=agreement, frames=len(frames))
+
+
+def table_tilt_deg(pairs: list[RgbdPair], setup: StreamSetup, color_from_depth: np.ndarray, board: Board) -> float | None:
+    """How far the depth's table, seen from `color_from_depth`, tilts against the board's plane
+    by its tags: the median over the frames whose tags give a pose (a plane fitted to the depth
+    points on the board's disk within _TABLE_BAND_M of it); None when none does. A depth scale
+    bias moves the plane but does not tilt it."""
+    tilts = []
+    for pair in pairs:
+        pose = board_pose(pair.color, board, setup.color_camera)
+        if pose is None:
+            continue
+        depth = pair.depth.astype(np.float64)
+        if pair.depth.dtype == np.uint16:
+            depth *= setup.color_camera.depth_scale_m
+        points = setup.depth_pixel_rays() * np.where(depth > 0, depth, np.nan).reshape(-1, 1)
+        table_from_depth = np.linalg.inv(pose.camera_from_table) @ color_from_depth
+        points = points[np.isfinite(points).all(axis=1)] @ table_from_depth[:3, :3].T + table_from_depth[:3, 3]
+        on = (np.hypot(points[:, 0], points[:, 1]) < board.radius_m) & (np.abs(points[:, 2]) < _TABLE_BAND_M)
+        if np.count_nonzero(on) < 100:
+            continue
+        x, y, z = points[on].T
+        slope = np.linalg.lstsq(np.column_stack([x, y, np.ones_like(x)]), z, rcond=None)[0][:2]
+        tilts.append(float(np.degrees(np.arctan(np.hypot(*slope)))))
+    return float(np.median(tilts)) if tilts else None

@@ -160,6 +160,7 @@ def import_recording(
     board = load_board(board_path)
     start = time.perf_counter()
     source = open_recording(recording, options)
+    source.board = board
     with source, atomic_dir(Path(out_dir), force=force, inputs=[recording, Path(board_path)]) as tmp:
         setup = source.setup
         if options.depth_units_m is not None:

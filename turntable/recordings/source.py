@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from homemodel.geometry.camera import Camera
+from turntable.board import Board
 
 
 @dataclass(kw_only=True)
@@ -84,6 +85,9 @@ class FrameSource(abc.ABC):
 
     setup: StreamSetup
     counts: StreamCounts
+    # The turntable's board, when the caller has it: a depth camera placed by its edges is
+    # checked against the table the board's tags give.
+    board: Board | None = None
 
     def __enter__(self) -> FrameSource:
         self.counts = StreamCounts()

@@ -33,7 +33,13 @@ class TimedStreamsSource(FrameSource):
     def _place_depth_camera(self, chosen: list[tuple[int, int]]) -> None:
         """An unregistered depth whose pose the recording does not give: placed by a few frames'
         edges (`edge_placement`), else taken as seen from colour's own point, said either way."""
-        from turntable.recordings.edge_placement import MIN_AGREEMENT, SAMPLE_FRAMES, place_depth_camera
+        from turntable.recordings.edge_placement import (
+            MAX_TABLE_TILT_DEG,
+            MIN_AGREEMENT,
+            SAMPLE_FRAMES,
+            place_depth_camera,
+            table_tilt_deg,
+        )
 
         picked = sorted({chosen[round(k)] for k in np.linspace(0, len(chosen) - 1, min(SAMPLE_FRAMES, len(chosen)))})
         images = {(kind, index): image for kind, index, image in self.stream_images(picked)}
@@ -54,6 +60,13 @@ class TimedStreamsSource(FrameSource):
                 f"as well as there, under {MIN_AGREEMENT}x: chance's)"
             )
             return
+        tilt = None if self.board is None else table_tilt_deg(samples, self.setup, placement.color_from_depth, self.board)
+        if tilt is not None and tilt > MAX_TABLE_TILT_DEG:
+            raise InputError(
+                f"{self.path}: the recording does not give the depth camera's pose (no /tf_static, /tf or extrinsics "
+                f"topic), and placed by its edges the depth's table tilts {tilt:.1f} deg against the board's tags: "
+                "record it with the driver's /tf_static"
+            )
         self.setup.color_from_depth = placement.color_from_depth
         x_mm, y_mm = 1000 * placement.color_from_depth[:2, 3]
         turn_deg = np.degrees(np.arccos(np.clip((np.trace(placement.color_from_depth[:3, :3]) - 1) / 2, -1.0, 1.0)))
