@@ -63,6 +63,10 @@ def test_a_cluster_is_left_at_another_objects_colour_only_until_its_own_is_found
     view.around = lambda corners: (view,)
     monkeypatch.setattr(fso, "_scene_depth", lambda state, view: None)
     monkeypatch.setattr(fso, "_yaw_as_seen", lambda state, view, depth, object_id, best, cluster, search: best)
+    # What follows the starts (the misfit's descent, the place pinned, the relief) is not this test's.
+    monkeypatch.setattr(fso, "_settled", lambda state, view, depth, object_id, best, cluster, search: best)
+    monkeypatch.setattr(fso, "_pinned", lambda *args: True)
+    monkeypatch.setattr(fso, "_own_relief_seen", lambda *args: True)
     cluster = _Cluster(points=np.random.default_rng(0).uniform(-0.04, 0.04, (40, 3)) + [1.0, 0.0, 0.75],
                        owner="table_1", height_m=0.75, relation="on")
     bounds = np.array([[-0.04, -0.04, 0.0], [0.04, 0.04, 0.1]])
