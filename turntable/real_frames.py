@@ -13,7 +13,8 @@ import numpy as np
 FLYING_RELATIVE_JUMP = 0.02  # a pixel this far (x its depth) from a neighbour on both sides flies
 FLYING_MIN_JUMP_M = 0.005
 # The table turned less than this from the first (or last) frame has not started (or has
-# stopped): above the poses' noise (~0.05 deg), below a slow turn's step at 30 fps (0.4 deg).
+# stopped): above the poses' noise (~0.05 deg). A slow turn's step at 30 fps (0.4 deg) is under
+# it: its first (and last) two frames are left out of the fit too, which keeps the slope.
 STILL_TURN_RAD = math.radians(0.5)
 _NEAR_FACTOR = 1.5  # misregistration: depth jumps kept whose near side is within this times the nearest depths
 
