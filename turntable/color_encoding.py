@@ -23,7 +23,7 @@ import numpy as np
 
 from turntable.board import TAG_CELLS, tag_bits
 from turntable.capture import Capture, FrameError, read_color
-from turntable.tags import LINEAR_LEVELS, DetectionOptions, bilinear_levels, detect_tags, refine_edges
+from turntable.tags import LINEAR_LEVELS, DetectionOptions, bilinear_levels, detect_tags, profile_crossings, refine_edges
 
 ColorEncoding = Literal["linear", "srgb"]
 ENCODINGS: tuple[ColorEncoding, ...] = ("linear", "srgb")
@@ -100,17 +100,10 @@ def cell_edge_offsets_px(gray: np.ndarray, detections: dict[int, np.ndarray], en
         points.append(cv2.perspectiveTransform(cells.reshape(1, -1, 2), homography)[0].reshape(-1, len(_ACROSS), 2))
     pixels = np.concatenate(points)  # (P, M, 2)
     profiles = bilinear_levels(gray, levels, pixels[..., 0], pixels[..., 1])
-    dark = profiles[:, :_LEVEL_SAMPLES].mean(axis=1)
-    bright = profiles[:, -_LEVEL_SAMPLES:].mean(axis=1)
-    middle = (dark + bright) / 2
-    above = profiles >= middle[:, None]
-    rising = ~above[:, :-1] & above[:, 1:]
+    at, fraction, usable = profile_crossings(profiles, _LEVEL_SAMPLES, _MIN_CONTRAST)
     clipped = profiles.max(axis=1) >= levels[_CLIPPED]  # a white clipped by the exposure is no level
-    clear = (np.count_nonzero(rising, axis=1) == 1) & (bright - dark >= _MIN_CONTRAST) & ~clipped
-    i = np.argmax(rising, axis=1)
-    rows = np.arange(len(profiles))
-    before, after = profiles[rows, i], profiles[rows, i + 1]
-    crossing = _ACROSS[i] + (middle - before) / np.where(after - before > 1e-9, after - before, 1.0) * (_ACROSS[1] - _ACROSS[0])
+    clear = usable & ~clipped
+    crossing = _ACROSS[at % len(_ACROSS)] + fraction * (_ACROSS[1] - _ACROSS[0])
     px_per_cell = np.linalg.norm(pixels[:, -1] - pixels[:, 0], axis=-1) / (_ACROSS[-1] - _ACROSS[0])
     return (crossing * px_per_cell)[clear]
 

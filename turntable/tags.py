@@ -290,28 +290,11 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     levels = cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32))
     rows = (len(corners), -1)
     profiles = cv2.remap(levels, maps[0].reshape(rows), maps[1].reshape(rows), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    profiles = profiles.reshape(grid.shape)
-    k = max(2, steps // 5)
-    if k < 8:  # tag sides up to 95 px: np.mean on rows this short costs more than the rest of the
-        # profile's arithmetic; the k samples summed in order give its values bit for bit
-        # (from 8 on, it sums in pairs).
-        dark, bright = (sum(profiles[..., i] for i in range(start, start + k)) / np.float32(k) for start in (0, steps - k))
-    else:
-        dark, bright = profiles[..., :k].mean(axis=-1), profiles[..., -k:].mean(axis=-1)
-    contrast = bright - dark
-    midway = (dark + bright) / 2
-    above = profiles >= midway[..., None]
-    rising = above[..., 1:] > above[..., :-1]
-    usable = (rising.view(np.uint8).sum(axis=-1, dtype=np.uint8) == 1) & (contrast >= 0.05)  # (T, 4, N)
-    # Each profile's sample before its crossing, as a flat index into the (T, 4, N, M) arrays:
-    # one index for the gathers (take_along_axis built its own index arrays for each).
-    at = np.argmax(rising, axis=-1).ravel() + np.arange(0, profiles.size, steps)
+    at, fraction, usable = profile_crossings(profiles.reshape(grid.shape), max(2, steps // 5), 0.05)  # (T, 4, N)
 
     def sample(values: np.ndarray, after: int = 0) -> np.ndarray:  # (T, 4, N)
         return values.reshape(-1)[at + after].reshape(usable.shape)
 
-    before, after = sample(profiles) - midway, sample(profiles, 1) - midway  # the crossing needs no scaling
-    fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
     points = np.stack(
         [
             (1 - fraction) * (sample(axis_map).astype(np.float64) + origin)
@@ -340,6 +323,31 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     t = (rhs[..., 0] * (-d2[..., 1]) - (-d2[..., 0]) * rhs[..., 1]) / np.where(good, determinant, 1.0)
     refined = p1 + t[..., None] * d1
     return np.where(good[..., None], refined, corners), good
+
+
+def profile_crossings(profiles: np.ndarray, level_samples: int, min_contrast: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each profile (..., M) of linear intensities, dark end first, crosses halfway between
+    its dark and bright levels (the means of its first and last `level_samples` samples): the
+    sample before the crossing as a flat index into `profiles`, the crossing's fraction of the
+    step beyond it, and (...) whether the profile is usable (one crossing, its levels
+    `min_contrast` or more apart; elsewhere the fraction is 0)."""
+    steps, k = profiles.shape[-1], level_samples
+    if k < 8:  # `refined_edges` on tag sides up to 95 px, the cell edges' 4: np.mean on rows this
+        # short costs more than the rest of the profile's arithmetic; the k samples summed in
+        # order give its values bit for bit (from 8 on, it sums in pairs).
+        dark, bright = (sum(profiles[..., i] for i in range(start, start + k)) / profiles.dtype.type(k) for start in (0, steps - k))
+    else:
+        dark, bright = profiles[..., :k].mean(axis=-1), profiles[..., -k:].mean(axis=-1)
+    midway = (dark + bright) / 2
+    above = profiles >= midway[..., None]
+    rising = above[..., 1:] > above[..., :-1]
+    usable = (rising.view(np.uint8).sum(axis=-1, dtype=np.uint8) == 1) & (bright - dark >= min_contrast)
+    # One flat index for the gathers (take_along_axis built its own index arrays for each).
+    at = np.argmax(rising, axis=-1).ravel() + np.arange(0, profiles.size, steps)
+    flat = profiles.reshape(-1)
+    before, after = flat[at].reshape(usable.shape) - midway, flat[at + 1].reshape(usable.shape) - midway
+    fraction = np.where(usable, -before / np.where(after - before > 1e-9, after - before, 1.0), 0.0)
+    return at, fraction, usable
 
 
 def bilinear_levels(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
