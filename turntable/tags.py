@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import atexit
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Literal
@@ -272,11 +272,8 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
     # In 1/32 px units (scaling by 32 is exact), rounded, then as remap's float32 maps in the
     # frame of the pixels they reach (exact there too); x and y each (T, 4, N, M) through one
     # scratch array (each fresh array of these had cost more than its arithmetic).
-    height, width = gray.shape
     reach = half_width.max() + 1.0  # no sample lies farther than this beyond the corners' box
-    low, high = corners.min(axis=(0, 1)) - reach, corners.max(axis=(0, 1)) + reach
-    left, top = min(max(int(low[0]) - 1, 0), width - 2), min(max(int(low[1]) - 1, 0), height - 2)
-    right, bottom = max(min(int(high[0]) + 3, width), left + 2), max(min(int(high[1]) + 3, height), top + 2)
+    levels, left, top = _window_levels(gray, linear, corners.min(axis=(0, 1)) - reach, corners.max(axis=(0, 1)) + reach)
     grid = np.empty((*half_width.shape, len(_ALONG), steps))
     maps = np.empty((2, *grid.shape), np.float32)
     for axis, origin in ((0, left), (1, top)):
@@ -287,7 +284,6 @@ def refined_edges(gray: np.ndarray, corners: np.ndarray, linear: np.ndarray) -> 
         np.multiply(grid, 1.0 / _REMAP_GRID, out=maps[axis], casting="unsafe")
     # A tag's profiles in one row of the maps: remap runs faster on long rows (and a board has
     # far fewer tags than the rows remap allows).
-    levels = cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32))
     rows = (len(corners), -1)
     profiles = cv2.remap(levels, maps[0].reshape(rows), maps[1].reshape(rows), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     at, fraction, usable = profile_crossings(profiles.reshape(grid.shape), max(2, steps // 5), 0.05)  # (T, 4, N)
@@ -350,6 +346,20 @@ def profile_crossings(profiles: np.ndarray, level_samples: int, min_contrast: fl
     return at, fraction, usable
 
 
+def _window_levels(
+    gray: np.ndarray, linear: np.ndarray, low: Sequence[float] | np.ndarray, high: Sequence[float] | np.ndarray
+) -> tuple[np.ndarray, int, int]:
+    """The linear intensities (float32) of the pixels that points from `low` to `high` (x, y)
+    interpolate between, 2 x 2 at least, and the window's left and top pixel: only those
+    pixels are converted."""
+    import cv2
+
+    height, width = gray.shape
+    left, top = min(max(int(low[0]) - 1, 0), width - 2), min(max(int(low[1]) - 1, 0), height - 2)
+    right, bottom = max(min(int(high[0]) + 3, width), left + 2), max(min(int(high[1]) + 3, height), top + 2)
+    return cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32)), left, top
+
+
 def bilinear_levels(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The linear intensity (float32) at (x, y), interpolated between the four pixels around
     each point, points beyond the border taking the border's (as SciPy's map_coordinates with
@@ -358,10 +368,7 @@ def bilinear_levels(gray: np.ndarray, linear: np.ndarray, x: np.ndarray, y: np.n
     pixels or more."""
     import cv2
 
-    height, width = gray.shape
-    left, top = min(max(int(x.min()) - 1, 0), width - 2), min(max(int(y.min()) - 1, 0), height - 2)
-    right, bottom = max(min(int(x.max()) + 3, width), left + 2), max(min(int(y.max()) + 3, height), top + 2)
-    levels = cv2.LUT(gray[top:bottom, left:right], linear.astype(np.float32))  # only the pixels the points reach
+    levels, left, top = _window_levels(gray, linear, (x.min(), y.min()), (x.max(), y.max()))
     rows = (-1, x.shape[-1])
     map_x, map_y = (x - left).astype(np.float32).reshape(rows), (y - top).astype(np.float32).reshape(rows)
     # remap takes maps of fewer than 32767 rows (a board of ~700 tags would fill them).
