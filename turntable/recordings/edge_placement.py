@@ -52,14 +52,19 @@ class _Edges:
     wide: np.ndarray  # and by _COARSE_BLUR_PX (the coarse grid)
 
 
-def _edges(pair: RgbdPair, setup: StreamSetup) -> _Edges | None:
-    import cv2
-
+def _depth_m(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
+    """The pair's depth in metres in the depth camera's pixels, NaN where it reads none (0, or NaN in a float depth)."""
     depth = pair.depth.astype(np.float64)
     if pair.depth.dtype == np.uint16:
         depth *= setup.color_camera.depth_scale_m
     depth[~(depth > 0)] = np.nan
-    depth = drop_flying_pixels(depth)[0].astype(np.float64)
+    return depth
+
+
+def _edges(pair: RgbdPair, setup: StreamSetup) -> _Edges | None:
+    import cv2
+
+    depth = drop_flying_pixels(_depth_m(pair, setup))[0].astype(np.float64)
     front = np.zeros(depth.shape, dtype=bool)
     with np.errstate(invalid="ignore"):
         for near, far, near_at, far_at in (
@@ -182,10 +187,7 @@ def table_tilt_deg(pairs: list[RgbdPair], setup: StreamSetup, color_from_depth: 
         pose = board_pose(pair.color, board, setup.color_camera)
         if pose is None:
             continue
-        depth = pair.depth.astype(np.float64)
-        if pair.depth.dtype == np.uint16:
-            depth *= setup.color_camera.depth_scale_m
-        points = setup.depth_pixel_rays() * np.where(depth > 0, depth, np.nan).reshape(-1, 1)
+        points = setup.depth_pixel_rays() * _depth_m(pair, setup).reshape(-1, 1)
         table_from_depth = np.linalg.inv(pose.camera_from_table) @ color_from_depth
         points = points[np.isfinite(points).all(axis=1)] @ table_from_depth[:3, :3].T + table_from_depth[:3, 3]
         on = (np.hypot(points[:, 0], points[:, 1]) < board.radius_m) & (np.abs(points[:, 2]) < _TABLE_BAND_M)
