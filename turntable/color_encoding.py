@@ -113,11 +113,11 @@ def measured_encoding(grays: list[np.ndarray], detection: DetectionOptions) -> E
     squares put them, when the two curves' readings say so clearly; else sRGB, assumed. None when
     no image shows a tag."""
     offsets: dict[str, list[np.ndarray]] = {e: [] for e in ENCODINGS}
+    options = DetectionOptions(detector=detection.detector, max_hamming=detection.max_hamming, edge_refinement=False)
     for gray in grays:
-        options = DetectionOptions(detector=detection.detector, max_hamming=detection.max_hamming, edge_refinement=False)
-        found = detect_tags(gray, options)
-        for encoding in ENCODINGS if found else ():
-            offsets[encoding].append(cell_edge_offsets_px(gray, found, encoding))
+        if found := detect_tags(gray, options):
+            for encoding in ENCODINGS:
+                offsets[encoding].append(cell_edge_offsets_px(gray, found, encoding))
     measured = {e: np.concatenate(o) if o else np.zeros(0) for e, o in offsets.items()}
     count = min(len(o) for o in measured.values())
     if count == 0:
