@@ -19,6 +19,7 @@ from turntable.board import Board, load_board
 
 COLOR_SUFFIXES = (".png", ".jpg", ".jpeg")
 DEPTH_SUFFIXES = (".png", ".exr")
+SIMULATION_JSON = "simulation.json"  # `turntable simulate`'s options, beside the frames it rendered
 
 
 @dataclass(kw_only=True)
@@ -92,7 +93,7 @@ def load_capture(folder: Path) -> Capture:
         frames=[FramePaths(stem=s, color=colors[s], depth=depths[s]) for s in stems],
         unpaired=sorted(set(colors) ^ set(depths)),
         recording=recording,
-        simulated=(folder / "simulation.json").is_file(),  # turntable.simulate.SIMULATION_JSON, not imported for a name
+        simulated=(folder / SIMULATION_JSON).is_file(),
     )
 
 

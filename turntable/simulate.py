@@ -37,6 +37,7 @@ from homemodel.core.input_files import read_bounded
 from homemodel.core.progress import Progress, no_progress
 from homemodel.core.transforms import world_from_camera_looking_at
 from turntable.board import Board, grid_board, load_board, save_board
+from turntable.capture import SIMULATION_JSON
 from homemodel.geometry.camera import Camera, load_camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from homemodel.geometry.raycast import RayCaster
@@ -44,7 +45,6 @@ from homemodel.exchange.cameras import TRUE_CAMERAS_FILE, CameraView, read_camer
 
 NOISE_REFERENCE_DEPTH_M = 0.7
 GROUND_TRUTH = "ground_truth.ply"
-SIMULATION_JSON = "simulation.json"
 MAX_FRAMES = 3600  # ten a degree
 MAX_CYCLES_SAMPLES = 4096
 _TABLE_THICKNESS_M = 0.02
