@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from spec_edits import write_spec
+from spec_edits import with_field, write_spec
 
 from homemodel.core.errors import SpecError
 from modeller.spec_loading import load_spec
@@ -532,3 +532,73 @@ def test_the_face_frame_unit_measured_at_the_free_corner_has_its_hinge_lines_too
     spec = load_spec(write_spec(tmp_path, _unit_spec("free_corner")))
     for k, door in enumerate(spec.doors):
         assert np.linalg.norm(door_hinge_point_m(spec, door)[:2] - axes[k]) < 0.005  # 0.9 and 0.8 mm measured
+
+
+# ---------------------------------------------------------------------------- a chest whose top overhangs
+
+CHEST_W, CHEST_D, CARCASS_H, SLAB_T = 0.8, 0.45, 0.84, 0.022
+SLAB_OUT = {"front_m": 0.025, "sides_m": 0.015, "back_m": 0.004}  # past the carcass' faces
+
+
+def _real_chest() -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """The chest's carcass under its top slab, and its top drawer's front (closed)."""
+    half_w, half_d, out = CHEST_W / 2, CHEST_D / 2, SLAB_OUT
+    carcass = [
+        _box((-half_d, -half_w, 0.0), (half_d, -half_w + T, CARCASS_H)),
+        _box((-half_d, half_w - T, 0.0), (half_d, half_w, CARCASS_H)),
+        _box((-half_d, -half_w, 0.0), (-half_d + T, half_w, CARCASS_H)),
+        _box((-half_d, -half_w, 0.0), (half_d, half_w, T)),
+    ]
+    slab = _box((-half_d - out["back_m"], -half_w - out["sides_m"], CARCASS_H),
+                (half_d + out["front_m"], half_w + out["sides_m"], CARCASS_H + SLAB_T))
+    front = _box((half_d + GAP, -half_w + 0.002, 0.45), (half_d + GAP + DOOR, half_w - 0.002, CARCASS_H - 0.003))
+    return trimesh.util.concatenate([*carcass, slab]), front
+
+
+def _chest_spec(body: trimesh.Trimesh, front: trimesh.Trimesh) -> dict:
+    """The installer's readings: the outer size and the slab's overhangs by a straight edge laid
+    along the carcass' front, each side and the back, to the slab's edge."""
+    (fx0, fy0, fz0), (_, fy1, fz1) = front.bounds
+    drawer = {"left_m": _read(fy0 + CHEST_W / 2), "width_m": _read(fy1 - fy0), "bottom_m": _read(fz0),
+              "height_m": _read(fz1 - fz0), "depth_m": 0.4, "travel_m": 0.35, "handle": {"type": "none"}}
+    return {"kind": "cupboard", "width_m": CHEST_W, "depth_m": CHEST_D, "height_m": _read(body.bounds[1, 2]),
+            "door_gap_m": _read(fx0 - CHEST_D / 2), "top_thickness_m": SLAB_T,
+            "top_overhang": {side: _read(value) for side, value in SLAB_OUT.items()}, "doors": [], "drawers": [drawer]}
+
+
+@pytest.mark.bpy
+def test_a_top_slab_overhanging_the_carcass_is_built_as_far_out_as_the_real_one(tmp_path: Path) -> None:
+    from modeller import build_model
+
+    real_body, real_front = _real_chest()
+    model = build_model(write_spec(tmp_path, _chest_spec(real_body, real_front)))
+    world = model.world_from_links()
+    body = np.concatenate(
+        [trimesh.transform_points(v.mesh.vertices, world["body"] @ v.link_from_visual) for v in model.link("body").visuals]
+    )
+    # The body's extent is the slab's: out past the front, each side and the back by the tape.
+    assert np.allclose([body.min(0), body.max(0)], real_body.bounds, atol=TAPE_STEP_M)
+    # Its collision too, and the drawer's front closes under the slab, not into it.
+    slab = real_body.bounds.copy()
+    slab[0, 2] = CARCASS_H
+    assert np.allclose(_box_bounds(model, "body", "carcass_top"), slab, atol=TAPE_STEP_M)
+    drawer = np.concatenate(
+        [trimesh.transform_points(v.mesh.vertices, world["drawer_0"] @ v.link_from_visual) for v in model.link("drawer_0").visuals]
+    )
+    assert drawer[:, 2].max() == pytest.approx(real_front.bounds[1, 2], abs=TAPE_STEP_M)
+    assert drawer[:, 2].max() < CARCASS_H
+
+
+def test_an_overhanging_top_refuses_an_open_top_and_fronts_reaching_into_it(tmp_path: Path) -> None:
+    real_body, real_front = _real_chest()
+    data = _chest_spec(real_body, real_front)
+    load_spec(write_spec(tmp_path, data))
+    cases = [
+        ("top_panel", False, r"top_overhang: an open top \(top_panel: false\) has no top to overhang"),
+        ("drawers.0.height_m", 0.4, r"top_overhang\.front_m: a top 0\.025 m over the front would cut drawer 0, "
+                                    r"which reaches 0\.850 m up, past the top's underside at 0\.840 m"),
+        ("top_overhang.sides_m", -0.01, r"top_overhang\.sides_m: Input should be greater than or equal to 0"),
+    ]
+    for dotted, value, message in cases:
+        with pytest.raises(SpecError, match=message):
+            load_spec(write_spec(tmp_path, with_field(data, dotted, value), "case.yaml"))

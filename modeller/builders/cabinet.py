@@ -171,7 +171,7 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
     centre = (0.0, 0.0, (bottom + top) / 2)
     mesh = box_mesh("body", size, centre)
     # Boards of their own thickness are boxes of their own, not the shell's faces.
-    own_top = not spec.top_panel or spec.top_thickness_m is not None
+    own_top = not spec.top_panel or spec.top_thickness_m is not None or spec.top_overhang is not None
     own_bottom = spec.bottom_thickness_m is not None or spec.bottom_raise_m > 0
     open_faces = ["+x"] + (["+z"] if own_top else []) + (["-z"] if own_bottom else [])
     open_faces += [] if spec.back_panel is None else ["-x"]
@@ -212,13 +212,19 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
 
 def _carcass_extras(spec: CabinetSpec) -> list[tuple[str, tuple[float, float, float], tuple[float, float, float]]]:
     """(name, size, centre) of the carcass' boxes beyond its shell: a top and a bottom of their
-    own thickness (between the sides), a back panel set in from the back edge, and a face
-    frame's stiles and rails round the front opening."""
+    own thickness (between the sides; a top standing out past them lies over them), a back
+    panel set in from the back edge, and a face frame's stiles and rails round the front
+    opening."""
     parts = []
     bottom, top = spec.carcass_bottom_m, spec.carcass_top_m
     half_w, t = spec.width_m / 2, spec.wall_thickness_m
     between_sides = spec.width_m - 2 * t
-    if spec.top_panel and spec.top_thickness_m is not None:
+    over = spec.top_overhang
+    if spec.top_panel and over is not None:
+        # A slab over the sides' and back's top edges, standing out past them.
+        size = (spec.depth_m + over.front_m + over.back_m, spec.width_m + 2 * over.sides_m, spec.top_board_m)
+        parts.append(("carcass_top", size, ((over.front_m - over.back_m) / 2, 0.0, top - spec.top_board_m / 2)))
+    elif spec.top_panel and spec.top_thickness_m is not None:
         size = (spec.depth_m, between_sides, spec.top_board_m)
         parts.append(("carcass_top", size, (0.0, 0.0, top - spec.top_board_m / 2)))
     if spec.bottom_thickness_m is not None or spec.bottom_raise_m > 0:

@@ -10,7 +10,17 @@ from typing import ClassVar
 
 from pydantic import Field
 
-from modeller.specs.cabinet_parts import BackPanel, Divider, DoorSpec, DrawerSpec, FaceFrame, Panel, Shelf, TopRail
+from modeller.specs.cabinet_parts import (
+    BackPanel,
+    Divider,
+    DoorSpec,
+    DrawerSpec,
+    FaceFrame,
+    Panel,
+    Shelf,
+    TopOverhang,
+    TopRail,
+)
 from modeller.specs.common import Colour, Length, ObjectSpec, Offset
 from modeller.specs.handles import ControlKnob, PushButton
 
@@ -33,6 +43,7 @@ class CabinetBody(ObjectSpec):
     wall_thickness_m: Length = Field(0.018, description="sides, top, bottom (and back, without back_panel)")
     top_panel: bool = Field(True, description="false: no top (a base unit under a worktop)")
     top_thickness_m: Length | None = Field(None, description="the top's own thickness; default: wall_thickness_m")
+    top_overhang: TopOverhang | None = Field(None, description="default: a top flush with the carcass")
     bottom_thickness_m: Length | None = Field(None, description="the bottom's own thickness; default: wall_thickness_m")
     bottom_raise_m: Offset = Field(
         0.0, description="from the carcass' underside (the plinth's top) up to the bottom board: a void under it"

@@ -248,6 +248,15 @@ class FaceFrame(_Spec):
     rails: list[FrameRail] = Field([], description="middle rails")
 
 
+class TopOverhang(_Spec):
+    """A top slab wider or deeper than the carcass (a chest's, a desk's): how far it stands out
+    past the carcass' faces; the sides and back reach up under it."""
+
+    front_m: Offset = Field(0.0, description="past the body's front plane (not the fronts')")
+    sides_m: Offset = Field(0.0, description="past each side panel's outer face")
+    back_m: Offset = Field(0.0, description="past the back's outer face")
+
+
 class TopRail(_Spec):
     """A rail (cleat) across an open top, side to side, flush with the sides' top edges."""
 

@@ -99,8 +99,8 @@ def _check_walls(spec: CabinetBody) -> None:
 
 
 def _check_frame_and_top(spec: CabinetBody) -> None:
-    """A face frame's members on the front, its overhang narrower than its stiles; top rails
-    over an open top."""
+    """A face frame's members on the front, its overhang narrower than its stiles; a top's
+    overhang; top rails over an open top."""
     frame = spec.face_frame
     if frame is not None and frame.overhang_m >= frame.width_m:
         raise FieldError(
@@ -123,6 +123,7 @@ def _check_frame_and_top(spec: CabinetBody) -> None:
                     (*where, "bottom_m"),
                     f"spans {m_bottom:.3f}..{m_top:.3f} m up, not inside the frame's opening {bottom:.3f}..{top:.3f} m",
                 )
+    _check_top_overhang(spec)
     if spec.top_rails and spec.top_panel:
         raise FieldError(("top_rails",), "rails go across an open top; give top_panel: false")
     for i, rail in enumerate(spec.top_rails):
@@ -134,6 +135,26 @@ def _check_frame_and_top(spec: CabinetBody) -> None:
         thickness = spec.top_board_m if rail.thickness_m is None else rail.thickness_m
         if spec.carcass_top_m - thickness < spec.inner_floor_m:
             raise FieldError(("top_rails", i, "thickness_m"), f"a rail {thickness} m thick fills the body")
+
+
+def _check_top_overhang(spec: CabinetBody) -> None:
+    """An overhanging top needs a top; standing out over the fronts, it leaves them below it."""
+    over = spec.top_overhang
+    if over is None:
+        return
+    if not spec.top_panel:
+        raise FieldError(("top_overhang",), "an open top (top_panel: false) has no top to overhang")
+    if over.front_m <= spec.door_gap_m:
+        return
+    underside = spec.carcass_top_m - spec.top_board_m
+    for group in ("doors", "drawers", "panels"):
+        for i, front in enumerate(getattr(spec, group) or []):
+            if front.top_m > underside + _TAPE_SLACK_M:
+                raise FieldError(
+                    ("top_overhang", "front_m"),
+                    f"a top {over.front_m} m over the front would cut {group[:-1]} {i}, which reaches "
+                    f"{front.top_m:.3f} m up, past the top's underside at {underside:.3f} m",
+                )
 
 
 def _check_shelves_and_dividers(spec: CabinetBody) -> None:
