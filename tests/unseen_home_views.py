@@ -6,7 +6,7 @@ A bedroom and a utility corner stand in one room. Real pieces, made here of trim
 - a wardrobe whose two doors meet in the middle, on concealed hinges, bar handles, a recessed
   plinth, clothes hanging inside;
 - a chest of four graduated drawers, dark fronts (more dropouts), two knobs a drawer, a top
-  slab overhanging the carcass;
+  slab overhanging the carcass (read into the spec's `top_overhang`);
 - a bedside table on four legs (its spec says a plinth), a drawer over a right-hinged door;
 - a front-loading washing machine, its round door with a glass porthole (the sensor sees
   through it or not at all) on a hinge off the door's rim;
@@ -244,13 +244,17 @@ def _drawer(rng, link: str, y0: float, y1: float, z0: float, z1: float, d: float
     return Mover(link, f"{link}_slide", solids, np.zeros(3), _axis_tilt(rng, (1, 0, 0), 0.4), False, travel)
 
 
-def chest(rng: np.random.Generator) -> Piece:
+def chest(rng: np.random.Generator, slab_tape: np.random.Generator) -> Piece:
+    """`slab_tape` reads the top slab (a generator of its own: the other readings and views stay
+    as they were before the spec had a field for it)."""
     w, d, carcass_h = rng.uniform(0.78, 0.84), rng.uniform(0.44, 0.47), rng.uniform(0.82, 0.86)
     t, plinth, top = 0.018, rng.uniform(0.05, 0.07), 0.022
+    front_out, sides_out = 0.025, 0.015  # the slab past the carcass' front and sides; flush at the back
     walnut, front_rgb = (0.38, 0.25, 0.16), (0.16, 0.11, 0.08)
     body = _carcass(w, d, carcass_h, t, plinth, walnut)
     body += [Solid(box(-d / 2 + 0.02, d / 2 - 0.03, -w / 2 + 0.01, w / 2 - 0.01, 0.0, plinth), walnut),
-             Solid(rounded_box(-d / 2, d / 2 + 0.025, -w / 2 - 0.015, w / 2 + 0.015, carcass_h, carcass_h + top, 0.006), walnut)]
+             Solid(rounded_box(-d / 2, d / 2 + front_out, -w / 2 - sides_out, w / 2 + sides_out, carcass_h,
+                               carcass_h + top, 0.006), walnut)]
     heights = np.array([0.215, 0.2, 0.185, 0.17])
     heights *= (carcass_h - plinth - 5 * 0.003) / heights.sum()
     movers, drawers, z = [], [], plinth + 0.003
@@ -265,6 +269,10 @@ def chest(rng: np.random.Generator) -> Piece:
     spec = {"kind": "cupboard", "width_m": _tape(rng, w), "depth_m": _tape(rng, d), "height_m": _tape(rng, h),
             "plinth_height_m": _tape(rng, plinth), "plinth_recess_m": 0.03, "doors": [], "drawers": drawers,
             "colour": [0.38, 0.25, 0.16]}
+    # The README's guide: a straight edge along the carcass' front and each side, the tape from it
+    # to the slab's edge; the slab's thickness at its edge.
+    spec["top_thickness_m"] = _tape(slab_tape, top)
+    spec["top_overhang"] = {"front_m": _tape(slab_tape, front_out), "sides_m": _tape(slab_tape, sides_out)}
     return Piece("chest", spec, body, movers, top_z=h)
 
 
@@ -471,7 +479,8 @@ def pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
 
 def make_home(seed: int = 0) -> Home:
     rng = np.random.default_rng(seed)
-    pieces = {p.id: p for p in (wardrobe(rng), chest(rng), bedside(rng), washer(rng), worktop(rng))}
+    pieces = {p.id: p for p in (wardrobe(rng), chest(rng, np.random.default_rng([seed, 2])), bedside(rng), washer(rng),
+                                worktop(rng))}
     pieces["wall_cupboard"] = wall_cupboard(rng, pieces["worktop"].top_z + rng.uniform(0.5, 0.56))
     pieces["mug"], pieces["plate"] = cup(rng), plate(rng)
     later = np.random.default_rng([seed, 1])  # pieces added later: the first ones' draws kept
@@ -504,8 +513,10 @@ def _xyz_rpy(m: np.ndarray) -> dict:
 
 def _checked_by_installer(spec: dict) -> dict:
     """Fronts read past the body's sides or top by the tape's error are read again: each front
-    kept 1 mm inside the body's width and height (the modeller refuses a front off its body)."""
-    top = spec["height_m"] + spec.get("mount_height_m", 0.0)
+    kept 1 mm inside the body's width and height, and under a top slab standing out over it
+    (the modeller refuses a front off its body or into its top)."""
+    slab = spec["top_thickness_m"] if "top_overhang" in spec else 0.0
+    top = spec["height_m"] + spec.get("mount_height_m", 0.0) - slab
     for front in spec.get("doors", []) + spec.get("drawers", []):
         front["left_m"] = max(front["left_m"], 0.001)
         front["width_m"] = round(min(front["width_m"], spec["width_m"] - 0.001 - front["left_m"]), 4)
