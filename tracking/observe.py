@@ -15,6 +15,8 @@ keeps the old value in the object's history.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -375,12 +377,8 @@ def _judged_as_written(
                  and abs(positions[name] - previous[name]) > (AGREE_M if node.joint(name).type == "prismatic" else AGREE_RAD)}
     if not verdict.accepted or not unwritten:
         return verdict
-    judged, estimates = state.map_from_objects[object_id].copy(), dict(positions)
-    state.map_from_objects[object_id] = refined
-    positions.update(unwritten)
-    as_written = judge_pose(state, view, object_id, map_from_before, inlier_fraction, background, options.pose_gate)
-    positions.update(estimates)
-    state.map_from_objects[object_id] = judged
+    with _object_at(state, object_id, refined, unwritten):
+        as_written = judge_pose(state, view, object_id, map_from_before, inlier_fraction, background, options.pose_gate)
     if as_written.accepted:
         return verdict
     return PoseVerdict(accepted=False, note=f"{as_written.note} with {', '.join(unwritten)} at the map's position",
@@ -511,21 +509,31 @@ def _joints_or_the_body(
         agree, reach = (AGREE_M, POSE_DOUBT_M) if node.joint(reference).type == "prismatic" else (AGREE_RAD, 2 * DOUBT_RAD)
         if not agree < offs[reference] <= reach:
             continue
-        fitted = dict(positions)
-        less = {**fitted, **{name: positions[name] - offs[reference] for name in group}}
-        pose = state.map_from_objects[object_id].copy()
+        less = {**positions, **{name: positions[name] - offs[reference] for name in group}}
         as_fitted = _object_depth(state, view, parts)
-        state.map_from_objects[object_id] = pose @ _holding(state, object_id, reference, less)
-        positions.update(less)
-        body_moved = _object_depth(state, view, parts)
-        state.map_from_objects[object_id] = pose
-        positions.update(fitted)
+        with _object_at(state, object_id, state.map_from_objects[object_id] @ _holding(state, object_id, reference, less),
+                        less):
+            body_moved = _object_depth(state, view, parts)
         fitted_cost, moved_cost = scene_costs(view, [as_fitted, body_moved], background)
         if moved_cost <= fitted_cost + options.min_contrast:
             for name in group:
                 if results[name][0] == "fitted":
                     results[name] = ("ambiguous", results[name][1])
                     positions[name] = previous[name]
+
+
+@contextmanager
+def _object_at(state: FitState, object_id: str, map_from_object: np.ndarray, positions: dict[str, float]) -> Iterator[None]:
+    """The object at `map_from_object`, its joints at `positions`, for the block: a hypothesis
+    rendered or judged; then back as it was."""
+    pose, joints = state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])
+    state.map_from_objects[object_id] = map_from_object
+    state.joint_positions[object_id].update(positions)
+    try:
+        yield
+    finally:
+        state.map_from_objects[object_id] = pose
+        state.joint_positions[object_id].update(joints)
 
 
 def _holding(state: FitState, object_id: str, joint: str, positions: dict[str, float]) -> np.ndarray:
@@ -564,18 +572,15 @@ def _turned_with_the_body(
         if (status != "fitted" or joint.type == "prismatic" or joint.limits is None
                 or model.joint(name).parent != model.root_link or options.search(joint).detents):
             continue
-        pose, fitted = state.map_from_objects[object_id].copy(), dict(positions)
         as_fitted = np.minimum(_object_depth(state, view, parts), background)
         for turn in (sign * t for t in HINGE_TURNS_RAD for sign in (-1.0, 1.0)):
-            back = {**fitted, name: fitted[name] - turn}
+            back = {**positions, name: positions[name] - turn}
             if not joint.limits[0] <= back[name] <= joint.limits[1]:
                 continue
-            state.map_from_objects[object_id] = pose @ _holding(state, object_id, name, back)
-            positions.update(back)
-            turned = None if past_the_doubt(state, object_id, map_from_before, options.pose_gate) else \
-                np.minimum(_object_depth(state, view, parts), background)
-            state.map_from_objects[object_id] = pose
-            positions.update(fitted)
+            with _object_at(state, object_id, state.map_from_objects[object_id] @ _holding(state, object_id, name, back),
+                            back):
+                turned = None if past_the_doubt(state, object_id, map_from_before, options.pose_gate) else \
+                    np.minimum(_object_depth(state, view, parts), background)
             if turned is not None and not _told_apart(view, as_fitted, turned, background, options):
                 results[name] = ("ambiguous", results[name][1])
                 break
@@ -631,21 +636,15 @@ def _all_shut_in_a_refitted_body(
     if not written_off:
         return
     # Both with the body refitted the same way: the shut parts are judged, not the pose.
-    fitted = dict(positions)
     as_fitted, _ = _refitted_depth(state, view, object_id, background, options, pose_kwargs)
-    shut = {**fitted, **{name: node.joint(name).limits[0] for name in near}}
-    positions.update(shut)
-    all_shut, within = _refitted_depth(state, view, object_id, background, options, pose_kwargs)
+    shut = {**positions, **{name: node.joint(name).limits[0] for name in near}}
+    with _object_at(state, object_id, state.map_from_objects[object_id], shut):
+        all_shut, within = _refitted_depth(state, view, object_id, background, options, pose_kwargs)
     hypotheses = [all_shut] if within else []
-    pose = state.map_from_objects[object_id].copy()
     for name in near:
-        positions.update(fitted)
-        state.map_from_objects[object_id] = map_from_fitted @ _holding(state, object_id, name, shut)
-        positions.update(shut)
-        if not past_the_doubt(state, object_id, map_from_before, options.pose_gate):
-            hypotheses.append(_object_depth(state, view, state.object_parts(object_id)))
-    state.map_from_objects[object_id] = pose
-    positions.update(fitted)
+        with _object_at(state, object_id, map_from_fitted @ _holding(state, object_id, name, shut), shut):
+            if not past_the_doubt(state, object_id, map_from_before, options.pose_gate):
+                hypotheses.append(_object_depth(state, view, state.object_parts(object_id)))
     if not hypotheses:
         return
     fitted_cost, *shut_costs = scene_costs(view, [as_fitted, *hypotheses], background)
