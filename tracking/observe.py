@@ -595,7 +595,8 @@ def _told_apart(view: FitView, fitted: np.ndarray, other: np.ndarray, background
     """Whether the object rendered at `fitted` explains the depth better than at `other` (both
     in front of `background`) on the pixels where they differ, by `min_contrast` of them and
     `min_contrast_pixels` pixels' worth."""
-    differ = ((fitted < background) | (other < background)) & ~(np.abs(fitted - other) < SAME_SURFACE_M)
+    with np.errstate(invalid="ignore"):  # inf - inf where neither hits and nothing is behind: not the same surface
+        differ = ((fitted < background) | (other < background)) & ~(np.abs(fitted - other) < SAME_SURFACE_M)
     fitted_cost, other_cost = depth_costs(view, [fitted, other], differ)
     contrast = other_cost - fitted_cost
     return bool(contrast > options.min_contrast and contrast * differ.sum() >= options.min_contrast_pixels)
