@@ -25,6 +25,7 @@ from unseen_pieces import MAKERS, Mover, RealPiece
 
 from homemodel.core.transforms import transform_from_xyz_rpy
 from prior_maps import write_prior_map
+from tracking.report import ObjectReport
 from tracking.scene import HomeScene, Part
 
 # (map id, maker, seed) left to right along the wall at x = 0, fronts facing +x.
@@ -224,6 +225,14 @@ class RealPieceScene(HomeScene):
                 mover = self.movers[(part.object_id, part.link)]
                 poses.append(objects[part.object_id] @ real_move(mover, positions[part.object_id][mover.joint]))
         return poses
+
+
+def pose_errors(obj: ObjectReport, true_pose: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((the map's, the written) origin error in m, (the map's, the written) turn error in deg)."""
+    errors = [np.linalg.inv(true_pose) @ p for p in (obj.previous_map_from_object, obj.map_from_object)]
+    shifts = tuple(float(np.linalg.norm(e[:2, 3])) for e in errors)
+    turns = tuple(abs(float(np.degrees(np.arctan2(e[1, 0], e[0, 0])))) for e in errors)
+    return shifts, turns
 
 
 def write_prior(map_path: Path, offsets: dict[str, tuple[float, float, float]], out: Path) -> Path:

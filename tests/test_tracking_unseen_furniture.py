@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from real_piece_views import built_home
+from real_piece_views import built_home, pose_errors
 
 from homemodel.core.transforms import transform_from_xyz_rpy, world_from_camera_looking_at
 from homemodel.geometry.camera import Camera
@@ -25,7 +25,6 @@ from prior_maps import write_prior_map
 from tracking import observe
 from tracking.fit_state import FitState
 from tracking.pose_gate import PoseGate, past_the_doubt
-from tracking.report import ObjectReport
 from tracking.scene import HomeScene
 from tracking.sensor_noise import SensorNoise
 from tracking.simulate_view import SmallObjectMove, ViewOptions, ViewSimulator, unlike_their_models, write_view
@@ -194,14 +193,6 @@ def _chest_seen(furniture: ViewSimulator, distance_m: float, bearing_deg: float)
     return furniture.camera_looking_at("chest_1", distance_m=distance_m, height_m=1.4, bearing_deg=bearing_deg), options
 
 
-def _pose_errors(obj: ObjectReport, true_pose: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
-    """((the map's, the written) origin error in m, (the map's, the written) turn error in deg)."""
-    errors = [np.linalg.inv(true_pose) @ p for p in (obj.previous_map_from_object, obj.map_from_object)]
-    shifts = tuple(float(np.linalg.norm(e[:2, 3])) for e in errors)
-    turns = tuple(abs(float(np.degrees(np.arctan2(e[1, 0], e[0, 0])))) for e in errors)
-    return shifts, turns
-
-
 def test_a_neighbour_seen_by_its_side_at_the_edge_keeps_the_maps_origin(
     other_room: Path, other_furniture: ViewSimulator, tmp_path: Path
 ) -> None:
@@ -212,7 +203,7 @@ def test_a_neighbour_seen_by_its_side_at_the_edge_keeps_the_maps_origin(
     result, truth = _observed(other_furniture, prior, tmp_path / "obs", *_chest_seen(other_furniture, 2.3, -5.0))
     wardrobe = next(o for o in result.report.objects if o.id == "wardrobe_1")
     assert wardrobe.pose_refined and "cut by the image's edge" in wardrobe.pose_note  # the case looked at
-    (before, after), (_, turn) = _pose_errors(wardrobe, np.array(truth["objects"]["wardrobe_1"]["map_from_object"]))
+    (before, after), (_, turn) = pose_errors(wardrobe, np.array(truth["objects"]["wardrobe_1"]["map_from_object"]))
     assert after <= before + 0.002, (wardrobe.pose_note, before, after)
     assert turn <= 0.5, turn  # put right (the map's 2 deg)
 
@@ -229,7 +220,7 @@ def test_a_sliver_of_a_neighbour_turned_far_off_is_not_written(
     view = other_furniture.render(CAMERA, map_from_camera, options)
     result = observe(prior, view.observation)  # in memory: read from its files, it is not fitted at all
     wardrobe = next(o for o in result.report.objects if o.id == "wardrobe_1")
-    (before, after), (turn_before, turn_after) = _pose_errors(
+    (before, after), (turn_before, turn_after) = pose_errors(
         wardrobe, np.array(view.observation.truth["objects"]["wardrobe_1"]["map_from_object"]))
     assert after <= before + 0.002 and turn_after <= turn_before + 0.5, (wardrobe.pose_note, after, turn_after)
 
