@@ -582,6 +582,9 @@ def test_a_top_slab_overhanging_the_carcass_is_built_as_far_out_as_the_real_one(
     slab = real_body.bounds.copy()
     slab[0, 2] = CARCASS_H
     assert np.allclose(_box_bounds(model, "body", "carcass_top"), slab, atol=TAPE_STEP_M)
+    # The sides and back end under the slab, as the real ones do, not through it.
+    walls = [_box_bounds(model, "body", c.name) for c in model.link("body").collisions if c.name != "carcass_top"]
+    assert max(wall[1, 2] for wall in walls) == pytest.approx(CARCASS_H, abs=TAPE_STEP_M)
     drawer = np.concatenate(
         [trimesh.transform_points(v.mesh.vertices, world["drawer_0"] @ v.link_from_visual) for v in model.link("drawer_0").visuals]
     )

@@ -167,6 +167,8 @@ def build_cabinet(spec: CabinetSpec, name: str, *, category: str, affordances: l
 def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
     t = spec.wall_thickness_m
     bottom, top = spec.carcass_bottom_m, spec.carcass_top_m
+    if spec.top_panel and spec.top_overhang is not None:
+        top -= spec.top_board_m  # the sides and back end under the slab, which lies on them
     size = (spec.depth_m, spec.width_m, top - bottom)
     centre = (0.0, 0.0, (bottom + top) / 2)
     mesh = box_mesh("body", size, centre)
