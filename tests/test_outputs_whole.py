@@ -17,7 +17,7 @@ from cli_promise import REPO, assert_refused, listing, run_cli, run_here
 from sample_house import box_model
 
 from homemodel.core.atomic import atomic_dir, write_bytes_atomic
-from homemodel.core.errors import OutputExistsError, SpecError
+from homemodel.core.errors import OutputError, OutputExistsError, SpecError
 from homemodel.exchange.model_files import export_model
 from modeller import load_spec
 
@@ -152,6 +152,14 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(tmp_path: Path) -> None:
     run = run_cli("turntable", "board", "--out", tmp_path / "board", file_size_bytes=20_000)
     assert_refused(run, names=tmp_path / "board", watch=tmp_path, before=before)
     assert "File too large" in run.stderr
+
+
+def test_a_file_output_given_as_a_folder_is_refused_in_words_and_the_folder_kept(tmp_path: Path) -> None:
+    folder = tmp_path / "report.json"
+    (folder / "inside").mkdir(parents=True)
+    with pytest.raises(OutputError, match=r"report\.json: cannot write: Is a directory"):
+        write_bytes_atomic(folder, b"{}")
+    assert (folder / "inside").is_dir() and _temporaries(tmp_path) == []
 
 
 def test_an_immutable_output_folder_is_one_line(tmp_path: Path) -> None:

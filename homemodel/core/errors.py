@@ -9,8 +9,11 @@ import errno
 from collections.abc import Iterator
 from pathlib import Path
 
-# What the system says when an output cannot be written: the user's to fix, not a bug.
-WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
+# What the system says when an output cannot be written: the user's to fix, not a bug (EISDIR,
+# ENOTDIR: a file's output path given as a folder, or under a file).
+WRITE_ERRNOS = frozenset(
+    {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG, errno.EISDIR, errno.ENOTDIR}
+)
 
 
 class HomemodelError(Exception):
