@@ -196,3 +196,16 @@ def test_a_hostile_obj_gives_a_mesh_within_bounds_or_one_line_of_error(tmp_path:
     assert obj.faces.shape[1] == 3 and 0 <= obj.faces.min() and obj.faces.max() < len(obj.vertices)
     for table, values in ((obj.face_texcoords, obj.texcoords), (obj.face_normals, obj.normals)):
         assert table is None or (0 <= table.min() and table.max() < len(values))
+
+
+def test_an_mtl_past_the_mesh_files_bound_is_refused_naming_it(tmp_path: Path, monkeypatch) -> None:
+    """The MTL beside a one-colour OBJ is read within the mesh files' byte bound, as the OBJ is
+    (it was read whole: a huge or device-linked MTL beside a small OBJ)."""
+    import homemodel.exchange.urdf.read as urdf_read
+
+    obj = tmp_path / "part.obj"
+    obj.write_text("mtllib part.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl paint\nf 1 2 3\n")
+    (tmp_path / "part.mtl").write_text(mtl_text("paint", (0.75, 0.05, 0.05, 1.0), None) + "# padding\n" * 200)
+    monkeypatch.setattr(urdf_read, "MAX_MESH_BYTES", 1000)  # over the OBJ, under the MTL
+    with pytest.raises(InputError, match=r"part\.mtl: larger than the 1000-byte bound"):
+        read_mesh_parts(obj)

@@ -153,7 +153,7 @@ def _only_material(data: bytes, path: Path, used: tuple[str, ...]) -> trimesh.vi
     mtl = path.parent / library
     if not mtl.is_file():
         return None
-    text = mtl.read_bytes()
+    text = read_bounded(mtl, MAX_MESH_BYTES)  # within the bound the OBJ beside it was read
     try:
         materials = parse_mtl(text) if b"map_" not in text.lower() else {}
     except Exception:  # trimesh's loader swallows it too, and then gives no material: it decides
