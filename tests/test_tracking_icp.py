@@ -67,3 +67,24 @@ def test_a_part_the_image_edge_cuts_counts_its_pixels_outside() -> None:
     cut = renderer.pixels_alone(0, map_from_part, camera, map_from_camera, whole=True)
     assert abs(cut - whole) <= 2 * 40 and 0.4 < inside / cut < 0.6
     assert renderer.pixels_whole([map_from_part], camera, map_from_camera, [0]) == cut
+
+
+def test_a_part_reaching_behind_the_camera_counts_its_image_past_the_edge() -> None:
+    # A door swung open towards the camera, past its side: only a sliver at the image's left
+    # edge is in view. Its box crosses the near plane, so its image has no finite bounds;
+    # counted on the image grown by its size each side, most of it is outside (the old
+    # count took the image itself and called the sliver the whole door).
+    panel = trimesh.creation.box(extents=(1.0, 0.02, 0.4))
+    faces = np.asarray(panel.faces, dtype=np.int64)
+    part = Part(object_id="a", link="door", joint=None, vertices_link=np.asarray(panel.vertices, dtype=np.float64),
+                faces=faces, face_rgb=np.full((len(faces), 3), 0.5))
+    renderer = Renderer([part])
+    camera = Camera(width=160, height=120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
+    map_from_camera = np.eye(4)
+    map_from_camera[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # looking along +x, the image's left at +y
+    map_from_part = np.eye(4)
+    map_from_part[:3, 3] = (0.2, 0.35, 0.0)  # from 0.3 m behind the camera to 0.7 m in front, 0.35 m to its left
+    inside = renderer.pixels_alone(0, map_from_part, camera, map_from_camera)
+    whole = renderer.pixels_alone(0, map_from_part, camera, map_from_camera, whole=True)
+    assert inside > 0 and inside / whole < 0.5
+    assert renderer.pixels_whole([map_from_part], camera, map_from_camera, [0]) == whole

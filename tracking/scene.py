@@ -573,18 +573,33 @@ def _rotated(vectors: np.ndarray, rotation: np.ndarray, rows_before: int) -> np.
 _BOX_EDGES = np.array([(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1])
 
 
+def in_front_of_near_plane(corners: np.ndarray) -> np.ndarray:
+    """Points whose hull is a box ((8, 3) camera-frame corners) cut at the near plane: its
+    corners in front of the plane and its edges' crossings of it; none when it is all behind."""
+    z = corners[:, 2]
+    if (z >= NEAR_M).all():
+        return corners  # all in front (the fitters' usual case: called thousands of times)
+    a, b = corners[_BOX_EDGES[:, 0]], corners[_BOX_EDGES[:, 1]]
+    crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
+    s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
+    return np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
+
+
 def box_corners(vertices: np.ndarray) -> np.ndarray:
     """The 8 corners of the axis-aligned bounding box of (N, 3) points."""
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
 
 
-def widened(camera: Camera, points_camera: np.ndarray) -> Camera:
+def widened(camera: Camera, corners_camera: np.ndarray) -> Camera:
     """`camera` grown (same focal lengths, its image inside the new one) to hold the
-    projection of (N, 3) camera-frame points, at most by its own size on each side; the
-    camera itself when a point is behind the near plane or the lens is distorted."""
-    points = np.asarray(points_camera, dtype=np.float64)
-    if camera.has_distortion or (points[:, 2] < NEAR_M).any():
+    projection of boxes ((8 K, 3) camera-frame corners, 8 a box) cut at the near plane, at
+    most by its own size on each side; the camera itself when the lens is distorted. A box
+    reaching behind the camera (a door swung open past it) grows it by the most: its image
+    reaches past every edge it crosses."""
+    boxes = np.asarray(corners_camera, dtype=np.float64).reshape(-1, 8, 3)
+    points = np.concatenate([in_front_of_near_plane(box) for box in boxes])
+    if camera.has_distortion or not len(points):
         return camera
     uv = camera.project(points)
     left, top = (int(np.clip(np.ceil(-uv[:, k].min()), 0, size)) for k, size in ((0, camera.width), (1, camera.height)))
@@ -655,19 +670,9 @@ def _pixels_in_view(
     """Flat indices and (N, 3) rays (z = 1) of the pixels of `table`'s camera whose rays may
     hit the part in front of the near plane (inside the projection of its bounding box
     clipped there), or None when there are none."""
-    corners = corners_part @ camera_from_part[:3, :3].T + camera_from_part[:3, 3]
-    z = corners[:, 2]
-    if (z < NEAR_M).all():
+    points = in_front_of_near_plane(corners_part @ camera_from_part[:3, :3].T + camera_from_part[:3, 3])
+    if not len(points):
         return None
-    if (z >= NEAR_M).all():
-        points = corners  # all in front (the fitters' usual case: called thousands of times)
-    else:
-        # The box clipped at the near plane is the hull of its corners in front of the plane
-        # and of its edges' crossings of the plane.
-        a, b = corners[_BOX_EDGES[:, 0]], corners[_BOX_EDGES[:, 1]]
-        crossing = (a[:, 2] - NEAR_M) * (b[:, 2] - NEAR_M) < 0
-        s = (NEAR_M - a[crossing, 2]) / (b[crossing, 2] - a[crossing, 2])
-        points = np.concatenate([corners[z >= NEAR_M], a[crossing] + s[:, None] * (b[crossing] - a[crossing])])
     if table.distorted:
         # A lens bends the box's outline in the image, not on the plane z = 1 the rays cross.
         xy = points[:, :2] / points[:, 2:]
