@@ -162,7 +162,12 @@ def _costs(
     state: FitState, view: FitView, static: np.ndarray, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray | None:
     """The mean truncated squared residual (0 = every pixel explained, 1 = none) at each value."""
-    stack = moving_depths(state, view, object_id, joint, moving, values)
+    return stack_costs(view, static, moving_depths(state, view, object_id, joint, moving, values))
+
+
+def stack_costs(view: FitView, static: np.ndarray, stack: np.ndarray) -> np.ndarray | None:
+    """`_costs` of the moving part's depth at each position ((K, H, W) `stack`, `moving_depths`)
+    in front of the `static` scene; None when no pixel has a usable reading."""
     in_front = stack < static  # the moving part is what the camera would see there
     considered = in_front.any(axis=0)
     model = np.minimum(stack[:, considered], static[considered])

@@ -31,7 +31,8 @@ from homemodel.geometry.camera import Camera
 from semantic_map.hierarchy import SemanticMap
 from semantic_map.nodes import Jointed, LargeObject, ObjectJoint
 from tracking.find_small_objects import POSE_DOUBT_M, SmallObjectSearch, find_small_objects
-from tracking.fit_joints import JointSearch, fit_joint, joint_range, moving_depths, position_grid, static_depth
+from tracking.fit_joints import (JointSearch, fit_joint, joint_range, moving_depths, position_grid, stack_costs,
+                                 static_depth)
 from tracking.fit_pose import refine_pose
 from tracking.fit_state import FitState
 from tracking.fit_together import refine_pose_and_joints
@@ -416,10 +417,12 @@ def _hidden_elsewhere(
 ) -> None:
     """A fitted joint whose part the camera sees through at the estimate (more than
     `search_again_unexplained` of its points behind it, after the search again) while at
-    some position in its range nothing of it would be seen (nearer surfaces hide it all):
-    the view cannot tell where it is, and it is "ambiguous". A microwave's door behind a
-    box that hid all of it was fitted at its limit, 27 deg off, where it stuck out past the
-    box, 0.89 of its points seen through it."""
+    some position in its range nothing of it would be seen (nearer surfaces hide it all),
+    or it would be out of the image and the view explains no worse: the view cannot tell
+    where it is, and it is "ambiguous". A microwave's door behind a box that hid all of it
+    was fitted at its limit, 27 deg off, where it stuck out past the box, 0.89 of its points
+    seen through it; a dishwasher's flap open 80 deg, below the image, was fitted (and
+    written) shut, 0.91 of its points unexplained, the flap out of the image as likely."""
     node = state.scene.object(object_id).node
     for name, (status, support) in list(results.items()):
         search = options.search(node.joint(name))
@@ -427,13 +430,16 @@ def _hidden_elsewhere(
             continue
         moving = state.moving_parts(object_id, name)
         static = static_depth(state, view, background, object_id, moving)
-        values = position_grid(*joint_range(state, object_id, name), search.coarse_step)
+        estimate = state.joint_positions[object_id][name]
+        values = np.append(position_grid(*joint_range(state, object_id, name), search.coarse_step), estimate)
         own = moving_depths(state, view, object_id, name, moving, values)
         with np.errstate(invalid="ignore"):
             in_sight = (own < static) & ~(np.isfinite(view.depth_m) & (view.depth_m < own - view.tolerance_m))
-        # In the image but hidden: not one gone past the image's edge, which hides nothing.
         in_image, seen = (counts.reshape(len(values), -1).sum(axis=1) for counts in (np.isfinite(own), in_sight))
-        if np.any((in_image >= options.min_joint_pixels) & (seen < options.min_joint_pixels)):
+        hidden = np.any((in_image >= options.min_joint_pixels) & (seen < options.min_joint_pixels))
+        out = in_image < options.min_joint_pixels
+        costs = stack_costs(view, static, own) if out.any() else None
+        if hidden or (costs is not None and costs[out].min() < costs[-1] + options.min_contrast):
             results[name] = ("ambiguous", support)
             state.joint_positions[object_id][name] = previous[name]
 
