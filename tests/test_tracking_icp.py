@@ -49,15 +49,21 @@ def test_the_same_points_give_the_same_correction() -> None:
     assert len(results) == 1
 
 
-def test_a_part_the_image_edge_cuts_counts_its_pixels_outside() -> None:
-    box = trimesh.creation.box(extents=(0.02, 0.4, 0.4))
+def _one_box_looked_at_along_x(extents: tuple[float, float, float]) -> tuple[Renderer, Camera, np.ndarray]:
+    """A renderer of one box part, a 160 x 120 camera at 100 px/m and its pose at the origin
+    looking along +x (the image's left at +y)."""
+    box = trimesh.creation.box(extents=extents)
     faces = np.asarray(box.faces, dtype=np.int64)
     part = Part(object_id="a", link="door", joint=None, vertices_link=np.asarray(box.vertices, dtype=np.float64),
                 faces=faces, face_rgb=np.full((len(faces), 3), 0.5))
-    renderer = Renderer([part])
     camera = Camera(width=160, height=120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
     map_from_camera = np.eye(4)
-    map_from_camera[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # looking along +x
+    map_from_camera[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]
+    return Renderer([part]), camera, map_from_camera
+
+
+def test_a_part_the_image_edge_cuts_counts_its_pixels_outside() -> None:
+    renderer, camera, map_from_camera = _one_box_looked_at_along_x((0.02, 0.4, 0.4))
     map_from_part = np.eye(4)
     map_from_part[:3, 3] = (1.0, 0.0, 0.0)
     whole = renderer.pixels_alone(0, map_from_part, camera, map_from_camera, whole=True)
@@ -74,14 +80,7 @@ def test_a_part_reaching_behind_the_camera_counts_its_image_past_the_edge() -> N
     # edge is in view. Its box crosses the near plane, so its image has no finite bounds;
     # counted on the image grown by its size each side, most of it is outside (the old
     # count took the image itself and called the sliver the whole door).
-    panel = trimesh.creation.box(extents=(1.0, 0.02, 0.4))
-    faces = np.asarray(panel.faces, dtype=np.int64)
-    part = Part(object_id="a", link="door", joint=None, vertices_link=np.asarray(panel.vertices, dtype=np.float64),
-                faces=faces, face_rgb=np.full((len(faces), 3), 0.5))
-    renderer = Renderer([part])
-    camera = Camera(width=160, height=120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
-    map_from_camera = np.eye(4)
-    map_from_camera[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # looking along +x, the image's left at +y
+    renderer, camera, map_from_camera = _one_box_looked_at_along_x((1.0, 0.02, 0.4))
     map_from_part = np.eye(4)
     map_from_part[:3, 3] = (0.2, 0.35, 0.0)  # from 0.3 m behind the camera to 0.7 m in front, 0.35 m to its left
     inside = renderer.pixels_alone(0, map_from_part, camera, map_from_camera)
