@@ -3,6 +3,8 @@ against a box's analytic distance and Open3D's ray caster on a curved mesh."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import trimesh
@@ -48,6 +50,17 @@ def test_distances_agree_with_open3d_on_a_curved_mesh_and_a_sliver_is_its_segmen
     along = np.clip((points[:, 0] - 0.2) / 0.02, 0, 1)
     to_segment = np.linalg.norm(points - np.c_[0.2 + 0.02 * along, np.zeros((len(points), 2))], axis=1)
     np.testing.assert_allclose(SurfaceDistance(sliver).distances(points), to_segment, atol=1e-12)
+
+
+def test_a_repeated_corner_beside_a_sub_nanometre_edge_is_its_segment_without_a_warning() -> None:
+    # Seen on reconstruct's stderr (s17 check29b): its barycentric determinant underflows to a
+    # subnormal that the sliver test's threshold (underflowed to 0) let through, and 1/det overflowed.
+    degenerate = trimesh.Trimesh([[0, 0, 0], [0, 0, 0], [1e-10, 0, 0]], [[0, 1, 2]], process=False)
+    points = np.array([[0.0, 0, -1], [1.0, 0, 0], [5e-11, 2.0, 0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        distances = SurfaceDistance(degenerate, open3d=False).distances(points)
+    np.testing.assert_allclose(distances, [1.0, 1.0 - 1e-10, 2.0], rtol=1e-12)
 
 
 def test_bad_input_is_refused() -> None:

@@ -71,7 +71,12 @@ class SurfaceDistance:
         determinant = self._lengths2[:, 0] * self._lengths2[:, 1] - d01**2
         # A sliver (its sine of angle below 1e-5) has no trustworthy plane: measured by its edges
         # alone, which lie within 1e-5 of its longest edge of every point of it.
-        flat = determinant <= _SLIVER_SINE2 * self._lengths2[:, 0] * self._lengths2[:, 1]
+        # A determinant below the smallest normal float (a corner repeated beside a sub-nm edge:
+        # the threshold underflows to 0) is flat too: its inverse would overflow to inf, a
+        # RuntimeWarning on reconstruct's stderr.
+        flat = (determinant <= _SLIVER_SINE2 * self._lengths2[:, 0] * self._lengths2[:, 1]) | (
+            determinant < np.finfo(np.float64).tiny
+        )
         self._inverse = np.where(flat, np.nan, 1.0 / np.where(flat, 1.0, determinant))
         self._d01 = d01
 
