@@ -271,7 +271,8 @@ def import_(
     camera_yaml: Path | None = field_option(
         f"{IMPORT}.camera_path",
         "--camera",
-        help="camera.yaml for recordings without intrinsics (TUM); a file's own intrinsics win",
+        help="camera.yaml for recordings without intrinsics (TUM; a file's own intrinsics win), and/or "
+        "color_from_depth: the depth camera's pose for a recording without it (a ROS bag without /tf_static)",
     ),
     form: str | None = field_option(f"{IMPORT}.format", "--format", help="default: told from the recording's layout"),
     every: int = field_option(f"{IMPORT}.every", help="keep one frame in N (thins a long recording: --every 6 keeps 150 of 900)"),

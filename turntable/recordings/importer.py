@@ -14,9 +14,10 @@ from homemodel.core.atomic import atomic_dir, write_json
 from homemodel.core.checks import require_at_least, require_choice, require_positive
 from homemodel.core.errors import InputError
 from homemodel.core.progress import Progress, no_progress
-from homemodel.geometry.camera import Camera, load_camera, save_camera
+from homemodel.geometry.camera import Camera, save_camera
 from homemodel.geometry.depth_io import write_depth
 from turntable.board import load_board, save_board
+from turntable.recordings.camera_file import load_camera_file, take_depth_pose
 from turntable.recordings.depth_units import FLAG as DEPTH_UNITS_FLAG
 from turntable.recordings.depth_units import DepthUnitsCheck, take_depth_units
 from turntable.recordings.detect import FORMATS, RecordingFormat, detect_format
@@ -30,7 +31,9 @@ _INTRINSICS_TOLERANCE_PX = 1.0
 @dataclass(kw_only=True)
 class ImportOptions:
     format: RecordingFormat | None = None  # None: detected from the path
-    camera_path: Path | None = None  # camera.yaml for recordings without intrinsics (TUM, Redwood scans)
+    # camera.yaml for recordings without intrinsics (TUM, Redwood scans), and/or the depth
+    # camera's pose (`color_from_depth`) for those without it (`camera_file`)
+    camera_path: Path | None = None
     every: int = 1  # keep every N-th associated pair
     start_s: float = 0.0  # from the recording's first frame
     end_s: float | None = None
@@ -80,7 +83,7 @@ class ImportReport:
 def open_recording(path: Path, options: ImportOptions) -> FrameSource:
     """The frame source for the recording at `path` (not yet entered)."""
     kind = options.format or detect_format(path)
-    camera = None if options.camera_path is None else load_camera(options.camera_path)
+    camera = None if options.camera_path is None else load_camera_file(options.camera_path).camera
     timed = {"tolerance_s": options.tolerance_s, "every": options.every}
     if kind == "realsense-bag":
         from turntable.recordings.realsense import RealSenseSource
@@ -167,8 +170,12 @@ def import_recording(
             take_depth_units(setup, options.depth_units_m)
         camera = setup.color_camera
         disagreement = []
-        if options.camera_path is not None and setup.intrinsics_from == "recording":
-            disagreement = intrinsics_disagreement(load_camera(options.camera_path), camera)
+        if options.camera_path is not None:
+            given = load_camera_file(options.camera_path)
+            if given.camera is not None and setup.intrinsics_from == "recording":
+                disagreement = intrinsics_disagreement(given.camera, camera)
+            if given.color_from_depth is not None:
+                take_depth_pose(setup, given.color_from_depth)
         (tmp / "color").mkdir()
         (tmp / "depth").mkdir()
         written = 0

@@ -184,21 +184,26 @@ class RealSenseSource(FrameSource):
         notes += lens_notes
         setup = StreamSetup(format="realsense-bag" if self.bag else "realsense-live", color_camera=camera, notes=notes)
         depth_camera, depth_notes = camera_from_intrinsics(depth_profile.get_intrinsics(), depth_scale)
-        color_from_depth, missing = np.eye(4), None
+        color_from_depth: np.ndarray | None = np.eye(4)
         try:
             extrinsics = depth_profile.get_extrinsics_to(color_profile)
             color_from_depth[:3, :3] = np.asarray(extrinsics.rotation, dtype=np.float64).reshape(3, 3).T  # column-major
             color_from_depth[:3, 3] = extrinsics.translation
         except RuntimeError:  # "Requested extrinsics are not available!"
-            missing = "no depth-to-colour extrinsics in the recording"
-        if depth_camera == camera and np.allclose(color_from_depth, np.eye(4), atol=1e-9):  # one camera (D405's colour)
-            if missing:
+            color_from_depth = None
+        missing = "no depth-to-colour extrinsics in the recording"
+        if depth_camera == camera and (color_from_depth is None or np.allclose(color_from_depth, np.eye(4), atol=1e-9)):
+            if color_from_depth is None:  # one camera (D405's colour)
                 setup.notes.append(f"{missing}; the depth has colour's camera: taken as registered")
         else:
+            # None: the importer takes --camera's color_from_depth, else the depth as seen from colour's point.
             setup.depth_camera, setup.color_from_depth = depth_camera, color_from_depth
             setup.notes += depth_notes
-            if missing:
-                setup.notes.append(f"{missing}: depth reprojected as if the two cameras sat at one point")
+            if color_from_depth is None:
+                setup.notes.append(
+                    f"{missing}: depth reprojected as if the two cameras sat at one point, unless --camera's "
+                    "color_from_depth gives its pose"
+                )
         if self.tolerance_s is None:  # half a frame interval
             self.tolerance_s = min(0.5 / max(color_profile.fps(), 1), MAX_TOLERANCE_S)
         self._start(profiles)

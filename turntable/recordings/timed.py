@@ -13,6 +13,9 @@ from homemodel.core.errors import InputError
 from turntable.recordings.associate import associate, default_tolerance_s
 from turntable.recordings.source import FrameSource, RgbdPair, frame_size_problem
 
+# What a user with a recording that lacks the depth camera's pose can do about it.
+GIVE_POSE = "give its pose as color_from_depth in --camera camera.yaml"
+
 
 class TimedStreamsSource(FrameSource):
     def __init__(self, path: Path, *, tolerance_s: float | None = None, every: int = 1) -> None:
@@ -33,13 +36,7 @@ class TimedStreamsSource(FrameSource):
     def _place_depth_camera(self, chosen: list[tuple[int, int]]) -> None:
         """An unregistered depth whose pose the recording does not give: placed by a few frames'
         edges (`edge_placement`), else taken as seen from colour's own point, said either way."""
-        from turntable.recordings.edge_placement import (
-            MAX_TABLE_TILT_DEG,
-            MIN_AGREEMENT,
-            SAMPLE_FRAMES,
-            place_depth_camera,
-            table_tilt_deg,
-        )
+        from turntable.recordings.edge_placement import MIN_AGREEMENT, SAMPLE_FRAMES, place_depth_camera
 
         picked = sorted({chosen[round(k)] for k in np.linspace(0, len(chosen) - 1, min(SAMPLE_FRAMES, len(chosen)))})
         images = {(kind, index): image for kind, index, image in self.stream_images(picked)}
@@ -49,31 +46,25 @@ class TimedStreamsSource(FrameSource):
         for sample in samples:  # before the edges are read at the intrinsics' sizes
             if (problem := frame_size_problem(sample, self.setup)) is not None:
                 raise InputError(f"{self.path}: {problem}")
-        placement = place_depth_camera(samples, self.setup)
+        placement = place_depth_camera(samples, self.setup, self.board)
         at_one_point = "depth reprojected as if the two cameras sat at one point"
         if placement is None:
-            self.setup.notes.append(f"{at_one_point} (too few depth edges to place it)")
+            self.setup.notes.append(f"{at_one_point} (too few depth edges to place it: {GIVE_POSE})")
             return
         if placement.agreement < MIN_AGREEMENT:
             self.setup.notes.append(
                 f"{at_one_point} (placed by their edges, depth and colour edges agreed only {placement.agreement:.2f}x "
-                f"as well as there, under {MIN_AGREEMENT}x: chance's)"
+                f"as well as there, under {MIN_AGREEMENT}x: chance's; {GIVE_POSE})"
             )
             return
-        tilt = None if self.board is None else table_tilt_deg(samples, self.setup, placement.color_from_depth, self.board)
-        if tilt is not None and tilt > MAX_TABLE_TILT_DEG:
-            raise InputError(
-                f"{self.path}: the recording does not give the depth camera's pose (no /tf_static, /tf or extrinsics "
-                f"topic), and placed by its edges the depth's table tilts {tilt:.1f} deg against the board's tags: "
-                "record it with the driver's /tf_static"
-            )
         self.setup.color_from_depth = placement.color_from_depth
-        x_mm, y_mm = 1000 * placement.color_from_depth[:2, 3]
+        x_mm, y_mm, z_mm = 1000 * placement.color_from_depth[:3, 3]
         turn_deg = np.degrees(np.arccos(np.clip((np.trace(placement.color_from_depth[:3, :3]) - 1) / 2, -1.0, 1.0)))
+        by = "the board's table and " if placement.by_table else ""
         self.setup.notes.append(
-            f"the depth camera placed at ({x_mm:+.1f}, {y_mm:+.1f}) mm from colour's, turned {turn_deg:.2f} deg, by where "
-            f"depth and colour edges fall in {placement.frames} frames (edges {placement.agreement:.1f}x as aligned as "
-            "at colour's own point)"
+            f"the depth camera placed at ({x_mm:+.1f}, {y_mm:+.1f}, {z_mm:+.1f}) mm from colour's, turned {turn_deg:.2f} deg, "
+            f"by {by}where depth and colour edges fall in {placement.frames} frames (edges {placement.agreement:.1f}x as "
+            f"aligned as at colour's own point; {GIVE_POSE} where you know it)"
         )
 
     def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
