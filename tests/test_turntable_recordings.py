@@ -447,18 +447,6 @@ def test_kannala_brandt_round_trip_matches_opencv_fisheye() -> None:
     assert np.abs(camera.rays(pixels) * points[:, 2:] - points).max() < 1e-9
 
 
-def test_flying_pixels_go_and_slanted_surfaces_stay() -> None:
-    from turntable.real_frames import drop_flying_pixels
-
-    depth = np.full((40, 60), 1.2, np.float32)
-    depth[:, :30] = 0.6  # a foreground edge at column 30 ...
-    depth[:, 30] = 0.9  # ... with a column of flying pixels between the two surfaces
-    cleaned, dropped = drop_flying_pixels(depth)
-    assert dropped == 40 and np.all(np.isnan(cleaned[:, 30])) and np.isfinite(cleaned[:, :30]).all()
-    slope = 0.6 + np.arange(60, dtype=np.float32)[None, :].repeat(40, 0) * 0.004  # 76 degrees from the view
-    assert drop_flying_pixels(slope)[1] == 0
-
-
 def test_misregistration_is_measured_from_edges() -> None:
     from turntable.real_frames import depth_color_offset_px
 

@@ -23,7 +23,7 @@ from turntable import tags
 from turntable.board import grid_board, tag_bits
 from turntable.fusion import Cylinder, MergedCloud, object_pixels, pixel_points
 from turntable.meshing import MeshingOptions, remove_outliers, snap_to_points
-from turntable.real_frames import drop_flying_pixels
+from turntable.real_frames import drop_flying_pixels, focal_px_of_rays
 from turntable.tag_search import tag_decimation
 from turntable.tags import DetectionOptions, detect_tags, prepare_detectors
 from turntable.texture import carrier
@@ -61,7 +61,7 @@ def test_object_pixels_give_the_whole_image_points_inside_the_cylinder() -> None
     pixels, flying = object_pixels(depth, rgb, rays, table_from_camera, wide, drop_flying=True)
     points, colors, to_camera = pixel_points(pixels, rays, table_from_camera, cylinder)
     # The reference: flying pixels dropped over the whole image, every pixel back-projected.
-    cleaned, flying_whole = drop_flying_pixels(depth)
+    cleaned, flying_whole = drop_flying_pixels(depth, focal_px_of_rays(rays, CAMERA.width))
     everything = (rays * cleaned.reshape(-1, 1)) @ table_from_camera[:3, :3].T + table_from_camera[:3, 3]
     radial = np.hypot(*(everything[:, :2] - cylinder.axis_xy_m).T)
     inside = (everything[:, 2] > 0.004) & (everything[:, 2] < 1.0) & (radial < 0.08)

@@ -149,7 +149,7 @@ def object_pixels(
     """The pixels whose points lie inside `region` (table frame), and how many flying pixels
     went. Flying pixels are looked for only around those pixels: the object's edges, not the
     room's."""
-    from turntable.real_frames import drop_flying_pixels
+    from turntable.real_frames import drop_flying_pixels, focal_px_of_rays
 
     height, width = depth_m.shape
     depth = depth_m.reshape(-1)
@@ -165,7 +165,7 @@ def object_pixels(
         rows, cols = np.divmod(index, width)
         top, left = max(int(rows.min()) - 1, 0), max(int(cols.min()) - 1, 0)
         bottom, right = min(int(rows.max()) + 2, height), min(int(cols.max()) + 2, width)
-        cleaned, flying = drop_flying_pixels(depth_m[top:bottom, left:right])
+        cleaned, flying = drop_flying_pixels(depth_m[top:bottom, left:right], focal_px_of_rays(rays, width))
         index = index[np.isfinite(cleaned[rows - top, cols - left])]
     pixels = ObjectPixels(
         index=index.astype(np.int32), depth_m=depth[index].astype(np.float32), rgb=rgb.reshape(-1, 3)[index]

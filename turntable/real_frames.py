@@ -10,8 +10,12 @@ import math
 
 import numpy as np
 
-FLYING_RELATIVE_JUMP = 0.02  # a pixel this far (x its depth) from a neighbour on both sides flies
-FLYING_MIN_JUMP_M = 0.005
+# Flying pixels' thresholds in the pixel's footprint z / f: a surface seen at an angle a from
+# the view changes its depth by z tan(a) / f from one pixel to the next, so one rule holds for a
+# 256x192 depth camera (f ~150 px, 4 mm a pixel at 0.6 m) and a 640x480 one (f ~530-580 px).
+FLYING_JUMP_FOOTPRINTS = 3.0  # from both neighbours: more than a surface 72 deg from the view ...
+FLYING_OFF_SURFACE_FOOTPRINTS = 4.6  # ... and off both sides' surfaces carried one pixel on
+FLYING_MIN_JUMP_M = 0.003  # the floor of both: a structured-light sensor's noise at 0.6 m is 1.3 mm
 # The table turned less than this from the first (or last) frame has not started (or has
 # stopped): above the poses' noise (~0.05 deg). A slow turn's step at 30 fps (0.4 deg) is under
 # it: its first (and last) two frames are left out of the fit too, which keeps the slope.
@@ -19,27 +23,54 @@ STILL_TURN_RAD = math.radians(0.5)
 _NEAR_FACTOR = 1.5  # misregistration: depth jumps kept whose near side is within this times the nearest depths
 
 
-def drop_flying_pixels(depth_m: np.ndarray) -> tuple[np.ndarray, int]:
-    """The depth with its flying pixels set to NaN, and how many went. A flying pixel reads
-    between a foreground and a background surface: it differs by more than the threshold from
-    a neighbour on each side of it (left and right, or above and below), which a surface
-    point, even at a grazing angle, does not."""
+def drop_flying_pixels(depth_m: np.ndarray, focal_px: float) -> tuple[np.ndarray, int]:
+    """The depth with its flying pixels set to NaN, and how many went; `focal_px` the depth
+    camera's. A flying pixel reads between a foreground and a background surface: along a row
+    or a column it lies between its two neighbours, differs from each by more than a jump, and
+    lies off each side's surface carried one pixel on (the neighbour plus that side's own step).
+    A surface point, even one seen at a grazing angle or curving away at a silhouette, carries
+    on one side's surface; a pixel mixed across a step of a few footprints, which the jump alone
+    cannot tell from a grazing surface, carries on neither."""
     import cv2
 
     depth = np.asarray(depth_m, dtype=np.float32)
-    threshold = np.maximum(FLYING_RELATIVE_JUMP * depth, FLYING_MIN_JUMP_M)
+    footprint = depth / np.float32(focal_px)
+    jump = np.maximum(FLYING_JUMP_FOOTPRINTS * footprint, FLYING_MIN_JUMP_M)
     flying = np.zeros(depth.shape, dtype=bool)
     inner = (np.s_[:, 1:-1], np.s_[1:-1])  # the pixels with both neighbours: left/right, above/below
-    for centre_of, first_of, second_of in ((inner[0], np.s_[:, :-2], np.s_[:, 2:]), (inner[1], np.s_[:-2], np.s_[2:])):
-        centre, first, second, jump = depth[centre_of], depth[first_of], depth[second_of], threshold[centre_of]
-        # Both jumps over the threshold (NaN's are not) and the centre between the two: as both
-        # differ from it, one neighbour nearer and the other farther. (OpenCV's absdiff: a third
-        # of NumPy's abs of a difference.)
+    for axis, centre_of, first_of, second_of in (
+        (1, inner[0], np.s_[:, :-2], np.s_[:, 2:]),
+        (0, inner[1], np.s_[:-2], np.s_[2:]),
+    ):
+        centre, first, second = depth[centre_of], depth[first_of], depth[second_of]
+        # Both jumps over the threshold (NaN's are not) and the centre between the two. (OpenCV's
+        # absdiff: a third of NumPy's abs of a difference.) Few pass: the surface test runs on those.
         between = (first > centre) != (second > centre)
-        flying[centre_of] |= (cv2.absdiff(first, centre) > jump) & (cv2.absdiff(second, centre) > jump) & between
+        jumps = (cv2.absdiff(first, centre) > jump[centre_of]) & (cv2.absdiff(second, centre) > jump[centre_of])
+        at = list(np.nonzero(jumps & between))
+        at[axis] = at[axis] + 1  # the centre's own pixel
+        position, size = at[axis], depth.shape[axis]
+        value = depth[tuple(at)]
+        off_surface = np.maximum(FLYING_OFF_SURFACE_FOOTPRINTS * footprint[tuple(at)], FLYING_MIN_JUMP_M)
+        off_both = np.ones(len(value), dtype=bool)
+        for side in (-1, 1):
+            near_at, outer_at = list(at), list(at)
+            near_at[axis] = position + side
+            outer_at[axis] = np.clip(position + 2 * side, 0, size - 1)  # past the border: no step
+            near = depth[tuple(near_at)]
+            step = np.nan_to_num(near - depth[tuple(outer_at)])  # none past a hole
+            off_both &= np.abs(value - near - step) > off_surface
+        flying[tuple(a[off_both] for a in at)] = True
     out = depth.copy()
     out[flying] = np.nan
     return out, int(np.count_nonzero(flying))
+
+
+def focal_px_of_rays(rays: np.ndarray, width: int) -> float:
+    """The focal length a pixel's footprint is measured with: one over the spacing of the rays
+    (z = 1, row by row, `width` a row) through the image's two centre pixels."""
+    centre = (len(rays) // width // 2) * width + width // 2
+    return 1.0 / float(np.hypot(*(rays[centre + 1, :2] - rays[centre, :2])))
 
 
 def sharpness(gray: np.ndarray) -> float:

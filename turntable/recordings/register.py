@@ -115,7 +115,7 @@ def register_depth(
     if color_from_depth.shape != (4, 4):
         raise ValueError(f"{color_from_depth.shape=} but expected (4, 4)")
     height, width = depth.shape
-    depth = drop_flying_pixels(depth)[0].astype(np.float64)
+    depth = drop_flying_pixels(depth, math.sqrt(depth_camera.fx * depth_camera.fy))[0].astype(np.float64)
     valid = np.isfinite(depth) & (depth > 0)
     # Every pixel's point in colour's frame and where colour sees it.
     rays = depth_camera.pixel_rays() if depth_rays is None else depth_rays
