@@ -1,10 +1,14 @@
 """Where the depth camera sits beside the colour one, for a recording that does not say (a ROS
-bag of the image topics alone, without /tf_static): found from a few frames, as the sideways
-offset that lands the depth's silhouette edges on the colour image's edges, with a turn of at
-most 3 degrees. A stereo depth camera's offset is mostly such a baseline (15 mm on a D435,
-50-59 mm on a D455); taken for none, it put the check's box 13 mm from its truth. (An Azure
-Kinect's depth camera is turned ~6 degrees: its recordings give the extrinsic, and a placement
-past 3 degrees keeps the offset alone.)"""
+bag of the image topics alone, without /tf_static): found from a few frames. The board's table
+pins two of the six unknowns' worth of turn and the offset along its normal: the depth's own
+table, a plane fitted to its points on the board's disk, is turned and moved onto the plane the
+board's tags give in colour's frame. The edges pin the rest: the offset along the table and a
+turn about its normal that land the depth's silhouette edges on the colour image's edges. A
+stereo depth camera's offset is mostly such a baseline (15 mm on a D435, 50-59 mm on a D455);
+taken for none, it put the check's box 13 mm from its truth. By the edges alone (the board's
+tags unseen), a sideways offset and a turn of at most 3 degrees, which an upright silhouette
+pins loosely: readme_check's bottle was placed 22 mm too high, its table tilted 1.6 deg.
+(An Azure Kinect's depth camera is turned ~6 degrees: its recordings give the extrinsic.)"""
 
 from __future__ import annotations
 
@@ -22,13 +26,12 @@ SAMPLE_FRAMES = 4  # spread over the recording
 # the check's bags read 2.4-7.5x; colour whose edges are not the depth's (speckle) 1.06-1.1x at
 # the best of the offsets searched, chance's, up to 80 mm off.
 MIN_AGREEMENT = 1.5
-# The depth's table, placed, within this of the plane the board's tags give. readme_check's
-# bottle (320x240 depth, the camera 0.4 m out, 0.55 m up): placed 21 mm up and turned 2.2 deg,
-# its table tilted 1.4-1.6 deg, a table slab; the check's five placed bags 0.17-0.53 (the
-# median; a frame's 0.05-0.59: the tags' own pose ~0.5 at 1 m), the recorded pose 0.03-0.15.
-MAX_TABLE_TILT_DEG = 1.0
-_TABLE_BAND_M = 0.01  # depth points this near the board's plane are the table's
-_REACH_M = (0.08, 0.03)  # the offsets searched, sideways and up: past any RGB-D camera's baseline
+# Depth points this near the board's plane (by its tags, the depth taken at colour's point: a
+# baseline and a turn of a few degrees move the table less) start the fit of the depth's table;
+# then those this near the fitted plane.
+_TABLE_BAND_M = (0.04, 0.01, 0.005)
+_MIN_TABLE_POINTS = 500
+_REACH_M = (0.08, 0.03)  # the offsets searched, sideways and along the table (or up): past any RGB-D camera's baseline
 _EDGE_JUMP_M, _EDGE_JUMP_RELATIVE = 0.01, 0.02
 _NEAR_FACTOR = 1.5  # edges kept up to this times the nearest ones' distance (their 5th percentile)
 # A coarse search in steps of 2 px (at the edges' distance) on edges blurred as wide, through the
@@ -40,9 +43,10 @@ _TURN_STEP_DEG, _MAX_TURN_DEG = 0.3, 3.0  # the refinement's first step and the 
 
 @dataclass
 class Placement:
-    color_from_depth: np.ndarray  # 4x4: a sideways offset and a small turn (yaw, pitch)
+    color_from_depth: np.ndarray  # 4x4
     agreement: float  # the edges' agreement at it over that at no offset
     frames: int  # frames whose depth had silhouette edges
+    by_table: bool  # the table pinned its tilt and height (else the edges alone placed it)
 
 
 @dataclass
@@ -50,6 +54,27 @@ class _Edges:
     points: np.ndarray  # (n, 3) the foreground side of the depth's jumps, in the depth camera's frame
     sharp: np.ndarray  # colour's gradient magnitude, blurred by _FINE_BLUR_PX (the fine search)
     wide: np.ndarray  # and by _COARSE_BLUR_PX (the coarse grid)
+
+
+@dataclass
+class _Search:
+    """The poses searched: `start` moved by `a u + b v` and turned by the angles about `axes`
+    (through colour's origin)."""
+
+    start: np.ndarray  # 4x4 color_from_depth at no offset
+    u: np.ndarray  # the sideways direction searched, in colour's frame
+    v: np.ndarray  # the other one
+    axes: np.ndarray  # (k, 3) the turns searched
+
+    def pose(self, x: np.ndarray) -> np.ndarray:
+        """color_from_depth of (a, b offsets m, turns in degrees)."""
+        from scipy.spatial.transform import Rotation
+
+        turn = np.eye(4)
+        turn[:3, :3] = Rotation.from_rotvec(np.radians(x[2:]) @ self.axes).as_matrix()
+        moved = np.eye(4)
+        moved[:3, 3] = x[0] * self.u + x[1] * self.v
+        return moved @ turn @ self.start
 
 
 def _depth_m(pair: RgbdPair, setup: StreamSetup) -> np.ndarray:
@@ -66,16 +91,18 @@ def _edges(pair: RgbdPair, setup: StreamSetup) -> _Edges | None:
 
     depth = _depth_m(pair, setup)
     depth = drop_flying_pixels(depth, focal_px_of_rays(setup.depth_pixel_rays(), depth.shape[1]))[0].astype(np.float64)
-    front = np.zeros(depth.shape, dtype=bool)
+    rays = setup.depth_pixel_rays().reshape(*depth.shape, 3)
+    found = []
     with np.errstate(invalid="ignore"):
-        for near, far, near_at, far_at in (
-            (depth[:, :-1], depth[:, 1:], np.s_[:, :-1], np.s_[:, 1:]),
-            (depth[:-1], depth[1:], np.s_[:-1], np.s_[1:]),
-        ):
-            jump = np.abs(near - far) > np.maximum(_EDGE_JUMP_M, _EDGE_JUMP_RELATIVE * np.fmin(near, far))
-            front[near_at] |= jump & (near < far)
-            front[far_at] |= jump & (far < near)
-    points = setup.depth_pixel_rays()[front.ravel()] * depth[front].reshape(-1, 1)
+        for first, second in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1], np.s_[1:])):
+            a, b = depth[first], depth[second]
+            jump = np.abs(a - b) > np.maximum(_EDGE_JUMP_M, _EDGE_JUMP_RELATIVE * np.fmin(a, b))
+            # The silhouette lies between the two pixels, at the nearer one's depth: the nearer
+            # pixel alone sat half a depth pixel inside it (1.8 mm on readme_check's 320x240
+            # depth), and the table's far rim, a one-sided edge, pulled the placement that way.
+            between = 0.5 * (rays[first][jump] + rays[second][jump])
+            found.append(between * np.fmin(a, b)[jump].reshape(-1, 1))
+    points = np.concatenate(found)
     points = points[np.isfinite(points).all(axis=1)]
     # The nearest edges, the object's and the table's: a room's far edges barely move with the offset.
     points = points[points[:, 2] <= _NEAR_FACTOR * np.percentile(points[:, 2], 5)] if len(points) else points
@@ -87,65 +114,101 @@ def _edges(pair: RgbdPair, setup: StreamSetup) -> _Edges | None:
     return _Edges(points, *blurred)
 
 
-def _agreement(frames: list[_Edges], setup: StreamSetup, offset: np.ndarray) -> float:
-    """The colour edges' mean strength under the depth's edges seen from `offset` (3 m, or a
-    4x4 color_from_depth)."""
+def _plane(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """The least-squares plane n.p = d of `points` (n a unit vector)."""
+    centre = points.mean(axis=0)
+    normal = np.linalg.svd(points - centre, full_matrices=False)[2][2]
+    return normal, float(normal @ centre)
+
+
+def _table_search(pairs: list[RgbdPair], setup: StreamSetup, board: Board) -> _Search | None:
+    """The search with the depth's table laid on the board's: the tags' plane in colour's frame
+    (their normals averaged, their distances' median over the frames posed), the depth's table
+    fitted to its points on the board's disk of every frame; None when no frame gives both."""
+    from scipy.spatial.transform import Rotation
+
+    normals, distances, table = [], [], []
+    for pair in pairs:
+        pose = board_pose(pair.color, board, setup.color_camera)
+        if pose is None:
+            continue
+        normal = pose.camera_from_table[:3, 2]
+        points = setup.depth_pixel_rays() * _depth_m(pair, setup).reshape(-1, 1)
+        points = points[np.isfinite(points).all(axis=1)]
+        # Those over the board's disk, the depth taken as seen from colour's point.
+        on_table = points - pose.camera_from_table[:3, 3]
+        across = on_table - np.outer(on_table @ normal, normal)
+        points, height = points[np.linalg.norm(across, axis=1) < board.radius_m], on_table @ normal
+        height = height[np.linalg.norm(across, axis=1) < board.radius_m]
+        normals.append(normal)
+        distances.append(float(normal @ pose.camera_from_table[:3, 3]))
+        table.append(points[np.abs(height) < _TABLE_BAND_M[0]])
+    if not normals:
+        return None
+    points = np.concatenate(table)
+    for band in _TABLE_BAND_M[1:]:
+        if len(points) < _MIN_TABLE_POINTS:
+            return None
+        depth_normal, depth_distance = _plane(points)
+        points = points[np.abs(points @ depth_normal - depth_distance) < band]
+    if len(points) < _MIN_TABLE_POINTS:
+        return None
+    depth_normal, depth_distance = _plane(points)
+    normal = np.mean(normals, axis=0)
+    normal /= np.linalg.norm(normal)
+    if depth_normal @ normal < 0:
+        depth_normal, depth_distance = -depth_normal, -depth_distance
+    start = np.eye(4)
+    start[:3, :3] = Rotation.align_vectors(normal[None], depth_normal[None])[0].as_matrix()
+    start[:3, 3] = normal * (float(np.median(distances)) - depth_distance)
+    u = np.array([1.0, 0.0, 0.0]) - normal[0] * normal  # colour's x along the table: a baseline's direction
+    u /= np.linalg.norm(u)
+    return _Search(start=start, u=u, v=np.cross(normal, u), axes=normal[None])
+
+
+def _agreement(frames: list[_Edges], setup: StreamSetup, color_from_depth: np.ndarray) -> float:
+    """The colour edges' mean strength under the depth's edges seen from `color_from_depth`."""
     camera = setup.color_camera
-    pose = offset if offset.shape == (4, 4) else np.block([[np.eye(3), offset.reshape(3, 1)], [np.zeros((1, 3)), 1.0]])
     total = 0.0
     for frame in frames:
-        pixels = np.round(camera.project(frame.points @ pose[:3, :3].T + pose[:3, 3])).astype(np.int64)
+        points = frame.points @ color_from_depth[:3, :3].T + color_from_depth[:3, 3]
+        pixels = np.round(camera.project(points)).astype(np.int64)
         inside = (pixels[:, 0] >= 0) & (pixels[:, 0] < camera.width) & (pixels[:, 1] >= 0) & (pixels[:, 1] < camera.height)
         total += float(frame.sharp[pixels[inside, 1], pixels[inside, 0]].sum()) / len(frame.points)
     return total / len(frames)
 
 
-def _best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    offsets = [np.array([x, y, 0.0]) for x in xs for y in ys]
-    return max(offsets, key=lambda offset: _agreement(frames, setup, offset))
-
-
-def _coarse_best(frames: list[_Edges], setup: StreamSetup, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """The best offset on the wide edges, seen through the pinhole without the lens's distortion (the
-    fine search after it projects through the lens): an offset moves each point's pixel by
-    f t / z, so a column of offsets is one gather, not a projection of every point each."""
+def _coarse_best(frames: list[_Edges], setup: StreamSetup, search: _Search, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The best offsets (a, b) on the wide edges, seen through the pinhole without the lens's
+    distortion (the fine search after it projects through the lens): each column of offsets b
+    at once."""
     camera = setup.color_camera
     total = np.zeros((len(xs), len(ys)))
     for frame in frames:
-        x, y, z = frame.points.T
-        rows = np.rint(camera.fy * (y[:, None] + ys[None, :]) / z[:, None] + camera.cy).astype(np.int64)
-        row_in = (rows >= 0) & (rows < camera.height)
-        rows = np.clip(rows, 0, camera.height - 1)
+        started = frame.points @ search.start[:3, :3].T + search.start[:3, 3]
+        along = started[:, :, None] + search.v[None, :, None] * ys[None, None, :]  # (n, 3, len(ys))
         for i, offset in enumerate(xs):
-            columns = np.rint(camera.fx * (x + offset) / z + camera.cx).astype(np.int64)
-            column_in = (columns >= 0) & (columns < camera.width)
-            sampled = frame.wide[rows, np.clip(columns, 0, camera.width - 1)[:, None]]
-            total[i] += (sampled * (row_in & column_in[:, None])).sum(axis=0) / len(frame.points)
+            x, y, z = (along + (offset * search.u)[None, :, None]).transpose(1, 0, 2)
+            columns = np.rint(camera.fx * x / z + camera.cx).astype(np.int64)
+            rows = np.rint(camera.fy * y / z + camera.cy).astype(np.int64)
+            inside = (columns >= 0) & (columns < camera.width) & (rows >= 0) & (rows < camera.height)
+            sampled = frame.wide[np.clip(rows, 0, camera.height - 1), np.clip(columns, 0, camera.width - 1)]
+            total[i] += (sampled * inside).sum(axis=0) / len(frame.points)
     i, j = np.unravel_index(np.argmax(total), total.shape)
-    return np.array([xs[i], ys[j], 0.0])
+    return np.array([xs[i], ys[j]])
 
 
-def _pose(x: np.ndarray) -> np.ndarray:
-    """color_from_depth of (x, y offsets m, yaw and pitch degrees)."""
-    from scipy.spatial.transform import Rotation
-
-    color_from_depth = np.eye(4)
-    color_from_depth[:3, :3] = Rotation.from_euler("yx", x[2:4], degrees=True).as_matrix()
-    color_from_depth[:2, 3] = x[:2]
-    return color_from_depth
-
-
-def _refined(frames: list[_Edges], setup: StreamSetup, offset: np.ndarray, pixel_m: float) -> np.ndarray:
-    """The offset and a small turn (yaw, pitch) that align the edges best, from the grid's offset:
-    the edges at several distances (the object's, the table's) tell a turn from an offset. The
-    colour edges sampled between pixels, for a smooth search."""
+def _refined(frames: list[_Edges], setup: StreamSetup, search: _Search, offset: np.ndarray, pixel_m: float) -> np.ndarray:
+    """The offsets and the turns that align the edges best, from the grids' offset: the edges
+    at several distances (the object's, the table's) tell a turn from an offset. The colour
+    edges sampled between pixels, for a smooth search."""
     import cv2
     from scipy.optimize import minimize
 
     camera = setup.color_camera
 
     def misalignment(x: np.ndarray) -> float:
-        pose = _pose(x)
+        pose = search.pose(x)
         total = 0.0
         for frame in frames:
             pixels = camera.project(frame.points @ pose[:3, :3].T + pose[:3, 3]).astype(np.float32)
@@ -153,48 +216,30 @@ def _refined(frames: list[_Edges], setup: StreamSetup, offset: np.ndarray, pixel
             total += float(sampled.sum()) / len(frame.points)
         return -total / len(frames)
 
-    start = np.array([offset[0], offset[1], 0.0, 0.0])
-    steps = np.diag([_FINE_REACH_PX * pixel_m, _FINE_REACH_PX * pixel_m, _TURN_STEP_DEG, _TURN_STEP_DEG])
+    start = np.concatenate([offset, np.zeros(len(search.axes))])
+    steps = np.diag([_FINE_REACH_PX * pixel_m] * 2 + [_TURN_STEP_DEG] * len(search.axes))
     found = minimize(misalignment, start, method="Nelder-Mead", options={"initial_simplex": np.vstack([start, start + steps])}).x
-    return _pose(found) if np.all(np.abs(found[2:]) <= _MAX_TURN_DEG) else _pose(start)
+    return search.pose(found) if np.all(np.abs(found[2:]) <= _MAX_TURN_DEG) else search.pose(start)
 
 
-def place_depth_camera(pairs: list[RgbdPair], setup: StreamSetup) -> Placement | None:
-    """The depth camera's pose in colour's frame that lands the depth's silhouette edges in
-    `pairs` on colour edges: a sideways offset searched on a grid, then refined with a small
-    turn; None when their depth shows too few edges to say."""
+def place_depth_camera(pairs: list[RgbdPair], setup: StreamSetup, board: Board | None) -> Placement | None:
+    """The depth camera's pose in colour's frame that lays the depth's table on the board's (when
+    the tags give it) and lands the depth's silhouette edges in `pairs` on colour edges: offsets
+    searched on a grid, then refined with a turn (about the table's normal; by the edges alone,
+    yaw and pitch); None when their depth shows too few edges to say."""
     frames = [edges for pair in pairs if (edges := _edges(pair, setup)) is not None]
     if not frames:
         return None
+    search = None if board is None else _table_search(pairs, setup, board)
+    by_edges = _Search(start=np.eye(4), u=np.array([1.0, 0, 0]), v=np.array([0, 1.0, 0]), axes=np.array([[0, 1.0, 0], [1.0, 0, 0]]))
+    search, by_table = (search, True) if search is not None else (by_edges, False)
     pixel_m = float(np.median(np.concatenate([frame.points[:, 2] for frame in frames]))) / setup.color_camera.fx
     coarse = _COARSE_STEP_PX * pixel_m
     xs, ys = (np.arange(-reach, reach + coarse / 2, coarse) for reach in _REACH_M)
-    found = _coarse_best(frames, setup, xs, ys)
+    found = _coarse_best(frames, setup, search, xs, ys)
     fine = np.arange(-_FINE_REACH_PX, _FINE_REACH_PX + _FINE_STEP_PX / 2, _FINE_STEP_PX) * pixel_m
-    found = _best(frames, setup, found[0] + fine, found[1] + fine)
-    color_from_depth = _refined(frames, setup, found, pixel_m)
-    at_none = _agreement(frames, setup, np.zeros(3))
-    agreement = _agreement(frames, setup, color_from_depth) / max(at_none, 1e-9)
-    return Placement(color_from_depth=color_from_depth, agreement=agreement, frames=len(frames))
-
-
-def table_tilt_deg(pairs: list[RgbdPair], setup: StreamSetup, color_from_depth: np.ndarray, board: Board) -> float | None:
-    """How far the depth's table, seen from `color_from_depth`, tilts against the board's plane
-    by its tags: the median over the frames whose tags give a pose (a plane fitted to the depth
-    points on the board's disk within _TABLE_BAND_M of it); None when none does. A depth scale
-    bias moves the plane but does not tilt it."""
-    tilts = []
-    for pair in pairs:
-        pose = board_pose(pair.color, board, setup.color_camera)
-        if pose is None:
-            continue
-        points = setup.depth_pixel_rays() * _depth_m(pair, setup).reshape(-1, 1)
-        table_from_depth = np.linalg.inv(pose.camera_from_table) @ color_from_depth
-        points = points[np.isfinite(points).all(axis=1)] @ table_from_depth[:3, :3].T + table_from_depth[:3, 3]
-        on = (np.hypot(points[:, 0], points[:, 1]) < board.radius_m) & (np.abs(points[:, 2]) < _TABLE_BAND_M)
-        if np.count_nonzero(on) < 100:
-            continue
-        x, y, z = points[on].T
-        slope = np.linalg.lstsq(np.column_stack([x, y, np.ones_like(x)]), z, rcond=None)[0][:2]
-        tilts.append(float(np.degrees(np.arctan(np.hypot(*slope)))))
-    return float(np.median(tilts)) if tilts else None
+    nearby = [np.array([a, b]) for a in found[0] + fine for b in found[1] + fine]
+    found = max(nearby, key=lambda ab: _agreement(frames, setup, search.pose(np.concatenate([ab, np.zeros(len(search.axes))]))))
+    color_from_depth = _refined(frames, setup, search, found, pixel_m)
+    agreement = _agreement(frames, setup, color_from_depth) / max(_agreement(frames, setup, np.eye(4)), 1e-9)
+    return Placement(color_from_depth=color_from_depth, agreement=agreement, frames=len(frames), by_table=by_table)
