@@ -1,7 +1,8 @@
 """Lens models a recording may carry that the one Camera does not (RealSense's inverse
 Brown-Conrady, ROS's rational polynomial with k4-k6), refitted as OpenCV's forward
 Brown-Conrady (k1 k2 p1 p2 k3) over the whole image, or followed as each pixel's ray
-(`opencv_pixel_rays`: a ROS depth lens with k4-k6)."""
+(`opencv_pixel_rays`: a ROS depth lens with k4-k6), or undone in the images themselves
+(`undistortion_maps`: a colour lens the refit does not hold)."""
 
 from __future__ import annotations
 
@@ -83,3 +84,12 @@ def opencv_pixel_rays(camera: Camera, coefficients: list[float]) -> tuple[np.nda
     lost = ~(np.linalg.norm(back.reshape(-1, 2) - pixels, axis=1) < 0.01)
     rays[lost] = np.nan
     return rays, float(lost.mean())
+
+
+def undistortion_maps(camera: Camera, coefficients: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    """cv2.remap's maps from `camera`'s pinhole (its intrinsics, no distortion) to where each of
+    its pixels lies in an image taken through OpenCV's model with all of `coefficients`."""
+    import cv2
+
+    size = (camera.width, camera.height)
+    return cv2.initUndistortRectifyMap(camera.matrix, np.asarray(coefficients, np.float64), None, camera.matrix, size, cv2.CV_32FC1)
