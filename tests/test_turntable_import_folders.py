@@ -407,6 +407,29 @@ def test_the_units_verdict_is_not_one_frame_s(board: Path, tmp_path: Path) -> No
             assert result.exit_code == 2 and "the depth reads the board's tags 1.25x as far" in result.output, result.output
 
 
+def test_a_recording_without_depth_is_refused_at_import(board: Path, tmp_path: Path) -> None:
+    """check29b: a TUM folder whose depth PNGs are all 0 (a driver that wrote none) imported,
+    and reconstruct refused it as "no depth point fell inside the object's cylinder", pointing
+    at the object, not the recording."""
+    args = _tum_over_the_board(board, tmp_path / "scan", [0.0, 0.0, 0.0], 5000)
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "o")])
+    said = f"{tmp_path / 'scan'}: no depth: its 3 depth frames read none (every pixel 0)"
+    assert result.exit_code == 2 and said in " ".join(result.output.split()), result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_a_camera_file_of_another_size_than_the_images_is_named(board: Path, tmp_path: Path) -> None:
+    """check29b: --camera saying 640x480 for a folder of 320x240 images was refused naming the
+    first depth PNG, "said to be registered to the 640x480 colour", where the camera file is at
+    fault: now the colour image and --camera's file."""
+    args = _tum_over_the_board(board, tmp_path / "scan", [0.5], 5000)
+    save_camera(Camera(width=640, height=480, fx=600.0, fy=600.0, cx=319.5, cy=239.5), tmp_path / "camera.yaml")
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "o")])
+    said = "the colour image is 320x240 but --camera's camera file says 640x480"
+    assert result.exit_code == 2 and said in " ".join(result.output.split()), result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("text", ["[1, 2]", '"abc"'])
 def test_an_intrinsic_json_that_is_no_object_is_refused_in_one_line(text: str, board: Path, tmp_path: Path) -> None:
     recording = open3d_realsense_recorder(tmp_path / "scan")

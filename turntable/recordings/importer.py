@@ -182,6 +182,7 @@ def import_recording(
         units = DepthUnitsCheck(board, camera, str(recording))
         offsets = []
         frames = []
+        depth_seen = False
         for pair in source.pairs(start_s=options.start_s, end_s=options.end_s):
             if options.depth_units_m is not None and pair.depth.dtype != np.uint16:
                 raise InputError(f"{recording}: {DEPTH_UNITS_FLAG}: its depth is in float metres, not in units")
@@ -193,6 +194,7 @@ def import_recording(
             except InputError as exc:
                 raise InputError(f"{recording}: {exc}") from None
             units.add(written, pair.color, depth)
+            depth_seen = depth_seen or bool(np.isfinite(depth).any())
             write_depth(tmp / "depth" / f"{stem}.png", depth, depth_scale_m=camera.depth_scale_m)
             offsets.append(pair.depth_offset_s)
             times = (pair.time_s, pair.depth_offset_s) if setup.timed else (None, None)
@@ -203,6 +205,8 @@ def import_recording(
             span = f" between {options.start_s} s and {options.end_s} s" if options.end_s is not None else ""
             span = span or (f" after {options.start_s} s" if options.start_s else "")
             raise InputError(f"{recording}: no colour frame paired with a depth frame{span}")
+        if not depth_seen:  # a driver that wrote no depth: reconstruct would blame the object
+            raise InputError(f"{recording}: no depth: its {written} depth frames read none (every pixel 0)")
         units.finish()
         save_camera(camera, tmp / "camera.yaml")
         save_board(board, tmp / "board.yaml")

@@ -25,7 +25,7 @@ import numpy as np
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
 from homemodel.geometry.camera import Camera
-from turntable.recordings.images import read_depth_units, read_rgb
+from turntable.recordings.images import read_depth_units, read_rgb_of_size
 from turntable.recordings.source import StreamSetup
 from turntable.recordings.timed import TimedStreamsSource
 
@@ -171,5 +171,5 @@ class Open3dSource(TimedStreamsSource):
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
         camera = self.setup.color_camera
         for i, j in chosen:
-            yield "color", i, read_rgb(self._colors[i])
+            yield "color", i, read_rgb_of_size(self._colors[i], (camera.width, camera.height), self.setup.intrinsics_from)
             yield "depth", j, read_depth_units(self._depths[j], (camera.width, camera.height))

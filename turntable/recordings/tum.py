@@ -22,7 +22,7 @@ from homemodel.core.errors import InputError
 from homemodel.core.images import read_image, read_image_size
 from homemodel.core.input_files import read_bounded
 from homemodel.geometry.camera import Camera
-from turntable.recordings.images import read_depth_units, read_rgb
+from turntable.recordings.images import read_depth_units, read_rgb_of_size
 from turntable.recordings.source import StreamSetup
 from turntable.recordings.timed import TimedStreamsSource
 
@@ -163,5 +163,5 @@ class TumSource(TimedStreamsSource):
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
         camera = self.setup.color_camera
         for i, j in chosen:
-            yield "color", i, read_rgb(self._color_files[i])
+            yield "color", i, read_rgb_of_size(self._color_files[i], (camera.width, camera.height), self.setup.intrinsics_from)
             yield "depth", j, read_depth_units(self._depth_files[j], (camera.width, camera.height))
