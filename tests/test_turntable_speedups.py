@@ -50,11 +50,12 @@ def _depth_of_a_box(camera_from_table: np.ndarray) -> np.ndarray:
     return depth
 
 
-def test_object_pixels_give_the_whole_image_points_inside_the_cylinder() -> None:
+@pytest.mark.parametrize("ray_type", [np.float64, np.float32])  # the pipeline's rays are float32
+def test_object_pixels_give_the_whole_image_points_inside_the_cylinder(ray_type: type) -> None:
     camera_from_table = _camera_from_table()
     depth = _depth_of_a_box(camera_from_table)
     rgb = np.random.default_rng(0).integers(0, 255, (CAMERA.height, CAMERA.width, 3), dtype=np.uint8)
-    rays = CAMERA.pixel_rays()
+    rays = CAMERA.pixel_rays().astype(ray_type)
     table_from_camera = np.linalg.inv(camera_from_table)
     cylinder = Cylinder(axis_xy_m=np.array([0.004, -0.002]), radius_m=0.08, z_min_m=0.004, z_max_m=1.0)
     wide = Cylinder(axis_xy_m=np.zeros(2), radius_m=0.2, z_min_m=0.001, z_max_m=1.03)
