@@ -5,6 +5,7 @@ hand), read back from the capture folder and compared with what was written."""
 from __future__ import annotations
 
 import struct
+import tempfile
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -876,30 +877,49 @@ def test_a_message_that_does_not_decode_is_refused_naming_its_topic(board: Path,
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize("kind", ["ros1", "ros1-active", "mcap"])
+@pytest.mark.parametrize("kind", ["ros1", "ros1-active"])
 def test_a_bag_cut_short_is_refused_in_words(kind: str, board: Path, tmp_path: Path) -> None:
     """A .bag copied or recorded only in part: rosbags' "Bag index looks damaged: ('Header could
     not be read from file.',)" was printed as it came, a Python tuple. The file rosbag record
-    leaves when killed (`scan.bag.active`) was "cannot tell the recording's format"; an MCAP
-    file without its end (a ROS 2 recorder killed), rosbags' "File end magic is invalid"."""
-    ros = rsim.RosMessages(1 if kind.startswith("ros1") else 2)
+    leaves when killed (`scan.bag.active`) was "cannot tell the recording's format"."""
+    ros = rsim.RosMessages(1)
     messages = sorted(_aligned(ros), key=lambda m: m[0])
-    if kind == "mcap":
-        rsim.write_bag(tmp_path / "bag", ros, messages, storage="mcap")
-        recording = tmp_path / "bag"
-        cut = next(recording.glob("*.mcap"))
-    else:
-        recording = cut = tmp_path / ("scan.bag.active" if kind == "ros1-active" else "scan.bag")
-        rsim.write_bag(cut, ros, messages)
+    recording = cut = tmp_path / ("scan.bag.active" if kind == "ros1-active" else "scan.bag")
+    rsim.write_bag(cut, ros, messages)
     cut.write_bytes(cut.read_bytes()[: cut.stat().st_size // 2])
     result = CliRunner().invoke(app, ["turntable", "import", str(recording), "--board", str(board), "--out", str(tmp_path / "o")])
     said = {
         "ros1": "cut short or damaged: its index cannot be read",
         "ros1-active": "a ROS 1 bag whose recording was never closed: `rosbag reindex` it",
-        "mcap": "cut short: its MCAP file has no end",
     }[kind]
     assert result.exit_code == 2 and f"{recording}: " in result.output and said in result.output, result.output
     assert "('" not in result.output and len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("with_metadata", [False, True])
+def test_an_mcap_file_cut_short_is_read_up_to_its_cut(with_metadata: bool, board: Path, tmp_path: Path) -> None:
+    """A ROS 2 recorder killed leaves its MCAP file without an end (and the folder without
+    metadata.yaml, which it writes on closing): rosbags' "File end magic is invalid", the whole
+    recording refused. Its complete records are read, the frames up to the cut imported as
+    they were recorded; a copy of the folder cut with its metadata.yaml alike."""
+    ros = rsim.RosMessages(2)
+    # An infrared stream beside, 1 MB a frame: rosbags' writer closes a chunk past 1 MB, so the
+    # file holds one or two frames a chunk, as a camera's does.
+    infrared = np.zeros((900, 1200), np.uint8)
+    messages = _aligned(ros) + [(t, "/camera/infra1/image_rect_raw", ros.image(t, infrared, "mono8", DEPTH_FRAME)) for t in FRAMES.times_s]
+    rsim.write_bag(tmp_path / "bag", ros, sorted(messages, key=lambda m: m[0]), storage="mcap")
+    if not with_metadata:
+        (tmp_path / "bag" / "metadata.yaml").unlink()
+    cut = next((tmp_path / "bag").glob("*.mcap"))
+    whole = cut.read_bytes()
+    cut.write_bytes(whole[: len(whole) * 2 // 3])
+    report = import_recording(tmp_path / "bag", board, tmp_path / "capture", ImportOptions())
+    assert any(f"{cut.name} cut short (its recorder killed): read up to the cut" in note for note in report.notes), report.notes
+    assert 0 < report.frames_written < len(FRAMES.times_s), report.frames_written
+    colors, depths = rsim.read_back(tmp_path / "capture")
+    for k, (color, depth) in enumerate(zip(colors, depths)):
+        assert np.array_equal(color, FRAMES.colors[k]) and np.abs(depth - FRAMES.depths_m[k]).max() < 1e-6, k
+    assert not list(Path(tempfile.gettempdir()).glob("homemodel-mcap-*")), "the cut file's copy is left behind"
 
 
 @pytest.mark.parametrize("name", ["notes.bag", "scan.mcap"])

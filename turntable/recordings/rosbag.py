@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import glob
 import re
+import tempfile
 from collections import deque
 from collections.abc import Iterator
 from pathlib import Path
@@ -23,6 +24,7 @@ from turntable.recordings.images import (
     is_depth_encoding,
 )
 from turntable.recordings.lens import opencv_pixel_rays, refit_as_brown_conrady, undistort_opencv, undistortion_maps
+from turntable.recordings.mcap_cut import is_cut_short, recovered_copy, remove_copies
 from turntable.recordings.source import StreamSetup
 from turntable.recordings.timed import TimedStreamsSource
 
@@ -259,23 +261,38 @@ class RosBagSource(TimedStreamsSource):
         self._reader = None
         self._without_metadata = False
         self._color_maps: tuple[np.ndarray, np.ndarray] | None = None  # `lens.undistortion_maps` of colour's
+        self._copies: Path | None = None  # a temporary folder of cut MCAP files' readable copies
 
     def open(self) -> StreamSetup:
+        try:
+            return self._open()
+        except BaseException:
+            self.close()  # the cut MCAP files' copies too: `with` does not close what did not open
+            raise
+
+    def _open(self) -> StreamSetup:
         from rosbags.highlevel import AnyReader, AnyReaderError
         from rosbags.typesys import Stores, get_typestore
 
+        cut_notes: list[str] = []
         try:
             # Bags before ROS 2 Iron keep no message definitions: read them as Humble's.
             paths = split_parts(self.path) if self.ros_version == 1 else ros2_paths(self.path)
-            self._reader = AnyReader(paths, default_typestore=get_typestore(Stores.ROS2_HUMBLE))
-            self._reader.open()
+            with_metadata = any(p.is_dir() for p in paths)
+            if self.ros_version == 2:
+                paths = self._read_up_to_cuts(paths, cut_notes)
+            reader = AnyReader(paths, default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+            reader.open()
+            self._reader = reader  # once open: close() closes it
         except (AnyReaderError, OSError, ValueError, KeyError) as exc:
             raise InputError(f"{self.path}: not a readable ROS {self.ros_version} bag: {unreadable_bag(exc)}") from None
         where = str(self.path)
         split_note = [f"a bag split in {len(paths)} parts: {', '.join(p.name for p in paths)} read"] if len(paths) > 1 else []
         self._without_metadata = self.ros_version == 2 and paths[0].is_file()
         if self._without_metadata:
-            split_note = [f"no metadata.yaml: {', '.join(p.name for p in paths)} read on {'their' if len(paths) > 1 else 'its'} own"]
+            without = "without its metadata.yaml" if with_metadata else "no metadata.yaml"
+            split_note = [f"{without}: {', '.join(p.name for p in paths)} read on {'their' if len(paths) > 1 else 'its'} own"]
+        split_note += cut_notes
         reader = self._reader
         images = {c.topic: c for c in reader.connections if c.msgtype in IMAGE_TYPES}
         self._depth_dtypes: dict[str, type] = {}
@@ -414,6 +431,25 @@ class RosBagSource(TimedStreamsSource):
     def close(self) -> None:
         if self._reader is not None:
             self._reader.close()
+        remove_copies(self._copies)
+        self._copies = None
+
+    def _read_up_to_cuts(self, paths: list[Path], notes: list[str]) -> list[Path]:
+        """`paths`, or where an MCAP file among them is cut short (its recorder killed), their
+        storage files each on its own, the cut ones by a copy holding their complete records
+        (`mcap_cut`), said in `notes`."""
+        files = [file for p in paths for file in (storage_files(p) if p.is_dir() else [p])]
+        cut = [file for file in files if file.suffix == ".mcap" and is_cut_short(file)]
+        if not cut:
+            return paths
+        self._copies = Path(tempfile.mkdtemp(prefix="homemodel-mcap-"))
+        read = []
+        for file in files:
+            if file in cut:
+                file, dropped = recovered_copy(file, self._copies)
+                notes.append(f"{file.name} cut short (its recorder killed): read up to the cut, its last {dropped} bytes left out")
+            read.append(file)
+        return read
 
     def _decode(self, connection: object, raw: bytes) -> object:
         """A message, or one line naming the topic when its bytes do not decode (a damaged
