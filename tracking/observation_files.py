@@ -77,8 +77,8 @@ def read_observation(folder: Path) -> Observation:
     import cv2
 
     folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"{folder}: not an observation folder (no such folder)")
+    if not folder.is_dir():  # a file given as OBS_DIR (the map, a depth.png) exists: say so
+        raise InputError(f"{folder}: not an observation folder ({'a file' if folder.exists() else 'no such folder'})")
     for name in (CAMERA_FILE, DEPTH_FILE):
         if not (folder / name).is_file():
             raise InputError(f"{folder}: the observation has no {name}")
