@@ -7,7 +7,8 @@ A bedroom and a utility corner stand in one room. Real pieces, made here of trim
   plinth, clothes hanging inside;
 - a chest of four graduated drawers, dark fronts (more dropouts), two knobs a drawer, a top
   slab overhanging the carcass (read into the spec's `top_overhang`);
-- a bedside table on four legs (its spec says a plinth), a drawer over a right-hinged door;
+- a bedside table on four legs (read into the spec's `legs`, the plinth's height theirs), a drawer
+  over a right-hinged door;
 - a front-loading washing machine, its round door with a glass porthole (the sensor sees
   through it or not at all) on a hinge off the door's rim;
 - a dishwasher beside it, its door hinged at the bottom (a flap);
@@ -276,7 +277,7 @@ def chest(rng: np.random.Generator, slab_tape: np.random.Generator) -> Piece:
     return Piece("chest", spec, body, movers, top_z=h)
 
 
-def bedside(rng: np.random.Generator) -> Piece:
+def bedside(rng: np.random.Generator, leg_tape: np.random.Generator) -> Piece:
     w, d, h = rng.uniform(0.44, 0.48), rng.uniform(0.37, 0.40), rng.uniform(0.58, 0.62)
     t, legs = 0.018, rng.uniform(0.1, 0.13)
     white = (0.9, 0.9, 0.88)
@@ -292,6 +293,7 @@ def bedside(rng: np.random.Generator) -> Piece:
     corner = np.array([d / 2 + 0.021, -w / 2 + 0.002, z0])
     spec = {"kind": "cupboard", "width_m": _tape(rng, w), "depth_m": _tape(rng, d), "height_m": _tape(rng, h),
             "plinth_height_m": _tape(rng, legs), "door_thickness_m": 0.019,
+            "legs": {"size_m": _tape(leg_tape, 0.035), "inset_m": _tape(leg_tape, 0.0125)},
             "doors": [{"hinge": "right", "left_m": 0.002, "width_m": _tape(rng, w - 0.004), "bottom_m": _tape(rng, z0),
                        "height_m": _tape(rng, z1 - z0), "opening_limit_deg": 110,
                        "handle": {"type": "knob", "from_free_edge_m": 0.04, "height_m": _tape(rng, z1 - z0 - 0.05)},
@@ -479,7 +481,8 @@ def pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
 
 def make_home(seed: int = 0) -> Home:
     rng = np.random.default_rng(seed)
-    pieces = {p.id: p for p in (wardrobe(rng), chest(rng, np.random.default_rng([seed, 2])), bedside(rng), washer(rng),
+    pieces = {p.id: p for p in (wardrobe(rng), chest(rng, np.random.default_rng([seed, 2])),
+                                bedside(rng, np.random.default_rng([seed, 3])), washer(rng),
                                 worktop(rng))}
     pieces["wall_cupboard"] = wall_cupboard(rng, pieces["worktop"].top_z + rng.uniform(0.5, 0.56))
     pieces["mug"], pieces["plate"] = cup(rng), plate(rng)

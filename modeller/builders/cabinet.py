@@ -1,6 +1,6 @@
 """What every cabinet-like kind is built from (cupboards, wall cabinets, wardrobes and the
 appliances): a box at the real outer size with its front face (and its top, or its back
-for a back panel set in) removed and walls of the measured thickness, a plinth, a face
+for a back panel set in) removed and walls of the measured thickness, a plinth or legs, a face
 frame, shelves, dividers, fixed front panels, and doors, drawers, handles, control knobs
 and push buttons at their measured places.
 
@@ -51,6 +51,7 @@ from modeller.builders.handles import (
     blender_matrix,
     cylinder_collision,
 )
+from modeller.builders.table import four_legs
 from modeller.joint_physics import spec_dynamics
 from modeller.part_masses import front_masses_kg
 from modeller.specs import colour_name, colour_rgb
@@ -192,7 +193,11 @@ def _add_carcass(spec: CabinetSpec, assembly: Assembly) -> bpy.types.Object:
             parent_from_object=translation_transform(part_centre),
         )
         collisions.append(box_collision(name, part_size, part_centre))
-    if spec.plinth_height_m > 0:
+    if spec.plinth_height_m > 0 and spec.legs is not None:
+        # Legs, not a plinth: a camera sees the floor and the wall between them.
+        four_legs(spec.legs, (spec.depth_m, spec.width_m), spec.plinth_height_m, round_top=False, colour=spec.colour,
+                  parent=body, collisions=collisions)
+    elif spec.plinth_height_m > 0:
         # A frame under the carcass, its front set back for the feet: a box without top and bottom.
         plinth_size = (spec.depth_m - spec.plinth_recess_m, spec.width_m, spec.plinth_height_m)
         plinth_centre = (-spec.plinth_recess_m / 2, 0.0, spec.base_m + spec.plinth_height_m / 2)

@@ -22,6 +22,7 @@ from modeller.specs.cabinet_parts import (
     TopRail,
 )
 from modeller.specs.common import Colour, Length, ObjectSpec, Offset
+from modeller.specs.furniture import Legs
 from modeller.specs.handles import ControlKnob, PushButton
 
 
@@ -54,6 +55,9 @@ class CabinetBody(ObjectSpec):
     face_frame: FaceFrame | None = None
     plinth_height_m: Offset = 0.0
     plinth_recess_m: Offset = Field(0.05, description="how far the plinth's front sits back from the body's front")
+    legs: Legs | None = Field(
+        None, description="four legs plinth_height_m high in the carcass' corners instead of a plinth (a bedside table's)"
+    )
     door_thickness_m: Length = 0.018
     door_gap_m: Offset = Field(0.002, description="clearance between the body and its doors and drawers")
     shelves: list[Shelf] = []

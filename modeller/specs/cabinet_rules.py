@@ -92,7 +92,11 @@ def _check_walls(spec: CabinetBody) -> None:
             f"top and bottom {spec.carcass_top_m - spec.inner_top_m:.3f} and {spec.bottom_board_m} m thick leave "
             f"no room in a body {carcass_height:.3f} m high above the plinth",
         )
-    if spec.plinth_height_m > 0 and spec.plinth_recess_m + 2 * t >= spec.depth_m:
+    if spec.legs is not None:
+        if spec.plinth_height_m <= 0:
+            raise FieldError(("legs",), "legs stand under the carcass: give their height as plinth_height_m")
+        spec.legs.check_fit((spec.depth_m, spec.width_m), round_top=False, what=f"a {spec.kind_label}")
+    elif spec.plinth_height_m > 0 and spec.plinth_recess_m + 2 * t >= spec.depth_m:
         raise FieldError(
             ("plinth_recess_m",), f"a plinth set back {spec.plinth_recess_m} m leaves no plinth under the body"
         )
