@@ -8,7 +8,7 @@ decimation keeps a closed mesh closed and on the surface; the poses stage's runs
 read apart on threads, hand every reading over and stop together; one AprilTag detector serves
 every decimation, and detectors built ahead are the ones the searches take; a reconstruction
 runs without NumPy's huge pages and gives the setting back; the signed distance's dilation is
-SciPy's."""
+SciPy's; the misregistration probes stop at half when those settle the warning."""
 
 from __future__ import annotations
 
@@ -293,3 +293,27 @@ def test_the_signed_distances_dilation_is_scipys_with_its_cross_up_to_the_border
         for iterations in (1, 2, 3):
             assert np.array_equal(_dilated(mask, iterations), ndimage.binary_dilation(mask, iterations=iterations))
     assert np.array_equal(_dilated(mask, 0), mask)
+
+
+def _probe(shift_px: int) -> tuple[np.ndarray, np.ndarray]:
+    """A probe's depth and grey images: a near square on a far wall, its colour `shift_px` right."""
+    depth = np.full((120, 160), 1.0, np.float32)
+    depth[40:80, 50:110] = 0.6
+    gray = np.full((120, 160), 40, np.uint8)
+    gray[40:80, 50 + shift_px : 110 + shift_px] = 200
+    return depth, gray
+
+
+@pytest.mark.parametrize(("first_half_px", "probed"), [(0, 4), (1, 8), (3, 4)])
+def test_misregistration_probes_stop_at_half_when_those_settle_the_warning(first_half_px: int, probed: int) -> None:
+    """The first half read 0 px (1.5 from the warning) or 3 px (1.5 beyond it): settled; 1 px
+    (0.5 from it, not more): the rest are probed too. The other half read 2 px either way."""
+    from turntable.reconstruct import FrameReading, misregistration_offsets
+
+    readings = {
+        f"{k:06d}": FrameReading(stem=f"{k:06d}", pose="", sharpness=1.0, probe_images=_probe(2 if k % 2 else first_half_px))
+        for k in range(8)
+    }
+    offsets = misregistration_offsets(readings, np.zeros(2), 1.5)
+    assert len(offsets) == probed
+    assert all(np.allclose(offset, [2 if int(stem) % 2 else first_half_px, 0], atol=0.3) for stem, offset in offsets.items())
