@@ -255,6 +255,7 @@ class Turn:
     fps: float = 2.0
     deg_per_s: float = 20.0
     still_s: float = 0.0  # before the table starts
+    stop_deg: float = math.inf  # where the table stops (a turn cut short)
 
 
 @dataclass
@@ -265,7 +266,7 @@ class Streams:
 
 
 def turn_angle(t: float, turn: Turn) -> float:
-    return math.radians(turn.deg_per_s * max(0.0, t - turn.still_s))
+    return math.radians(min(turn.stop_deg, turn.deg_per_s * max(0.0, t - turn.still_s)))
 
 
 def camera_pose(rig: Rig, angle: float) -> np.ndarray:
@@ -571,6 +572,9 @@ L515_COLOR = Lens(960, 540, 680.1, 680.3, 483.4, 271.2)
 L515_DEPTH = Lens(640, 480, 458.2, 458.4, 325.3, 244.1)
 L515_COLOR_FROM_DEPTH = small_turn(0.35, 0.2, (0.0144, 0.0, 0.0))  # lidar beside colour, no tf recorded
 KINECT1 = Lens(640, 480, 525.0, 525.0, 319.5, 239.5)
+ASTRA_COLOR = Lens(640, 480, 517.3, 516.5, 318.6, 255.3, (0.26, -0.95, -0.0054, 0.0026, 1.16))
+ASTRA_DEPTH = Lens(640, 480, 570.3, 570.3, 319.5, 239.5)
+ASTRA_COLOR_FROM_DEPTH = small_turn(-0.2, 0.1, (-0.025, 0.0003, 0.001))
 D405 = Lens(848, 480, 431.6, 431.1, 424.7, 241.8)
 
 
@@ -599,6 +603,11 @@ CASES = {
              Rig(L515_COLOR, L515_DEPTH, L515_COLOR_FROM_DEPTH, distance_m=0.65, elevation_deg=40, samples=1)),
         Case("kinect1_tum_mug", "TUM, depth clock drifting 1.5 ms/s, dark shiny mug (holes)", "mug",
              Rig(KINECT1, None, distance_m=0.7, elevation_deg=40), dark_shiny=True, albedo=0.06),
+        Case("astra_mcap_mug_stops", "ros2 mcap, bgr8 colour, 16UC1 big-endian depth of its own, /tf_static, table stops at 250 deg", "mug",
+             Rig(ASTRA_COLOR, ASTRA_DEPTH, ASTRA_COLOR_FROM_DEPTH, distance_m=0.6, elevation_deg=30, aim_height_m=0.05),
+             turn=Turn(frames=36, fps=2.0, deg_per_s=20.0, stop_deg=250.0)),
+        Case("astra_mcap_bottle", "ros2 mcap, bgr8 colour, 16UC1 big-endian depth of its own, /tf_static", "bottle",
+             Rig(ASTRA_COLOR, ASTRA_DEPTH, ASTRA_COLOR_FROM_DEPTH, distance_m=0.6, elevation_deg=30, aim_height_m=0.05)),
         Case("d405_open3d_box", "Open3D folder, 0.1 mm depth, intrinsic.json row-major nested matrix", "box",
              Rig(D405, None, distance_m=0.42, elevation_deg=45, aim_height_m=0.03)),
     ]
@@ -623,6 +632,11 @@ def write_case(case: Case, streams: Streams, rec: Path) -> list[str]:
                                            "/camera/color/camera_info", "/camera/depth/camera_info",
                                            "camera_color_optical_frame", "camera_depth_optical_frame",
                                            color_compressed="png", tf_static=False), mcap=False)
+        return []
+    if case.name.startswith("astra_mcap"):
+        write_ros2(streams, rec, RosLayout("/camera/color/image_raw", "/camera/depth/image_raw", "/camera/color/camera_info",
+                                           "/camera/depth/camera_info", "camera_color_optical_frame", "camera_depth_optical_frame",
+                                           color_encoding="bgr8", big_endian=True), mcap=True)
         return []
     if case.name == "kinect1_tum_mug":
         write_tum(streams, rec, depth_clock_drift=0.0015)
