@@ -747,6 +747,29 @@ def test_the_depth_camera_s_pose_given_in_the_camera_file_is_taken(board: Path, 
     assert np.count_nonzero(square ^ seen_square) < 0.03 * np.count_nonzero(square), np.count_nonzero(square ^ seen_square)
 
 
+def test_a_camera_file_s_pose_takes_its_tilt_and_height_from_the_board_s_table(board: Path, tmp_path: Path) -> None:
+    """A datasheet's baseline given as color_from_depth (15 mm along x, not turned) for a depth
+    camera turned 0.6 deg: readme_check's bottle came out a table slab 30 mm from its truth. The
+    pose is laid on the board's table (its tilt and height): the registered table is flat."""
+    import yaml
+    from test_turntable_import_folders import BOARD_VIEW
+
+    _box_on_the_board(board, tmp_path / "bag", _a_baseline())
+    datasheet = np.eye(4)
+    datasheet[0, 3] = -0.015
+    (tmp_path / "camera.yaml").write_text(yaml.safe_dump({"color_from_depth": datasheet.tolist()}))
+    options = ImportOptions(camera_path=tmp_path / "camera.yaml")
+    report = import_recording(tmp_path / "bag", board, tmp_path / "capture", options)
+    _, depths = rsim.read_back(tmp_path / "capture")
+    rays = BOARD_VIEW.pixel_rays().reshape(BOARD_VIEW.height, BOARD_VIEW.width, 3)
+    table = depths[0] > 0.46
+    x, y, z = (rays[table] * depths[0][table, None]).T
+    slope_x, slope_y, height = np.linalg.lstsq(np.column_stack([x, y, np.ones_like(x)]), z, rcond=None)[0]
+    tilt_deg = np.degrees(np.arctan(np.hypot(slope_x, slope_y)))
+    assert tilt_deg < 0.1 and abs(height - 0.5) < 0.001, (tilt_deg, height)
+    assert any(note.startswith("--camera's color_from_depth laid on the board's table") for note in report.notes), report.notes
+
+
 def test_a_camera_file_s_pose_that_is_not_rigid_is_refused_naming_it(board: Path, tmp_path: Path) -> None:
     import yaml
 

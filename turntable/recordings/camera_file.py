@@ -60,7 +60,7 @@ def take_depth_pose(setup: StreamSetup, color_from_depth: np.ndarray) -> None:
         setup.notes.append(f"--camera's {FIELD} not used: the recording's depth is registered to colour")
         return
     if setup.color_from_depth is None:
-        setup.color_from_depth = color_from_depth
+        setup.color_from_depth, setup.depth_pose_given = color_from_depth, True
         setup.notes.append(f"the depth camera's pose from --camera's {FIELD}")
         return
     shift_m = float(np.linalg.norm(setup.color_from_depth[:3, 3] - color_from_depth[:3, 3]))

@@ -129,12 +129,33 @@ def _plane(points: np.ndarray) -> tuple[np.ndarray, float]:
     return normal, float(normal @ centre)
 
 
-def _table_search(pairs: list[RgbdPair], setup: StreamSetup, board: Board) -> _Search | None:
-    """The search with the depth's table laid on the board's: the tags' plane in colour's frame
-    (their normals averaged, their distances' median over the frames posed), the depth's table
-    fitted to its points on the board's disk of every frame; None when no frame gives both."""
-    from scipy.spatial.transform import Rotation
+@dataclass
+class _Tables:
+    """The board's table in colour's frame by its tags (normal . p = distance) and the depth's
+    own table in the depth camera's frame."""
 
+    normal: np.ndarray
+    distance: float
+    depth_normal: np.ndarray
+    depth_distance: float
+
+    def laid(self, color_from_depth: np.ndarray) -> np.ndarray:
+        """`color_from_depth` turned the least and moved along the normal that lay the depth's
+        table on the board's."""
+        from scipy.spatial.transform import Rotation
+
+        turn = Rotation.align_vectors(self.normal[None], (color_from_depth[:3, :3] @ self.depth_normal)[None])[0].as_matrix()
+        laid = np.eye(4)
+        laid[:3, :3] = turn @ color_from_depth[:3, :3]
+        moved = turn @ color_from_depth[:3, 3]
+        laid[:3, 3] = moved + self.normal * (self.distance - self.depth_distance - self.normal @ moved)
+        return laid
+
+
+def _tables(pairs: list[RgbdPair], setup: StreamSetup, board: Board) -> _Tables | None:
+    """The board's table (the tags' normals averaged, their distances' median over the frames
+    posed) and the depth's (a plane fitted to its points on the board's disk of every such
+    frame); None when no frame gives both."""
     normals, distances, table = [], [], []
     for pair in pairs:
         pose = board_pose(pair.color, board, setup.color_camera)
@@ -166,12 +187,26 @@ def _table_search(pairs: list[RgbdPair], setup: StreamSetup, board: Board) -> _S
     normal /= np.linalg.norm(normal)
     if depth_normal @ normal < 0:
         depth_normal, depth_distance = -depth_normal, -depth_distance
-    start = np.eye(4)
-    start[:3, :3] = Rotation.align_vectors(normal[None], depth_normal[None])[0].as_matrix()
-    start[:3, 3] = normal * (float(np.median(distances)) - depth_distance)
+    return _Tables(normal, float(np.median(distances)), depth_normal, depth_distance)
+
+
+def laid_on_table(pairs: list[RgbdPair], setup: StreamSetup, board: Board, color_from_depth: np.ndarray) -> np.ndarray | None:
+    """A depth camera's pose given without the board (a datasheet's baseline, unturned) with its
+    tilt and height taken from the board's table; None when the frames do not show it."""
+    tables = _tables(pairs, setup, board)
+    return None if tables is None else tables.laid(color_from_depth)
+
+
+def _table_search(pairs: list[RgbdPair], setup: StreamSetup, board: Board) -> _Search | None:
+    """The search with the depth's table laid on the board's (`_tables`); None when the frames
+    do not show it."""
+    tables = _tables(pairs, setup, board)
+    if tables is None:
+        return None
+    normal = tables.normal
     u = np.array([1.0, 0.0, 0.0]) - normal[0] * normal  # colour's x along the table: a baseline's direction
     u /= np.linalg.norm(u)
-    return _Search(start=start, u=u, v=np.cross(normal, u), axes=normal[None])
+    return _Search(start=tables.laid(np.eye(4)), u=u, v=np.cross(normal, u), axes=normal[None])
 
 
 def _agreement(frames: list[_Edges], setup: StreamSetup, color_from_depth: np.ndarray) -> float:

@@ -24,6 +24,9 @@ class StreamSetup:
     # own camera, its images to be reprojected into colour's with `color_from_depth`.
     depth_camera: Camera | None = None
     color_from_depth: np.ndarray | None = None  # 4x4; None: not in the recording (identity assumed)
+    # color_from_depth is --camera's (a user's, perhaps a datasheet's baseline): its tilt and
+    # height are taken from the board's table where the frames show it.
+    depth_pose_given: bool = False
     # (h*w, 3) rays (z = 1) through the depth camera's pixels, NaN: none. A reader sets them by
     # the recorded lens model when `depth_camera` only approximates it (an Azure Kinect's wide
     # rational one); else `depth_pixel_rays` fills them from `depth_camera` at the first frame.

@@ -36,17 +36,9 @@ class TimedStreamsSource(FrameSource):
     def _place_depth_camera(self, chosen: list[tuple[int, int]]) -> None:
         """An unregistered depth whose pose the recording does not give: placed by a few frames'
         edges (`edge_placement`), else taken as seen from colour's own point, said either way."""
-        from turntable.recordings.edge_placement import MIN_AGREEMENT, SAMPLE_FRAMES, place_depth_camera
+        from turntable.recordings.edge_placement import MIN_AGREEMENT, place_depth_camera
 
-        picked = sorted({chosen[round(k)] for k in np.linspace(0, len(chosen) - 1, min(SAMPLE_FRAMES, len(chosen)))})
-        images = {(kind, index): image for kind, index, image in self.stream_images(picked)}
-        samples = [
-            RgbdPair(time_s=0.0, color=images[("color", i)], depth=images[("depth", j)], depth_offset_s=0.0) for i, j in picked
-        ]
-        for sample in samples:  # before the edges are read at the intrinsics' sizes
-            if (problem := frame_size_problem(sample, self.setup)) is not None:
-                raise InputError(f"{self.path}: {problem}")
-        placement = place_depth_camera(samples, self.setup, self.board)
+        placement = place_depth_camera(self._samples(chosen), self.setup, self.board)
         at_one_point = "depth reprojected as if the two cameras sat at one point"
         if placement is None:
             self.setup.notes.append(f"{at_one_point} (too few depth edges to place it: {GIVE_POSE})")
@@ -67,6 +59,38 @@ class TimedStreamsSource(FrameSource):
             f"aligned as at colour's own point; {GIVE_POSE} where you know it)"
         )
 
+    def _samples(self, chosen: list[tuple[int, int]]) -> list[RgbdPair]:
+        """A few of the chosen pairs spread over the recording (the placement's), their sizes checked."""
+        from turntable.recordings.edge_placement import SAMPLE_FRAMES
+
+        picked = sorted({chosen[round(k)] for k in np.linspace(0, len(chosen) - 1, min(SAMPLE_FRAMES, len(chosen)))})
+        images = {(kind, index): image for kind, index, image in self.stream_images(picked)}
+        samples = [
+            RgbdPair(time_s=0.0, color=images[("color", i)], depth=images[("depth", j)], depth_offset_s=0.0) for i, j in picked
+        ]
+        for sample in samples:  # before the edges are read at the intrinsics' sizes
+            if (problem := frame_size_problem(sample, self.setup)) is not None:
+                raise InputError(f"{self.path}: {problem}")
+        return samples
+
+    def _lay_given_pose_on_the_table(self, chosen: list[tuple[int, int]]) -> None:
+        """--camera's color_from_depth with its tilt and height from the board's table: a
+        datasheet's baseline given unturned (readme_check's bottle: 0.6 deg off) made the table a
+        slab 30 mm from the truth; a calibrated pose moves by the tags' noise (~0.02 deg)."""
+        from turntable.recordings.edge_placement import laid_on_table
+
+        given = self.setup.color_from_depth
+        laid = None if self.board is None or given is None else laid_on_table(self._samples(chosen), self.setup, self.board, given)
+        if laid is None:
+            return
+        self.setup.color_from_depth = laid
+        turn = laid[:3, :3] @ given[:3, :3].T
+        turn_deg = np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1.0, 1.0)))
+        self.setup.notes.append(
+            f"--camera's color_from_depth laid on the board's table: turned {turn_deg:.2f} deg, moved "
+            f"{1000 * np.linalg.norm(laid[:3, 3] - given[:3, 3]):.1f} mm"
+        )
+
     def pairs(self, *, start_s: float = 0.0, end_s: float | None = None) -> Iterator[RgbdPair]:
         color_t, depth_t = self.stream_times()
         tolerance = self.tolerance_s if self.tolerance_s is not None else default_tolerance_s(color_t, depth_t)
@@ -82,6 +106,8 @@ class TimedStreamsSource(FrameSource):
         chosen = in_span[:: self.every]
         if self.setup.depth_camera is not None and self.setup.color_from_depth is None and chosen:
             self._place_depth_camera(chosen)
+        elif self.setup.depth_camera is not None and self.setup.depth_pose_given and chosen:
+            self._lay_given_pose_on_the_table(chosen)
         depth_of = dict(chosen)
         color_of = {j: i for i, j in chosen}
         held: dict[tuple[str, int], np.ndarray] = {}
