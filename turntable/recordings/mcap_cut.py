@@ -6,13 +6,12 @@ magic is invalid"), the whole recording lost for its last, unfinished chunk."""
 from __future__ import annotations
 
 import shutil
-import struct
 from pathlib import Path
 
 MAGIC = b"\x89MCAP0\r\n"
 _DATA_END, _FOOTER = 0x0F, 0x02
 # A footer pointing at no summary: opcode, length 20, summary start 0, summary offset start 0, CRC 0.
-_EMPTY_FOOTER = bytes([_FOOTER]) + struct.pack("<QQQI", 20, 0, 0, 0) + MAGIC
+_EMPTY_FOOTER = bytes([_FOOTER]) + (20).to_bytes(8, "little") + bytes(8 + 8 + 4) + MAGIC
 
 
 def is_cut_short(path: Path) -> bool:
@@ -32,7 +31,7 @@ def complete_records_end(path: Path) -> int:
     with path.open("rb") as file:
         file.seek(end)
         while (head := file.read(9)) and len(head) == 9:
-            opcode, length = head[0], struct.unpack("<Q", head[1:])[0]
+            opcode, length = head[0], int.from_bytes(head[1:], "little")
             if opcode in (_DATA_END, _FOOTER) or end + 9 + length > size:
                 break
             end += 9 + length
