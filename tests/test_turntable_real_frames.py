@@ -23,11 +23,12 @@ def test_flying_pixels_go_and_slanted_surfaces_stay() -> None:
 @pytest.mark.parametrize("focal_px", [577.0, 152.0])
 def test_pixels_mixed_across_a_step_go_and_grazing_or_curving_surfaces_stay(focal_px: float) -> None:
     """A step of 14 pixel footprints at 0.6 m (15 mm at f 577 px, 55 mm at f 152 px), its edge
-    pixels mixed 35-65 % of the way: all go. At 577 px each differs from either neighbour by
-    less than 2 % of the depth, which the rule by depth alone let through (0 of 40). Planes 70
-    to 80 degrees from the view, a cylinder's silhouette curving away (r 40 mm at 0.5 m, 40
-    sub-pixel phases) and a wall with the sensor's noise keep their pixels: at 152 px the rule
-    by depth alone dropped the 76-degree plane whole and 12 of the silhouette's pixels."""
+    pixels mixed 35-65 % of the way: all go, with holes beside them too (a hole is looked past;
+    before, none of those went). At 577 px each differs from either neighbour by less than 2 %
+    of the depth, which the rule by depth alone let through (0 of 40). Planes 70 to 80 degrees
+    from the view, a cylinder's silhouette curving away (r 40 mm at 0.5 m, 40 sub-pixel phases)
+    and a wall with the sensor's noise, whole or a quarter holes, keep their pixels: at 152 px
+    the rule by depth alone dropped the 76-degree plane whole and 12 of the silhouette's pixels."""
     rng = np.random.default_rng(0)
     z = 0.6
     footprint = z / focal_px
@@ -36,6 +37,9 @@ def test_pixels_mixed_across_a_step_go_and_grazing_or_curving_surfaces_stay(foca
     depth[:, 30] = z + 14 * footprint * rng.uniform(0.35, 0.65, 40)
     cleaned, dropped = drop_flying_pixels(depth, focal_px)
     assert dropped == 40 and np.isnan(cleaned[:, 30]).all()
+    holed = depth.copy()  # a dark surface's holes beside the mixed pixels, on one side or the other
+    holed[::2, 29], holed[1::2, 31] = np.nan, np.nan
+    assert np.isnan(drop_flying_pixels(holed, focal_px)[0][:, 30]).all()
     for degrees in (70.0, 76.0, 80.0):
         plane = z + np.arange(60)[None, :].repeat(40, 0) * footprint * np.tan(np.radians(degrees))
         assert drop_flying_pixels(plane.astype(np.float32), focal_px)[1] == 0, degrees
@@ -44,6 +48,8 @@ def test_pixels_mixed_across_a_step_go_and_grazing_or_curving_surfaces_stay(foca
     cylinder = np.where(np.abs(x) < radius, 0.54 - np.sqrt(np.clip(radius**2 - x**2, 0, None)), 0.6)
     assert drop_flying_pixels(cylinder.astype(np.float32), focal_px)[1] == 0
     wall = (z + rng.normal(0, 0.0013, (200, 200))).astype(np.float32)  # sigma(0.6 m) of a structured-light sensor
+    assert drop_flying_pixels(wall, focal_px)[1] <= 0.001 * wall.size
+    wall[rng.random(wall.shape) < 0.25] = np.nan  # and with a quarter of its pixels reading none
     assert drop_flying_pixels(wall, focal_px)[1] <= 0.001 * wall.size
 
 

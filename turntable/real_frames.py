@@ -30,40 +30,51 @@ def drop_flying_pixels(depth_m: np.ndarray, focal_px: float) -> tuple[np.ndarray
     lies off each side's surface carried one pixel on (the neighbour plus that side's own step).
     A surface point, even one seen at a grazing angle or curving away at a silhouette, carries
     on one side's surface; a pixel mixed across a step of a few footprints, which the jump alone
-    cannot tell from a grazing surface, carries on neither."""
+    cannot tell from a grazing surface, carries on neither. A neighbour that reads nothing is
+    looked past, to the next pixel: a dark or shiny object's holes beside its mixed pixels hid
+    them (check29b's glazed mug, 25 % holes: its opening closed by a dome, 1.24 -> 0.84 mm)."""
     import cv2
 
     depth = np.asarray(depth_m, dtype=np.float32)
     footprint = depth / np.float32(focal_px)
     jump = np.maximum(FLYING_JUMP_FOOTPRINTS * footprint, FLYING_MIN_JUMP_M)
+    padded = np.pad(depth, 3, constant_values=np.nan)
     flying = np.zeros(depth.shape, dtype=bool)
-    inner = (np.s_[:, 1:-1], np.s_[1:-1])  # the pixels with both neighbours: left/right, above/below
-    for axis, centre_of, first_of, second_of in (
-        (1, inner[0], np.s_[:, :-2], np.s_[:, 2:]),
-        (0, inner[1], np.s_[:-2], np.s_[2:]),
-    ):
-        centre, first, second = depth[centre_of], depth[first_of], depth[second_of]
+    for axis in (0, 1):
+        sides = [_beside(padded, depth.shape, axis, side) for side in (-1, 1)]
+        (first, *_), (second, *_) = sides
         # Both jumps over the threshold (NaN's are not) and the centre between the two. (OpenCV's
         # absdiff: a third of NumPy's abs of a difference.) Few pass: the surface test runs on those.
-        between = (first > centre) != (second > centre)
-        jumps = (cv2.absdiff(first, centre) > jump[centre_of]) & (cv2.absdiff(second, centre) > jump[centre_of])
-        at = list(np.nonzero(jumps & between))
-        at[axis] = at[axis] + 1  # the centre's own pixel
-        position, size = at[axis], depth.shape[axis]
-        value = depth[tuple(at)]
-        off_surface = np.maximum(FLYING_OFF_SURFACE_FOOTPRINTS * footprint[tuple(at)], FLYING_MIN_JUMP_M)
+        between = (first > depth) != (second > depth)
+        at = np.nonzero(between & (cv2.absdiff(first, depth) > jump) & (cv2.absdiff(second, depth) > jump))
+        value = depth[at]
+        off_surface = np.maximum(FLYING_OFF_SURFACE_FOOTPRINTS * footprint[at], FLYING_MIN_JUMP_M)
         off_both = np.ones(len(value), dtype=bool)
-        for side in (-1, 1):
-            near_at, outer_at = list(at), list(at)
-            near_at[axis] = position + side
-            outer_at[axis] = np.clip(position + 2 * side, 0, size - 1)  # past the border: no step
-            near = depth[tuple(near_at)]
-            step = np.nan_to_num(near - depth[tuple(outer_at)])  # none past a hole
-            off_both &= np.abs(value - near - step) > off_surface
+        for near, hole, next_pixel, past in sides:
+            beyond = np.where(hole[at], past[at], next_pixel[at])
+            step = np.nan_to_num(near[at] - beyond)  # none past a hole or the border
+            off_both &= np.abs(value - near[at] - step) > off_surface
         flying[tuple(a[off_both] for a in at)] = True
     out = depth.copy()
     out[flying] = np.nan
     return out, int(np.count_nonzero(flying))
+
+
+def _beside(
+    padded: np.ndarray, shape: tuple[int, ...], axis: int, side: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each pixel's neighbour on `side` (-1 or 1) along `axis`, the next pixel where that one
+    reads nothing; and, to find the pixel beyond it, where it read nothing, the next two pixels
+    (from the depth padded by 3 NaN's)."""
+    height, width = shape
+
+    def shifted(k: int) -> np.ndarray:
+        dy, dx = (k, 0) if axis == 0 else (0, k)
+        return padded[3 + dy : 3 + dy + height, 3 + dx : 3 + dx + width]
+
+    neighbour, next_pixel, past = (shifted(side * k) for k in (1, 2, 3))
+    hole = np.isnan(neighbour)
+    return np.where(hole, next_pixel, neighbour), hole, next_pixel, past
 
 
 def focal_px_of_rays(rays: np.ndarray, width: int) -> float:
