@@ -32,7 +32,7 @@ from tracking.fit_pose import fit_quality, icp_correction, yaw_of
 from tracking.fit_state import FitState
 from tracking.fit_view import FitView, chromaticity
 from tracking.report import SmallObjectReport
-from tracking.scene import box_corners
+from tracking.scene import SceneObject, box_corners
 
 
 # A small object stands at most this high on its surface.
@@ -126,10 +126,15 @@ def find_small_objects(
             # written as a new parent, and their own surfaces seen off their estimates are
             # no small object (`--seed 3` of the bench put the sugar container on a fridge's
             # shelf twice, its body 38 mm off).
+            # Nor onto another's place in the map while that one is not found: the points
+            # there are that object's as likely (a bowl taken away was "found" on a cup
+            # and a pill box beside it, the cup's cluster too wide for the cup alone).
+            others = [o for o in smalls if o.id != obj.id and o.id not in reports]
             choices = [
                 c for c, clear in zip(clusters, off_sides)
                 if not c.used and _fits(c, size) and (clear or not moved)
                 and (c.owner == obj.node.parent and np.linalg.norm(c.centre_xy - home) < search.search_radius_m) != moved
+                and not any(_holds_the_place(state, c, other) for other in others)
             ]
             choices.sort(key=lambda c: np.linalg.norm(c.centre_xy - home))
             for cluster in choices:
@@ -148,10 +153,19 @@ def find_small_objects(
                 break
     for obj in smalls:
         if obj.id not in reports and obj.node.parent in in_view:
-            status = "not found" if _place_in_view(state, full, obj.id, bounds[obj.id], search) else "not seen"
+            # Points standing at its place that no fit took are not an empty place.
+            held = any(not c.used and _holds_the_place(state, c, obj) for c in clusters)
+            status = "not found" if not held and _place_in_view(state, full, obj.id, bounds[obj.id], search) else "not seen"
             reports[obj.id] = SmallObjectReport(id=obj.id, status=status, parent=obj.node.parent,
                                                 previous_parent=obj.node.parent, relation=obj.node.relation)
     return [reports[obj.id] for obj in smalls if obj.id in reports]
+
+
+def _holds_the_place(state: FitState, cluster: _Cluster, obj: SceneObject) -> bool:
+    """Whether the cluster stands on the object's parent over the object's place in the map."""
+    low, high = cluster.points[:, :2].min(axis=0), cluster.points[:, :2].max(axis=0)
+    place = state.map_from_objects[obj.id][:2, 3]
+    return cluster.owner == obj.node.parent and bool(np.all((low <= place) & (place <= high)))
 
 
 def _fits(cluster: _Cluster, size_m: np.ndarray, margin_m: float = 0.05) -> bool:
