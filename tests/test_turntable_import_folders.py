@@ -330,11 +330,15 @@ def test_a_depth_png_of_another_size_is_refused_naming_it(board: Path, tmp_path:
 
 def _board_seen_from_above(board_path: Path, camera: Camera, height_m: float) -> np.ndarray:
     """RGB of the board's tags seen straight down from `height_m` (the table's +y up the image)."""
+    v, u = np.mgrid[0 : camera.height, 0 : camera.width]
+    return board_at(board_path, (u - camera.cx) * height_m / camera.fx, -(v - camera.cy) * height_m / camera.fy)
+
+
+def board_at(board_path: Path, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """RGB of the board's tags at table points (x, y) m, each array an image's pixels."""
     from turntable.board import TAG_CELLS, load_board, tag_bits
 
     board = load_board(board_path)
-    v, u = np.mgrid[0 : camera.height, 0 : camera.width]
-    x, y = (u - camera.cx) * height_m / camera.fx, -(v - camera.cy) * height_m / camera.fy
     white = np.ones(x.shape, dtype=bool)
     half, cell = board.tag_size_m / 2, board.tag_size_m / TAG_CELLS
     for tag in board.tags:

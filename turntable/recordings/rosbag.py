@@ -574,5 +574,7 @@ class RosBagSource(TimedStreamsSource):
             return image
         if image.shape[:2] != self._color_maps[0].shape:
             return image  # refused by the size check, naming the frame
-        interpolation = cv2.INTER_LINEAR if kind == "color" else cv2.INTER_NEAREST
+        # Lanczos keeps small tags' cells sharp: bilinearly, check29b's half-size Azure bottle (tags
+        # ~10 px) lost half its tags and 6 of 16 frames' poses, 2.14 mm from the truth; 0.95 now.
+        interpolation = cv2.INTER_LANCZOS4 if kind == "color" else cv2.INTER_NEAREST
         return cv2.remap(image, *self._color_maps, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
