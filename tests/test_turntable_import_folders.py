@@ -434,6 +434,34 @@ def test_a_camera_file_of_another_size_than_the_images_is_named(board: Path, tmp
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("fault", ["fewer depth", "zero focal length", "depth as jpg"])
+def test_an_open3d_folder_s_faults_are_said_in_words(fault: str, board: Path, tmp_path: Path) -> None:
+    """check29b: colour images without a depth partner were left out unsaid ("frames dropped 0");
+    a zero focal length printed pydantic's two validation errors and their web address; depth
+    saved as 8-bit JPEG was only "no depth images"."""
+    import json
+
+    recording = open3d_realsense_recorder(tmp_path / "scan")
+    depths = sorted((recording / "depth").glob("*.png"))
+    if fault == "fewer depth":
+        depths[-1].unlink()
+    elif fault == "zero focal length":
+        data = json.loads((recording / "camera_intrinsic.json").read_text())
+        (recording / "camera_intrinsic.json").write_text(json.dumps({**data, "intrinsic_matrix": [0.0] * 9}))
+    else:
+        for path in depths:
+            path.rename(path.with_suffix(".jpg"))
+    result = CliRunner().invoke(app, ["turntable", "import", str(recording), "--board", str(board), "--out", str(tmp_path / "o")])
+    said = " ".join(result.output.split())
+    if fault == "fewer depth":
+        left_out = f"{len(depths)} colour and {len(depths) - 1} depth images: the {len(depths) - 1} of one number paired, 1 colour"
+        assert result.exit_code == 0 and left_out in said, said
+        return
+    expected = "fx: Input should be greater than 0" if fault == "zero focal length" else f"({len(depths)} .jpg files: depth must be 16-bit PNG)"
+    assert result.exit_code == 2 and expected in said and "pydantic" not in said, said
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("text", ["[1, 2]", '"abc"'])
 def test_an_intrinsic_json_that_is_no_object_is_refused_in_one_line(text: str, board: Path, tmp_path: Path) -> None:
     recording = open3d_realsense_recorder(tmp_path / "scan")

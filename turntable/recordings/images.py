@@ -43,13 +43,13 @@ def read_rgb(path: Path) -> np.ndarray:
     return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
 
 
-def read_rgb_of_size(path: Path, size: tuple[int, int], intrinsics_from: str) -> np.ndarray:
-    """A folder's colour image, refused naming it and where its (width, height) camera came
-    from when it has another size: read first, before its depth is checked against it."""
+def read_rgb_of_size(path: Path, size: tuple[int, int], said_by: str) -> np.ndarray:
+    """A folder's colour image, refused naming it and `said_by` (the file its (width, height)
+    camera came from) when it has another size: read first, before its depth is checked
+    against it."""
     rgb = read_rgb(path)
     if (rgb.shape[1], rgb.shape[0]) != size:
-        said = "--camera's camera file says" if intrinsics_from == "--camera" else "the recording's intrinsics say"
-        raise InputError(f"{path}: the colour image is {rgb.shape[1]}x{rgb.shape[0]} but {said} {size[0]}x{size[1]}")
+        raise InputError(f"{path}: the colour image is {rgb.shape[1]}x{rgb.shape[0]} but {said_by} says {size[0]}x{size[1]}")
     return rgb
 
 

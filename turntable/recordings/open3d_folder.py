@@ -21,9 +21,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+import pydantic
 
 from homemodel.core.errors import InputError
 from homemodel.core.input_files import read_bounded
+from homemodel.core.yaml_specs import describe_validation_error
 from homemodel.geometry.camera import Camera
 from turntable.recordings.images import read_depth_units, read_rgb_of_size
 from turntable.recordings.source import StreamSetup
@@ -62,6 +64,8 @@ def read_intrinsics(path: Path) -> tuple[Camera, list[str]]:
         per_metre = data.get("depth_scale")
         scale = 0.001 if per_metre is None else 1.0 / float(per_metre)
         camera = Camera(**{**camera.model_dump(), "depth_scale_m": scale})
+    except pydantic.ValidationError as exc:  # numbers a camera cannot have (a zero focal length)
+        raise InputError(f"{path}: not an Open3D camera intrinsic file: {describe_validation_error(exc)}") from None
     except (ValueError, KeyError, TypeError, RecursionError, ZeroDivisionError) as exc:
         raise InputError(f"{path}: not an Open3D camera intrinsic file: {exc}") from None
     notes = ["intrinsic_matrix read row-major (Open3D writes it column-major: its last row held cx, cy)"] if row_major else []
@@ -139,9 +143,10 @@ class Open3dSource(TimedStreamsSource):
         if intrinsics is not None:
             camera, intrinsics_notes = read_intrinsics(intrinsics)
             notes += [n for n in intrinsics_notes if per_metre is None or not n.startswith("depth units")]
-            intrinsics_from = "recording"
+            intrinsics_from, self._camera_file = "recording", str(intrinsics)
         elif self.camera is not None:
             camera, intrinsics_from = self.camera, "--camera"
+            self._camera_file = "--camera's camera file"
         else:
             raise InputError(
                 f"{folder}: no intrinsics ({' or '.join(INTRINSICS_FILES)}, or a JSON with an intrinsic_matrix); "
@@ -152,12 +157,18 @@ class Open3dSource(TimedStreamsSource):
         self._colors = _frames(color_dir, (".png", ".jpg", ".jpeg"))
         self._depths = _frames(folder / "depth", (".png",))
         if not self._depths:
-            raise InputError(f"{folder / 'depth'}: no depth images")
+            others = _frames(folder / "depth", (".jpg", ".jpeg", ".tif", ".tiff"))
+            found = f" ({len(others)} {others[0].suffix} files: depth must be 16-bit PNG)" if others else ""
+            raise InputError(f"{folder / 'depth'}: no depth images{found}")
         self._times = (_redwood_times_s(self._colors), _redwood_times_s(self._depths))
         if self._times[0] is None or self._times[1] is None:
             self._times = None
             if len(self._colors) != len(self._depths):  # then only frames with a common stem pair
                 stems = {p.stem for p in self._colors} & {p.stem for p in self._depths}
+                notes.append(
+                    f"{len(self._colors)} colour and {len(self._depths)} depth images: the {len(stems)} of one number "
+                    f"paired, {len(self._colors) - len(stems)} colour and {len(self._depths) - len(stems)} depth left out"
+                )
                 self._colors = [p for p in self._colors if p.stem in stems]
                 self._depths = [p for p in self._depths if p.stem in stems]
         timed = self._times is not None
@@ -171,5 +182,5 @@ class Open3dSource(TimedStreamsSource):
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
         camera = self.setup.color_camera
         for i, j in chosen:
-            yield "color", i, read_rgb_of_size(self._colors[i], (camera.width, camera.height), self.setup.intrinsics_from)
+            yield "color", i, read_rgb_of_size(self._colors[i], (camera.width, camera.height), self._camera_file)
             yield "depth", j, read_depth_units(self._depths[j], (camera.width, camera.height))

@@ -148,8 +148,10 @@ class TumSource(TimedStreamsSource):
         notes = []
         if (self.path / CALIBRATION).is_file() and self._color_files:  # the recording's own win over --camera's
             camera, intrinsics_from = _calibration_camera(self.path / CALIBRATION, self._color_files[0]), "recording"
+            self._camera_file = str(self.path / CALIBRATION)
         elif self.camera is not None:
             camera, intrinsics_from = self.camera, "--camera"
+            self._camera_file = "--camera's camera file"
             if self.camera.depth_scale_m != DEPTH_SCALE_M:
                 notes.append(f"depth units 1/5000 m (TUM's), not --camera's {self.camera.depth_scale_m:g} m")
         else:
@@ -163,5 +165,5 @@ class TumSource(TimedStreamsSource):
     def stream_images(self, chosen: list[tuple[int, int]]) -> Iterator[tuple[str, int, np.ndarray]]:
         camera = self.setup.color_camera
         for i, j in chosen:
-            yield "color", i, read_rgb_of_size(self._color_files[i], (camera.width, camera.height), self.setup.intrinsics_from)
+            yield "color", i, read_rgb_of_size(self._color_files[i], (camera.width, camera.height), self._camera_file)
             yield "depth", j, read_depth_units(self._depth_files[j], (camera.width, camera.height))
