@@ -523,6 +523,57 @@ def write_ros2(s: Streams, path: Path, lay: RosLayout, *, mcap: bool) -> None:
             w.write(conns[topic], ns, store.serialize_cdr(msg, mt))
 
 
+def write_realsense(s: Streams, path: Path, *, depth_unit_m: float = 0.001, color_format: str = "bgr8") -> None:
+    """A .bag as the RealSense Viewer records a D400: pyrealsense2's software device (a Stereo
+    Module with z16 depth and its depth_units, an RGB Camera) and its recorder; both streams
+    stamped by the camera's clock; the depth-to-colour extrinsics registered."""
+    import pyrealsense2 as rs
+
+    def intrinsics(lens: Lens) -> object:
+        i = rs.intrinsics()
+        i.width, i.height, i.fx, i.fy, i.ppx, i.ppy = lens.width, lens.height, lens.fx, lens.fy, lens.cx, lens.cy
+        i.model = rs.distortion.brown_conrady
+        i.coeffs = [float(c) for c in (list(lens.dist) + [0.0] * 5)[:5]]
+        return i
+
+    depth_lens = s.rig.depth or s.rig.color
+    device = rs.software_device()
+    depth_sensor, color_sensor = device.add_sensor("Stereo Module"), device.add_sensor("RGB Camera")
+    profiles = []
+    for sensor, kind, uid, lens, bpp, fmt in ((depth_sensor, rs.stream.depth, 0, depth_lens, 2, rs.format.z16),
+                                              (color_sensor, rs.stream.color, 1, s.rig.color, 3, getattr(rs.format, color_format))):
+        stream = rs.video_stream()
+        stream.type, stream.uid, stream.index, stream.fps, stream.bpp, stream.fmt = kind, uid, 0, 30, bpp, fmt
+        stream.width, stream.height, stream.intrinsics = lens.width, lens.height, intrinsics(lens)
+        profiles.append(sensor.add_video_stream(stream))
+    depth_sensor.add_read_only_option(rs.option.depth_units, depth_unit_m)
+    ext = rs.extrinsics()
+    ext.rotation = s.rig.color_from_depth[:3, :3].T.ravel().tolist()  # column-major
+    ext.translation = s.rig.color_from_depth[:3, 3].tolist()
+    profiles[0].register_extrinsics_to(profiles[1], ext)
+    recorder = rs.recorder(str(path), device)
+    queue = rs.syncer()
+    for sensor, profile in zip((depth_sensor, color_sensor), profiles):
+        sensor.open(profile)
+        sensor.start(queue)
+    events = [(t, 0, depth_u16(z, depth_unit_m)) for t, z in s.depths]
+    events += [(t, 1, rgb[..., ::-1].copy() if color_format == "bgr8" else rgb) for t, rgb in s.colors]
+    for n, (t, which, pixels) in enumerate(sorted(events, key=lambda e: e[0])):
+        frame = rs.software_video_frame()
+        frame.pixels = np.ascontiguousarray(pixels)
+        frame.bpp = pixels.itemsize * (pixels.shape[2] if pixels.ndim == 3 else 1)
+        frame.stride = pixels.shape[1] * frame.bpp
+        frame.timestamp, frame.domain, frame.frame_number = 1000.0 * (t + 5000.0), rs.timestamp_domain.hardware_clock, n + 1
+        frame.profile = profiles[which].as_video_stream_profile()
+        if which == 0:
+            frame.depth_units = depth_unit_m
+        (depth_sensor if which == 0 else color_sensor).on_video_frame(frame)
+    for sensor in (depth_sensor, color_sensor):
+        sensor.stop()
+        sensor.close()
+    del recorder  # closes the file
+
+
 # ---------------------------------------------------------------- running the README's commands
 def run(args: list[str], cwd: Path) -> tuple[int, str, str, float]:
     import resource
@@ -576,6 +627,9 @@ ASTRA_COLOR = Lens(640, 480, 517.3, 516.5, 318.6, 255.3, (0.26, -0.95, -0.0054, 
 ASTRA_DEPTH = Lens(640, 480, 570.3, 570.3, 319.5, 239.5)
 ASTRA_COLOR_FROM_DEPTH = small_turn(-0.2, 0.1, (-0.025, 0.0003, 0.001))
 D405 = Lens(848, 480, 431.6, 431.1, 424.7, 241.8)
+D435_COLOR = Lens(640, 480, 615.4, 615.6, 326.3, 240.9)
+D435_DEPTH = Lens(848, 480, 427.9, 427.9, 424.1, 238.5)
+D435_COLOR_FROM_DEPTH = small_turn(0.25, -0.15, (0.0148, 0.0001, 0.0003))
 
 
 @dataclass
@@ -608,6 +662,10 @@ CASES = {
              turn=Turn(frames=36, fps=2.0, deg_per_s=20.0, stop_deg=250.0)),
         Case("astra_mcap_bottle", "ros2 mcap, bgr8 colour, 16UC1 big-endian depth of its own, /tf_static", "bottle",
              Rig(ASTRA_COLOR, ASTRA_DEPTH, ASTRA_COLOR_FROM_DEPTH, distance_m=0.6, elevation_deg=30, aim_height_m=0.05)),
+        Case("d435_bag_bottle_fast", "RealSense .bag (software device + recorder), bgr8 640x480 colour, z16 848x480 depth, "
+             "extrinsics, a fast turn (36 deg/s, 2 blurred)", "bottle",
+             Rig(D435_COLOR, D435_DEPTH, D435_COLOR_FROM_DEPTH, distance_m=0.5, elevation_deg=35, aim_height_m=0.1),
+             turn=Turn(frames=30, fps=3.0, deg_per_s=36.0), faults=Faults(blurred=(5, 17), seed=3)),
         Case("d405_open3d_box", "Open3D folder, 0.1 mm depth, intrinsic.json row-major nested matrix", "box",
              Rig(D405, None, distance_m=0.42, elevation_deg=45, aim_height_m=0.03)),
     ]
@@ -638,6 +696,9 @@ def write_case(case: Case, streams: Streams, rec: Path) -> list[str]:
                                            "/camera/depth/camera_info", "camera_color_optical_frame", "camera_depth_optical_frame",
                                            color_encoding="bgr8", big_endian=True), mcap=True)
         return []
+    if case.name == "d435_bag_bottle_fast":
+        write_realsense(streams, rec.with_suffix(".bag"))
+        return []
     if case.name == "kinect1_tum_mug":
         write_tum(streams, rec, depth_clock_drift=0.0015)
         camera_yaml(lens, rec.parent / "kinect1.yaml", depth_scale_m=0.0002)
@@ -652,7 +713,7 @@ def write_case(case: Case, streams: Streams, rec: Path) -> list[str]:
 
 def recording_path(case: Case, root: Path) -> Path:
     rec = root / "recordings" / case.name
-    return rec.with_suffix(".bag") if case.name == "azure_ros1_bottle" else rec
+    return rec.with_suffix(".bag") if case.name in ("azure_ros1_bottle", "d435_bag_bottle_fast") else rec
 
 
 def clean_twin(case: Case, root: Path, board_yaml: Path) -> Path:
