@@ -984,7 +984,24 @@ def test_an_mcap_file_cut_short_is_read_up_to_its_cut(with_metadata: bool, board
     colors, depths = rsim.read_back(tmp_path / "capture")
     for k, (color, depth) in enumerate(zip(colors, depths)):
         assert np.array_equal(color, FRAMES.colors[k]) and np.abs(depth - FRAMES.depths_m[k]).max() < 1e-6, k
-    assert not list(Path(tempfile.gettempdir()).glob("homemodel-mcap-*")), "the cut file's copy is left behind"
+    assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_a_bag_compressed_file_by_file_is_read_without_its_metadata(storage: str, board: Path, tmp_path: Path) -> None:
+    """`ros2 bag record --compression-mode file` leaves `name_0.mcap.zstd` (or `.db3.zstd`), and
+    only metadata.yaml says so: a folder of them alone (metadata.yaml lost, or the files copied
+    without it) was "cannot tell the recording's format". Now decompressed and read, said."""
+    ros = rsim.RosMessages(2)
+    rsim.write_bag(tmp_path / "bag", ros, _aligned(ros), storage=storage, compression="file")
+    (tmp_path / "bag" / "metadata.yaml").unlink()
+    (compressed,) = (tmp_path / "bag").glob("*.zstd")
+    report = import_recording(tmp_path / "bag", board, tmp_path / "capture", ImportOptions())
+    assert f"{compressed.stem}.zstd decompressed (a bag recorded with --compression-mode file)" in report.notes, report.notes
+    assert report.frames_written == len(FRAMES.times_s)
+    colors, depths = rsim.read_back(tmp_path / "capture")
+    assert all(np.array_equal(c, FRAMES.colors[k]) and np.abs(d - FRAMES.depths_m[k]).max() < 1e-6 for k, (c, d) in enumerate(zip(colors, depths)))
+    assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the decompressed copy is left behind"
 
 
 @pytest.mark.parametrize("name", ["notes.bag", "scan.mcap"])

@@ -7,7 +7,7 @@ from typing import Literal, get_args
 
 from homemodel.core.errors import InputError
 from turntable.recordings.open3d_folder import COLOR_FOLDERS, intrinsics_file, is_config
-from turntable.recordings.rosbag import storage_files, unreadable_bag
+from turntable.recordings.rosbag import is_storage_file, storage_files, unreadable_bag
 from turntable.recordings.tum import LISTS, associations_file
 
 RecordingFormat = Literal["realsense-bag", "ros1", "ros2", "tum", "open3d"]
@@ -38,7 +38,7 @@ def detect_format(path: Path) -> str:
             )
         if path.suffix == ".bag":
             return "realsense-bag" if _is_realsense_bag(path) else "ros1"
-        if path.suffix in (".db3", ".mcap") or path.name == "metadata.yaml":
+        if is_storage_file(path) or path.name == "metadata.yaml":
             return "ros2"
         raise InputError(
             f"{path}: cannot tell the recording's format (a .bag, .db3, .mcap or Open3D config .json file?); give --format"

@@ -60,9 +60,14 @@ def unreadable_bag(exc: Exception) -> str:
 ROS2_STORAGE = (".db3", ".mcap")
 
 
+def is_storage_file(path: Path) -> bool:
+    """A ROS 2 storage file: `.db3`, `.mcap`, or either compressed whole (`--compression-mode file`: `.db3.zstd`)."""
+    return path.suffix in ROS2_STORAGE or (path.suffix == ".zstd" and Path(path.stem).suffix in ROS2_STORAGE)
+
+
 def storage_files(folder: Path) -> list[Path]:
     """A ROS 2 bag folder's storage files in their split order (`name_0.mcap`, `name_1.mcap`...)."""
-    found = [p for p in folder.iterdir() if p.suffix in ROS2_STORAGE and p.is_file() and not p.name.startswith(".")]
+    found = [p for p in folder.iterdir() if is_storage_file(p) and p.is_file() and not p.name.startswith(".")]
     return sorted(found, key=lambda p: tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.stem)))
 
 
@@ -73,7 +78,7 @@ def ros2_paths(path: Path) -> list[Path]:
     path = Path(path)
     if path.is_file() and path.name == "metadata.yaml":
         return [path.parent]
-    if path.is_file() and path.suffix in ROS2_STORAGE and (path.parent / "metadata.yaml").is_file():
+    if path.is_file() and is_storage_file(path) and (path.parent / "metadata.yaml").is_file():
         return [path.parent]
     if path.is_dir() and not (path / "metadata.yaml").is_file():
         return storage_files(path) or [path]
@@ -261,7 +266,7 @@ class RosBagSource(TimedStreamsSource):
         self._reader = None
         self._without_metadata = False
         self._color_maps: tuple[np.ndarray, np.ndarray] | None = None  # `lens.undistortion_maps` of colour's
-        self._copies: Path | None = None  # a temporary folder of cut MCAP files' readable copies
+        self._copies: Path | None = None  # a temporary folder of storage files made readable (decompressed, cut MCAP)
 
     def open(self) -> StreamSetup:
         try:
@@ -435,21 +440,41 @@ class RosBagSource(TimedStreamsSource):
         self._copies = None
 
     def _read_up_to_cuts(self, paths: list[Path], notes: list[str]) -> list[Path]:
-        """`paths`, or where an MCAP file among them is cut short (its recorder killed), their
-        storage files each on its own, the cut ones by a copy holding their complete records
-        (`mcap_cut`), said in `notes`."""
+        """`paths`, or where a storage file among them is compressed whole without the
+        metadata.yaml that says so, or is an MCAP file cut short (its recorder killed), their
+        storage files each on its own: the compressed ones by a decompressed copy, the cut ones
+        by a copy holding their complete records (`mcap_cut`), said in `notes`."""
         files = [file for p in paths for file in (storage_files(p) if p.is_dir() else [p])]
         cut = [file for file in files if file.suffix == ".mcap" and is_cut_short(file)]
-        if not cut:
+        # Read through metadata.yaml (none cut), rosbags decompresses them itself.
+        read_alone = bool(cut) or any(p.is_file() for p in paths)
+        compressed = [file for file in files if file.suffix == ".zstd"] if read_alone else []
+        if not compressed and not cut:
             return paths
-        self._copies = Path(tempfile.mkdtemp(prefix="homemodel-mcap-"))
+        self._copies = Path(tempfile.mkdtemp(prefix="homemodel-bag-copies-"))
         read = []
         for file in files:
+            if file in compressed:
+                file = self._decompressed(file)
+                notes.append(f"{file.name}.zstd decompressed (a bag recorded with --compression-mode file)")
             if file in cut:
                 file, dropped = recovered_copy(file, self._copies)
                 notes.append(f"{file.name} cut short (its recorder killed): read up to the cut, its last {dropped} bytes left out")
             read.append(file)
         return read
+
+    def _decompressed(self, file: Path) -> Path:
+        """A zstd-compressed storage file decompressed into the copies' folder (name without .zstd)."""
+        import zstandard
+
+        assert self._copies is not None
+        copy = self._copies / file.stem
+        try:
+            with file.open("rb") as source, copy.open("wb") as target:
+                zstandard.ZstdDecompressor().copy_stream(source, target)
+        except zstandard.ZstdError as exc:
+            raise InputError(f"{file}: not a zstd-compressed storage file: {exc}") from None
+        return copy
 
     def _decode(self, connection: object, raw: bytes) -> object:
         """A message, or one line naming the topic when its bytes do not decode (a damaged
