@@ -462,6 +462,27 @@ def test_an_open3d_folder_s_faults_are_said_in_words(fault: str, board: Path, tm
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
+def test_an_intrinsic_json_of_another_shape_says_so_and_gives_way_to_the_camera_file(board: Path, tmp_path: Path) -> None:
+    """check29b: a user's intrinsic.json of its own shape ({"fx": ...}) was refused with a bare
+    KeyError's text ("'intrinsic_matrix'"), even with --camera given: such a folder could not be
+    imported without deleting the file. Now it says what is missing, and --camera's file is
+    taken in its place, said."""
+    import json
+
+    recording = open3d_realsense_recorder(tmp_path / "scan")
+    camera = FRAMES.camera
+    flat = {"width": camera.width, "height": camera.height, "fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy}
+    (recording / "camera_intrinsic.json").write_text(json.dumps(flat))
+    args = ["turntable", "import", str(recording), "--board", str(board)]
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "o")])
+    said = "not an Open3D camera intrinsic file: no intrinsic_matrix (its keys: width, height, fx, fy, cx, cy)"
+    assert result.exit_code == 2 and said in " ".join(result.output.split()), result.output
+    save_camera(camera, tmp_path / "camera.yaml")
+    result = CliRunner().invoke(app, [*args, "--camera", str(tmp_path / "camera.yaml"), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0 and "--camera's camera file taken" in " ".join(result.output.split()), result.output
+    assert load_camera(tmp_path / "o" / "camera.yaml").fx == camera.fx
+
+
 @pytest.mark.parametrize("text", ["[1, 2]", '"abc"'])
 def test_an_intrinsic_json_that_is_no_object_is_refused_in_one_line(text: str, board: Path, tmp_path: Path) -> None:
     recording = open3d_realsense_recorder(tmp_path / "scan")

@@ -66,7 +66,10 @@ def read_intrinsics(path: Path) -> tuple[Camera, list[str]]:
         camera = Camera(**{**camera.model_dump(), "depth_scale_m": scale})
     except pydantic.ValidationError as exc:  # numbers a camera cannot have (a zero focal length)
         raise InputError(f"{path}: not an Open3D camera intrinsic file: {describe_validation_error(exc)}") from None
-    except (ValueError, KeyError, TypeError, RecursionError, ZeroDivisionError) as exc:
+    except KeyError as exc:  # a JSON of another shape (a user's {"fx": ...}, OpenCV's camera_matrix)
+        keys = ", ".join(str(key) for key in list(data)[:8]) if isinstance(data, dict) else ""
+        raise InputError(f"{path}: not an Open3D camera intrinsic file: no {exc.args[0]} (its keys: {keys})") from None
+    except (ValueError, TypeError, RecursionError, ZeroDivisionError) as exc:
         raise InputError(f"{path}: not an Open3D camera intrinsic file: {exc}") from None
     notes = ["intrinsic_matrix read row-major (Open3D writes it column-major: its last row held cx, cy)"] if row_major else []
     if per_metre is None:
@@ -140,13 +143,21 @@ class Open3dSource(TimedStreamsSource):
             raise InputError(f"{folder}: no depth folder (depth/)")
         intrinsics = intrinsics or intrinsics_file(folder)
         notes = []
+        unread = None
         if intrinsics is not None:
-            camera, intrinsics_notes = read_intrinsics(intrinsics)
+            try:
+                camera, intrinsics_notes = read_intrinsics(intrinsics)
+            except InputError as exc:
+                if self.camera is None:
+                    raise
+                unread = f"{exc}: --camera's camera file taken"
+        if intrinsics is not None and unread is None:
             notes += [n for n in intrinsics_notes if per_metre is None or not n.startswith("depth units")]
             intrinsics_from, self._camera_file = "recording", str(intrinsics)
         elif self.camera is not None:
             camera, intrinsics_from = self.camera, "--camera"
             self._camera_file = "--camera's camera file"
+            notes += [unread] if unread else []
         else:
             raise InputError(
                 f"{folder}: no intrinsics ({' or '.join(INTRINSICS_FILES)}, or a JSON with an intrinsic_matrix); "
