@@ -92,12 +92,13 @@ def test_a_cup_carried_to_the_sideboard_past_a_person(kitchen, tmp_path: Path) -
 
 
 def test_a_cooker_door_and_a_cup_beside_a_kettle(kitchen, tmp_path: Path) -> None:
-    """512x424 in 0.2 mm units, no colour needed: the cooker's drop-down door (a window the sensor
-    sees through) written within 2 deg, its pose better than the map's; the cup, in its place
-    beside a kettle the map does not have, found within 1 cm."""
+    """512x424 in 0.2 mm units: the cooker's drop-down door (a window the sensor sees through)
+    written within 2 deg, its pose better than the map's; the cup, in its place beside a kettle
+    the map does not have, found within 1 cm."""
     scored = _checked(kitchen, 24, tmp_path)
     _nothing_wrong(scored)
     _written_right(scored, ["cooker/door_0_hinge"])
+    assert {p["object"]: p["class"] for p in scored["poses"] if p["class"] != "kept"} == {"cooker": "better"}
     cup = _small(scored, "cup")
     assert cup["class"] == "found right" and cup["parent"] == "base_unit", cup
 
