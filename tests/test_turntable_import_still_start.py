@@ -33,3 +33,16 @@ def test_the_turn_rate_leaves_a_still_start_and_end_out(still_s: tuple[float, fl
         angles = rate_deg_s * np.clip(times - before, 0, turning_s)
         read = np.degrees(turn_rate_rad_s(_poses(angles, 0.05, seed=int(fps)), list(times)))
         assert read == pytest.approx(rate_deg_s, rel=0.01), (fps, still_s, read)
+
+
+@pytest.mark.parametrize("pause_s", [4.0, 1.5])
+def test_a_pause_in_mid_turn_is_left_out_of_the_turn_rate(pause_s: float) -> None:
+    """The table stopped for a while in mid-turn (a hand on it, a motor's hiccup): a line
+    through all the frames read 11.1 deg/s for a 4 s pause in a turn at 20 deg/s (15.7 for 1.5 s), and the
+    blurred and late-depth frames after it were posed by that rate. The turning stretches
+    share one slope, each its own start."""
+    for fps, rate_deg_s in ((2.0, 20.0), (30.0, 12.0)):
+        times = np.arange(0, 4.5 + pause_s + 4.5, 1 / fps)
+        turning_s = np.clip(times, 0, 4.5) + np.clip(times - 4.5 - pause_s, 0, None)
+        read = np.degrees(turn_rate_rad_s(_poses(rate_deg_s * turning_s, 0.05, seed=int(fps)), list(times)))
+        assert read == pytest.approx(rate_deg_s, rel=0.01), (fps, pause_s, read)

@@ -158,23 +158,42 @@ def table_turn_rad(first_camera_from_table: np.ndarray, camera_from_table: np.nd
 
 def turn_rate_rad_s(camera_from_tables: list[np.ndarray], times_s: list[float]) -> float | None:
     """The table's angular speed: the least-squares slope of its unwrapped angle over time
-    (frames in time order, each less than half a turn from the last); None below 3 frames. A
-    still start or end (two frames or more within STILL_TURN_RAD of the first or the last) is
-    left out: 8 s of a still table before a turn at 20 deg/s read 15.05 deg/s."""
+    (frames in time order, each less than half a turn from the last), one slope shared by the
+    stretches it turns in; None below 3 frames. A still table's frames are left out: a still
+    start or end (two frames or more within STILL_TURN_RAD of the run's first) and a pause
+    (three or more): 8 s of a still table before a turn at 20 deg/s read 15.05 deg/s, a 4 s
+    pause in mid-turn 11.1."""
     if len(times_s) < 3:
         return None
     angles = np.unwrap([table_turn_rad(camera_from_tables[0], c) for c in camera_from_tables])
-    start, end = _still_frames(angles), len(angles) - _still_frames(angles[::-1])
-    kept = slice(start, end) if end - start >= 3 else slice(None)
-    return float(np.polyfit(np.asarray(times_s)[kept], angles[kept], 1)[0])
+    times = np.asarray(times_s, dtype=np.float64)
+    still = _still_frames(angles)
+    if np.count_nonzero(~still) < 3:
+        still[:] = False
+    # Each stretch between still runs keeps its own intercept: the pause's angle is not a turn's.
+    stretch = np.concatenate([[0], np.cumsum(still[1:] != still[:-1])])[~still]
+    times, angles = times[~still], angles[~still]
+    dt = times - np.bincount(stretch, times)[stretch] / np.bincount(stretch)[stretch]
+    da = angles - np.bincount(stretch, angles)[stretch] / np.bincount(stretch)[stretch]
+    return float(dt @ da / (dt @ dt)) if dt @ dt > 0 else None
 
 
-def _still_frames(angles: np.ndarray) -> int:
-    """How many of the first angles are a still table's: those within STILL_TURN_RAD of the
-    first, when they are two or more (one is the first of a turning table)."""
-    moved = np.abs(angles - angles[0]) > STILL_TURN_RAD
-    still = int(np.argmax(moved)) if moved.any() else len(angles)
-    return still if still >= 2 else 0
+def _still_frames(angles: np.ndarray) -> np.ndarray:
+    """Which frames are a still table's: runs within STILL_TURN_RAD of their first frame, of two
+    frames or more at the start or the end (one is the first of a turning table), three or more
+    between (a slow turn's two frames at 30 fps lie within it, its three do not)."""
+    still = np.zeros(len(angles), dtype=bool)
+    first = 0
+    while first < len(angles):
+        end = first + 1
+        while end < len(angles) and abs(angles[end] - angles[first]) <= STILL_TURN_RAD:
+            end += 1
+        if end - first >= (2 if first == 0 or end == len(angles) else 3):
+            still[first:end] = True
+            first = end
+        else:
+            first += 1
+    return still
 
 
 def turned_table(axis_xy_m: np.ndarray, angle_rad: float) -> np.ndarray:
