@@ -985,6 +985,11 @@ def test_an_mcap_file_cut_short_is_read_up_to_its_cut(with_metadata: bool, board
     for k, (color, depth) in enumerate(zip(colors, depths)):
         assert np.array_equal(color, FRAMES.colors[k]) and np.abs(depth - FRAMES.depths_m[k]).max() < 1e-6, k
     assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
+    # Cut inside its first chunk, which holds the topics: said so (it was "no depth image topic ... topics: []").
+    cut.write_bytes(whole[: len(whole) // 50])
+    with pytest.raises(InputError, match="cut short before its first complete chunk"):
+        import_recording(tmp_path / "bag", board, tmp_path / "capture2", ImportOptions())
+    assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
 
 
 @pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
