@@ -416,6 +416,7 @@ class RosLayout:
     big_endian: bool = False
     tf_static: bool = True
     distortion_model: str = "plumb_bob"
+    info_distortion: tuple[float, ...] | None = None  # CameraInfo's D for rectified images (the lens they came through)
 
 
 def ros_messages(s: Streams, lay: RosLayout, typestore, t0: float = 1_700_000_000.0):  # noqa: ANN001, ANN201
@@ -431,7 +432,7 @@ def ros_messages(s: Streams, lay: RosLayout, typestore, t0: float = 1_700_000_00
         return Header(seq=seq, stamp=stamp, frame_id=frame) if ros1 else Header(stamp=stamp, frame_id=frame)
 
     def info(t: float, lens: Lens, frame: str):  # noqa: ANN202
-        d = list(lens.dist) + [0.0] * max(0, (8 if lay.distortion_model == "rational_polynomial" else 5) - len(lens.dist))
+        d = list(lens.dist if lay.info_distortion is None else lay.info_distortion) + [0.0] * max(0, (8 if lay.distortion_model == "rational_polynomial" else 5) - len(lens.dist))
         P = [lens.fx, 0, lens.cx, 0, 0, lens.fy, lens.cy, 0, 0, 0, 1, 0]
         Roi = T["sensor_msgs/msg/RegionOfInterest"]
         kw = dict(header=header(t, frame), height=lens.height, width=lens.width, distortion_model=lay.distortion_model,
@@ -627,6 +628,8 @@ ASTRA_COLOR = Lens(640, 480, 517.3, 516.5, 318.6, 255.3, (0.26, -0.95, -0.0054, 
 ASTRA_DEPTH = Lens(640, 480, 570.3, 570.3, 319.5, 239.5)
 ASTRA_COLOR_FROM_DEPTH = small_turn(-0.2, 0.1, (-0.025, 0.0003, 0.001))
 D405 = Lens(848, 480, 431.6, 431.1, 424.7, 241.8)
+KINECT2_QHD = Lens(960, 540, 529.9, 530.1, 477.4, 269.8)  # image_*_rect: rectified
+KINECT2_LENS = (0.021, -0.018, 0.0004, -0.0006, 0.003)
 D435_COLOR = Lens(640, 480, 615.4, 615.6, 326.3, 240.9)
 D435_DEPTH = Lens(848, 480, 427.9, 427.9, 424.1, 238.5)
 D435_COLOR_FROM_DEPTH = small_turn(0.25, -0.15, (0.0148, 0.0001, 0.0003))
@@ -666,6 +669,9 @@ CASES = {
              "extrinsics, a fast turn (36 deg/s, 2 blurred)", "bottle",
              Rig(D435_COLOR, D435_DEPTH, D435_COLOR_FROM_DEPTH, distance_m=0.5, elevation_deg=35, aim_height_m=0.1),
              turn=Turn(frames=30, fps=3.0, deg_per_s=36.0), faults=Faults(blurred=(5, 17), seed=3)),
+        Case("kinect2_ros1_qhd_bottle_far", "ros1 iai_kinect2 qhd: png CompressedImage colour, registered 16UC1 depth, bottle at 1.0 m",
+             "bottle", Rig(KINECT2_QHD, None, distance_m=1.0, elevation_deg=45, aim_height_m=0.08, samples=1),
+             faults=Faults(seed=5)),
         Case("d405_open3d_box", "Open3D folder, 0.1 mm depth, intrinsic.json row-major nested matrix", "box",
              Rig(D405, None, distance_m=0.42, elevation_deg=45, aim_height_m=0.03)),
     ]
@@ -684,6 +690,12 @@ def write_case(case: Case, streams: Streams, rec: Path) -> list[str]:
         write_ros2(streams, rec, RosLayout("/camera/color/image_raw", "/camera/depth/image_raw", "/camera/color/camera_info",
                                            "/camera/depth/camera_info", "camera_color_optical_frame", "camera_color_optical_frame",
                                            depth_encoding="32FC1", big_endian=True), mcap=True)
+        return []
+    if case.name == "kinect2_ros1_qhd_bottle_far":
+        write_ros1(streams, rec.with_suffix(".bag"), RosLayout(
+            "/kinect2/qhd/image_color_rect/compressed", "/kinect2/qhd/image_depth_rect", "/kinect2/qhd/camera_info",
+            "/kinect2/qhd/camera_info_depth", "kinect2_rgb_optical_frame", "kinect2_rgb_optical_frame", color_compressed="png",
+            info_distortion=KINECT2_LENS))
         return []
     if case.name == "l515_db3_box":
         write_ros2(streams, rec, RosLayout("/camera/color/image_raw/compressed", "/camera/depth/image_rect_raw",
@@ -713,7 +725,7 @@ def write_case(case: Case, streams: Streams, rec: Path) -> list[str]:
 
 def recording_path(case: Case, root: Path) -> Path:
     rec = root / "recordings" / case.name
-    return rec.with_suffix(".bag") if case.name in ("azure_ros1_bottle", "d435_bag_bottle_fast") else rec
+    return rec.with_suffix(".bag") if case.name in ("azure_ros1_bottle", "d435_bag_bottle_fast", "kinect2_ros1_qhd_bottle_far") else rec
 
 
 def clean_twin(case: Case, root: Path, board_yaml: Path) -> Path:
