@@ -146,10 +146,18 @@ def test_cli_board(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "args", [["--diameter-m", "-1"], ["--tag-size-m", "0.5", "--diameter-m", "0.3"], ["--first-id", "580"]]
+    ("args", "said"),
+    [
+        (["--diameter-m", "-1"], "the table diameter -1 m must be positive"),
+        (["--tag-size-m", "0.5", "--diameter-m", "0.3"], "the tag size 0.5 m must be positive and below half"),
+        (["--tag-size-m", "-0.03"], "the tag size -0.03 m must be positive"),
+        (["--first-id", "580"], "69 tags from the first id 580 exceed tag36h11's 587 ids (0-586)"),
+    ],
 )
-def test_cli_board_refuses_impossible_sizes(tmp_path: Path, args: list[str]) -> None:
+def test_cli_board_refuses_impossible_sizes(tmp_path: Path, args: list[str], said: str) -> None:
+    # In the user's words, naming the value given (the first id's was pydantic's validation text).
     out = tmp_path / "board"
     result = runner.invoke(app, ["turntable", "board", "--out", str(out), *args])
-    assert result.exit_code == 2 and result.stderr.startswith("error: board: ") and len(result.stderr.splitlines()) == 1
+    assert result.exit_code == 2 and result.stderr.startswith(f"error: board: {said}"), result.stderr
+    assert len(result.stderr.splitlines()) == 1
     assert not out.exists()

@@ -100,25 +100,32 @@ def grid_board(*, table_diameter_m: float, tag_size_m: float, gap_cells: int = 2
     tag); ids run row by row from the +y edge. The board's origin is the table's centre.
     """
     if not (math.isfinite(table_diameter_m) and table_diameter_m > 0):
-        raise ValueError(f"{table_diameter_m=} must be positive")
+        raise ValueError(f"the table diameter {table_diameter_m:g} m must be positive")
     if not (math.isfinite(tag_size_m) and 0 < tag_size_m < table_diameter_m / 2):
-        raise ValueError(f"{tag_size_m=} must be positive and below half the table diameter")
+        raise ValueError(
+            f"the tag size {tag_size_m:g} m must be positive and below half the table diameter ({table_diameter_m:g} m)"
+        )
     cell = tag_size_m / TAG_CELLS
     pitch = tag_size_m + gap_cells * cell
     outer_half = tag_size_m / 2 + cell  # the tag with its quiet zone
     radius = table_diameter_m / 2
     n = int(radius // pitch) + 1
-    tags = []
+    centers = []
     for row in range(n, -n - 1, -1):
         for col in range(-n, n + 1):
             center = np.array([col * pitch, row * pitch])
             farthest = np.abs(center) + outer_half
             if np.hypot(*farthest) <= radius:
-                tags.append(BoardTag(id=first_id + len(tags), center_m=(float(center[0]), float(center[1]))))
-    if not tags:
-        raise ValueError(f"no {tag_size_m} m tag fits on a {table_diameter_m} m table")
-    if first_id + len(tags) > TAG36H11_COUNT:
-        raise ValueError(f"{len(tags)} tags from id {first_id} exceed the {TAG36H11_COUNT} of {TAG_FAMILY}")
+                centers.append((float(center[0]), float(center[1])))
+    if not centers:
+        raise ValueError(f"no {tag_size_m:g} m tag fits on a {table_diameter_m:g} m table")
+    # Checked before the tags are made: BoardTag's own check would say it in pydantic's words.
+    if first_id + len(centers) > TAG36H11_COUNT:
+        raise ValueError(
+            f"{len(centers)} tags from the first id {first_id} exceed {TAG_FAMILY}'s {TAG36H11_COUNT} ids "
+            f"(0-{TAG36H11_COUNT - 1})"
+        )
+    tags = [BoardTag(id=first_id + i, center_m=center) for i, center in enumerate(centers)]
     return Board(tag_size_m=tag_size_m, tags=tags, table_diameter_m=table_diameter_m)
 
 
