@@ -25,6 +25,7 @@ def observe_command(
     console = make_console()
     with exit_on_error():
         _check_not_folders({"--out": (out, "kitchen_now.xml"), "--report": (report, "seen.json")})
+        _check_report_replaces_no_map(report, {"MAP.xml": map_path, "--out": out})
         with stage_bars(console) as progress:
             result = observe(map_path, obs_dir, progress=progress)
         write_observed(result, map_path, out, report)
@@ -47,3 +48,18 @@ def _check_not_folders(files: dict[str, tuple[Path | None, str]]) -> None:
     for flag, (path, example) in files.items():
         if path is not None and path.is_dir():
             raise InputError(f"{flag} {path}: a folder; give the file to write, e.g. {path / example}")
+
+
+def _check_report_replaces_no_map(report: Path | None, maps: dict[str, Path]) -> None:
+    """Refuse a --report that names the input map or --out, before the fit: the JSON would be
+    written over the map (the user's map lost, exit 0). --out over MAP.xml is allowed."""
+    from homemodel.core.errors import InputError
+
+    if report is None:
+        return
+    for name, path in maps.items():
+        if report.resolve() == path.resolve():
+            raise InputError(
+                f"--report {report}: the same file as {name}; the report (JSON) would replace the map: "
+                f"give it another name, e.g. {report.with_name('seen.json')}"
+            )
