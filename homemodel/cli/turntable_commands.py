@@ -367,10 +367,12 @@ def capture(
         source = RealSenseSource(bag=playback, serial=serial)
         with Live("waiting for frames", console=console, refresh_per_second=8, transient=True) as live:
             result = capture_turn(source, board, out, options, on_status=lambda s: live.update(view(s)), force=force)
+    # A played recording ends at its last frame: a whole turn with blurred frames is not complete.
+    unseen = "" if result.complete else " (ended before every sector was seen: a blurred or missing frame leaves its own empty)"
     rows = [
         ("frames seen / kept", f"{result.frames_seen} / {result.frames_kept}"),
         ("turned", f"{result.turned_deg:.1f} deg"),
-        ("circle covered", f"{result.coverage * 100:.0f} %" + ("" if result.complete else " (stopped early)")),
+        ("circle covered", f"{result.coverage * 100:.0f} %{unseen}"),
         ("warnings", f"{result.warnings['blur']} blurred, {result.warnings['tags']} with too few tags"),
     ]
     console.print(figures_table(f"homemodel turntable capture --device {device}", rows))
