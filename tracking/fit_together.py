@@ -96,43 +96,33 @@ def refine_pose_and_joints(
     first = _residuals(state, view, object_id, joints, background_m, min(gates_m), motion)
     if first is None or len(first[0]) < min_points:
         return None
-    ends, depths, steps, settled = [], [depth_before], 0, []
-
-    def descend(starts: list[tuple[np.ndarray, dict[str, float]]]) -> None:
-        """Gauss-Newton from each of `starts`; each end and its depth kept in `ends`, `depths`."""
-        nonlocal steps
-        for pose, positions in starts:
-            state.map_from_objects[object_id], state.joint_positions[object_id] = pose.copy(), dict(positions)
-            taken, outcome = _gauss_newton(state, view, object_id, joints, background_m, gates_m, kernel_m, min_points,
-                                           motion, iterations, settled)
-            steps += taken
-            if outcome == "repeated":
-                continue
-            ends.append((state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])))
-            if outcome == "settled":
-                settled.append(ends[-1])
-            depths.append(object_depth(state, view, object_id))
-            if kept_in_place:
-                # Each end judged twice: with the parts not refined here carried along by the body,
-                # and kept where they were fitted. Carried, a part fitted at the start's body would
-                # count against the end that puts the body right (a fridge behind a box at 2.5 m,
-                # `--seed 1`: every end 0.4 mm from the truth, none kept for its drawer front 11 mm
-                # out); kept, a part fitted wrong holds the body to it (a cupboard behind a box at
-                # 1.2 m, `--seed 3`: its drawer 0.46 seen, the pose 12.6 mm off, a door 3.3 deg).
-                _keep_in_place(state, object_id, kept_in_place, *start)
-                ends.append((state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])))
-                depths.append(object_depth(state, view, object_id))
-
-    if not (planar and search_view is not None):
-        descend([start])
-    else:
+    starts = [start]
+    if planar and search_view is not None:
         search_view = _search_pixels(state, *search_view, object_id)
-        searched = _search_ends(state, *search_view, object_id, joints, motion)
-        descend(searched[:1])
-        if not (settled and _explained(view, depths, background_m)):
-            # The other starts: the searches' other end, and the grid about the estimate.
-            state.map_from_objects[object_id], state.joint_positions[object_id] = start[0].copy(), dict(start[1])
-            descend(searched[1:] + _grid_starts(state, *search_view, object_id, joints, motion))
+        starts = _search_ends(state, *search_view, object_id, joints, motion)
+        starts += _grid_starts(state, *search_view, object_id, joints, motion)
+    ends, depths, steps, settled = [], [depth_before], 0, []
+    for pose, positions in starts:
+        state.map_from_objects[object_id], state.joint_positions[object_id] = pose.copy(), dict(positions)
+        taken, outcome = _gauss_newton(state, view, object_id, joints, background_m, gates_m, kernel_m, min_points,
+                                       motion, iterations, settled)
+        steps += taken
+        if outcome == "repeated":
+            continue
+        ends.append((state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])))
+        if outcome == "settled":
+            settled.append(ends[-1])
+        depths.append(object_depth(state, view, object_id))
+        if kept_in_place:
+            # Each end judged twice: with the parts not refined here carried along by the body,
+            # and kept where they were fitted. Carried, a part fitted at the start's body would
+            # count against the end that puts the body right (a fridge behind a box at 2.5 m,
+            # `--seed 1`: every end 0.4 mm from the truth, none kept for its drawer front 11 mm
+            # out); kept, a part fitted wrong holds the body to it (a cupboard behind a box at
+            # 1.2 m, `--seed 3`: its drawer 0.46 seen, the pose 12.6 mm off, a door 3.3 deg).
+            _keep_in_place(state, object_id, kept_in_place, *start)
+            ends.append((state.map_from_objects[object_id].copy(), dict(state.joint_positions[object_id])))
+            depths.append(object_depth(state, view, object_id))
     # Judged like a refined pose (`judge_pose`): by the rendered depth, silhouettes included,
     # which the point-to-plane residuals of the object's own pixels do not see; every end on
     # the same pixels.
@@ -143,31 +133,6 @@ def refine_pose_and_joints(
         return TogetherFit(cost_before=costs[0], cost_after=costs[0], steps=steps)
     state.map_from_objects[object_id], state.joint_positions[object_id] = ends[best - 1]
     return TogetherFit(cost_before=costs[0], cost_after=costs[best], steps=steps)
-
-
-# Where Gauss-Newton from the first search's end settles, and that end explains the object's
-# observed depth better than the estimate (`depth_costs` on the same pixels) and within this
-# cost, the other starts (the second search's end, the grid's) are not tried: they cost about
-# twice the first's steps, those that end "repeated" running until within SAME_END_M of its
-# end. Over 646 together fits (the kitchen bench's `--seed 0/1/3` views, the real-piece sets
-# s0f and s3f, check26's 8 view sets) 220 stopped so, 15 % of the fits' CPU (the bench's
-# kitchen: 43 of 72, 29 %); 20 of them had ended elsewhere. No joint's or pose's class changed
-# (one drawer, "ambiguous", is now written right), but of the 13 poses those moved, 11 were
-# written further from the truth, by 0.3-5.4 mm (each within 6 mm of it). At 0.1 a wall
-# cupboard's pose was written 12 mm off where the grid's start found 2 mm. An end still moving
-# when its steps ran out is no such place: the bench's fridge at 2.5 m (`--seed 3`), its first
-# end unsettled at 0.062, was kept at the map's pose, its door unwritten; the grid's start
-# wrote both right.
-EXPLAINED_COST = 0.06
-
-
-def _explained(view: FitView, depths: list[np.ndarray], background_m: np.ndarray) -> bool:
-    """Whether one of the ends rendered in `depths[1:]` explains the view better than the estimate
-    (`depths[0]`) and within EXPLAINED_COST."""
-    if len(depths) < 2:
-        return False
-    before, *ends = scene_costs(view, depths, background_m)
-    return min(ends) < before and min(ends) <= EXPLAINED_COST
 
 
 def _keep_in_place(
