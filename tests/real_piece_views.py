@@ -64,6 +64,24 @@ def fitted_out(pieces: dict[str, RealPiece], seed: int = 0) -> dict[str, RealPie
     return out
 
 
+GLASS_MARGIN_M = 0.06  # a glazed door's frame round its pane
+
+
+def glazed(pieces: dict[str, RealPiece], object_id: str, joint: str) -> dict[str, RealPiece]:
+    """`pieces` with a copy of `object_id`'s door on `joint` glazed, as a glass-fronted
+    cabinet's: its front a frame GLASS_MARGIN_M wide round a pane the sensor sees through (no
+    reading of its own). Its spec, and so its model, keep a solid door."""
+    out = dict(pieces)
+    piece = out[object_id] = copy.deepcopy(pieces[object_id])
+    mover = next(m for m in piece.movers if m.joint == joint)
+    (x0, y0, z0), (x1, y1, z1) = mover.boxes[0].bounds
+    m = GLASS_MARGIN_M
+    mover.boxes[:1] = [trimesh.creation.box(bounds=b) for b in (
+        [(x0, y0, z0), (x1, y0 + m, z1)], [(x0, y1 - m, z0), (x1, y1, z1)],
+        [(x0, y0 + m, z0), (x1, y1 - m, z0 + m)], [(x0, y0 + m, z1 - m), (x1, y1 - m, z1)])]
+    return out
+
+
 FRONT_EDGE_M = 0.004  # the radius of a front's rounded edges
 
 
