@@ -86,6 +86,12 @@ def xyz_rpy_from_transform(a_from_b: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return m[:3, 3].copy(), rpy_from_rotation(m[:3, :3])
 
 
+def rotation_angle_rad(rotation: np.ndarray) -> float:
+    """The angle of a 3x3 rotation about its axis, in [0, pi] (trace = 1 + 2 cos angle; clipped:
+    rounding takes the trace of a near-identity rotation a little past 3)."""
+    return float(np.arccos(np.clip((np.trace(rotation) - 1) / 2, -1.0, 1.0)))
+
+
 def axis_angle_transform(axis: Sequence[float], angle_rad: float) -> np.ndarray:
     """Rotation by `angle_rad` about the unit `axis` through the origin (Rodrigues)."""
     k = np.asarray(axis, dtype=np.float64)

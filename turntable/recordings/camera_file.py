@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pydantic
 
-from homemodel.core.transforms import rigid_transform
+from homemodel.core.transforms import rigid_transform, rotation_angle_rad
 from homemodel.core.yaml_specs import read_yaml_mapping, validate_mapping
 from homemodel.geometry.camera import Camera
 from turntable.recordings.source import StreamSetup
@@ -64,8 +64,7 @@ def take_depth_pose(setup: StreamSetup, color_from_depth: np.ndarray) -> None:
         setup.notes.append(f"the depth camera's pose from --camera's {FIELD}")
         return
     shift_m = float(np.linalg.norm(setup.color_from_depth[:3, 3] - color_from_depth[:3, 3]))
-    turn = setup.color_from_depth[:3, :3].T @ color_from_depth[:3, :3]
-    turn_deg = float(np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1.0, 1.0))))
+    turn_deg = float(np.degrees(rotation_angle_rad(setup.color_from_depth[:3, :3].T @ color_from_depth[:3, :3])))
     if shift_m > _DISAGREE_M or turn_deg > _DISAGREE_DEG:
         setup.notes.append(
             f"--camera's {FIELD} is {1000 * shift_m:.1f} mm and {turn_deg:.2f} deg from the recording's (the recording's kept)"

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from homemodel.core.errors import InputError
+from homemodel.core.transforms import rotation_angle_rad
 from turntable.recordings.associate import associate, default_tolerance_s
 from turntable.recordings.source import FrameSource, RgbdPair, frame_size_problem
 
@@ -51,7 +52,7 @@ class TimedStreamsSource(FrameSource):
             return
         self.setup.color_from_depth = placement.color_from_depth
         x_mm, y_mm, z_mm = 1000 * placement.color_from_depth[:3, 3]
-        turn_deg = np.degrees(np.arccos(np.clip((np.trace(placement.color_from_depth[:3, :3]) - 1) / 2, -1.0, 1.0)))
+        turn_deg = np.degrees(rotation_angle_rad(placement.color_from_depth[:3, :3]))
         by = "the board's table and " if placement.by_table else ""
         self.setup.notes.append(
             f"the depth camera placed at ({x_mm:+.1f}, {y_mm:+.1f}, {z_mm:+.1f}) mm from colour's, turned {turn_deg:.2f} deg, "
@@ -84,8 +85,7 @@ class TimedStreamsSource(FrameSource):
         if laid is None:
             return
         self.setup.color_from_depth = laid
-        turn = laid[:3, :3] @ given[:3, :3].T
-        turn_deg = np.degrees(np.arccos(np.clip((np.trace(turn) - 1) / 2, -1.0, 1.0)))
+        turn_deg = np.degrees(rotation_angle_rad(laid[:3, :3] @ given[:3, :3].T))
         self.setup.notes.append(
             f"--camera's color_from_depth laid on the board's table: turned {turn_deg:.2f} deg, moved "
             f"{1000 * np.linalg.norm(laid[:3, 3] - given[:3, 3]):.1f} mm"
