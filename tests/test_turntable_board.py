@@ -152,6 +152,7 @@ def test_cli_board(tmp_path: Path) -> None:
         (["--tag-size-m", "0.5", "--diameter-m", "0.3"], "the tag size 0.5 m must be positive and below half"),
         (["--tag-size-m", "-0.03"], "the tag size -0.03 m must be positive"),
         (["--first-id", "580"], "69 tags from the first id 580 exceed tag36h11's 587 ids (0-586)"),
+        (["--first-id", "-1"], "the first id -1 must be 0 or more (tag36h11's ids are 0-586)"),
     ],
 )
 def test_cli_board_refuses_impossible_sizes(tmp_path: Path, args: list[str], said: str) -> None:

@@ -120,6 +120,8 @@ def grid_board(*, table_diameter_m: float, tag_size_m: float, gap_cells: int = 2
     if not centers:
         raise ValueError(f"no {tag_size_m:g} m tag fits on a {table_diameter_m:g} m table")
     # Checked before the tags are made: BoardTag's own check would say it in pydantic's words.
+    if first_id < 0:
+        raise ValueError(f"the first id {first_id} must be 0 or more ({TAG_FAMILY}'s ids are 0-{TAG36H11_COUNT - 1})")
     if first_id + len(centers) > TAG36H11_COUNT:
         raise ValueError(
             f"{len(centers)} tags from the first id {first_id} exceed {TAG_FAMILY}'s {TAG36H11_COUNT} ids "
