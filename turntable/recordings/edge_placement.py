@@ -166,9 +166,9 @@ def _tables(pairs: list[RgbdPair], setup: StreamSetup, board: Board) -> _Tables 
         points = points[np.isfinite(points).all(axis=1)]
         # Those over the board's disk, the depth taken as seen from colour's point.
         on_table = points - pose.camera_from_table[:3, 3]
-        across = on_table - np.outer(on_table @ normal, normal)
-        points, height = points[np.linalg.norm(across, axis=1) < board.radius_m], on_table @ normal
-        height = height[np.linalg.norm(across, axis=1) < board.radius_m]
+        height = on_table @ normal
+        over_disk = np.linalg.norm(on_table - np.outer(height, normal), axis=1) < board.radius_m
+        points, height = points[over_disk], height[over_disk]
         normals.append(normal)
         distances.append(float(normal @ pose.camera_from_table[:3, 3]))
         table.append(points[np.abs(height) < _TABLE_BAND_M[0]])
