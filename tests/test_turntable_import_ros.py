@@ -21,6 +21,7 @@ from homemodel.core.errors import InputError
 from homemodel.geometry.camera import Camera, load_camera
 from turntable.board import grid_board, save_board
 from turntable.recordings import ImportOptions, import_recording
+from turntable.recordings.rosbag import is_rectified
 
 FRAMES = rsim.tiny_frames()
 COLOR_FRAME, DEPTH_FRAME = "camera_color_optical_frame", "camera_depth_optical_frame"
@@ -326,18 +327,19 @@ def shared_camera_info(folder: Path) -> Path:
     return folder / "shared_info"
 
 
-def image_proc_rectified(folder: Path) -> Path:
-    """image_proc's `image_rect_color`: rectified, so seen with the CameraInfo's P; its K and D
-    (another focal length, a strong lens) are the raw image's."""
+def rectified_colour(folder: Path, topic: str) -> Path:
+    """A colour topic named rectified (image_proc's `image_rect_color`, iai_kinect2's
+    `image_color_rect`): seen with the CameraInfo's P; its K and D (another focal length, a
+    strong lens) are the raw image's, as those drivers publish them."""
     ros = rsim.RosMessages(1)
+    namespace = topic.rsplit("/", 1)[0]
     messages = _streams(
-        ros, _raw_color(ros, "/camera/rgb/image_rect_color"), _raw_depth(ros, "/camera/depth_registered/image_raw"),
-        color_info="/camera/rgb/camera_info",
+        ros, _raw_color(ros, topic), _raw_depth(ros, "/camera/depth_registered/image_raw"), color_info=f"{namespace}/camera_info"
     )
     raw = Camera(**{**FRAMES.camera.model_dump(), "fx": 23.0, "fy": 23.0, "distortion": (0.2, -0.1, 0.01, 0.0, 0.0)})
     info = ros.camera_info(0.0, raw, COLOR_FRAME)
     info.P[[0, 2, 5, 6]] = [FRAMES.camera.fx, FRAMES.camera.cx, FRAMES.camera.fy, FRAMES.camera.cy]
-    messages[0] = (0.0, "/camera/rgb/camera_info", info)
+    messages[0] = (0.0, f"{namespace}/camera_info", info)
     rsim.write_bag(folder / "rectified.bag", ros, messages)
     return folder / "rectified.bag"
 
@@ -422,7 +424,8 @@ VARIANTS = {
     "one-camera-info-elsewhere": (shared_camera_info, "ros2", 0, 0.0, FRAMES.colors),
     "depth-without-camera-info": (colour_info_only, "ros2", 0, 0.0, FRAMES.colors),
     "step-left-unset": (partial(edited_ros2, edit=_step_unset), "ros2", 0, 0.0, FRAMES.colors),
-    "image-proc-rectified": (image_proc_rectified, "ros1", 0, 0.0, FRAMES.colors),
+    "image-proc-rectified": (partial(rectified_colour, topic="/camera/rgb/image_rect_color"), "ros1", 0, 0.0, FRAMES.colors),
+    "kinect2-rectified": (partial(rectified_colour, topic="/kinect2/qhd/image_color_rect"), "ros1", 0, 0.0, FRAMES.colors),
 }
 
 
@@ -442,6 +445,28 @@ def test_each_layout_imports_its_frames(name: str, board: Path, tmp_path: Path) 
         truth = FRAMES.depths_m[k]
         assert np.array_equal(depth > 0, truth > 0), (name, k)  # no depth stays none
         assert np.abs(depth - truth).max() <= depth_tolerance_m + 1e-6, (name, k)  # float32 read back
+
+
+@pytest.mark.parametrize(
+    ("topic", "rectified"),
+    [
+        ("/camera/rgb/image_rect_color", True),
+        ("/kinect2/qhd/image_color_rect", True),
+        ("/kinect2/sd/image_depth_rect", True),
+        ("/stereo/left/rect/image", True),
+        ("/camera/depth/image_rect_raw", False),  # realsense-ros: its sensor's own image
+        ("/kinect2/qhd/image_color", False),
+        ("/camera/color/image_raw", False),
+    ],
+)
+def test_a_topic_is_taken_as_rectified_by_its_name(topic: str, rectified: bool) -> None:
+    assert is_rectified(topic) == rectified
+
+
+def test_a_rectified_topic_s_lens_left_out_is_said(board: Path, tmp_path: Path) -> None:
+    recording = rectified_colour(tmp_path, "/kinect2/qhd/image_color_rect")
+    report = import_recording(recording, board, tmp_path / "capture", ImportOptions())
+    assert any("rectified" in note and "0.2, -0.1" in note for note in report.notes), report.notes
 
 
 def test_unstamped_frames_are_said_to_be_paired_by_log_time(board: Path, tmp_path: Path) -> None:

@@ -153,10 +153,13 @@ def _stamp_s(message: object) -> float:
 
 
 def is_rectified(image_topic: str) -> bool:
-    """image_proc's rectified images (`image_rect`, `image_rect_color`): seen with CameraInfo's
-    P, without distortion. (realsense-ros's `image_rect_raw` is its sensor's own image.)"""
-    name = image_topic.rstrip("/").rsplit("/", 1)[-1]
-    return name.startswith("image_rect") and name != "image_rect_raw"
+    """A topic named rectified: image_proc's `image_rect`, `image_rect_color`, iai_kinect2's
+    `image_color_rect`, `image_depth_rect`, or a `rect` namespace. Its CameraInfo's D is the raw
+    image's lens, already undone, so it is seen with P, without distortion. (realsense-ros's
+    `image_rect_raw` is its sensor's own image.)"""
+    parts = image_topic.strip("/").split("/")
+    name = parts[-1]
+    return "rect" in parts or name.endswith("_rect") or (name.startswith("image_rect") and name != "image_rect_raw")
 
 
 def camera_from_info(info: object, where: str, *, rectified: bool = False) -> tuple[Camera, list[str], list[float] | None]:
@@ -175,6 +178,8 @@ def camera_from_info(info: object, where: str, *, rectified: bool = False) -> tu
     notes = []
     camera = Camera.from_matrix(k, width=width, height=height)
     if rectified:
+        if any(d):
+            notes.append(f"{where}: rectified images: read as a pinhole with the CameraInfo's P, its distortion D {np.trim_zeros(d, 'b')} left out")
         return camera, notes, None
     if model == "equidistant":
         kannala_brandt = {"distortion": tuple((d + [0.0] * 4)[:4]), "distortion_model": "kannala_brandt"}
