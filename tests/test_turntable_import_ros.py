@@ -494,7 +494,7 @@ def test_rational_lens_refitted_to_the_projection_it_makes(board: Path, tmp_path
 
 
 def test_a_rational_colour_lens_the_refit_cannot_hold_is_undone_in_its_images(board: Path, tmp_path: Path) -> None:
-    """check29b's Azure-like colour lens (k4-k6 0.39 -2.43 1.37) refitted as five terms was 7.3
+    """check29b's Azure-like colour lens (k4-k6 0.39 -2.43 1.37) refitted as five terms was 7.2
     px off at worst at 1280x720, and its bottle came out 0.78 mm from the truth against its
     twin's 0.14. Here 320x180, 1.4 px off: the colour (a smooth pattern on a plane, the depth
     registered to it as Azure's depth_to_rgb) is now seen through its pinhole, and each capture

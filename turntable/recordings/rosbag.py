@@ -33,7 +33,7 @@ INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 TF_TYPE = "tf2_msgs/msg/TFMessage"
 FLOAT_DEPTH_SCALE_M = 0.0001  # float depth (32FC1 metres) is written in 0.1 mm units
 # A rational colour lens whose five-term refit is off more than this somewhere has its images
-# undistorted instead: check29b's Azure-like lens (k4-k6 0.39 -2.43 1.37) refitted 7.3 px off
+# undistorted instead: check29b's Azure-like lens (k4-k6 0.39 -2.43 1.37) refitted 7.2 px off
 # at worst, 0.53 px in the median, and its bottle came out 0.78 mm from the truth against its
 # twin's 0.14. The tags' corners are read to ~0.1 px.
 MAX_REFIT_PX = 0.25
