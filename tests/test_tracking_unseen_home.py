@@ -12,13 +12,12 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
 import yaml
-from fixture_cache import cached_folder, content_key
+from real_piece_views import built_home
 from typer.testing import CliRunner
 from unseen_home_views import DOOR_TOL_RAD, DRAWER_TOL_M, SMALL_TOL_M, Home, check_view, make_home, views_of, write_specs
 
@@ -35,14 +34,7 @@ def _built(home: Home, folder: Path, name: str, *, legs: bool = True) -> Path:
         bedside = yaml.safe_load((specs / "bedside.yaml").read_text())
         del bedside["legs"]
         (specs / "bedside.yaml").write_text(yaml.safe_dump(bedside, sort_keys=False))
-
-    def build(out: Path) -> None:
-        result = CliRunner().invoke(app, ["build", str(specs), "--out", str(out / "out")])
-        assert result.exit_code == 0, result.output
-
-    key = content_key(inputs=[specs], packages=("homemodel", "modeller", "articulation", "semantic_map"))
-    shutil.copytree(cached_folder(name, key, build) / "out", folder / "built")
-    return folder / "built" / "map.xml"
+    return built_home(specs, name, folder / "built")
 
 
 @pytest.fixture(scope="module")
