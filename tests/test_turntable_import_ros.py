@@ -986,8 +986,18 @@ def test_a_bag_cut_short_is_refused_in_words(kind: str, board: Path, tmp_path: P
     assert "('" not in result.output and len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
+@pytest.fixture
+def own_temp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The system's temporary folder, this test's own: where the bag reader makes its copies,
+    checked empty after it without another process's copies (a parallel worker's) counting."""
+    folder = tmp_path / "tmp"
+    folder.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
+    return folder
+
+
 @pytest.mark.parametrize("with_metadata", [False, True])
-def test_an_mcap_file_cut_short_is_read_up_to_its_cut(with_metadata: bool, board: Path, tmp_path: Path) -> None:
+def test_an_mcap_file_cut_short_is_read_up_to_its_cut(with_metadata: bool, board: Path, tmp_path: Path, own_temp: Path) -> None:
     """A ROS 2 recorder killed leaves its MCAP file without an end (and the folder without
     metadata.yaml, which it writes on closing): rosbags' "File end magic is invalid", the whole
     recording refused. Its complete records are read, the frames up to the cut imported as
@@ -1009,16 +1019,16 @@ def test_an_mcap_file_cut_short_is_read_up_to_its_cut(with_metadata: bool, board
     colors, depths = rsim.read_back(tmp_path / "capture")
     for k, (color, depth) in enumerate(zip(colors, depths)):
         assert np.array_equal(color, FRAMES.colors[k]) and np.abs(depth - FRAMES.depths_m[k]).max() < 1e-6, k
-    assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
+    assert not list(own_temp.glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
     # Cut inside its first chunk, which holds the topics: said so (it was "no depth image topic ... topics: []").
     cut.write_bytes(whole[: len(whole) // 50])
     with pytest.raises(InputError, match="cut short before its first complete chunk"):
         import_recording(tmp_path / "bag", board, tmp_path / "capture2", ImportOptions())
-    assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
+    assert not list(own_temp.glob("homemodel-bag-copies-*")), "the cut file's copy is left behind"
 
 
 @pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
-def test_a_bag_compressed_file_by_file_is_read_without_its_metadata(storage: str, board: Path, tmp_path: Path) -> None:
+def test_a_bag_compressed_file_by_file_is_read_without_its_metadata(storage: str, board: Path, tmp_path: Path, own_temp: Path) -> None:
     """`ros2 bag record --compression-mode file` leaves `name_0.mcap.zstd` (or `.db3.zstd`), and
     only metadata.yaml says so: a folder of them alone (metadata.yaml lost, or the files copied
     without it) was "cannot tell the recording's format". Now decompressed and read, said."""
@@ -1031,7 +1041,7 @@ def test_a_bag_compressed_file_by_file_is_read_without_its_metadata(storage: str
     assert report.frames_written == len(FRAMES.times_s)
     colors, depths = rsim.read_back(tmp_path / "capture")
     assert all(np.array_equal(c, FRAMES.colors[k]) and np.abs(d - FRAMES.depths_m[k]).max() < 1e-6 for k, (c, d) in enumerate(zip(colors, depths)))
-    assert not list(Path(tempfile.gettempdir()).glob("homemodel-bag-copies-*")), "the decompressed copy is left behind"
+    assert not list(own_temp.glob("homemodel-bag-copies-*")), "the decompressed copy is left behind"
 
 
 @pytest.mark.parametrize("name", ["notes.bag", "scan.mcap"])
