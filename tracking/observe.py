@@ -379,8 +379,8 @@ def _judged_as_written(
     verdict = judge_pose(state, view, object_id, map_from_before, inlier_fraction, background, options.pose_gate)
     node = state.scene.object(object_id).node
     positions = state.joint_positions[object_id]
-    unwritten = {name: previous[name] for name, (status, _) in results.items() if status != "fitted"
-                 and abs(positions[name] - previous[name]) > (AGREE_M if node.joint(name).type == "prismatic" else AGREE_RAD)}
+    unwritten = {name: previous[name] for name, (status, _) in results.items()
+                 if status != "fitted" and _disagree(node, name, positions[name], previous[name])}
     if not verdict.accepted or not unwritten:
         return verdict
     with _object_at(state, object_id, refined, unwritten):
@@ -409,8 +409,8 @@ def _unexplained_changes(
     node = state.scene.object(object_id).node
     positions = state.joint_positions[object_id]
     for name, (status, support) in list(results.items()):
-        agree = AGREE_M if node.joint(name).type == "prismatic" else AGREE_RAD
-        if status == "fitted" and support["unexplained"] > NEAR_NONE_EXPLAINED and abs(positions[name] - previous[name]) > agree:
+        if (status == "fitted" and support["unexplained"] > NEAR_NONE_EXPLAINED
+                and _disagree(node, name, positions[name], previous[name])):
             results[name] = ("ambiguous", support)
             positions[name] = previous[name]
 
@@ -478,6 +478,11 @@ def _hidden_elsewhere(
 AGREE_RAD, AGREE_M = np.radians(2.0), 0.005
 
 
+def _disagree(node: Jointed, joint: str, position: float, other: float) -> bool:
+    """Whether two positions of the node's joint differ by more than its target (AGREE_*)."""
+    return abs(position - other) > (AGREE_M if node.joint(joint).type == "prismatic" else AGREE_RAD)
+
+
 def _same_at_the_kept_pose(
     state: FitState, views: list[tuple[FitView, np.ndarray]], object_id: str, joints: list[str],
     results: dict[str, tuple[str, dict]], previous: dict[str, float], options: ObserveOptions,
@@ -492,8 +497,7 @@ def _same_at_the_kept_pose(
             continue
         before = state.joint_positions[object_id][joint]
         _fit_one_joint(state, views, object_id, joint, options)
-        agree = AGREE_M if node.joint(joint).type == "prismatic" else AGREE_RAD
-        if abs(state.joint_positions[object_id][joint] - before) > agree:
+        if _disagree(node, joint, state.joint_positions[object_id][joint], before):
             results[joint] = ("ambiguous", results[joint][1])
             state.joint_positions[object_id][joint] = previous[joint]
         else:
