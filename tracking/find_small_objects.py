@@ -58,7 +58,9 @@ class SmallObjectSearch:
     settle_steps_m: tuple[float, ...] = (0.02, 0.01, 0.005)  # the misfit's descent after ICP, in x and y
     pinned_shift_m: float = 0.02  # a place this far off explaining the view as well: the view pins none
     max_flat_cost: float = 0.8  # of a flat slab's: the model's own relief must explain the view better
-    min_moved_seen: float = 0.5  # of a moved object's visible pixels, not covered (as `_place_in_view` asks)
+    # Of an object's visible pixels, the share read with nothing in front for a moved one to be
+    # written there, or for its place in the map to be judged empty (`_place_in_view`).
+    min_uncovered: float = 0.5
 
     def check(self) -> None:
         for name in ("search_radius_m", "yaw_candidates", "cluster_gap_m", "min_cluster_points", "yaw_checks",
@@ -67,7 +69,7 @@ class SmallObjectSearch:
         for step in self.settle_steps_m:
             require_positive("settle_steps_m", step)
         for name in ("min_explained", "min_cluster_explained", "sure", "max_colour_difference", "yaw_margin",
-                     "max_flat_cost", "min_moved_seen"):
+                     "max_flat_cost", "min_uncovered"):
             require_between(name, getattr(self, name), 0.0, 1.0)
 
 
@@ -144,7 +146,7 @@ def find_small_objects(
                 # A moved object is written only where the view shows most of it: behind things
                 # the map does not have, the few pixels left fit anything (check26b's cup 'found'
                 # on the cooker behind a toaster, 2.6 m from where it stood: 0.46 of it uncovered).
-                if candidate is None or (moved and candidate.uncovered < search.min_moved_seen):
+                if candidate is None or (moved and candidate.uncovered < search.min_uncovered):
                     continue
                 cluster.used = True
                 state.map_from_objects[obj.id] = candidate.map_from_object
@@ -591,4 +593,4 @@ def _place_in_view(state: FitState, view: FitView, object_id: str, bounds: np.nd
         return False
     with np.errstate(invalid="ignore"):
         covered = view.depth_m[visible] < rendering.depth_m[visible] - view.tolerance_m[visible]
-    return bool(np.mean(np.isfinite(view.depth_m[visible]) & ~covered) >= 0.5)
+    return bool(np.mean(np.isfinite(view.depth_m[visible]) & ~covered) >= search.min_uncovered)
