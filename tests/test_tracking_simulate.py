@@ -6,6 +6,7 @@ bad input as one line with exit code 2."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -251,6 +252,20 @@ def test_a_map_whose_models_are_missing_is_refused(kitchen_map: Path, tmp_path: 
     assert result.exit_code == 2, result.output
     assert "its model" in result.output and "does not exist" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "obs").exists()
+
+
+def test_a_view_is_not_written_over_the_maps_models(kitchen_map: Path, tmp_path: Path) -> None:
+    """`--out` naming the map's models folder, with --force, deleted the models (exit 0): refused
+    before the render, the models kept. A copy of the kitchen: the shared one must not be at stake."""
+    home = tmp_path / "kitchen"
+    shutil.copytree(kitchen_map.parent, home)
+    fridge = sorted((home / "models" / "fridge_1").iterdir())
+    save_observation_camera(tmp_path / "camera.yaml", CAMERA, world_from_camera_looking_along((2, 2, 1), (0, 1, 0)))
+    result = _run(home / "map.xml", "--camera", tmp_path / "camera.yaml", "--out", home / "models", "--force")
+    assert result.exit_code == 2, result.output
+    assert "the output folder must lie outside the input" in result.output and "models" in result.output
+    assert len(result.output.strip().splitlines()) == 1
+    assert sorted((home / "models" / "fridge_1").iterdir()) == fridge
 
 
 @pytest.mark.parametrize("distortion", [None, (0.12, -0.05, 0.001, -0.002, 0.0)])

@@ -95,7 +95,9 @@ def simulate_view(
     import numpy as np
 
     from homemodel.cli.progress import make_console, stage_bars
+    from homemodel.core.atomic import prepare_out_dir
     from homemodel.core.errors import InputError
+    from homemodel.exchange.home_scene import model_path
     from tracking.observation_files import load_observation_camera
     from tracking.sensor_noise import SensorNoise
     from tracking.simulate_view import ViewOptions, ViewSimulator, write_view
@@ -113,13 +115,17 @@ def simulate_view(
         if map_from_camera is None and look_at is None:
             raise InputError(f"{camera_path}: no map_from_camera (the camera's pose in the map): add it, or give --look-at OBJECT")
         simulator = ViewSimulator.load(map_path)
+        # The map's model folders are inputs too: `--out build/kitchen/models --force` deleted them.
+        model_dirs = {model_path(map_path, o.node).parent for o in simulator.scene.objects.values()}
+        inputs = [map_path, camera_path, *sorted(model_dirs)]
+        prepare_out_dir(out, force=force, inputs=inputs)  # before the render
         if look_at is not None:
             map_from_camera = simulator.camera_looking_at(
                 look_at, distance_m=distance_m, height_m=height_m, bearing_deg=bearing_deg
             )
         with stage_bars(make_console()) as progress:
             view = simulator.render(camera, map_from_camera, options, progress=progress)
-        write_view(view, out, force=force, inputs=[map_path, camera_path])
+        write_view(view, out, force=force, inputs=inputs)
     depth = view.observation.depth_m
     objects = sorted({p["object"] for p in view.observation.truth["parts"] if p["pixels"] > 0})
     typer.echo(
