@@ -367,8 +367,12 @@ def capture(
         source = RealSenseSource(bag=playback, serial=serial)
         with Live("waiting for frames", console=console, refresh_per_second=8, transient=True) as live:
             result = capture_turn(source, board, out, options, on_status=lambda s: live.update(view(s)), force=force)
-    # A played recording ends at its last frame: a whole turn with blurred frames is not complete.
-    unseen = "" if result.complete else " (ended before every sector was seen: a blurred or missing frame leaves its own empty)"
+    # Incomplete after a whole turn (the last sector's start reached): blurred or missing frames
+    # left sectors empty; short of it, the capture was stopped or the recording ended early.
+    whole_turn = result.turned_deg >= 360.0 * (1 - 1 / options.sectors)
+    unseen = "" if result.complete else (
+        " (a whole turn, but a blurred or missing frame leaves its sector empty)" if whole_turn else " (stopped early)"
+    )
     rows = [
         ("frames seen / kept", f"{result.frames_seen} / {result.frames_kept}"),
         ("turned", f"{result.turned_deg:.1f} deg"),
