@@ -1052,3 +1052,20 @@ def test_a_file_that_is_no_bag_is_said_to_be_none(name: str, board: Path, tmp_pa
     assert result.exit_code == 2 and f"{tmp_path / name}: not a readable" in result.output, result.output
     assert "it is no bag file (its first bytes are not a bag's)" in result.output and "magic" not in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_a_zstd_storage_file_that_decompresses_past_reason_is_refused(board: Path, tmp_path: Path, own_temp: Path) -> None:
+    """read_core's note on ea8defe: a `.zstd` storage file was decompressed with no bound, so a
+    hostile one of a few kB (here 400 MB of zeros in ~13 kB) filled the temp disk before failing."""
+    import zstandard
+
+    folder = tmp_path / "bag"
+    folder.mkdir()
+    zeros = bytes(1 << 22)
+    with (folder / "bag_0.mcap.zstd").open("wb") as raw, zstandard.ZstdCompressor(level=19).stream_writer(raw) as target:
+        for _ in range(100):
+            target.write(zeros)
+    with pytest.raises(InputError, match=r"bag_0\.mcap\.zstd: decompresses to more than .* not a recording's storage file"):
+        import_recording(folder, board, tmp_path / "capture", ImportOptions())
+    assert not (tmp_path / "capture").exists()
+    assert not list(own_temp.glob("homemodel-bag-copies-*")), "the partial copy is left behind"

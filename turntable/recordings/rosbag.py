@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import glob
 import re
+import shutil
 import tempfile
 from collections import deque
 from collections.abc import Iterator
@@ -27,6 +28,12 @@ from turntable.recordings.lens import opencv_pixel_rays, refit_as_brown_conrady,
 from turntable.recordings.mcap_cut import is_cut_short, recovered_copy, remove_copies
 from turntable.recordings.source import StreamSetup
 from turntable.recordings.timed import TimedStreamsSource
+
+# A storage file compressed whole (`ros2 bag record --compression-mode file`): images compress
+# a few times at most, so past this ratio it is no recording (a decompression bomb).
+MAX_ZSTD_RATIO = 100
+FREE_SPACE_KEPT_BYTES = 1 << 30
+ZSTD_CHUNK_BYTES = 1 << 22
 
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 INFO_TYPE = "sensor_msgs/msg/CameraInfo"
@@ -469,14 +476,25 @@ class RosBagSource(TimedStreamsSource):
         return read
 
     def _decompressed(self, file: Path) -> Path:
-        """A zstd-compressed storage file decompressed into the copies' folder (name without .zstd)."""
+        """A zstd-compressed storage file decompressed into the copies' folder (name without .zstd),
+        refused once it grows past `MAX_ZSTD_RATIO` times its compressed size or the folder's
+        free space: a hostile file of a few kB can claim terabytes."""
         import zstandard
 
         assert self._copies is not None
         copy = self._copies / file.stem
+        limit = min(MAX_ZSTD_RATIO * max(file.stat().st_size, 1), shutil.disk_usage(self._copies).free - FREE_SPACE_KEPT_BYTES)
+        written = 0
         try:
-            with file.open("rb") as source, copy.open("wb") as target:
-                zstandard.ZstdDecompressor().copy_stream(source, target)
+            with file.open("rb") as source, copy.open("wb") as target, zstandard.ZstdDecompressor().stream_reader(source) as reader:
+                while chunk := reader.read(ZSTD_CHUNK_BYTES):
+                    written += len(chunk)
+                    if written > limit:
+                        raise InputError(
+                            f"{file}: decompresses to more than {limit / 1e9:.2f} GB ({MAX_ZSTD_RATIO}x its size, or the free space "
+                            f"of {self._copies.parent}): not a recording's storage file"
+                        )
+                    target.write(chunk)
         except zstandard.ZstdError as exc:
             raise InputError(f"{file}: not a zstd-compressed storage file: {exc}") from None
         return copy
