@@ -115,6 +115,16 @@ def test_a_bowl_taken_away_seen_without_a_colour_image(kitchen, tmp_path: Path) 
     assert _small(scored, "cup")["class"] == "found right"
 
 
+def test_a_glass_fronted_door_fitted_on_its_frame(kitchen, tmp_path: Path) -> None:
+    """640x576 depth alone: the wall cabinet's door, a 60 mm frame round a glass pane the sensor
+    sees through or gets no reading from, open 49 deg: written within 2 deg (with the pane's pixels
+    scored as a solid door it is left 'ambiguous' here; check26b's run of this view wrote it 92 deg,
+    99 % of its points unexplained)."""
+    scored = _checked(kitchen, 20, tmp_path)
+    _nothing_wrong(scored)
+    _written_right(scored, ["glass_cabinet/door_0_hinge"])
+
+
 def test_a_file_given_as_the_observation_folder_is_named_a_file(tmp_path: Path) -> None:
     """OBS_DIR given as a file (the depth image itself): one line that says it is a file, exit 2,
     nothing written (it said "no such folder" of a file that is there)."""

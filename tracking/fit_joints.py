@@ -140,10 +140,11 @@ def static_depth(state: FitState, view: FitView, background: np.ndarray, object_
 def moving_depths(
     state: FitState, view: FitView, object_id: str, joint: str, moving: list[int], values: np.ndarray
 ) -> np.ndarray:
-    """(len(values), H, W) depth of the moving part alone at each position; inf where it is not hit."""
+    """(len(values), H, W) depth of the moving part alone at each position; inf where it is not
+    hit, NaN where its glass is (a door's window: seen through, or no reading)."""
     current = state.map_from_parts()
     poses = [_map_from_parts_at(state, object_id, joint, moving, value, current) for value in values]
-    return state.renderer.depth_stack(poses, view.camera, view.map_from_camera, moving)
+    return state.renderer.depth_stack(poses, view.camera, view.map_from_camera, moving, glass_unknown=True)
 
 
 def _map_from_parts_at(
@@ -167,10 +168,12 @@ def _costs(
 
 def stack_costs(view: FitView, static: np.ndarray, stack: np.ndarray) -> np.ndarray | None:
     """`_costs` of the moving part's depth at each position ((K, H, W) `stack`, `moving_depths`)
-    in front of the `static` scene; None when no pixel has a usable reading."""
-    in_front = stack < static  # the moving part is what the camera would see there
+    in front of the `static` scene; None when no pixel has a usable reading. Through the moving
+    part's glass (NaN) the camera sees the static scene."""
+    with np.errstate(invalid="ignore"):
+        in_front = stack < static  # the moving part is what the camera would see there
     considered = in_front.any(axis=0)
-    model = np.minimum(stack[:, considered], static[considered])
+    model = np.fmin(stack[:, considered], static[considered])
     observed = view.depth_m[considered]
     tolerance = view.tolerance_m[considered]
     nearest = model.min(axis=0)
@@ -188,7 +191,7 @@ def _support(
     own = moving_depths(state, view, object_id, joint, moving, np.array([position]))[0]
     # The part's whole image, past the view's edges too: a door the edge cuts in half is half seen.
     whole = state.renderer.pixels_whole(_map_from_parts_at(state, object_id, joint, moving, position), view.camera,
-                                        view.map_from_camera, moving)
+                                        view.map_from_camera, moving, glass_unknown=True)
     front = own < static
     observed = view.depth_m
     tolerance = view.tolerance_m

@@ -41,6 +41,9 @@ WALL_RGB = (0.88, 0.87, 0.84)
 NEAR_M = 0.05
 # The floor reaches this far past the rooms' outlines (or the objects, without outlines).
 FLOOR_MARGIN_M = 2.0
+# The modeller names a door's glass pane's visual "<link>.window": a depth camera sees through
+# glass or gets no reading from it, so a fit may ask for its pixels as unknown (`glass_unknown`).
+GLASS_VISUAL_MARK = ".window"
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,7 +52,8 @@ class Part:
 
     `object_id` is the map object the link belongs to (None for the floor and walls);
     `joint` is the nearest movable joint between the link and the object's root (None for a
-    fixed link); `face_rgb` is the colour (0..1) of each triangle, from its visual's material.
+    fixed link); `face_rgb` is the colour (0..1) of each triangle, from its visual's material;
+    `face_glass` marks the triangles of glass panes (None when the part has none).
     """
 
     object_id: str | None
@@ -58,6 +62,7 @@ class Part:
     vertices_link: np.ndarray  # (V, 3) float64, in the link frame
     faces: np.ndarray  # (F, 3) int64
     face_rgb: np.ndarray  # (F, 3) float64
+    face_glass: np.ndarray | None = None  # (F,) bool
 
     @property
     def name(self) -> str:
@@ -246,12 +251,13 @@ def _model_parts(object_id: str, model: Model) -> list[Part]:
     for link in model.links:
         if not link.visuals:
             continue
-        vertices, faces, colours, offset = [], [], [], 0
+        vertices, faces, colours, glass, offset = [], [], [], [], 0
         for visual in link.visuals:
             mesh = visual.mesh
             vertices.append(trimesh.transform_points(np.asarray(mesh.vertices, dtype=np.float64), visual.link_from_visual))
             faces.append(np.asarray(mesh.faces, dtype=np.int64) + offset)
             colours.append(np.tile(np.asarray(visual.material.rgba[:3], dtype=np.float64), (len(mesh.faces), 1)))
+            glass.append(np.full(len(mesh.faces), GLASS_VISUAL_MARK in visual.name))
             offset += len(mesh.vertices)
         driving = model.joint_driving(link.name)
         parts.append(
@@ -262,6 +268,7 @@ def _model_parts(object_id: str, model: Model) -> list[Part]:
                 vertices_link=np.concatenate(vertices),
                 faces=np.concatenate(faces),
                 face_rgb=np.concatenate(colours),
+                face_glass=np.concatenate(glass) if any(g.any() for g in glass) else None,
             )
         )
     return parts
@@ -322,6 +329,13 @@ class Renderer:
     def __init__(self, parts: Sequence[Part]) -> None:
         self.parts = list(parts)
         self._casters = [RayCaster(trimesh.Trimesh(p.vertices_link, p.faces, process=False)) for p in self.parts]
+        # A part with glass is also cast as its solid triangles and its glass ones apart, to know
+        # which a depth ray meets first (`_signed_depths`).
+        self._glass_casters = {
+            i: tuple(RayCaster(trimesh.Trimesh(p.vertices_link, p.faces[keep], process=False))
+                     for keep in (~p.face_glass, p.face_glass))
+            for i, p in enumerate(self.parts) if p.face_glass is not None
+        }
         self._corners = [box_corners(p.vertices_link) for p in self.parts]
         self._tables: dict[Camera, _PixelTable] = {}
         self._depths: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
@@ -405,13 +419,15 @@ class Renderer:
 
 
     def depth(
-        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int]
+        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int],
+        *, glass_unknown: bool = False,
     ) -> np.ndarray:
         """(H, W) depth of the parts `only` alone, inf where none is hit: what a fitter
         scoring many poses of one part needs, without `render`'s normals and colours.
         Each part's depth is kept for the last few poses asked (a fitter renders the parts
-        it does not move, and the floor and walls, again and again)."""
-        return self.depth_stack([map_from_parts], camera, map_from_camera, only)[0]
+        it does not move, and the floor and walls, again and again). `glass_unknown`: NaN
+        where a glass pane is the nearest surface (glass as solid otherwise)."""
+        return self.depth_stack([map_from_parts], camera, map_from_camera, only, glass_unknown=glass_unknown)[0]
 
     def depth_stack(
         self,
@@ -419,12 +435,15 @@ class Renderer:
         camera: Camera,
         map_from_camera: np.ndarray,
         only: Sequence[int],
+        *,
+        glass_unknown: bool = False,
     ) -> np.ndarray:
         """(K, H, W) depth of the parts `only` at K poses each (`map_from_parts[k]`: one pose
         per part of the scene, as for `depth`), inf where none is hit: a joint's candidate
-        positions, each part's K poses cast in one batch."""
+        positions, each part's K poses cast in one batch. `glass_unknown` as for `depth`."""
         n = camera.width * camera.height
         stack = np.full(len(map_from_parts) * n, np.inf)
+        glass = np.zeros(len(stack), dtype=bool) if glass_unknown and self._glass_casters.keys() & set(only) else None
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
         table = self._table(camera)
         for order, i in enumerate(only):
@@ -448,8 +467,13 @@ class Renderer:
                     self._remember(key, *cast)
             cells = np.concatenate([k * n + casts[key][0] for k, key in enumerate(keys)])
             depths = np.concatenate([casts[key][1] for key in keys])
+            if glass is not None:
+                # A glass pixel stays glass while no nearer part covers it.
+                glass[cells] = np.where(np.abs(depths) < stack[cells], depths < 0, glass[cells])
             # The first part's cells (each once) are all inf yet: min(inf, t) is t.
-            stack[cells] = depths if order == 0 else np.minimum(stack[cells], depths)
+            stack[cells] = np.abs(depths) if order == 0 else np.minimum(stack[cells], np.abs(depths))
+        if glass is not None:
+            stack[glass] = np.nan
         return stack.reshape(len(map_from_parts), camera.height, camera.width)
 
     def depth_at(
@@ -486,20 +510,21 @@ class Renderer:
             rays[:, :3] = part_from_camera[:3, 3]
             # `depth_stack` turns the window's rays in one product: a single row's bits differ.
             rays[:, 3:] = _rotated(table.rays[pixels[chosen]], part_from_camera[:3, :3], in_window)
-            t = self._casters[i].hit_distances_of(rays).astype(np.float64)
-            t[t < NEAR_M] = np.inf
-            depth[chosen] = np.minimum(depth[chosen], t)
+            depth[chosen] = np.minimum(depth[chosen], np.abs(self._signed_depths(i, rays)))
         return depth
 
     def pixels_whole(
-        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int]
+        self, map_from_parts: Sequence[np.ndarray], camera: Camera, map_from_camera: np.ndarray, only: Sequence[int],
+        *, glass_unknown: bool = False,
     ) -> int:
         """How many pixels the parts `only` cover together with nothing else in the scene, on
-        an image grown past `camera`'s edges to hold all of them (`widened`)."""
+        an image grown past `camera`'s edges to hold all of them (`widened`); `glass_unknown`:
+        their glass panes' pixels left out."""
         camera_from_map = np.linalg.inv(as_transform(map_from_camera))
         poses = [camera_from_map @ as_transform(map_from_parts[i]) for i in only]
         corners = np.concatenate([self._corners[i] @ m[:3, :3].T + m[:3, 3] for i, m in zip(only, poses)])
-        return int(np.isfinite(self.depth(map_from_parts, widened(camera, corners), map_from_camera, only)).sum())
+        depth = self.depth(map_from_parts, widened(camera, corners), map_from_camera, only, glass_unknown=glass_unknown)
+        return int(np.isfinite(depth).sum())
 
     # Pixels of part depths kept by `depth` (float64 and int64: 16 bytes each).
     DEPTH_CACHE_PIXELS = 2_000_000
@@ -515,8 +540,8 @@ class Renderer:
         self, index: int, table: _PixelTable, camera_from_parts: np.ndarray
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """(flat pixel indices, float64 depth there, inf where missed or nearer than
-        `NEAR_M`) of part `index` at each pose ((K, 4, 4) `camera_from_parts`), all the
-        poses' rays in one cast."""
+        `NEAR_M`, negated where glass is met first) of part `index` at each pose ((K, 4, 4)
+        `camera_from_parts`), all the poses' rays in one cast."""
         windows = _windows(table, camera_from_parts, self._corners[index])
         pixel_sets = [pixels for pixels, _ in windows]
         ends = np.cumsum([len(p) for p in pixel_sets])
@@ -529,9 +554,20 @@ class Renderer:
             if len(pixels):
                 buffer[end - len(pixels):end, :3] = part_from_camera[:3, 3]
                 buffer[end - len(pixels):end, 3:] = rays @ part_from_camera[:3, :3].T
-        t = self._casters[index].hit_distances_of(buffer).astype(np.float64)
-        t[t < NEAR_M] = np.inf
-        return list(zip(pixel_sets, np.split(t, ends[:-1])))
+        return list(zip(pixel_sets, np.split(self._signed_depths(index, buffer), ends[:-1])))
+
+    def _signed_depths(self, index: int, rays: np.ndarray) -> np.ndarray:
+        """(N,) float64 distance along each ray ((N, 6) float32, as the caster takes them) to
+        part `index`, inf where missed or nearer than `NEAR_M`, negated where the first
+        surface met is glass."""
+        if index not in self._glass_casters:
+            t = self._casters[index].hit_distances_of(rays).astype(np.float64)
+            t[t < NEAR_M] = np.inf
+            return t
+        solid, glass = (caster.hit_distances_of(rays).astype(np.float64) for caster in self._glass_casters[index])
+        solid[solid < NEAR_M] = np.inf
+        glass[glass < NEAR_M] = np.inf
+        return np.where(glass < solid, -glass, solid)
 
     def pixels_alone(
         self, index: int, map_from_part: np.ndarray, camera: Camera, map_from_camera: np.ndarray, *, whole: bool = False
