@@ -560,13 +560,14 @@ class Renderer:
         """(N,) float64 distance along each ray ((N, 6) float32, as the caster takes them) to
         part `index`, inf where missed or nearer than `NEAR_M`, negated where the first
         surface met is glass."""
-        if index not in self._glass_casters:
-            t = self._casters[index].hit_distances_of(rays).astype(np.float64)
+        def distances(caster: RayCaster) -> np.ndarray:
+            t = caster.hit_distances_of(rays).astype(np.float64)
             t[t < NEAR_M] = np.inf
             return t
-        solid, glass = (caster.hit_distances_of(rays).astype(np.float64) for caster in self._glass_casters[index])
-        solid[solid < NEAR_M] = np.inf
-        glass[glass < NEAR_M] = np.inf
+
+        if index not in self._glass_casters:
+            return distances(self._casters[index])
+        solid, glass = map(distances, self._glass_casters[index])
         return np.where(glass < solid, -glass, solid)
 
     def pixels_alone(
