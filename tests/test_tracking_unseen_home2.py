@@ -13,12 +13,11 @@ rendered from; the whole set and its faults are the check's report
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
-from fixture_cache import cached_folder, content_key
+from real_piece_views import built_home
 from typer.testing import CliRunner
 from unseen_home2_views import DOOR_TOL, DRAWER_TOL, SMALL_TOL, Home, check_view, make_home, views_of, write_specs
 
@@ -31,16 +30,8 @@ SEED = 0
 def kitchen(tmp_path_factory: pytest.TempPathFactory) -> tuple[Home, Path]:
     """The real kitchen and the map `homemodel build` makes of its installer's specs (once per content)."""
     home = make_home(SEED)
-    specs = write_specs(home, tmp_path_factory.mktemp("unseen_home2") / "specs")
-
-    def build(folder: Path) -> None:
-        result = CliRunner().invoke(app, ["build", str(specs), "--out", str(folder / "out")])
-        assert result.exit_code == 0, result.output
-
-    key = content_key(inputs=[specs], packages=("homemodel", "modeller", "articulation", "semantic_map"))
-    out = tmp_path_factory.mktemp("unseen_home2_built") / "built"
-    shutil.copytree(cached_folder("unseen_home2", key, build) / "out", out)
-    return home, out / "map.xml"
+    folder = tmp_path_factory.mktemp("unseen_home2")
+    return home, built_home(write_specs(home, folder / "specs"), "unseen_home2", folder / "built")
 
 
 def _observe_in_process(map_path: Path, obs: Path, out: Path) -> subprocess.CompletedProcess:
