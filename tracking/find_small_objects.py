@@ -118,9 +118,11 @@ def find_small_objects(
     off_sides = _off_their_sides(list(faces.values()), clusters)
     bounds = {obj.id: obj.model.world_mesh().bounds for obj in smalls}
     reports: dict[str, SmallObjectReport] = {}
+    tried: set[tuple[int, str]] = set()  # (cluster index, object id) fitted and not taken
     # Where the map has them first, for all of them; then the moved ones anywhere else (an
-    # object whose parent is out of view can only have moved into view).
-    for moved in (False, True):
+    # object whose parent is out of view can only have moved into view). Twice: a place
+    # another object held is free once that one is found elsewhere (two objects swapped).
+    for moved in (False, True) * 2:
         for obj in smalls:
             if obj.id in reports or (not moved and obj.node.parent not in in_view):
                 continue
@@ -130,23 +132,26 @@ def find_small_objects(
             # written as a new parent, and their own surfaces seen off their estimates are
             # no small object (`--seed 3` of the bench put the sugar container on a fridge's
             # shelf twice, its body 38 mm off).
-            # Nor onto another's place in the map while that one is not found: the points
-            # there are that object's as likely (a bowl taken away was "found" on a cup
-            # and a pill box beside it, the cup's cluster too wide for the cup alone).
+            # Nor onto another's place in the map while that one is not found and not yet
+            # fitted to it: the points there are that object's as likely (a bowl taken away
+            # was "found" on a cup and a pill box beside it, the cup's cluster too wide for the
+            # cup alone). Once that one's fit failed there, they are not (two objects that
+            # swapped places).
             others = [o for o in smalls if o.id != obj.id and o.id not in reports]
             choices = [
-                c for c, clear in zip(clusters, off_sides)
-                if not c.used and _fits(c, size) and (clear or not moved)
+                (k, c) for k, (c, clear) in enumerate(zip(clusters, off_sides))
+                if not c.used and (k, obj.id) not in tried and _fits(c, size) and (clear or not moved)
                 and (c.owner == obj.node.parent and np.linalg.norm(c.centre_xy - home) < search.search_radius_m) != moved
-                and not any(_holds_the_place(state, c, other) for other in others)
+                and not any(_holds_the_place(state, c, other) and (k, other.id) not in tried for other in others)
             ]
-            choices.sort(key=lambda c: np.linalg.norm(c.centre_xy - home))
-            for cluster in choices:
+            choices.sort(key=lambda choice: np.linalg.norm(choice[1].centre_xy - home))
+            for k, cluster in choices:
                 candidate = _fit_on_cluster(state, full, obj.id, bounds[obj.id], cluster, search)
                 # A moved object is written only where the view shows most of it: behind things
                 # the map does not have, the few pixels left fit anything (check26b's cup 'found'
                 # on the cooker behind a toaster, 2.6 m from where it stood: 0.46 of it uncovered).
                 if candidate is None or (moved and candidate.uncovered < search.min_uncovered):
+                    tried.add((k, obj.id))
                     continue
                 cluster.used = True
                 state.map_from_objects[obj.id] = candidate.map_from_object
