@@ -1070,3 +1070,21 @@ def test_a_zstd_storage_file_that_decompresses_past_reason_is_refused(board: Pat
         import_recording(folder, board, tmp_path / "capture", ImportOptions())
     assert not (tmp_path / "capture").exists()
     assert not list(own_temp.glob("homemodel-bag-copies-*")), "the partial copy is left behind"
+
+
+def test_a_zstd_storage_file_too_large_for_the_temporary_disk_says_so(
+    board: Path, tmp_path: Path, own_temp: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A real recording compressed whole that would fill the temporary folder's disk is refused
+    naming the disk, not called "not a recording's storage file" (here the disk has 1 GiB and
+    2 kB free)."""
+    import shutil
+    from types import SimpleNamespace
+
+    ros = rsim.RosMessages(2)
+    rsim.write_bag(tmp_path / "bag", ros, _aligned(ros), storage="mcap", compression="file")
+    (tmp_path / "bag" / "metadata.yaml").unlink()
+    monkeypatch.setattr(shutil, "disk_usage", lambda _: SimpleNamespace(free=(1 << 30) + 2048))
+    with pytest.raises(InputError, match=r"\.mcap\.zstd: decompressed it would leave under 1 GiB free in .*set TMPDIR"):
+        import_recording(tmp_path / "bag", board, tmp_path / "capture", ImportOptions())
+    assert not (tmp_path / "capture").exists() and not list(own_temp.glob("homemodel-bag-copies-*"))

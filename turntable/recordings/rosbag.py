@@ -477,22 +477,26 @@ class RosBagSource(TimedStreamsSource):
 
     def _decompressed(self, file: Path) -> Path:
         """A zstd-compressed storage file decompressed into the copies' folder (name without .zstd),
-        refused once it grows past `MAX_ZSTD_RATIO` times its compressed size or the folder's
-        free space: a hostile file of a few kB can claim terabytes."""
+        refused once it grows past `MAX_ZSTD_RATIO` times its compressed size (a hostile file of a
+        few kB can claim terabytes) or would leave the folder's disk under FREE_SPACE_KEPT_BYTES
+        free (a real recording too large for it: said as such)."""
         import zstandard
 
         assert self._copies is not None
         copy = self._copies / file.stem
-        limit = min(MAX_ZSTD_RATIO * max(file.stat().st_size, 1), shutil.disk_usage(self._copies).free - FREE_SPACE_KEPT_BYTES)
+        limit = MAX_ZSTD_RATIO * max(file.stat().st_size, 1)
+        room = shutil.disk_usage(self._copies).free - FREE_SPACE_KEPT_BYTES
         written = 0
         try:
             with file.open("rb") as source, copy.open("wb") as target, zstandard.ZstdDecompressor().stream_reader(source) as reader:
                 while chunk := reader.read(ZSTD_CHUNK_BYTES):
                     written += len(chunk)
                     if written > limit:
+                        raise InputError(f"{file}: decompresses to more than {MAX_ZSTD_RATIO}x its size: not a recording's storage file")
+                    if written > room:
                         raise InputError(
-                            f"{file}: decompresses to more than {limit / 1e9:.2f} GB ({MAX_ZSTD_RATIO}x its size, or the free space "
-                            f"of {self._copies.parent}): not a recording's storage file"
+                            f"{file}: decompressed it would leave under {FREE_SPACE_KEPT_BYTES >> 30} GiB free in "
+                            f"{self._copies.parent}: free some space there, or set TMPDIR to a larger disk"
                         )
                     target.write(chunk)
         except zstandard.ZstdError as exc:
