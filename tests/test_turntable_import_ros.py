@@ -1054,6 +1054,17 @@ def test_a_file_that_is_no_bag_is_said_to_be_none(name: str, board: Path, tmp_pa
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("name", ["zero.bag", "scan.mcap", "scan.db3"])
+def test_an_empty_recording_file_is_said_to_be_empty(name: str, board: Path, tmp_path: Path) -> None:
+    """readme_check's 0-byte .bag: "zero.bag: not a readable .bag: File 'zero.bag' seems to be
+    empty." named the file twice in the reader's words."""
+    (tmp_path / name).touch()
+    result = CliRunner().invoke(app, ["turntable", "import", str(tmp_path / name), "--board", str(board), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2, result.output
+    assert result.output.strip() == f"error: {tmp_path / name}: an empty file (0 bytes): nothing was recorded into it", result.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_zstd_storage_file_that_decompresses_past_reason_is_refused(board: Path, tmp_path: Path, own_temp: Path) -> None:
     """read_core's note on ea8defe: a `.zstd` storage file was decompressed with no bound, so a
     hostile one of a few kB filled the temp disk before failing. Here 16 MB of zeros in under

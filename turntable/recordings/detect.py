@@ -30,6 +30,8 @@ def detect_format(path: Path) -> str:
     if not path.exists():
         raise InputError(f"{path}: no such recording")
     if path.is_file():
+        if path.stat().st_size == 0:  # a recorder that never wrote (the readers' own words name the file twice)
+            raise InputError(f"{path}: an empty file (0 bytes): nothing was recorded into it")
         if is_config(path):
             return "open3d"
         if path.name.endswith(".bag.active"):  # rosbag record's name for the file it writes
