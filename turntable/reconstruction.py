@@ -98,6 +98,7 @@ class Reconstruction(ModelResult):
     turntable_fit: TurntableFit | None
     turn: TurnCoverage  # the merged frames' share of the turn and largest gap
     cylinder: Cylinder
+    table_noise_m: float  # how far the table top's depth noise reaches (`table_noise_m`); the cylinder starts above it
     cloud: MergedCloud
     meshing: MeshingFigures
     times_s: dict[str, float]  # seconds per stage; `reconstruct` adds the export's
@@ -137,7 +138,11 @@ class Reconstruction(ModelResult):
             },
             "turn": self.turn.figures(),
             "color_encoding": self.color_encoding.figures(),
-            "cylinder": {"radius_m": self.cylinder.radius_m, "z_min_m": self.cylinder.z_min_m},
+            "cylinder": {
+                "radius_m": self.cylinder.radius_m,
+                "z_min_m": self.cylinder.z_min_m,
+                "table_noise_m": self.table_noise_m,
+            },
             "points_merged": self.meshing.points_in,
             "points_after_outlier_removal": self.meshing.points_after_outliers,
             "triangles_poisson": self.meshing.triangles_poisson,

@@ -162,6 +162,9 @@ class ColorEncodingFigures(_Strict):
 class Cylinder(_Strict):
     radius_m: float
     z_min_m: float
+    table_noise_m: float | None = Field(
+        default=None, description="how far above the board's plane the table top's depth noise reaches; z_min_m is at least this"
+    )
 
 
 class TurntableFigures(_Figures):
